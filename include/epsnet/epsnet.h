@@ -1,0 +1,503 @@
+/*
+ * epsnet: streaming surface sampling and simplification of triangle meshes
+ * with Gaussian epsilon-nets (Diaz-Gutierrez, Bösch, Pajarola, Gopi).
+ *
+ * This header is the manual. It is organised in sections:
+ *
+ *   1. Errors       - one convention for every call, with file/offset/reason.
+ *   2. Records      - the streaming-mesh record every reader and writer speaks.
+ *   3. Reading      - open any supported mesh file (optionally .zst) and pull
+ *                     records from it one by one, in constant memory.
+ *   4. Writing      - push records into a mesh file; the file appears at its
+ *                     path only when the writer is committed.
+ *   5. Generating   - synthetic meshes of any size, written as a stream.
+ *   6. Settings     - the job context and its settings, statistics.
+ *   7. Sampling     - classify every vertex as sample or not (paper §4).
+ *   8. Utilities    - size parsing, version, signal-time cleanup.
+ *
+ * Conventions
+ *   - Every function that can fail returns 0 (or a positive count) on success
+ *     and a negative EPSNET_E* code on failure. When the caller passes an
+ *     epsnet_error, it is filled with the file, the position and the reason.
+ *   - Objects are opaque and created by _open()/_new(), destroyed by _close()/
+ *     _free(), which take a pointer to the handle and set it to NULL.
+ *   - Ownership is stated on every call, for success and for failure.
+ *   - Vertex indices are 0-based and global: the n-th vertex record of a
+ *     stream has index n-1, whatever format it came from.
+ *
+ * Worked example: convert any mesh to binary PLY.
+ *
+ *     epsnet_error err;
+ *     epsnet_reader *r = NULL;
+ *     epsnet_writer *w = NULL;
+ *     epsnet_record rec;
+ *     int rc = epsnet_reader_open(&r, "scan.ply.zst", NULL, &err);
+ *     if (rc == 0) {
+ *         epsnet_writer_settings ws;
+ *         epsnet_writer_default_settings(&ws);
+ *         rc = epsnet_writer_open(&w, "out.ply", &ws, epsnet_reader_info(r), &err);
+ *     }
+ *     while (rc == 0 && (rc = epsnet_reader_next(r, &rec, &err)) > 0)
+ *         rc = epsnet_writer_put(w, &rec, &err);
+ *     if (rc == 0)
+ *         rc = epsnet_writer_commit(&w, &err);   // renames into place
+ *     epsnet_writer_abort(&w);                    // no-op after a commit
+ *     epsnet_reader_close(&r);
+ *     if (rc < 0)
+ *         fprintf(stderr, "epsnet: %s\n", epsnet_error_message(&err));
+ */
+#ifndef EPSNET_EPSNET_H
+#define EPSNET_EPSNET_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "version.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#if defined(_WIN32)
+#define EPSNET_API
+#elif defined(__GNUC__)
+#define EPSNET_API __attribute__((visibility("default")))
+#else
+#define EPSNET_API
+#endif
+
+/* ------------------------------------------------------------------------
+ * 1. Errors
+ * ------------------------------------------------------------------------ */
+
+enum {
+    EPSNET_OK = 0,
+    EPSNET_EINVAL = -1,      /* bad argument or option (caller's mistake) */
+    EPSNET_EFORMAT = -2,     /* malformed or hostile input data */
+    EPSNET_EIO = -3,         /* read/write/open failure, full disk, ... */
+    EPSNET_ENOMEM = -4,      /* allocation failed */
+    EPSNET_ELIMIT = -5,      /* a budget (--mem, sizes, counts) would be exceeded */
+    EPSNET_EUNSUPPORTED = -6,/* valid input we do not handle (e.g. unknown format) */
+    EPSNET_EINTR = -7,       /* interrupted by a signal or a progress callback */
+    EPSNET_EINTERNAL = -8,   /* a bug: an invariant did not hold */
+};
+
+/* Unknown line or byte offset in an epsnet_error. */
+#define EPSNET_POS_NONE UINT64_MAX
+
+typedef struct epsnet_error {
+    int code;            /* EPSNET_E* (negative), or 0 */
+    char file[512];      /* file the error is about, "" if none */
+    uint64_t line;       /* 1-based line for text input, else EPSNET_POS_NONE */
+    uint64_t offset;     /* byte offset (of decompressed data for .zst input), else EPSNET_POS_NONE */
+    int zst;             /* 1 when offset counts decompressed bytes of a .zst file */
+    char reason[512];    /* what is wrong, one line, no trailing period */
+} epsnet_error;
+
+/* Short, static description of an EPSNET_E* code. Never NULL. */
+EPSNET_API const char *epsnet_strerror(int code);
+
+/*
+ * One-line message "FILE:LINE: REASON", "FILE: byte N: REASON" or "REASON".
+ * @return a pointer to thread-local storage, valid until the next call to
+ * this function on the same thread. Never NULL.
+ */
+EPSNET_API const char *epsnet_error_message(const epsnet_error *err);
+
+/* ------------------------------------------------------------------------
+ * 2. Records
+ *
+ * A mesh is a stream of records. In a *streaming mesh* (Isenburg & Lindstrom
+ * 2005) every triangle comes after its three vertices and a FINALIZE record
+ * says that a vertex is used by no later triangle. Ordinary formats (PLY,
+ * OBJ, OFF, STL) produce no FINALIZE records: every vertex stays live until
+ * the end of the stream.
+ * ------------------------------------------------------------------------ */
+
+typedef enum epsnet_record_kind {
+    EPSNET_REC_VERTEX = 1,   /* xyz; the vertex gets the next global index */
+    EPSNET_REC_TRIANGLE = 2, /* v[0], v[1], v[2]: counter-clockwise corners */
+    EPSNET_REC_FINALIZE = 3, /* v[0]: no later triangle references this vertex */
+} epsnet_record_kind;
+
+typedef struct epsnet_record {
+    epsnet_record_kind kind;
+    uint64_t v[3];
+    double xyz[3];
+} epsnet_record;
+
+typedef enum epsnet_coord_type {
+    EPSNET_COORD_FLOAT32 = 0, /* values came from (or will go to) float32 */
+    EPSNET_COORD_FLOAT64 = 1,
+} epsnet_coord_type;
+
+/* What is known about a stream before or while reading it. */
+#define EPSNET_COUNT_UNKNOWN UINT64_MAX
+
+typedef struct epsnet_mesh_info {
+    const char *format;          /* "ply", "obj", "off", "stl", "sma", "smb", ... */
+    const char *encoding;        /* "ascii", "binary_le", "binary_be", ... */
+    int compressed;              /* 1 when read through .zst */
+    uint64_t nverts;             /* from the header, or EPSNET_COUNT_UNKNOWN */
+    uint64_t nfaces;             /* triangles after triangulation if known, else EPSNET_COUNT_UNKNOWN */
+    int has_bbox;                /* 1 when bbox_min/bbox_max come from the header */
+    double bbox_min[3], bbox_max[3];
+    epsnet_coord_type coord_type;
+    int streaming;               /* 1 when the format carries finalization */
+    int sorted_axis;             /* 0,1,2 when declared sorted along x,y,z; -1 otherwise */
+} epsnet_mesh_info;
+
+/* ------------------------------------------------------------------------
+ * 3. Reading
+ * ------------------------------------------------------------------------ */
+
+typedef struct epsnet_reader epsnet_reader;
+
+typedef struct epsnet_reader_settings {
+    /* Largest vertex or face count a header may announce before the file is
+     * rejected as absurd. Default: 2^34. */
+    uint64_t max_count;
+    /* Memory a reader may use for its own state (STL welding, SMA/SMB index
+     * maps). 0 = no limit. Default: 0. */
+    uint64_t mem_limit;
+    /* Format name to force ("ply", ...), or NULL to detect from the name and
+     * the first bytes. Default: NULL. */
+    const char *format;
+    uint8_t reserved[64];
+} epsnet_reader_settings;
+
+EPSNET_API void epsnet_reader_default_settings(epsnet_reader_settings *s);
+
+/*
+ * Open a mesh file for reading. The format is chosen from the extension
+ * (after stripping .zst) and checked against the content; zstd-compressed
+ * data is detected by its magic number whatever the name. path "-" reads
+ * standard input (format must then be given, or be detectable by content).
+ *
+ * @return 0, or a negative code with err filled. On failure *r is NULL.
+ * Ownership: on success the caller owns *r and frees it with
+ * epsnet_reader_close(). settings may be NULL for defaults; it is copied.
+ */
+EPSNET_API int epsnet_reader_open(epsnet_reader **r, const char *path,
+                                  const epsnet_reader_settings *settings,
+                                  epsnet_error *err);
+
+/* Header information. Valid until the reader is closed. Never NULL. */
+EPSNET_API const epsnet_mesh_info *epsnet_reader_info(const epsnet_reader *r);
+
+/*
+ * Pull the next record.
+ * @return 1 with *rec filled, 0 at the end of the mesh, or a negative code
+ * with err filled (after which the reader only returns that code again).
+ * Triangle indices are checked: never >= the number of vertices read so far,
+ * never a finalized vertex.
+ */
+EPSNET_API int epsnet_reader_next(epsnet_reader *r, epsnet_record *rec,
+                                  epsnet_error *err);
+
+/* Bytes consumed from the file so far (compressed bytes for .zst), for
+ * progress reporting. */
+EPSNET_API uint64_t epsnet_reader_bytes_read(const epsnet_reader *r);
+
+/* Total size of the file, or 0 when unknown (pipes). */
+EPSNET_API uint64_t epsnet_reader_file_size(const epsnet_reader *r);
+
+/* Close the reader and set *r to NULL. Accepts NULL and *r == NULL. */
+EPSNET_API void epsnet_reader_close(epsnet_reader **r);
+
+/* ------------------------------------------------------------------------
+ * 4. Writing
+ *
+ * Writers never leave a half-written file: data goes to a temporary file in
+ * the destination directory, which is renamed over the destination only by
+ * epsnet_writer_commit(). epsnet_writer_abort() removes it.
+ * ------------------------------------------------------------------------ */
+
+typedef struct epsnet_writer epsnet_writer;
+
+typedef struct epsnet_writer_settings {
+    /* Format name ("ply", "obj", "sma", "smb", ...) or NULL to choose from
+     * the destination's extension. Default: NULL. */
+    const char *format;
+    /* 1 for ASCII PLY instead of binary. Default: 0 (binary little-endian). */
+    int ascii;
+    /* Coordinate type to write where the format offers a choice, or -1 to
+     * follow the info passed to epsnet_writer_open(). Default: -1. */
+    int coord_type;
+    /* zstd level when the destination ends in .zst. Default: 3. */
+    int zstd_level;
+    /* Directory for spill files (PLY faces of a streaming input); NULL means
+     * the destination's directory. Default: NULL. */
+    const char *tmpdir;
+    uint8_t reserved[64];
+} epsnet_writer_settings;
+
+EPSNET_API void epsnet_writer_default_settings(epsnet_writer_settings *s);
+
+/*
+ * Create a writer for path. info describes the stream to come (coordinate
+ * type, counts if known); it may be NULL. path "-" writes standard output.
+ *
+ * @return 0, or a negative code with err filled. On failure *w is NULL and
+ * nothing exists at path or in its directory.
+ * Ownership: on success the caller owns *w and must end it with
+ * epsnet_writer_commit() or epsnet_writer_abort().
+ */
+EPSNET_API int epsnet_writer_open(epsnet_writer **w, const char *path,
+                                  const epsnet_writer_settings *settings,
+                                  const epsnet_mesh_info *info,
+                                  epsnet_error *err);
+
+/*
+ * Append one record. Triangles must reference vertices already written.
+ * @return 0, or a negative code with err filled (the writer must then be
+ * aborted).
+ */
+EPSNET_API int epsnet_writer_put(epsnet_writer *w, const epsnet_record *rec,
+                                 epsnet_error *err);
+
+/*
+ * Finish the file, flush it and rename it into place. Frees the writer and
+ * sets *w to NULL whether it succeeds or not; on failure nothing is left at
+ * the destination.
+ */
+EPSNET_API int epsnet_writer_commit(epsnet_writer **w, epsnet_error *err);
+
+/* Discard everything written and free the writer; sets *w to NULL.
+ * Accepts NULL and *w == NULL. */
+EPSNET_API void epsnet_writer_abort(epsnet_writer **w);
+
+/* Formats that can be read / written, as a space-separated list. */
+EPSNET_API const char *epsnet_formats_readable(void);
+EPSNET_API const char *epsnet_formats_writable(void);
+
+/* ------------------------------------------------------------------------
+ * 5. Generating synthetic meshes
+ *
+ * Every shape is written as a spatially sorted, finalized streaming mesh
+ * along its stream axis (z; y for terrain): vertices in non-decreasing axis
+ * order, each triangle right after its last vertex, each vertex finalized
+ * right after its last triangle. Memory grows with the side of the grid
+ * (about sqrt(faces)), never with the face count: a few hundred KB at 10M
+ * faces. With shuffle set, vertices and faces come in a random order
+ * instead (vertices first, no finalization), like a scanner's PLY, still in
+ * constant memory.
+ *
+ * The shapes (all counter-clockwise seen from outside, coordinates float32):
+ *   sphere     unit sphere, latitude/longitude grid with pole fans
+ *   ellipsoid  semi-axes 1, 0.75, 0.5 along x, y, z
+ *   roundcube  cube [-s,s]^3 swept by a ball of radius 1-s (s = param),
+ *              with exactly planar faces and cylindrical edges
+ *   torus      major radius 1 around z, minor radius = param (genus 1)
+ *   dimple     unit sphere with six smooth dents: concave regions
+ *   bumpy      unit sphere with fractal relief at every scale, like a scan
+ *   terrain    open height field over [-1,1]^2, one boundary loop
+ *   cad        stepped shaft with a through bore and a hexagonal flange:
+ *              planar faces, cylinders, sharp creases; genus 1
+ * sphere, ellipsoid and roundcube are convex polyhedra: every edge is convex
+ * on the float coordinates as written (checked exactly by the tests), so
+ * the sample count equals the Gaussian vertex count once the mesh is fine
+ * enough. The same settings give the same records on every machine.
+ * ------------------------------------------------------------------------ */
+
+typedef struct epsnet_gen_settings {
+    /* Shape name: "sphere", "ellipsoid", "roundcube", "torus", "dimple",
+     * "bumpy", "terrain", "cad". Default: "sphere". */
+    const char *shape;
+    /* Approximate number of triangles wanted, 1 .. 2*10^10; the generator
+     * picks the closest grid it can make (within a few percent from about
+     * 2000 faces up; epsnet_gen_info() gives the exact counts).
+     * Default: 20000. */
+    uint64_t faces;
+    /* Seed for random shapes (bumpy, dimple, terrain) and for shuffle.
+     * Default: 1. */
+    uint64_t seed;
+    /* 1 to emit vertices and faces in random order. Default: 0. */
+    int shuffle;
+    /* Shape parameter, NaN for the shape's default:
+     *   roundcube: 0 = sphere .. 1 = cube, in [0, 1] (default 0.5)
+     *   torus:     minor/major radius ratio, in (0.01, 0.99) (default 0.4)
+     *   ellipsoid, sphere, cad: unused
+     *   dimple:    dent depth relative to the radius, in [0, 0.6] (default 0.3)
+     *   bumpy:     displacement amplitude, in [0, 0.4] (default 0.05)
+     *   terrain:   relief height relative to the half side, in [0, 10]
+     *              (default 0.2)
+     * Out of range: EPSNET_EINVAL. */
+    double param;
+    uint8_t reserved[64];
+} epsnet_gen_settings;
+
+EPSNET_API void epsnet_gen_default_settings(epsnet_gen_settings *s);
+
+/* Names of the shapes, space-separated. */
+EPSNET_API const char *epsnet_gen_shapes(void);
+
+/*
+ * Generate a mesh into an open writer (not committed by this call).
+ * @return 0, or a negative code with err filled: EPSNET_EINVAL for bad
+ * settings, or whatever epsnet_writer_put() returned (the writer must then
+ * be aborted).
+ * Ownership: w stays the caller's in every case.
+ */
+EPSNET_API int epsnet_gen(const epsnet_gen_settings *s, epsnet_writer *w,
+                          epsnet_error *err);
+
+/* Mesh info that epsnet_gen(s, ...) will produce: exact nverts and nfaces,
+ * coord_type float32, streaming and sorted_axis (-1 when shuffled); pass it
+ * to epsnet_writer_open(). Cheap: nothing is generated.
+ * @return 0, or EPSNET_EINVAL with err filled. */
+EPSNET_API int epsnet_gen_info(const epsnet_gen_settings *s,
+                               epsnet_mesh_info *info, epsnet_error *err);
+
+/* ------------------------------------------------------------------------
+ * 6. Settings and the job context
+ *
+ * Sampling and simplification run inside an epsnet_context configured by an
+ * epsnet_settings. Fill the settings with epsnet_default_settings() first,
+ * then change what you need; the context copies them.
+ * ------------------------------------------------------------------------ */
+
+typedef enum epsnet_rotation_mode {
+    EPSNET_ROTATION_DEFAULT = 0,  /* the fixed, documented default below */
+    EPSNET_ROTATION_QUATERNION,   /* settings.rotation = (w, x, y, z), any length > 0 */
+    EPSNET_ROTATION_SEED,         /* a uniformly random rotation from settings.seed */
+    EPSNET_ROTATION_IDENTITY,     /* G's axes are the mesh's axes (tests, ties) */
+} epsnet_rotation_mode;
+
+typedef struct epsnet_settings {
+    /* Gaussian sphere: octahedron subdivided `level` times (paper §3.3), i.e.
+     * 4^(level+1)+2 Gaussian vertices. Default: 3 (258 vertices). */
+    int level;
+    /* Finer control: geodesic frequency n (4n^2+2 vertices); 0 = use level.
+     * Default: 0. */
+    uint32_t frequency;
+    /* Orientation R of the Gaussian sphere. Default: EPSNET_ROTATION_DEFAULT,
+     * a rotation by 41.4213562 degrees about the axis (0.2718281828,
+     * 0.5772156649, 0.7853981634) (digits of sqrt 2, e, the Euler-Mascheroni
+     * constant and pi/4): unrelated to the coordinate axes and to the
+     * octahedron's symmetries, so axis-aligned and 45-degree planes of CAD
+     * parts never put their normals on Gaussian vertices or edges. */
+    epsnet_rotation_mode rotation_mode;
+    double rotation[4];           /* quaternion (w, x, y, z) for QUATERNION */
+    uint64_t seed;                /* for SEED, and for the rotations of ε-net passes. Default: 1 */
+    /* Worker threads; 0 = all cores. Default: 0. */
+    int threads;
+    /* Memory budget in bytes; 0 = no budget. Default: 0. */
+    uint64_t mem;
+    /* Folder for temporary files; NULL = beside the output. Default: NULL. */
+    const char *tmpdir;
+    /* Progress callback, called from the calling thread at most ~10 times a
+     * second with bytes consumed so far and the total (0 if unknown); return
+     * non-zero to cancel (the run then fails with EPSNET_EINTR). Default: NULL. */
+    int (*progress)(void *opaque, uint64_t done, uint64_t total);
+    void *progress_opaque;
+    uint8_t reserved[128];
+} epsnet_settings;
+
+EPSNET_API void epsnet_default_settings(epsnet_settings *s);
+
+/*
+ * Parse a rotation into s->rotation_mode / s->rotation: "default",
+ * "identity", "AX,AY,AZ,DEG" (axis and angle in degrees, right-hand rule) or
+ * "q:W,X,Y,Z" (a quaternion, normalised later).
+ * @return 0, or EPSNET_EINVAL (s unchanged).
+ */
+EPSNET_API int epsnet_parse_rotation(const char *text, epsnet_settings *s);
+
+/* Statistics of the last run of a context (paper Table 3 and SPEC §2). */
+typedef struct epsnet_stats {
+    uint64_t vertices;            /* input vertices */
+    uint64_t faces;               /* input triangles */
+    uint64_t zero_area_faces;     /* faces without a normal (skipped) */
+    uint64_t gaussian_vertices;   /* vertices of G */
+    uint64_t feature_edges;       /* edges whose faces lie in different G triangles */
+    uint64_t candidates;          /* vertices on a feature edge (paper §4.2) */
+    uint64_t samples;             /* samples, locked vertices included */
+    uint64_t locked;              /* boundary, non-manifold and isolated vertices */
+    uint64_t boundary_vertices;
+    uint64_t nonmanifold_vertices;
+    uint64_t needle_vertices;     /* normals not in an open hemisphere */
+    uint64_t multi_cover_samples; /* samples enclosing more than one G vertex */
+    uint64_t max_active;          /* largest active set: vertices + faces in memory */
+    uint64_t peak_rss;            /* bytes, 0 if unknown */
+    double seconds_read;          /* per stage, wall clock */
+    double seconds_normals;
+    double seconds_classify;
+    double seconds_write;
+    uint8_t reserved[128];
+} epsnet_stats;
+
+typedef struct epsnet_context epsnet_context;
+
+/*
+ * Create a context. settings may be NULL for defaults; it is copied.
+ * @return 0, or a negative code with err filled (bad settings: EINVAL).
+ * Ownership: on success the caller owns *ctx and frees it with
+ * epsnet_context_free(); on failure *ctx is NULL.
+ */
+EPSNET_API int epsnet_context_new(epsnet_context **ctx, const epsnet_settings *settings,
+                                  epsnet_error *err);
+
+/* Free the context and set *ctx to NULL. Accepts NULL and *ctx == NULL. */
+EPSNET_API void epsnet_context_free(epsnet_context **ctx);
+
+/* Statistics of the context's last run. Valid until the next run or free. */
+EPSNET_API const epsnet_stats *epsnet_context_stats(const epsnet_context *ctx);
+
+/* ------------------------------------------------------------------------
+ * 7. Sampling (paper §4, SPEC §1)
+ * ------------------------------------------------------------------------ */
+
+typedef enum epsnet_sample_output {
+    /* A PLY point set: one vertex per sample with x y z, `gvertex` (the id of
+     * the Gaussian vertex it covers, -1 for locked vertices and needle tips)
+     * and red green blue (a colour per Gaussian vertex id). */
+    EPSNET_SAMPLES_POINTS = 0,
+    /* The whole mesh as PLY, every vertex with `sample` (1/0), `gvertex` and a
+     * colour (grey for non-samples): for viewing in MeshLab. */
+    EPSNET_SAMPLES_MESH = 1,
+} epsnet_sample_output;
+
+/*
+ * Classify every vertex of the mesh at in_path and write the samples to
+ * out_path (PLY; binary unless out_path ends in .ply and ascii is set).
+ * @return 0, or a negative code with err filled; nothing is left at out_path
+ * on failure. Statistics are in epsnet_context_stats(ctx) afterwards.
+ */
+EPSNET_API int epsnet_sample_file(epsnet_context *ctx, const char *in_path, const char *out_path,
+                                  epsnet_sample_output what, int ascii, epsnet_error *err);
+
+/*
+ * Write the statistics of the last run as a JSON object to path ("-" =
+ * stdout). @return 0 or a negative code with err filled.
+ */
+EPSNET_API int epsnet_stats_write_json(const epsnet_context *ctx, const char *command,
+                                       const char *path, epsnet_error *err);
+
+/* ------------------------------------------------------------------------
+ * 8. Utilities
+ * ------------------------------------------------------------------------ */
+
+/*
+ * Parse a size such as "64M", "1.5G", "4096" (K, M, G, T are powers of 1024;
+ * a trailing "B"/"iB" is accepted).
+ * @return 0 with *out set, or EPSNET_EINVAL.
+ */
+EPSNET_API int epsnet_parse_size(const char *text, uint64_t *out);
+
+/*
+ * Remove the named temporary files this process still has open. Output files
+ * are anonymous (O_TMPFILE) where the system allows, and those vanish by
+ * themselves; this covers the fallback. Async-signal-safe: call it from a
+ * SIGINT/SIGTERM handler, then _exit().
+ */
+EPSNET_API void epsnet_remove_temporaries(void);
+
+/* "MAJOR.MINOR.PATCH" of the linked library. */
+EPSNET_API const char *epsnet_version(void);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* EPSNET_EPSNET_H */

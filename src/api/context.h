@@ -1,0 +1,16 @@
+/* The job context behind the public epsnet_context handle. */
+#ifndef EN_API_CONTEXT_H
+#define EN_API_CONTEXT_H
+
+#include "core/gauss.h"
+#include "epsnet/epsnet.h"
+
+struct epsnet_context {
+    epsnet_settings settings;   /* copied; tmpdir points at our own copy */
+    char *tmpdir;
+    gauss_sphere sphere;        /* G with the settings' level and rotation */
+    epsnet_stats stats;         /* of the last run */
+    char command[32];           /* name of the last run, for the JSON stats */
+};
+
+#endif

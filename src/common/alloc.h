@@ -1,0 +1,24 @@
+/*
+ * All library allocations go through these wrappers so that a fault-injection
+ * build (meson option fault_injection) can make any one of them fail and
+ * prove that every cleanup path works (STYLE.md: dav1d's alloc_fail).
+ */
+#ifndef EN_COMMON_ALLOC_H
+#define EN_COMMON_ALLOC_H
+
+#include <stddef.h>
+
+void *en_malloc(size_t n);
+void *en_calloc(size_t count, size_t size);
+void *en_realloc(void *p, size_t n);
+void en_free(void *p);
+char *en_strdup(const char *s);
+
+/*
+ * Grow *buf (holding *cap elements of elem bytes) to at least need elements,
+ * doubling. @return 0, or -1 on overflow or allocation failure (then *buf is
+ * unchanged).
+ */
+int en_grow(void **buf, size_t *cap, size_t need, size_t elem);
+
+#endif /* EN_COMMON_ALLOC_H */

@@ -1,0 +1,13 @@
+/* Small process-level helpers. */
+#ifndef EN_COMMON_UTIL_H
+#define EN_COMMON_UTIL_H
+
+#include <stdint.h>
+
+/* Peak resident set size of this process (VmHWM), 0 when unknown. */
+uint64_t en_peak_rss_bytes(void);
+
+/* Monotonic clock in seconds. */
+double en_now(void);
+
+#endif

@@ -1,0 +1,197 @@
+#include "core/classify.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "common/alloc.h"
+#include "epsnet/epsnet.h"
+
+/* Corner order a file happens to use must not change a normal's rounding,
+ * or the same mesh shuffled would give other samples (SPEC §1 invariants). */
+static int less_xyz(const double *a, const double *b)
+{
+    if (a[0] != b[0])
+        return a[0] < b[0];
+    if (a[1] != b[1])
+        return a[1] < b[1];
+    return a[2] < b[2];
+}
+
+static void face_normal(const en_slab *s, uint32_t f, double n[3])
+{
+    const uint32_t *t = s->tri + 3 * (size_t)f;
+    const double *p[3] = { s->pos + 3 * (size_t)t[0], s->pos + 3 * (size_t)t[1], s->pos + 3 * (size_t)t[2] };
+    int k = 0;
+    if (less_xyz(p[1], p[k]))
+        k = 1;
+    if (less_xyz(p[2], p[k]))
+        k = 2;
+    const double *a = p[k], *b = p[(k + 1) % 3], *c = p[(k + 2) % 3];
+    double u[3] = { b[0] - a[0], b[1] - a[1], b[2] - a[2] };
+    double w[3] = { c[0] - a[0], c[1] - a[1], c[2] - a[2] };
+    n[0] = u[1] * w[2] - u[2] * w[1];
+    n[1] = u[2] * w[0] - u[0] * w[2];
+    n[2] = u[0] * w[1] - u[1] * w[0];
+}
+
+int en_classify_faces(const gauss_sphere *g, const en_slab *s, uint32_t f0, uint32_t f1,
+                      double *fnormal, int32_t *ftri, en_classify_counts *counts, uint32_t *bad_face)
+{
+    for (uint32_t f = f0; f < f1; f++) {
+        double n[3], *out = fnormal + 3 * (size_t)f;
+        face_normal(s, f, n);
+        int ok = gauss_to_frame(g, n, out);
+        if (ok < 0) {
+            *bad_face = f;
+            return EPSNET_EFORMAT;
+        }
+        if (ok == 0) {
+            out[0] = out[1] = out[2] = 0;
+            ftri[f] = -1;
+            counts->zero_area_faces++;
+            continue;
+        }
+        int64_t t = gauss_locate(g, out);
+        if (t < 0) {
+            *bad_face = f;
+            return EPSNET_EINTERNAL;
+        }
+        ftri[f] = (int32_t)t;
+    }
+    return 0;
+}
+
+/* Feature edges are counted once: at the endpoint with the smaller global id,
+ * or at v when the other endpoint is locked (locked stars are not walked). */
+static uint64_t feature_edges_at(const en_slab *s, uint32_t v, const int32_t *ftri, int closed)
+{
+    const uint32_t *star = s->star + s->star_start[v];
+    uint32_t deg = en_slab_degree(s, v);
+    uint64_t n = 0;
+    for (uint32_t i = 0; i + 1 < deg + (closed ? 1u : 0u); i++) {
+        uint32_t f = star[i], h = star[(i + 1) % deg];
+        const uint32_t *t = s->tri + 3 * (size_t)f;
+        uint32_t x = t[0] == v ? t[2] : t[1] == v ? t[0] : t[1]; /* corner before v: shared with h */
+        int here = s->gid[v] < s->gid[x] || (s->vflags[x] & (EN_V_BOUNDARY | EN_V_NONMANIFOLD));
+        if (here && ftri[f] >= 0 && ftri[h] >= 0 && ftri[f] != ftri[h])
+            n++;
+    }
+    return n;
+}
+
+int en_classify_vertices(const gauss_sphere *g, const en_slab *s, const double *fnormal,
+                         const int32_t *ftri, uint32_t v0, uint32_t v1, uint8_t *vclass,
+                         int32_t *vgvertex, en_classify_counts *counts)
+{
+    uint32_t maxdeg = 1;
+    for (uint32_t v = v0; v < v1; v++)
+        if (en_slab_degree(s, v) > maxdeg)
+            maxdeg = en_slab_degree(s, v);
+    double (*normals)[3] = en_malloc((size_t)maxdeg * sizeof *normals);
+    size_t near_cap = 256;
+    uint32_t *near = en_malloc(near_cap * sizeof *near);
+    int rc = normals && near ? 0 : EPSNET_ENOMEM;
+    for (uint32_t v = v0; v < v1 && rc == 0; v++) {
+        if (!(s->vflags[v] & EN_V_OWNED))
+            continue;
+        vclass[v] = 0;
+        vgvertex[v] = -1;
+        uint8_t vf = s->vflags[v];
+        if (vf & (EN_V_BOUNDARY | EN_V_NONMANIFOLD | EN_V_ISOLATED)) {
+            vclass[v] = EN_C_LOCKED | EN_C_SAMPLE;
+            counts->locked++;
+            counts->samples++;
+            counts->boundary += (vf & EN_V_BOUNDARY) && !(vf & EN_V_NONMANIFOLD);
+            counts->nonmanifold += (vf & EN_V_NONMANIFOLD) != 0;
+            continue;
+        }
+        counts->feature_edges += feature_edges_at(s, v, ftri, 1);
+
+        /* The normal polygon P(v): star order, zero-area faces skipped. */
+        const uint32_t *star = s->star + s->star_start[v];
+        uint32_t deg = en_slab_degree(s, v), m = 0;
+        int32_t first_tri = -1;
+        int candidate = 0;
+        for (uint32_t i = 0; i < deg; i++) {
+            uint32_t f = star[i];
+            if (ftri[f] < 0)
+                continue;
+            if (first_tri < 0)
+                first_tri = ftri[f];
+            else if (ftri[f] != first_tri)
+                candidate = 1;
+            memcpy(normals[m++], fnormal + 3 * (size_t)f, sizeof normals[0]);
+        }
+        /* note: "candidate" means the non-zero faces around v do not all lie
+         * in one Gaussian triangle. Without zero-area faces that is exactly
+         * "touches a feature edge" (§4.2); with them it still guarantees that
+         * a non-candidate's polygon lies in one (convex) triangle and so
+         * encloses no Gaussian vertex. */
+        if (!candidate)
+            continue;
+        vclass[v] |= EN_C_CANDIDATE;
+        counts->candidates++;
+
+        double centre[3];
+        int hemi = gauss_in_open_hemisphere((const double(*)[3])normals, m, centre);
+        if (hemi != GAUSS_HEMI_CENTRE) {
+            vclass[v] |= EN_C_SAMPLE | EN_C_NEEDLE;
+            counts->samples++;
+            counts->needles++;
+            counts->unverified_hemisphere += hemi == GAUSS_HEMI_UNVERIFIED;
+            continue;
+        }
+        /* Only Gaussian vertices inside the smallest cap around centre that
+         * holds every normal can be enclosed (the polygon lies in the
+         * spherical hull of its vertices, inside that cap). */
+        double cl = sqrt(centre[0] * centre[0] + centre[1] * centre[1] + centre[2] * centre[2]);
+        double cos_r = 1.0;
+        for (uint32_t i = 0; i < m; i++) {
+            const double *n = normals[i];
+            double nl = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            double c = (n[0] * centre[0] + n[1] * centre[1] + n[2] * centre[2]) / (nl * cl);
+            if (c < cos_r)
+                cos_r = c;
+        }
+        size_t nn = gauss_vertices_near(g, centre, cos_r, near, near_cap);
+        if (nn > near_cap) {
+            if (en_grow((void **)&near, &near_cap, nn, sizeof *near)) {
+                rc = EPSNET_ENOMEM;
+                break;
+            }
+            nn = gauss_vertices_near(g, centre, cos_r, near, near_cap);
+        }
+        int covered = 0;
+        for (size_t i = 0; i < nn; i++) {
+            if (gauss_winding(g, (const double(*)[3])normals, m, near[i], centre) == 0)
+                continue;
+            if (covered++ == 0 || (int32_t)near[i] < vgvertex[v])
+                vgvertex[v] = (int32_t)near[i];
+        }
+        if (covered) {
+            vclass[v] |= EN_C_SAMPLE;
+            counts->samples++;
+            if (covered > 1) {
+                vclass[v] |= EN_C_MULTI;
+                counts->multi_cover++;
+            }
+        }
+    }
+    en_free(normals);
+    en_free(near);
+    return rc;
+}
+
+void en_classify_counts_add(en_classify_counts *into, const en_classify_counts *c)
+{
+    into->zero_area_faces += c->zero_area_faces;
+    into->feature_edges += c->feature_edges;
+    into->candidates += c->candidates;
+    into->samples += c->samples;
+    into->locked += c->locked;
+    into->boundary += c->boundary;
+    into->nonmanifold += c->nonmanifold;
+    into->needles += c->needles;
+    into->multi_cover += c->multi_cover;
+    into->unverified_hemisphere += c->unverified_hemisphere;
+}

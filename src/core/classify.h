@@ -1,0 +1,64 @@
+/*
+ * Vertex classification on a slab (paper §4, SPEC §1): face normals into
+ * G's frame, face -> Gaussian triangle, candidates (vertices on a feature
+ * edge), and the exact sample rule: a vertex is a sample iff the spherical
+ * polygon of its face normals has a non-zero winding number about a vertex of
+ * G. Boundary, non-manifold and isolated vertices are locked as samples.
+ *
+ * Work is split into index ranges so the worker pool can share one slab;
+ * every function writes only the entries of its range.
+ */
+#ifndef EN_CORE_CLASSIFY_H
+#define EN_CORE_CLASSIFY_H
+
+#include <stdint.h>
+
+#include "core/gauss.h"
+#include "core/slab.h"
+
+/* Per-vertex classification bits. */
+enum {
+    EN_C_CANDIDATE = 1 << 0, /* touches a feature edge (paper Definition 5) */
+    EN_C_SAMPLE = 1 << 1,    /* kept: winding != 0, needle, or locked */
+    EN_C_LOCKED = 1 << 2,    /* boundary / non-manifold / isolated (SPEC §1) */
+    EN_C_NEEDLE = 1 << 3,    /* normals not in an open hemisphere */
+    EN_C_MULTI = 1 << 4,     /* encloses more than one Gaussian vertex */
+};
+
+typedef struct en_classify_counts {
+    uint64_t zero_area_faces;
+    uint64_t feature_edges;
+    uint64_t candidates;
+    uint64_t samples;
+    uint64_t locked;
+    uint64_t boundary;
+    uint64_t nonmanifold;
+    uint64_t needles;
+    uint64_t multi_cover;
+    uint64_t unverified_hemisphere; /* see gauss_in_open_hemisphere() */
+} en_classify_counts;
+
+/*
+ * Faces [f0, f1): frame normal (3 doubles, zero for a zero-area face) and
+ * Gaussian triangle (-1 for a zero-area face). The normal is the double
+ * cross product taken from the corner with the smallest coordinates, so it
+ * does not depend on which corner a file lists first.
+ * @return 0, EPSNET_EFORMAT when a normal overflows, or EPSNET_EINTERNAL if
+ * point location fails (a bug); *bad_face is set on failure.
+ */
+int en_classify_faces(const gauss_sphere *g, const en_slab *s, uint32_t f0, uint32_t f1,
+                      double *fnormal, int32_t *ftri, en_classify_counts *counts, uint32_t *bad_face);
+
+/*
+ * Owned vertices in [v0, v1): classification bits and the smallest Gaussian
+ * vertex id each sample encloses (-1 for non-samples, locked vertices and
+ * needles). Needs en_slab_build_stars() and en_classify_faces() for every
+ * face around those vertices. @return 0 or EPSNET_ENOMEM (scratch).
+ */
+int en_classify_vertices(const gauss_sphere *g, const en_slab *s, const double *fnormal,
+                         const int32_t *ftri, uint32_t v0, uint32_t v1, uint8_t *vclass,
+                         int32_t *vgvertex, en_classify_counts *counts);
+
+void en_classify_counts_add(en_classify_counts *into, const en_classify_counts *c);
+
+#endif

@@ -1,0 +1,241 @@
+#include "core/slab.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/alloc.h"
+#include "common/error.h"
+
+void en_slab_init(en_slab *s)
+{
+    memset(s, 0, sizeof *s);
+}
+
+void en_slab_free(en_slab *s)
+{
+    en_free(s->gid);
+    en_free(s->pos);
+    en_free(s->vflags);
+    en_free(s->tri);
+    en_free(s->star_start);
+    en_free(s->star);
+    en_slab_init(s);
+}
+
+void en_slab_reset(en_slab *s)
+{
+    s->nv = s->nt = 0;
+}
+
+static int grow_vertices(en_slab *s)
+{
+    size_t cap = s->cap_v, c;
+    c = cap;
+    if (en_grow((void **)&s->gid, &c, s->nv + 1, sizeof *s->gid))
+        return -1;
+    c = cap;
+    if (en_grow((void **)&s->pos, &c, s->nv + 1, 3 * sizeof *s->pos))
+        return -1;
+    c = cap;
+    if (en_grow((void **)&s->vflags, &c, s->nv + 1, sizeof *s->vflags))
+        return -1;
+    if (c > UINT32_MAX - 1)
+        c = UINT32_MAX - 1;
+    s->cap_v = (uint32_t)c;
+    return 0;
+}
+
+int64_t en_slab_add_vertex(en_slab *s, uint64_t gid, const double xyz[3], uint8_t flags)
+{
+    if (s->nv >= UINT32_MAX - 2)
+        return -1;
+    if (s->nv == s->cap_v && grow_vertices(s))
+        return -1;
+    uint32_t v = s->nv++;
+    s->gid[v] = gid;
+    memcpy(s->pos + 3 * (size_t)v, xyz, 3 * sizeof *xyz);
+    s->vflags[v] = flags;
+    return v;
+}
+
+int en_slab_add_face(en_slab *s, uint32_t a, uint32_t b, uint32_t c)
+{
+    if (s->nt >= UINT32_MAX / 3 - 1)
+        return -1;
+    if (s->nt == s->cap_t) {
+        size_t cap = s->cap_t;
+        if (en_grow((void **)&s->tri, &cap, s->nt + 1, 3 * sizeof *s->tri))
+            return -1;
+        s->cap_t = (uint32_t)(cap < UINT32_MAX / 3 ? cap : UINT32_MAX / 3);
+    }
+    uint32_t *t = s->tri + 3 * (size_t)s->nt++;
+    t[0] = a, t[1] = b, t[2] = c;
+    return 0;
+}
+
+/* Corner of face f at vertex v, or -1 (a face repeating v uses the first). */
+static int corner_of(const uint32_t *t, uint32_t v)
+{
+    return t[0] == v ? 0 : t[1] == v ? 1 : t[2] == v ? 2 : -1;
+}
+
+/* Scratch for ordering one star, sized once for the largest degree:
+ * corner after v, corner before v, and both packed as (corner << 32 | i)
+ * and sorted, to find a face by its corner in O(log deg). */
+typedef struct star_scratch {
+    uint32_t *nxt, *prv, *ordered;
+    uint64_t *by_nxt, *by_prv;
+} star_scratch;
+
+static int cmp_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+static void sort_packed(uint64_t *packed, const uint32_t *key, uint32_t n)
+{
+    for (uint32_t i = 0; i < n; i++)
+        packed[i] = (uint64_t)key[i] << 32 | i;
+    qsort(packed, n, sizeof *packed, cmp_u64);
+}
+
+/* Index i whose key is want, from the sorted packed keys, or UINT32_MAX. */
+static uint32_t find_key(const uint64_t *packed, uint32_t n, uint32_t want)
+{
+    uint32_t lo = 0, hi = n;
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if ((uint32_t)(packed[mid] >> 32) < want)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo < n && (uint32_t)(packed[lo] >> 32) == want ? (uint32_t)packed[lo] : UINT32_MAX;
+}
+
+/*
+ * Order the faces around v counter-clockwise. Face (v, b, c) spans the angle
+ * from edge v-b to edge v-c, so its counter-clockwise successor shares edge
+ * v-c (its corner after v is c) and its predecessor shares edge v-b. One
+ * closed cycle = interior manifold vertex; one open chain = boundary vertex;
+ * anything else (two fans, an edge used twice in the same direction, a
+ * repeated corner) = non-manifold. O(deg log deg).
+ */
+static uint8_t order_star(const en_slab *s, uint32_t v, uint32_t *faces, uint32_t deg, star_scratch *w)
+{
+    if (deg == 0)
+        return EN_V_ISOLATED;
+    uint32_t *nxt = w->nxt, *prv = w->prv;
+    for (uint32_t i = 0; i < deg; i++) {
+        const uint32_t *t = s->tri + 3 * (size_t)faces[i];
+        int k = corner_of(t, v);
+        nxt[i] = t[(k + 1) % 3];
+        prv[i] = t[(k + 2) % 3];
+        if (nxt[i] == v || prv[i] == v)
+            return EN_V_NONMANIFOLD;
+    }
+    sort_packed(w->by_nxt, nxt, deg);
+    sort_packed(w->by_prv, prv, deg);
+    /* An edge (v, x) may be used at most once as "next" and once as "prev". */
+    for (uint32_t i = 1; i < deg; i++)
+        if ((w->by_nxt[i] >> 32) == (w->by_nxt[i - 1] >> 32) || (w->by_prv[i] >> 32) == (w->by_prv[i - 1] >> 32))
+            return EN_V_NONMANIFOLD;
+    uint32_t start = 0, open = 0;
+    for (uint32_t i = 0; i < deg; i++)
+        if (find_key(w->by_prv, deg, nxt[i]) == UINT32_MAX) {
+            open++;
+            start = i;
+        }
+    if (open > 1)
+        return EN_V_NONMANIFOLD | EN_V_BOUNDARY;
+    uint32_t cur = start;
+    for (uint32_t n = 0; n < deg; n++) {
+        w->ordered[n] = faces[cur];
+        uint32_t j = find_key(w->by_nxt, deg, prv[cur]);
+        if (j == UINT32_MAX) {
+            if (n + 1 != deg)
+                return EN_V_NONMANIFOLD | (open ? EN_V_BOUNDARY : 0);
+            break;
+        }
+        if (j == start && n + 1 != deg)
+            return EN_V_NONMANIFOLD; /* closed early: more than one fan */
+        cur = j;
+    }
+    memcpy(faces, w->ordered, deg * sizeof *faces);
+    return open ? EN_V_BOUNDARY : 0;
+}
+
+int en_slab_build_stars(en_slab *s)
+{
+    en_free(s->star_start);
+    en_free(s->star);
+    s->star_start = en_calloc((size_t)s->nv + 1, sizeof *s->star_start);
+    s->star = en_malloc((size_t)s->nt * 3 * sizeof *s->star + 1);
+    if (!s->star_start || !s->star)
+        return -1;
+    for (uint32_t f = 0; f < s->nt; f++) {
+        const uint32_t *t = s->tri + 3 * (size_t)f;
+        for (int k = 0; k < 3; k++)
+            if (corner_of(t, t[k]) == k) /* count a repeated corner once */
+                s->star_start[t[k] + 1]++;
+    }
+    for (uint32_t v = 0; v < s->nv; v++)
+        s->star_start[v + 1] += s->star_start[v];
+    uint32_t *fill = en_malloc((size_t)s->nv * sizeof *fill + 1);
+    if (!fill)
+        return -1;
+    memcpy(fill, s->star_start, (size_t)s->nv * sizeof *fill);
+    for (uint32_t f = 0; f < s->nt; f++) {
+        const uint32_t *t = s->tri + 3 * (size_t)f;
+        for (int k = 0; k < 3; k++)
+            if (corner_of(t, t[k]) == k)
+                s->star[fill[t[k]]++] = f;
+    }
+    en_free(fill);
+    uint32_t maxdeg = 1;
+    for (uint32_t v = 0; v < s->nv; v++)
+        if (en_slab_degree(s, v) > maxdeg)
+            maxdeg = en_slab_degree(s, v);
+    star_scratch w = { 0 };
+    w.by_nxt = en_malloc(2 * (size_t)maxdeg * sizeof *w.by_nxt);
+    w.nxt = en_malloc(3 * (size_t)maxdeg * sizeof *w.nxt);
+    if (!w.by_nxt || !w.nxt) {
+        en_free(w.by_nxt);
+        en_free(w.nxt);
+        return -1;
+    }
+    w.by_prv = w.by_nxt + maxdeg;
+    w.prv = w.nxt + maxdeg;
+    w.ordered = w.prv + maxdeg;
+    for (uint32_t v = 0; v < s->nv; v++) {
+        s->vflags[v] &= (uint8_t)~(EN_V_BOUNDARY | EN_V_NONMANIFOLD | EN_V_ISOLATED);
+        s->vflags[v] |= order_star(s, v, s->star + s->star_start[v], en_slab_degree(s, v), &w);
+    }
+    en_free(w.nxt);
+    en_free(w.by_nxt);
+    return 0;
+}
+
+int en_slab_read_all(en_slab *s, epsnet_reader *r, epsnet_error *err)
+{
+    epsnet_record rec;
+    int rc;
+    while ((rc = epsnet_reader_next(r, &rec, err)) > 0) {
+        if (rec.kind == EPSNET_REC_VERTEX) {
+            if (en_slab_add_vertex(s, s->nv, rec.xyz, EN_V_OWNED) < 0)
+                return en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                    "out of memory holding the mesh (%u vertices)", s->nv);
+        } else if (rec.kind == EPSNET_REC_TRIANGLE) {
+            if (en_slab_add_face(s, (uint32_t)rec.v[0], (uint32_t)rec.v[1], (uint32_t)rec.v[2]))
+                return en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                    "out of memory holding the mesh (%u faces)", s->nt);
+        }
+    }
+    if (rc < 0)
+        return rc;
+    if (en_slab_build_stars(s))
+        return en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "out of memory building vertex stars");
+    return 0;
+}

@@ -1,0 +1,72 @@
+/*
+ * The per-slab mesh: the unit of work of the whole pipeline (SPEC §2). A slab
+ * is a piece of the mesh with global vertex ids; it *owns* the vertices whose
+ * classification and collapses it is responsible for and holds *ghost*
+ * vertices (and the faces around its owned vertices) as read-only context.
+ * A whole-mesh, in-core run is the one-slab case: every vertex owned.
+ *
+ * Everything is explicit arrays indexed by local ids (uint32: a slab is far
+ * smaller than 4G vertices by construction); no globals, no hidden state.
+ */
+#ifndef EN_CORE_SLAB_H
+#define EN_CORE_SLAB_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "epsnet/epsnet.h"
+
+enum {
+    EN_V_OWNED = 1 << 0,      /* classified (and later simplified) by this slab */
+    EN_V_BOUNDARY = 1 << 1,   /* on an open boundary: locked (SPEC §1) */
+    EN_V_NONMANIFOLD = 1 << 2,/* star is not one fan: locked (SPEC §1) */
+    EN_V_ISOLATED = 1 << 3,   /* referenced by no face */
+};
+
+typedef struct en_slab {
+    uint32_t nv, nt;
+    uint32_t cap_v, cap_t;
+    uint64_t *gid;            /* global vertex id, per local vertex */
+    double *pos;              /* 3 per local vertex, bit-exact input coordinates */
+    uint8_t *vflags;          /* EN_V_* */
+    uint32_t *tri;            /* 3 local vertex ids per face, counter-clockwise */
+
+    /* Vertex -> incident faces (CSR), built by en_slab_build_stars(); for
+     * manifold vertices the faces of a star are in rotational order
+     * (counter-clockwise seen from outside), starting, for a boundary
+     * vertex, at the face whose edge (v, next) is on the boundary. */
+    uint32_t *star_start;     /* nv + 1 */
+    uint32_t *star;           /* 3 * nt */
+} en_slab;
+
+void en_slab_init(en_slab *s);
+void en_slab_free(en_slab *s);
+/* Forget the contents, keep the memory (slabs are reused between jobs). */
+void en_slab_reset(en_slab *s);
+
+/* @return the new local id, or -1 when out of memory / over 2^32-2 vertices. */
+int64_t en_slab_add_vertex(en_slab *s, uint64_t gid, const double xyz[3], uint8_t flags);
+/* @return 0, or -1 when out of memory. Local ids must exist. */
+int en_slab_add_face(en_slab *s, uint32_t a, uint32_t b, uint32_t c);
+
+/*
+ * Build the stars of all vertices, order them rotationally and flag boundary,
+ * non-manifold and isolated vertices. Faces that repeat a corner do not make
+ * a vertex non-manifold by themselves; they are ordered like any face.
+ * @return 0, or -1 when out of memory.
+ */
+int en_slab_build_stars(en_slab *s);
+
+static inline uint32_t en_slab_degree(const en_slab *s, uint32_t v)
+{
+    return s->star_start[v + 1] - s->star_start[v];
+}
+
+/*
+ * Read a whole mesh into a one-slab slab (every vertex owned). Unreferenced
+ * vertices are kept (flagged isolated) so local ids equal global ids.
+ * @return 0 or a negative code with err filled.
+ */
+int en_slab_read_all(en_slab *s, epsnet_reader *r, epsnet_error *err);
+
+#endif /* EN_CORE_SLAB_H */

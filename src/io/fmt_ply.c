@@ -1,0 +1,1364 @@
+/*
+ * PLY reader and writer (SPEC §3 "Ordinary formats": ascii, binary little-
+ * and big-endian, extra properties skipped, polygons triangulated).
+ *
+ * Reading: the header becomes a list of elements with their properties; the
+ * body is then walked element by element. The encoding is chosen once, when
+ * the header is read: ascii records go through a line tokenizer, binary ones
+ * through a table of per-type decoders for the file's byte order (STYLE.md,
+ * rply's driver tables), so no value ever tests the encoding.
+ *
+ * Writing: PLY needs every vertex before every face and both counts in the
+ * header, while a streaming input interleaves them and may not know its
+ * counts. The writer therefore reserves a fixed-size header, writes vertices
+ * straight to the output, spills faces to a temporary file and appends them
+ * at the end, then patches the header with the real counts. Outputs that
+ * cannot be rewritten (.zst, stdout) spill the vertices too, unless the
+ * counts were announced.
+ */
+#include <inttypes.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/alloc.h"
+#include "io/format.h"
+
+#define PLY_NAME_MAX 64
+#define PLY_HEADER_LINE_MAX 65536
+#define PLY_MAX_ELEMENTS 256
+#define PLY_MAX_PROPERTIES 1024       /* per element */
+#define PLY_MAX_LIST ((int64_t)1 << 20)
+#define PLY_BATCH 1024                /* records decoded per fill() */
+#define PLY_CHUNK ((size_t)1 << 19)   /* bytes asked of the source at once */
+
+/* ------------------------------------------------------------------------
+ * Types and their binary decoders
+ * ------------------------------------------------------------------------ */
+
+typedef enum ply_type {
+    PLY_NONE = 0,
+    PLY_INT8, PLY_UINT8, PLY_INT16, PLY_UINT16,
+    PLY_INT32, PLY_UINT32, PLY_FLOAT32, PLY_FLOAT64,
+    PLY_NTYPES
+} ply_type;
+
+static const struct {
+    const char *name, *alias;
+} ply_type_names[PLY_NTYPES] = {
+    [PLY_INT8] = { "char", "int8" },     [PLY_UINT8] = { "uchar", "uint8" },
+    [PLY_INT16] = { "short", "int16" },  [PLY_UINT16] = { "ushort", "uint16" },
+    [PLY_INT32] = { "int", "int32" },    [PLY_UINT32] = { "uint", "uint32" },
+    [PLY_FLOAT32] = { "float", "float32" }, [PLY_FLOAT64] = { "double", "float64" },
+};
+
+static const size_t ply_type_size[PLY_NTYPES] = {
+    [PLY_INT8] = 1, [PLY_UINT8] = 1, [PLY_INT16] = 2, [PLY_UINT16] = 2,
+    [PLY_INT32] = 4, [PLY_UINT32] = 4, [PLY_FLOAT32] = 4, [PLY_FLOAT64] = 8,
+};
+
+static const int64_t ply_int_min[PLY_NTYPES] = {
+    [PLY_INT8] = INT8_MIN, [PLY_INT16] = INT16_MIN, [PLY_INT32] = INT32_MIN,
+};
+static const int64_t ply_int_max[PLY_NTYPES] = {
+    [PLY_INT8] = INT8_MAX, [PLY_UINT8] = UINT8_MAX, [PLY_INT16] = INT16_MAX,
+    [PLY_UINT16] = UINT16_MAX, [PLY_INT32] = INT32_MAX, [PLY_UINT32] = UINT32_MAX,
+};
+
+static int ply_type_is_int(ply_type t)
+{
+    return t >= PLY_INT8 && t <= PLY_UINT32;
+}
+
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+#define PLY_HOST_BE 1
+#else
+#define PLY_HOST_BE 0
+#endif
+
+static uint16_t swap16(uint16_t v) { return __builtin_bswap16(v); }
+static uint32_t swap32(uint32_t v) { return __builtin_bswap32(v); }
+static uint64_t swap64(uint64_t v) { return __builtin_bswap64(v); }
+static uint16_t keep16(uint16_t v) { return v; }
+static uint32_t keep32(uint32_t v) { return v; }
+static uint64_t keep64(uint64_t v) { return v; }
+
+/* One set of decoders per byte order: FIXn turns file order into host
+ * order. Integers decode to int64_t (counts, indices), anything to double
+ * (coordinates). */
+#define PLY_DECODERS(E, FIX16, FIX32, FIX64)                                                   \
+    static int64_t int_i8_##E(const uint8_t *p) { return (int8_t)p[0]; }                      \
+    static int64_t int_u8_##E(const uint8_t *p) { return p[0]; }                              \
+    static int64_t int_i16_##E(const uint8_t *p)                                              \
+    {                                                                                         \
+        uint16_t u;                                                                           \
+        memcpy(&u, p, 2);                                                                     \
+        return (int16_t)FIX16(u);                                                             \
+    }                                                                                         \
+    static int64_t int_u16_##E(const uint8_t *p)                                              \
+    {                                                                                         \
+        uint16_t u;                                                                           \
+        memcpy(&u, p, 2);                                                                     \
+        return FIX16(u);                                                                      \
+    }                                                                                         \
+    static int64_t int_i32_##E(const uint8_t *p)                                              \
+    {                                                                                         \
+        uint32_t u;                                                                           \
+        memcpy(&u, p, 4);                                                                     \
+        return (int32_t)FIX32(u);                                                             \
+    }                                                                                         \
+    static int64_t int_u32_##E(const uint8_t *p)                                              \
+    {                                                                                         \
+        uint32_t u;                                                                           \
+        memcpy(&u, p, 4);                                                                     \
+        return FIX32(u);                                                                      \
+    }                                                                                         \
+    static double real_i8_##E(const uint8_t *p) { return (double)int_i8_##E(p); }             \
+    static double real_u8_##E(const uint8_t *p) { return (double)int_u8_##E(p); }             \
+    static double real_i16_##E(const uint8_t *p) { return (double)int_i16_##E(p); }           \
+    static double real_u16_##E(const uint8_t *p) { return (double)int_u16_##E(p); }           \
+    static double real_i32_##E(const uint8_t *p) { return (double)int_i32_##E(p); }           \
+    static double real_u32_##E(const uint8_t *p) { return (double)int_u32_##E(p); }           \
+    static double real_f32_##E(const uint8_t *p)                                              \
+    {                                                                                         \
+        uint32_t u;                                                                           \
+        float f;                                                                              \
+        memcpy(&u, p, 4);                                                                     \
+        u = FIX32(u);                                                                         \
+        memcpy(&f, &u, 4);                                                                    \
+        return f;                                                                             \
+    }                                                                                         \
+    static double real_f64_##E(const uint8_t *p)                                              \
+    {                                                                                         \
+        uint64_t u;                                                                           \
+        double d;                                                                             \
+        memcpy(&u, p, 8);                                                                     \
+        u = FIX64(u);                                                                         \
+        memcpy(&d, &u, 8);                                                                    \
+        return d;                                                                             \
+    }                                                                                         \
+    static const ply_codec ply_codec_##E = {                                                  \
+        .get_int = { NULL, int_i8_##E, int_u8_##E, int_i16_##E, int_u16_##E, int_i32_##E,     \
+                     int_u32_##E, NULL, NULL },                                               \
+        .get_real = { NULL, real_i8_##E, real_u8_##E, real_i16_##E, real_u16_##E,             \
+                      real_i32_##E, real_u32_##E, real_f32_##E, real_f64_##E },               \
+    };
+
+typedef struct ply_codec {
+    int64_t (*get_int[PLY_NTYPES])(const uint8_t *p);   /* NULL for float types */
+    double (*get_real[PLY_NTYPES])(const uint8_t *p);
+} ply_codec;
+
+#if PLY_HOST_BE
+PLY_DECODERS(le, swap16, swap32, swap64)
+PLY_DECODERS(be, keep16, keep32, keep64)
+#else
+PLY_DECODERS(le, keep16, keep32, keep64)
+PLY_DECODERS(be, swap16, swap32, swap64)
+#endif
+
+/* ------------------------------------------------------------------------
+ * Header model
+ * ------------------------------------------------------------------------ */
+
+typedef enum ply_role {
+    ROLE_SKIP = -1,
+    ROLE_X = 0, ROLE_Y = 1, ROLE_Z = 2,
+    ROLE_INDICES = 3,
+} ply_role;
+
+typedef struct ply_property {
+    char name[PLY_NAME_MAX];
+    ply_type type;          /* scalar type, or the item type of a list */
+    ply_type count_type;    /* PLY_NONE for scalars */
+    ply_role role;
+} ply_property;
+
+typedef enum ply_kind { ELEM_OTHER, ELEM_VERTEX, ELEM_FACE } ply_kind;
+
+typedef struct ply_element {
+    char name[PLY_NAME_MAX];
+    uint64_t count;
+    ply_kind kind;
+    uint64_t header_line;
+    ply_property *props;
+    size_t nprops, cap;
+    size_t fixed_size;      /* bytes per binary record when no property is a list, else 0 */
+} ply_element;
+
+typedef enum ply_encoding { ENC_ASCII, ENC_LE, ENC_BE } ply_encoding;
+
+typedef struct ply_reader ply_reader;
+
+/* Reads up to n records of element e: ascii or binary, chosen once. */
+typedef int (*ply_records_fn)(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_t n);
+
+struct ply_reader {
+    ply_element *elems;
+    size_t nelems, cap;
+    ply_encoding encoding;
+    const ply_codec *codec;      /* binary only */
+    ply_records_fn read_records;
+    size_t elem;                 /* element being read */
+    uint64_t record;             /* records of it read so far */
+    uint64_t short_polygons;     /* faces with fewer than 3 corners, skipped */
+};
+
+/* ------------------------------------------------------------------------
+ * Small helpers shared by the reader paths
+ * ------------------------------------------------------------------------ */
+
+/* Take over an error that a source call wrote into err. */
+static int adopt_error(epsnet_reader *r, const epsnet_error *e)
+{
+    if (!r->failed) {
+        r->failed = 1;
+        r->err = *e;
+    }
+    return r->err.code;
+}
+
+static int source_failure(epsnet_reader *r)
+{
+    epsnet_error e;
+    en_source_error(r->src, &e);
+    return adopt_error(r, &e);
+}
+
+/* Pointer to n readable bytes at the source's cursor, or NULL at the end. */
+static inline const uint8_t *need(en_source *s, size_t n)
+{
+    if ((size_t)(s->end - s->cur) >= n)
+        return s->cur;
+    return en_source_fill(s, n) >= n ? s->cur : NULL;
+}
+
+static int truncated_binary(epsnet_reader *r, const ply_element *e, uint64_t record)
+{
+    if (r->src->failed)
+        return source_failure(r);
+    return en_reader_fail_at(r, EPSNET_EFORMAT, en_source_offset(r->src),
+                             "truncated file: %s %" PRIu64 " of %" PRIu64 " is incomplete",
+                             e->name, record + 1, e->count);
+}
+
+/* Next whitespace-separated token of *cursor, NUL-terminated in place. */
+static char *next_token(char **cursor)
+{
+    char *s = *cursor;
+    while (*s == ' ' || *s == '\t' || *s == '\r' || *s == '\f' || *s == '\v')
+        s++;
+    if (!*s) {
+        *cursor = s;
+        return NULL;
+    }
+    char *t = s;
+    while (*s && *s != ' ' && *s != '\t' && *s != '\r' && *s != '\f' && *s != '\v')
+        s++;
+    if (*s)
+        *s++ = '\0';
+    *cursor = s;
+    return t;
+}
+
+static int parse_u64(const char *s, uint64_t *out)
+{
+    if (*s < '0' || *s > '9')
+        return -1;
+    uint64_t v = 0;
+    for (; *s; s++) {
+        if (*s < '0' || *s > '9')
+            return -1;
+        unsigned d = (unsigned)(*s - '0');
+        if (v > (UINT64_MAX - d) / 10)
+            return -1;
+        v = v * 10 + d;
+    }
+    *out = v;
+    return 0;
+}
+
+/* Integer token within the range of type t. */
+static int parse_int_as(const char *s, ply_type t, int64_t *out)
+{
+    int neg = *s == '-';
+    if (*s == '-' || *s == '+')
+        s++;
+    uint64_t u;
+    if (parse_u64(s, &u) || u > (uint64_t)INT64_MAX)
+        return -1;
+    int64_t v = neg ? -(int64_t)u : (int64_t)u;
+    if (v < ply_int_min[t] || v > ply_int_max[t])
+        return -1;
+    *out = v;
+    return 0;
+}
+
+/* Number token of type t (integers must be integers in range). */
+static int parse_real_as(const char *s, ply_type t, double *out)
+{
+    if (ply_type_is_int(t)) {
+        int64_t v;
+        if (parse_int_as(s, t, &v))
+            return -1;
+        *out = (double)v;
+        return 0;
+    }
+    char *end;
+    double v = t == PLY_FLOAT32 ? (double)strtof(s, &end) : strtod(s, &end);
+    if (end == s || *end)
+        return -1;
+    *out = v;
+    return 0;
+}
+
+/* ------------------------------------------------------------------------
+ * Header
+ * ------------------------------------------------------------------------ */
+
+static ply_type type_by_name(const char *s)
+{
+    for (int t = PLY_INT8; t < PLY_NTYPES; t++)
+        if (strcmp(s, ply_type_names[t].name) == 0 || strcmp(s, ply_type_names[t].alias) == 0)
+            return (ply_type)t;
+    return PLY_NONE;
+}
+
+static int copy_name(epsnet_reader *r, char *dst, const char *src, const char *what)
+{
+    size_t n = strlen(src);
+    if (n >= PLY_NAME_MAX)
+        return en_reader_fail(r, EPSNET_EFORMAT, "%s name longer than %d bytes", what, PLY_NAME_MAX - 1);
+    memcpy(dst, src, n + 1);
+    return 0;
+}
+
+static int header_element(epsnet_reader *r, ply_reader *p, char *rest)
+{
+    char *name = next_token(&rest);
+    char *count = next_token(&rest);
+    if (!name || !count || next_token(&rest))
+        return en_reader_fail(r, EPSNET_EFORMAT, "expected 'element NAME COUNT'");
+    if (p->nelems == PLY_MAX_ELEMENTS)
+        return en_reader_fail(r, EPSNET_ELIMIT, "more than %d elements", PLY_MAX_ELEMENTS);
+    uint64_t n;
+    if (parse_u64(count, &n))
+        return en_reader_fail(r, EPSNET_EFORMAT, "element '%s' has an invalid count '%s'", name, count);
+    int rc = en_reader_check_count(r, n, strcmp(name, "vertex") == 0 ? "vertex count"
+                                         : strcmp(name, "face") == 0 ? "face count" : "element count");
+    if (rc)
+        return rc;
+    ply_kind kind = strcmp(name, "vertex") == 0 ? ELEM_VERTEX
+                    : strcmp(name, "face") == 0 ? ELEM_FACE : ELEM_OTHER;
+    for (size_t i = 0; i < p->nelems; i++) {
+        if (kind != ELEM_OTHER && p->elems[i].kind == kind)
+            return en_reader_fail(r, EPSNET_EFORMAT, "second '%s' element", name);
+        if (kind == ELEM_VERTEX && p->elems[i].kind == ELEM_FACE && p->elems[i].count > 0)
+            return en_reader_fail(r, EPSNET_EFORMAT,
+                                  "element 'face' comes before element 'vertex' (line %" PRIu64
+                                  "): faces need their vertices first",
+                                  p->elems[i].header_line);
+    }
+    if (p->nelems == p->cap &&
+        en_grow((void **)&p->elems, &p->cap, p->nelems + 1, sizeof *p->elems))
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    ply_element *e = &p->elems[p->nelems];
+    memset(e, 0, sizeof *e);
+    if ((rc = copy_name(r, e->name, name, "element")))
+        return rc;
+    e->count = n;
+    e->kind = kind;
+    e->header_line = r->src->lineno;
+    p->nelems++;
+    return 0;
+}
+
+static ply_role role_of(const ply_element *e, const char *name, int is_list)
+{
+    if (e->kind == ELEM_VERTEX && !is_list) {
+        if (strcmp(name, "x") == 0)
+            return ROLE_X;
+        if (strcmp(name, "y") == 0)
+            return ROLE_Y;
+        if (strcmp(name, "z") == 0)
+            return ROLE_Z;
+    }
+    if (e->kind == ELEM_FACE && is_list &&
+        (strcmp(name, "vertex_indices") == 0 || strcmp(name, "vertex_index") == 0))
+        return ROLE_INDICES;
+    return ROLE_SKIP;
+}
+
+static int header_property(epsnet_reader *r, ply_reader *p, char *rest)
+{
+    if (p->nelems == 0)
+        return en_reader_fail(r, EPSNET_EFORMAT, "property before any element");
+    ply_element *e = &p->elems[p->nelems - 1];
+    ply_property prop = { .count_type = PLY_NONE };
+    char *tok = next_token(&rest);
+    char *name;
+    if (tok && strcmp(tok, "list") == 0) {
+        char *ct = next_token(&rest), *it = next_token(&rest);
+        name = next_token(&rest);
+        if (!name || next_token(&rest))
+            return en_reader_fail(r, EPSNET_EFORMAT, "expected 'property list COUNTTYPE ITEMTYPE NAME'");
+        prop.count_type = type_by_name(ct);
+        prop.type = type_by_name(it);
+        if (!prop.count_type || !prop.type)
+            return en_reader_fail(r, EPSNET_EFORMAT, "unknown property type '%s'", prop.count_type ? it : ct);
+        if (!ply_type_is_int(prop.count_type))
+            return en_reader_fail(r, EPSNET_EFORMAT, "list '%s' has a non-integer count type '%s'", name, ct);
+    } else {
+        name = next_token(&rest);
+        if (!tok || !name || next_token(&rest))
+            return en_reader_fail(r, EPSNET_EFORMAT, "expected 'property TYPE NAME'");
+        prop.type = type_by_name(tok);
+        if (!prop.type)
+            return en_reader_fail(r, EPSNET_EFORMAT, "unknown property type '%s'", tok);
+    }
+    int rc = copy_name(r, prop.name, name, "property");
+    if (rc)
+        return rc;
+    prop.role = role_of(e, name, prop.count_type != PLY_NONE);
+    if (e->kind == ELEM_VERTEX && prop.count_type != PLY_NONE &&
+        (strcmp(name, "x") == 0 || strcmp(name, "y") == 0 || strcmp(name, "z") == 0))
+        return en_reader_fail(r, EPSNET_EFORMAT, "vertex coordinate '%s' is declared as a list", name);
+    if (e->kind == ELEM_FACE && prop.count_type == PLY_NONE &&
+        (strcmp(name, "vertex_indices") == 0 || strcmp(name, "vertex_index") == 0))
+        return en_reader_fail(r, EPSNET_EFORMAT, "face property '%s' is not a list", name);
+    if (prop.role == ROLE_INDICES && !ply_type_is_int(prop.type))
+        return en_reader_fail(r, EPSNET_EUNSUPPORTED, "face indices of type '%s' are not integers",
+                              ply_type_names[prop.type].name);
+    for (size_t i = 0; i < e->nprops; i++) {
+        if (strcmp(e->props[i].name, prop.name) == 0)
+            return en_reader_fail(r, EPSNET_EFORMAT, "element '%s' declares property '%s' twice",
+                                  e->name, prop.name);
+        if (prop.role == ROLE_INDICES && e->props[i].role == ROLE_INDICES)
+            return en_reader_fail(r, EPSNET_EFORMAT, "face element has both vertex_indices and vertex_index");
+    }
+    if (e->nprops == PLY_MAX_PROPERTIES)
+        return en_reader_fail(r, EPSNET_ELIMIT, "element '%s' has more than %d properties", e->name,
+                              PLY_MAX_PROPERTIES);
+    if (e->nprops == e->cap && en_grow((void **)&e->props, &e->cap, e->nprops + 1, sizeof *e->props))
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    e->props[e->nprops++] = prop;
+    return 0;
+}
+
+static int header_format(epsnet_reader *r, ply_reader *p, char *rest, int *seen)
+{
+    char *enc = next_token(&rest), *ver = next_token(&rest);
+    if (*seen)
+        return en_reader_fail(r, EPSNET_EFORMAT, "second 'format' line");
+    if (!enc || !ver || next_token(&rest))
+        return en_reader_fail(r, EPSNET_EFORMAT, "expected 'format ENCODING 1.0'");
+    if (strcmp(enc, "ascii") == 0)
+        p->encoding = ENC_ASCII;
+    else if (strcmp(enc, "binary_little_endian") == 0)
+        p->encoding = ENC_LE;
+    else if (strcmp(enc, "binary_big_endian") == 0)
+        p->encoding = ENC_BE;
+    else
+        return en_reader_fail(r, EPSNET_EFORMAT,
+                              "unknown PLY format '%s' (expected ascii, binary_little_endian or "
+                              "binary_big_endian)", enc);
+    if (strcmp(ver, "1.0") != 0 && strcmp(ver, "1") != 0)
+        return en_reader_fail(r, EPSNET_EUNSUPPORTED, "unsupported PLY version '%s'", ver);
+    *seen = 1;
+    return 0;
+}
+
+/* Checks that need the whole header, then what the body walk precomputes. */
+static int header_finish(epsnet_reader *r, ply_reader *p)
+{
+    const ply_element *vertex = NULL, *face = NULL;
+    for (size_t i = 0; i < p->nelems; i++) {
+        ply_element *e = &p->elems[i];
+        e->fixed_size = 0;
+        int has_list = 0;
+        size_t size = 0;
+        for (size_t k = 0; k < e->nprops; k++) {
+            if (e->props[k].count_type != PLY_NONE)
+                has_list = 1;
+            else
+                size += ply_type_size[e->props[k].type];
+        }
+        if (!has_list)
+            e->fixed_size = size;
+        if (e->kind == ELEM_VERTEX)
+            vertex = e;
+        if (e->kind == ELEM_FACE)
+            face = e;
+    }
+    r->info.coord_type = EPSNET_COORD_FLOAT32;
+    if (vertex) {
+        int have[3] = { 0, 0, 0 };
+        for (size_t k = 0; k < vertex->nprops; k++) {
+            const ply_property *pr = &vertex->props[k];
+            if (pr->role >= ROLE_X && pr->role <= ROLE_Z) {
+                have[pr->role] = 1;
+                /* note: 32-bit integers do not fit a float32, so they are
+                 * carried as float64 to keep every coordinate exact (SPEC §1). */
+                if (pr->type == PLY_FLOAT64 || pr->type == PLY_INT32 || pr->type == PLY_UINT32)
+                    r->info.coord_type = EPSNET_COORD_FLOAT64;
+            }
+        }
+        if (!have[0] || !have[1] || !have[2])
+            return en_reader_fail(r, EPSNET_EFORMAT, "element 'vertex' lacks property '%s'",
+                                  !have[0] ? "x" : !have[1] ? "y" : "z");
+    }
+    if (face) {
+        int has_indices = 0;
+        for (size_t k = 0; k < face->nprops; k++)
+            has_indices |= face->props[k].role == ROLE_INDICES;
+        if (!has_indices)
+            return en_reader_fail(r, EPSNET_EFORMAT, "element 'face' has no 'vertex_indices' list");
+        if (!vertex && face->count > 0)
+            return en_reader_fail(r, EPSNET_EFORMAT, "faces but no 'vertex' element");
+    }
+    r->info.nverts = vertex ? vertex->count : 0;
+    r->info.nfaces = face && face->count > 0 ? EPSNET_COUNT_UNKNOWN : 0;
+    r->info.encoding = p->encoding == ENC_ASCII ? "ascii" : p->encoding == ENC_LE ? "binary_le" : "binary_be";
+    return 0;
+}
+
+static int read_header(epsnet_reader *r, ply_reader *p)
+{
+    char *line;
+    size_t len;
+    epsnet_error e;
+    int seen_format = 0;
+    for (uint64_t n = 0;; n++) {
+        int rc = en_source_line(r->src, &line, &len, PLY_HEADER_LINE_MAX, &e);
+        if (rc < 0)
+            return adopt_error(r, &e);
+        if (rc == 0)
+            return en_reader_fail(r, EPSNET_EFORMAT, "truncated header: no 'end_header' line");
+        char *rest = line;
+        char *kw = next_token(&rest);
+        if (n == 0) {
+            if (!kw || strcmp(kw, "ply") != 0 || next_token(&rest))
+                return en_reader_fail(r, EPSNET_EFORMAT, "not a PLY file: the first line is not 'ply'");
+            continue;
+        }
+        if (!kw)
+            continue;
+        if (strcmp(kw, "comment") == 0 || strcmp(kw, "obj_info") == 0)
+            continue;
+        if (strcmp(kw, "end_header") == 0)
+            break;
+        if (strcmp(kw, "format") == 0)
+            rc = header_format(r, p, rest, &seen_format);
+        else if (!seen_format)
+            rc = en_reader_fail(r, EPSNET_EFORMAT, "'%s' before the 'format' line", kw);
+        else if (strcmp(kw, "element") == 0)
+            rc = header_element(r, p, rest);
+        else if (strcmp(kw, "property") == 0)
+            rc = header_property(r, p, rest);
+        else
+            rc = en_reader_fail(r, EPSNET_EFORMAT, "unknown header keyword '%s'", kw);
+        if (rc)
+            return rc;
+    }
+    if (!seen_format)
+        return en_reader_fail(r, EPSNET_EFORMAT, "header has no 'format' line");
+    return header_finish(r, p);
+}
+
+/* ------------------------------------------------------------------------
+ * Faces: fan triangulation shared by both encodings
+ * ------------------------------------------------------------------------ */
+
+typedef struct ply_fan {
+    uint64_t first, prev;
+    int64_t seen;
+} ply_fan;
+
+/* Feed one corner; emits (first, prev, v) once three corners are known. */
+static inline int fan_corner(epsnet_reader *r, ply_fan *f, uint64_t v)
+{
+    int rc = 0;
+    if (f->seen == 0)
+        f->first = v;
+    else if (f->seen >= 2)
+        rc = en_reader_push_triangle(r, f->first, f->prev, v);
+    f->prev = v;
+    f->seen++;
+    return rc;
+}
+
+/* ------------------------------------------------------------------------
+ * ASCII body: one record per line, as in Turk's original ply.c
+ * ------------------------------------------------------------------------ */
+
+static int ascii_record_line(epsnet_reader *r, const ply_element *e, uint64_t record, char **line)
+{
+    size_t len;
+    epsnet_error err;
+    for (;;) {
+        int rc = en_source_line(r->src, line, &len, (size_t)1 << 20, &err);
+        if (rc < 0)
+            return adopt_error(r, &err);
+        if (rc == 0)
+            return en_reader_fail(r, EPSNET_EFORMAT,
+                                  "truncated file: %s %" PRIu64 " of %" PRIu64 " is missing",
+                                  e->name, record + 1, e->count);
+        char *s = *line;
+        while (*s == ' ' || *s == '\t' || *s == '\r')
+            s++;
+        if (*s)
+            return 0;
+    }
+}
+
+static int ascii_bad_value(epsnet_reader *r, const ply_element *e, uint64_t record,
+                           const ply_property *pr, const char *tok)
+{
+    if (!tok)
+        return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": missing value for '%s'",
+                              e->name, record + 1, pr->name);
+    return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": '%s' is not a valid %s for '%s'",
+                          e->name, record + 1, tok, ply_type_names[pr->type].name, pr->name);
+}
+
+static int ascii_list(epsnet_reader *r, ply_reader *p, const ply_element *e, uint64_t record,
+                      const ply_property *pr, char **cursor)
+{
+    char *tok = next_token(cursor);
+    int64_t count;
+    if (!tok)
+        return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": missing list count for '%s'",
+                              e->name, record + 1, pr->name);
+    if (parse_int_as(tok, pr->count_type, &count))
+        return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": '%s' is not a valid %s list count",
+                              e->name, record + 1, tok, ply_type_names[pr->count_type].name);
+    if (count < 0 || count > PLY_MAX_LIST)
+        return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": list count %" PRId64 " is out of range "
+                              "(0..%" PRId64 ")", e->name, record + 1, count, PLY_MAX_LIST);
+    ply_fan fan = { 0, 0, 0 };
+    for (int64_t i = 0; i < count; i++) {
+        tok = next_token(cursor);
+        if (pr->role != ROLE_INDICES) {
+            double ignored;
+            if (!tok || parse_real_as(tok, pr->type, &ignored))
+                return ascii_bad_value(r, e, record, pr, tok);
+            continue;
+        }
+        int64_t v;
+        if (!tok || parse_int_as(tok, pr->type, &v))
+            return ascii_bad_value(r, e, record, pr, tok);
+        if (v < 0)
+            return en_reader_fail(r, EPSNET_EFORMAT, "face %" PRIu64 ": negative vertex index %" PRId64,
+                                  record + 1, v);
+        int rc = fan_corner(r, &fan, (uint64_t)v);
+        if (rc)
+            return rc;
+    }
+    if (pr->role == ROLE_INDICES && count < 3)
+        p->short_polygons++;
+    return 0;
+}
+
+static int ascii_records(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_t n)
+{
+    for (uint64_t i = 0; i < n; i++, p->record++) {
+        char *line;
+        int rc = ascii_record_line(r, e, p->record, &line);
+        if (rc)
+            return rc;
+        double xyz[3] = { 0, 0, 0 };
+        for (size_t k = 0; k < e->nprops; k++) {
+            const ply_property *pr = &e->props[k];
+            if (pr->count_type != PLY_NONE) {
+                if ((rc = ascii_list(r, p, e, p->record, pr, &line)))
+                    return rc;
+                continue;
+            }
+            char *tok = next_token(&line);
+            double v;
+            if (!tok || parse_real_as(tok, pr->type, &v))
+                return ascii_bad_value(r, e, p->record, pr, tok);
+            if (pr->role >= ROLE_X && pr->role <= ROLE_Z)
+                xyz[pr->role] = v;
+        }
+        char *extra = next_token(&line);
+        if (extra)
+            return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": unexpected extra value '%s'",
+                                  e->name, p->record + 1, extra);
+        if (e->kind == ELEM_VERTEX && (rc = en_reader_push_vertex(r, xyz[0], xyz[1], xyz[2])))
+            return rc;
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------------------
+ * Binary body: decoders from the codec table, straight out of the window
+ * ------------------------------------------------------------------------ */
+
+static int binary_vertex_checked(epsnet_reader *r, uint64_t offset, const double xyz[3])
+{
+    if (!isfinite(xyz[0]) || !isfinite(xyz[1]) || !isfinite(xyz[2]))
+        return en_reader_fail_at(r, EPSNET_EFORMAT, offset,
+                                 "vertex %" PRIu64 " has a non-finite coordinate (%g %g %g)",
+                                 r->nverts + 1, xyz[0], xyz[1], xyz[2]);
+    return en_reader_push_vertex(r, xyz[0], xyz[1], xyz[2]);
+}
+
+/* Vertices whose records have a fixed size: the common scanner layout. */
+static int binary_fixed_vertices(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_t n)
+{
+    en_source *s = r->src;
+    const size_t size = e->fixed_size;
+    size_t offset[3] = { 0, 0, 0 };
+    double (*get[3])(const uint8_t *) = { NULL, NULL, NULL };
+    size_t at = 0;
+    for (size_t k = 0; k < e->nprops; k++) {
+        const ply_property *pr = &e->props[k];
+        if (pr->role >= ROLE_X && pr->role <= ROLE_Z) {
+            offset[pr->role] = at;
+            get[pr->role] = p->codec->get_real[pr->type];
+        }
+        at += ply_type_size[pr->type];
+    }
+    while (n) {
+        size_t want = n < PLY_CHUNK / size ? (size_t)n : PLY_CHUNK / size;
+        if (want == 0)
+            want = 1;
+        const uint8_t *base = need(s, size * want);
+        size_t k = want;
+        if (!base) {
+            k = (size_t)(s->end - s->cur) / size;
+            if (k == 0)
+                return truncated_binary(r, e, p->record);
+            base = s->cur;
+        }
+        for (size_t i = 0; i < k; i++) {
+            const uint8_t *rec = base + i * size;
+            double xyz[3] = { get[0](rec + offset[0]), get[1](rec + offset[1]), get[2](rec + offset[2]) };
+            s->cur = rec;
+            int rc = binary_vertex_checked(r, en_source_offset(s), xyz);
+            if (rc)
+                return rc;
+        }
+        s->cur = base + k * size;
+        p->record += k;
+        n -= k;
+    }
+    return 0;
+}
+
+/* Records of an element we do not use and whose size is fixed. */
+static int binary_skip_fixed(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_t n)
+{
+    en_source *s = r->src;
+    while (n) {
+        size_t want = n < PLY_CHUNK / e->fixed_size ? (size_t)n : PLY_CHUNK / e->fixed_size;
+        if (want == 0)
+            want = 1;
+        size_t avail = (size_t)(s->end - s->cur);
+        if (avail < e->fixed_size * want)
+            avail = en_source_fill(s, e->fixed_size * want);
+        size_t k = avail / e->fixed_size;
+        if (k > want)
+            k = want;
+        if (k == 0)
+            return truncated_binary(r, e, p->record);
+        s->cur += k * e->fixed_size;
+        p->record += k;
+        n -= k;
+    }
+    return 0;
+}
+
+/* Items of a list, in pieces that fit the source window. */
+static int binary_list_items(epsnet_reader *r, ply_reader *p, const ply_element *e,
+                             const ply_property *pr, int64_t count, ply_fan *fan)
+{
+    en_source *s = r->src;
+    const size_t isize = ply_type_size[pr->type];
+    int64_t (*get)(const uint8_t *) = p->codec->get_int[pr->type];
+    while (count > 0) {
+        size_t k = count < (int64_t)(PLY_CHUNK / isize) ? (size_t)count : PLY_CHUNK / isize;
+        const uint8_t *q = need(s, k * isize);
+        if (!q)
+            return truncated_binary(r, e, p->record);
+        if (pr->role == ROLE_INDICES) {
+            for (size_t i = 0; i < k; i++) {
+                int64_t v = get(q + i * isize);
+                if (v < 0 || (uint64_t)v >= r->nverts)
+                    return en_reader_fail_at(r, EPSNET_EFORMAT, en_source_offset(s) + i * isize,
+                                             v < 0 ? "face %" PRIu64 ": negative vertex index %" PRId64
+                                                   : "face %" PRIu64 ": vertex index %" PRId64
+                                                     " is out of range",
+                                             p->record + 1, v);
+                int rc = fan_corner(r, fan, (uint64_t)v);
+                if (rc)
+                    return rc;
+            }
+        }
+        s->cur += k * isize;
+        count -= (int64_t)k;
+    }
+    return 0;
+}
+
+/* Any record, property by property (lists make the size vary). */
+static int binary_record(epsnet_reader *r, ply_reader *p, ply_element *e)
+{
+    en_source *s = r->src;
+    uint64_t start = en_source_offset(s);
+    double xyz[3] = { 0, 0, 0 };
+    for (size_t k = 0; k < e->nprops; k++) {
+        const ply_property *pr = &e->props[k];
+        if (pr->count_type == PLY_NONE) {
+            size_t size = ply_type_size[pr->type];
+            const uint8_t *q = need(s, size);
+            if (!q)
+                return truncated_binary(r, e, p->record);
+            if (pr->role >= ROLE_X && pr->role <= ROLE_Z)
+                xyz[pr->role] = p->codec->get_real[pr->type](q);
+            s->cur += size;
+            continue;
+        }
+        size_t csize = ply_type_size[pr->count_type];
+        const uint8_t *q = need(s, csize);
+        if (!q)
+            return truncated_binary(r, e, p->record);
+        int64_t count = p->codec->get_int[pr->count_type](q);
+        if (count < 0 || count > PLY_MAX_LIST)
+            return en_reader_fail_at(r, EPSNET_EFORMAT, en_source_offset(s),
+                                     "%s %" PRIu64 ": list count %" PRId64 " is out of range (0..%" PRId64 ")",
+                                     e->name, p->record + 1, count, PLY_MAX_LIST);
+        s->cur += csize;
+        ply_fan fan = { 0, 0, 0 };
+        int rc = binary_list_items(r, p, e, pr, count, &fan);
+        if (rc)
+            return rc;
+        if (pr->role == ROLE_INDICES && count < 3)
+            p->short_polygons++;
+    }
+    if (e->kind == ELEM_VERTEX)
+        return binary_vertex_checked(r, start, xyz);
+    return 0;
+}
+
+/*
+ * Faces whose only list is the index list, between fixed-size properties:
+ * every face writer we know of. The whole record is checked out of the
+ * window at once; fan triangulation and range checks as in binary_record().
+ */
+static int binary_simple_faces(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_t n)
+{
+    en_source *s = r->src;
+    size_t before = 0, after = 0;
+    const ply_property *list = NULL;
+    for (size_t k = 0; k < e->nprops; k++) {
+        if (e->props[k].count_type != PLY_NONE)
+            list = &e->props[k];
+        else if (list)
+            after += ply_type_size[e->props[k].type];
+        else
+            before += ply_type_size[e->props[k].type];
+    }
+    const size_t csize = ply_type_size[list->count_type], isize = ply_type_size[list->type];
+    int64_t (*get_count)(const uint8_t *) = p->codec->get_int[list->count_type];
+    int64_t (*get_index)(const uint8_t *) = p->codec->get_int[list->type];
+    const int64_t window_items = (int64_t)((PLY_CHUNK - before - csize - after) / isize);
+    for (uint64_t i = 0; i < n; i++, p->record++) {
+        const uint8_t *q = need(s, before + csize);
+        if (!q)
+            return truncated_binary(r, e, p->record);
+        int64_t count = get_count(q + before);
+        if (count < 0 || count > window_items) {
+            /* absurd, or too long for one window: the general walker
+             * reports or handles it */
+            int rc = binary_record(r, p, e);
+            if (rc)
+                return rc;
+            continue;
+        }
+        size_t size = before + csize + (size_t)count * isize + after;
+        if (!(q = need(s, size)))
+            return truncated_binary(r, e, p->record);
+        const uint8_t *items = q + before + csize;
+        ply_fan fan = { 0, 0, 0 };
+        for (int64_t k = 0; k < count; k++) {
+            int64_t v = get_index(items + k * (int64_t)isize);
+            if (v < 0 || (uint64_t)v >= r->nverts)
+                return en_reader_fail_at(r, EPSNET_EFORMAT,
+                                         en_source_offset(s) + before + csize + (uint64_t)k * isize,
+                                         v < 0 ? "face %" PRIu64 ": negative vertex index %" PRId64
+                                               : "face %" PRIu64 ": vertex index %" PRId64 " is out of range",
+                                         p->record + 1, v);
+            int rc = fan_corner(r, &fan, (uint64_t)v);
+            if (rc)
+                return rc;
+        }
+        if (count < 3)
+            p->short_polygons++;
+        s->cur += size;
+    }
+    return 0;
+}
+
+static int has_one_list(const ply_element *e)
+{
+    size_t lists = 0;
+    for (size_t k = 0; k < e->nprops; k++)
+        lists += e->props[k].count_type != PLY_NONE;
+    return lists == 1;
+}
+
+static int binary_records(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_t n)
+{
+    if (e->fixed_size && e->kind == ELEM_VERTEX)
+        return binary_fixed_vertices(r, p, e, n);
+    if (e->fixed_size && e->kind == ELEM_OTHER)
+        return binary_skip_fixed(r, p, e, n);
+    if (e->kind == ELEM_FACE && has_one_list(e))
+        return binary_simple_faces(r, p, e, n);
+    for (uint64_t i = 0; i < n; i++) {
+        int rc = binary_record(r, p, e);
+        if (rc)
+            return rc;
+        p->record++;
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------------------
+ * End of data
+ * ------------------------------------------------------------------------ */
+
+static int is_blank(uint8_t c)
+{
+    return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\f' || c == '\v';
+}
+
+/* note: whitespace after the last element is tolerated (some writers end
+ * binary files with a newline); anything else means the counts lied. */
+static int check_trailing(epsnet_reader *r, const ply_reader *p)
+{
+    en_source *s = r->src;
+    if (p->encoding == ENC_ASCII) {
+        char *line;
+        size_t len;
+        epsnet_error e;
+        for (;;) {
+            int rc = en_source_line(s, &line, &len, (size_t)1 << 20, &e);
+            if (rc < 0)
+                return adopt_error(r, &e);
+            if (rc == 0)
+                return 0;
+            for (size_t i = 0; i < len; i++)
+                if (!is_blank((uint8_t)line[i]))
+                    return en_reader_fail(r, EPSNET_EFORMAT,
+                                          "trailing data after the last element (do the header counts lie?)");
+        }
+    }
+    for (;;) {
+        size_t avail = en_source_fill(s, PLY_CHUNK);
+        if (avail == 0)
+            return s->failed ? source_failure(r) : 0;
+        for (size_t i = 0; i < avail; i++)
+            if (!is_blank(s->cur[i]))
+                return en_reader_fail_at(r, EPSNET_EFORMAT, en_source_offset(s) + i,
+                                         "trailing data after the last element (do the header counts lie?)");
+        s->cur += avail;
+    }
+}
+
+/* ------------------------------------------------------------------------
+ * Reader driver
+ * ------------------------------------------------------------------------ */
+
+static void ply_reader_free(ply_reader *p)
+{
+    if (!p)
+        return;
+    for (size_t i = 0; i < p->nelems; i++)
+        en_free(p->elems[i].props);
+    en_free(p->elems);
+    en_free(p);
+}
+
+static int ply_open_reader(epsnet_reader *r)
+{
+    ply_reader *p = en_calloc(1, sizeof *p);
+    if (!p)
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    r->state = p;
+    r->text = 1;
+    int rc = read_header(r, p);
+    if (rc)
+        return rc;
+    if (p->encoding == ENC_ASCII) {
+        p->read_records = ascii_records;
+    } else {
+        p->codec = p->encoding == ENC_LE ? &ply_codec_le : &ply_codec_be;
+        p->read_records = binary_records;
+        r->text = 0;
+    }
+    return 0;
+}
+
+static int ply_fill(epsnet_reader *r)
+{
+    ply_reader *p = r->state;
+    const uint64_t pushed = r->nverts + r->ntris;
+    while (p->elem < p->nelems) {
+        ply_element *e = &p->elems[p->elem];
+        if (p->record == e->count || e->nprops == 0) {
+            p->elem++;
+            p->record = 0;
+            continue;
+        }
+        uint64_t left = e->count - p->record;
+        int rc = p->read_records(r, p, e, left < PLY_BATCH ? left : PLY_BATCH);
+        if (rc)
+            return rc;
+        if (r->nverts + r->ntris != pushed)
+            return 1;
+    }
+    int rc = check_trailing(r, p);
+    return rc ? rc : 0;
+}
+
+static void ply_close_reader(epsnet_reader *r)
+{
+    ply_reader_free(r->state);
+    r->state = NULL;
+}
+
+static int ply_probe(const uint8_t *head, size_t n)
+{
+    if (n >= 4 && memcmp(head, "ply\n", 4) == 0)
+        return 100;
+    if (n >= 5 && memcmp(head, "ply\r\n", 5) == 0)
+        return 100;
+    return 0;
+}
+
+/* ------------------------------------------------------------------------
+ * Writer
+ * ------------------------------------------------------------------------ */
+
+/* Faces are written as "3 a b c": uchar count, then int (or uint) indices. */
+#define PLY_FACE_BYTES 13
+/* Largest vertex index an int32 list can hold; above it the header says uint. */
+#define PLY_INT_INDEX_MAX ((uint64_t)INT32_MAX)
+
+typedef enum ply_write_mode {
+    /* Header reserved at offset 0 and rewritten at the end (plain files). */
+    WRITE_PATCH,
+    /* Counts announced and output not rewritable: final header first, the
+     * counts are checked at the end. */
+    WRITE_ANNOUNCED,
+    /* Nothing known and output not rewritable: everything spilled. */
+    WRITE_SPILL_ALL,
+} ply_write_mode;
+
+typedef struct ply_writer {
+    ply_write_mode mode;
+    int ascii;
+    int coord64;
+    size_t header_size;      /* WRITE_PATCH: bytes reserved at offset 0 */
+    int uint_index;          /* WRITE_ANNOUNCED: index type fixed up front */
+    int faces_direct;        /* faces go to the sink: every vertex is already there */
+    int faces_decided;       /* the first triangle chose direct or spill */
+    en_spill *verts;         /* WRITE_SPILL_ALL only */
+    en_spill *faces;
+    uint64_t max_index;
+} ply_writer;
+
+static void store_le32(uint8_t *p, uint32_t v)
+{
+    p[0] = (uint8_t)v;
+    p[1] = (uint8_t)(v >> 8);
+    p[2] = (uint8_t)(v >> 16);
+    p[3] = (uint8_t)(v >> 24);
+}
+
+static void store_le64(uint8_t *p, uint64_t v)
+{
+    store_le32(p, (uint32_t)v);
+    store_le32(p + 4, (uint32_t)(v >> 32));
+}
+
+/* Header text into buf; pad_to > 0 adds a comment line that brings the
+ * header to exactly pad_to bytes. @return the length, or 0 if it does not
+ * fit. */
+static size_t build_header(char *buf, size_t cap, const ply_writer *p, uint64_t nv, uint64_t nf,
+                           int uint_index, size_t pad_to)
+{
+    const char *coord = p->coord64 ? "double" : "float";
+    int n = snprintf(buf, cap,
+                     "ply\nformat %s 1.0\ncomment written by epsnet %s\n"
+                     "element vertex %" PRIu64 "\nproperty %s x\nproperty %s y\nproperty %s z\n"
+                     "element face %" PRIu64 "\nproperty list uchar %s vertex_indices\n",
+                     p->ascii ? "ascii" : "binary_little_endian", EPSNET_VERSION_STRING, nv, coord,
+                     coord, coord, nf, uint_index ? "uint" : "int");
+    if (n < 0 || (size_t)n >= cap)
+        return 0;
+    size_t len = (size_t)n;
+    static const char end[] = "end_header\n";
+    if (pad_to) {
+        static const char pad[] = "comment";
+        if (len + sizeof pad + 1 + sizeof end - 1 > pad_to || pad_to > cap)
+            return 0;
+        size_t fill = pad_to - len - (sizeof end - 1);
+        memcpy(buf + len, pad, sizeof pad - 1);
+        memset(buf + len + sizeof pad - 1, ' ', fill - sizeof pad);
+        buf[len + fill - 1] = '\n';
+        len += fill;
+    }
+    if (len + sizeof end > cap)
+        return 0;
+    memcpy(buf + len, end, sizeof end);
+    return len + sizeof end - 1;
+}
+
+static int emit_vertex(epsnet_writer *w, const ply_writer *p, const double xyz[3])
+{
+    if (p->ascii) {
+        char line[112];
+        size_t len = 0;
+        for (int k = 0; k < 3; k++) {
+            len += (size_t)en_format_coord(line + len, xyz[k], w->coord_type);
+            line[len++] = k < 2 ? ' ' : '\n';
+        }
+        return en_writer_bytes(w, line, len);
+    }
+    uint8_t rec[24];
+    if (p->coord64) {
+        for (int k = 0; k < 3; k++) {
+            uint64_t u;
+            memcpy(&u, &xyz[k], 8);
+            store_le64(rec + 8 * k, u);
+        }
+        return en_writer_bytes(w, rec, 24);
+    }
+    for (int k = 0; k < 3; k++) {
+        float f = (float)xyz[k];
+        uint32_t u;
+        memcpy(&u, &f, 4);
+        store_le32(rec + 4 * k, u);
+    }
+    return en_writer_bytes(w, rec, 12);
+}
+
+static int emit_face(epsnet_writer *w, const ply_writer *p, const uint32_t v[3])
+{
+    if (p->ascii)
+        return en_writer_printf(w, "3 %" PRIu32 " %" PRIu32 " %" PRIu32 "\n", v[0], v[1], v[2]);
+    uint8_t rec[PLY_FACE_BYTES];
+    rec[0] = 3;
+    for (int k = 0; k < 3; k++)
+        store_le32(rec + 1 + 4 * k, v[k]);
+    return en_writer_bytes(w, rec, PLY_FACE_BYTES);
+}
+
+/* Spill files go where the caller asked, else next to the destination. */
+static int open_spill(epsnet_writer *w, en_spill **sp)
+{
+    if (*sp)
+        return 0;
+    char *dir = NULL;
+    if (!w->settings.tmpdir && strcmp(w->path, "-") != 0) {
+        const char *slash = strrchr(w->path, '/');
+        if (!slash)
+            dir = en_strdup(".");
+        else if (slash == w->path)
+            dir = en_strdup("/");
+        else if ((dir = en_malloc((size_t)(slash - w->path) + 1))) {
+            memcpy(dir, w->path, (size_t)(slash - w->path));
+            dir[slash - w->path] = '\0';
+        }
+        if (!dir)
+            return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "out of memory");
+    }
+    int rc = en_spill_open(sp, w->settings.tmpdir ? w->settings.tmpdir : dir, w->path, &w->err);
+    en_free(dir);
+    return rc;
+}
+
+static int ply_open_writer(epsnet_writer *w)
+{
+    ply_writer *p = en_calloc(1, sizeof *p);
+    if (!p)
+        return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "out of memory");
+    w->state = p;
+    p->ascii = w->settings.ascii != 0;
+    p->coord64 = w->coord_type == EPSNET_COORD_FLOAT64;
+    char hdr[1024];
+    if (en_sink_can_patch(w->sink)) {
+        p->mode = WRITE_PATCH;
+        /* note: room for the widest counts and "uint", so the final header
+         * always fits the reserved bytes. */
+        p->header_size = build_header(hdr, sizeof hdr, p, UINT64_MAX, UINT64_MAX, 1, 0) + 16;
+        size_t n = build_header(hdr, sizeof hdr, p, 0, 0, 0, p->header_size);
+        return en_writer_bytes(w, hdr, n);
+    }
+    if (w->info.nverts != EPSNET_COUNT_UNKNOWN && w->info.nfaces != EPSNET_COUNT_UNKNOWN) {
+        p->mode = WRITE_ANNOUNCED;
+        if (w->info.nverts > (uint64_t)UINT32_MAX + 1)
+            return en_error_set(&w->err, EPSNET_EUNSUPPORTED, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "PLY output cannot index %" PRIu64 " vertices (at most 2^32)",
+                                w->info.nverts);
+        p->uint_index = w->info.nverts > PLY_INT_INDEX_MAX + 1;
+        size_t n = build_header(hdr, sizeof hdr, p, w->info.nverts, w->info.nfaces, p->uint_index, 0);
+        return en_writer_bytes(w, hdr, n);
+    }
+    p->mode = WRITE_SPILL_ALL;
+    return 0;
+}
+
+static int put_vertex(epsnet_writer *w, ply_writer *p, const double xyz[3])
+{
+    if (p->faces_direct)
+        return en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "vertex %" PRIu64 " arrives after the %" PRIu64 " vertices announced",
+                            w->nverts, w->info.nverts);
+    if (p->mode != WRITE_SPILL_ALL)
+        return emit_vertex(w, p, xyz);
+    int rc = open_spill(w, &p->verts);
+    if (rc)
+        return rc;
+    if (p->coord64)
+        return en_spill_write(p->verts, xyz, 3 * sizeof(double), &w->err);
+    float f[3] = { (float)xyz[0], (float)xyz[1], (float)xyz[2] };
+    return en_spill_write(p->verts, f, sizeof f, &w->err);
+}
+
+static int put_triangle(epsnet_writer *w, ply_writer *p, const uint64_t v[3])
+{
+    uint32_t idx[3];
+    for (int k = 0; k < 3; k++) {
+        if (v[k] > UINT32_MAX)
+            return en_error_set(&w->err, EPSNET_EUNSUPPORTED, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "PLY output cannot index vertex %" PRIu64 " (at most 2^32 vertices)",
+                                v[k] + 1);
+        if (v[k] > p->max_index)
+            p->max_index = v[k];
+        idx[k] = (uint32_t)v[k];
+    }
+    if (!p->faces_decided) {
+        /* note: faces can skip the spill file only when no vertex can follow
+         * them, which the caller guarantees by announcing the vertex count. */
+        p->faces_decided = 1;
+        p->faces_direct = p->mode != WRITE_SPILL_ALL && w->info.nverts == w->nverts;
+    }
+    if (p->faces_direct)
+        return emit_face(w, p, idx);
+    int rc = open_spill(w, &p->faces);
+    return rc ? rc : en_spill_write(p->faces, idx, sizeof idx, &w->err);
+}
+
+static int ply_put(epsnet_writer *w, const epsnet_record *rec)
+{
+    ply_writer *p = w->state;
+    if (rec->kind == EPSNET_REC_VERTEX)
+        return put_vertex(w, p, rec->xyz);
+    if (rec->kind == EPSNET_REC_TRIANGLE)
+        return put_triangle(w, p, rec->v);
+    return 0;
+}
+
+/* Replay a spill file through emit_vertex/emit_face. */
+static int replay(epsnet_writer *w, ply_writer *p, en_spill *sp, int vertices)
+{
+    if (!sp)
+        return 0;
+    int rc = en_spill_rewind(sp, &w->err);
+    if (rc)
+        return rc;
+    const size_t rec = vertices ? (p->coord64 ? 3 * sizeof(double) : 3 * sizeof(float)) : 3 * sizeof(uint32_t);
+    union {
+        double d[3 * 2048];
+        float f[3 * 4096];
+        uint32_t u[3 * 4096];
+    } buf;
+    for (;;) {
+        int64_t got = en_spill_read(sp, &buf, (sizeof buf / rec) * rec, &w->err);
+        if (got < 0)
+            return (int)got;
+        if (got == 0)
+            return 0;
+        if ((size_t)got % rec)
+            return en_error_set(&w->err, EPSNET_EIO, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "temporary file ended in the middle of a record");
+        size_t n = (size_t)got / rec;
+        for (size_t i = 0; i < n; i++) {
+            if (vertices && p->coord64) {
+                rc = emit_vertex(w, p, buf.d + 3 * i);
+            } else if (vertices) {
+                double xyz[3] = { buf.f[3 * i], buf.f[3 * i + 1], buf.f[3 * i + 2] };
+                rc = emit_vertex(w, p, xyz);
+            } else {
+                rc = emit_face(w, p, buf.u + 3 * i);
+            }
+            if (rc)
+                return rc;
+        }
+    }
+}
+
+static int ply_finish(epsnet_writer *w)
+{
+    ply_writer *p = w->state;
+    int uint_index = p->max_index > PLY_INT_INDEX_MAX;
+    char hdr[1024];
+    int rc;
+    switch (p->mode) {
+    case WRITE_PATCH: {
+        if ((rc = replay(w, p, p->faces, 0)))
+            return rc;
+        size_t n = build_header(hdr, sizeof hdr, p, w->nverts, w->ntris, uint_index, p->header_size);
+        if (n != p->header_size)
+            return en_error_set(&w->err, EPSNET_EINTERNAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "PLY header does not fit its reserved space");
+        return en_sink_patch(w->sink, 0, hdr, n, &w->err);
+    }
+    case WRITE_ANNOUNCED:
+        if (w->nverts != w->info.nverts || w->ntris != w->info.nfaces)
+            return en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "announced %" PRIu64 " vertices and %" PRIu64 " triangles but got %" PRIu64
+                                " and %" PRIu64 " (a PLY written to a pipe or .zst needs exact counts)",
+                                w->info.nverts, w->info.nfaces, w->nverts, w->ntris);
+        return replay(w, p, p->faces, 0);
+    case WRITE_SPILL_ALL: {
+        size_t n = build_header(hdr, sizeof hdr, p, w->nverts, w->ntris, uint_index, 0);
+        if ((rc = en_writer_bytes(w, hdr, n)) || (rc = replay(w, p, p->verts, 1)))
+            return rc;
+        return replay(w, p, p->faces, 0);
+    }
+    }
+    return EPSNET_EINTERNAL;
+}
+
+static void ply_close_writer(epsnet_writer *w)
+{
+    ply_writer *p = w->state;
+    if (!p)
+        return;
+    en_spill_close(&p->verts);
+    en_spill_close(&p->faces);
+    en_free(p);
+    w->state = NULL;
+}
+
+const en_format en_format_ply = {
+    .name = "ply",
+    .extensions = "ply",
+    .probe = ply_probe,
+    .open_reader = ply_open_reader,
+    .fill = ply_fill,
+    .close_reader = ply_close_reader,
+    .open_writer = ply_open_writer,
+    .put = ply_put,
+    .finish = ply_finish,
+    .close_writer = ply_close_writer,
+};

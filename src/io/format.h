@@ -1,0 +1,118 @@
+/*
+ * Format drivers (STYLE.md habit 8: a small reader/writer table, one file per
+ * format). A driver parses bytes from an en_source and pushes records through
+ * en_reader_push_*(), which validate them the same way for every format; a
+ * writer driver turns records into bytes on an en_sink.
+ *
+ * Driver contract
+ *   reader: open() parses the header and fills r->info; fill() pushes at
+ *   least one record, or returns 0 at the end of the mesh; both return a
+ *   negative code with r->err filled on failure (use en_reader_fail()).
+ *   writer: open() may write a header; put() gets validated records; finish()
+ *   completes the file (it does not commit the sink). Drivers keep their
+ *   private state in r->state / w->state and free it in close().
+ */
+#ifndef EN_IO_FORMAT_H
+#define EN_IO_FORMAT_H
+
+#include <stdint.h>
+
+#include "common/error.h"
+#include "epsnet/epsnet.h"
+#include "io/sink.h"
+#include "io/source.h"
+
+typedef struct en_format en_format;
+
+struct epsnet_reader {
+    en_source *src;
+    const en_format *fmt;
+    void *state;                     /* driver-private */
+    epsnet_reader_settings settings;
+    epsnet_mesh_info info;
+    char *path;
+    int text;                        /* 1: positions are lines, 0: byte offsets */
+
+    /* Records pushed by the driver and not yet returned. */
+    epsnet_record *queue;
+    size_t qlen, qpos, qcap;
+
+    uint64_t nverts;                 /* vertex records pushed so far */
+    uint64_t ntris;                  /* triangle records pushed so far */
+    struct en_u64set *live;          /* streaming formats: pushed, not finalized */
+    uint64_t live_peak;
+
+    int done;
+    int failed;
+    epsnet_error err;
+};
+
+struct epsnet_writer {
+    en_sink *sink;
+    const en_format *fmt;
+    void *state;                     /* driver-private */
+    epsnet_writer_settings settings;
+    epsnet_mesh_info info;           /* what the caller announced */
+    epsnet_coord_type coord_type;    /* resolved */
+    char *path;
+    char *tmpdir;
+    uint64_t nverts;                 /* vertex records accepted so far */
+    uint64_t ntris;
+    int failed;
+    epsnet_error err;
+};
+
+struct en_format {
+    const char *name;                /* "ply" */
+    const char *extensions;          /* space-separated, lower case: "ply" */
+    /* Score 0..100 of how much head[0..n) looks like this format. */
+    int (*probe)(const uint8_t *head, size_t n);
+
+    int (*open_reader)(epsnet_reader *r);
+    int (*fill)(epsnet_reader *r);
+    void (*close_reader)(epsnet_reader *r);
+
+    /* NULL for read-only formats. */
+    int (*open_writer)(epsnet_writer *w);
+    int (*put)(epsnet_writer *w, const epsnet_record *rec);
+    int (*finish)(epsnet_writer *w);
+    void (*close_writer)(epsnet_writer *w);
+};
+
+/* The table (src/io/formats.c). */
+extern const en_format *const en_formats[];
+const en_format *en_format_by_name(const char *name);
+/* Match the extension of path (ignoring a trailing .zst). */
+const en_format *en_format_by_path(const char *path);
+
+/* ---- for reader drivers ---- */
+
+/* Record an error at the reader's current position (line for text formats,
+ * byte offset otherwise) and return code. */
+int en_reader_fail(epsnet_reader *r, int code, const char *fmt, ...) EN_PRINTF(3, 4);
+/* Same, at an explicit byte offset (binary formats pointing at a record). */
+int en_reader_fail_at(epsnet_reader *r, int code, uint64_t offset, const char *fmt, ...) EN_PRINTF(4, 5);
+
+/* Push a vertex: rejects NaN/Inf. */
+int en_reader_push_vertex(epsnet_reader *r, double x, double y, double z);
+/* Push a triangle of 0-based global indices: rejects out-of-range and
+ * finalized references. */
+int en_reader_push_triangle(epsnet_reader *r, uint64_t a, uint64_t b, uint64_t c);
+/* Push a finalization: rejects unknown and already finalized vertices. */
+int en_reader_push_finalize(epsnet_reader *r, uint64_t v);
+/* Check a header count against settings.max_count; what = "vertex count". */
+int en_reader_check_count(epsnet_reader *r, uint64_t n, const char *what);
+
+/* ---- for writer drivers ---- */
+
+static inline int en_writer_bytes(epsnet_writer *w, const void *p, size_t n)
+{
+    return en_sink_write(w->sink, p, n, &w->err);
+}
+int en_writer_printf(epsnet_writer *w, const char *fmt, ...) EN_PRINTF(2, 3);
+/* Shortest decimal text that reads back to exactly v (as float32 when the
+ * writer's coord_type is FLOAT32). Returns the length written into buf
+ * (buf must hold 32 bytes). */
+int en_format_coord(char *buf, double v, epsnet_coord_type t);
+
+#endif /* EN_IO_FORMAT_H */

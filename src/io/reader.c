@@ -1,0 +1,271 @@
+/*
+ * Reader front end: format selection, the record queue, and the checks every
+ * stream gets whatever its format (SPEC §5): coordinates are finite, triangle
+ * corners exist and are not finalized, header counts are not absurd, and a
+ * streaming input cannot grow its live set past the memory budget.
+ */
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "common/alloc.h"
+#include "common/u64set.h"
+#include "io/format.h"
+
+void epsnet_reader_default_settings(epsnet_reader_settings *s)
+{
+    memset(s, 0, sizeof *s);
+    s->max_count = (uint64_t)1 << 34;
+    s->mem_limit = 0;
+    s->format = NULL;
+}
+
+static int reader_vfail(epsnet_reader *r, int code, uint64_t line, uint64_t offset,
+                        const char *fmt, va_list ap)
+{
+    if (r->failed)
+        return r->err.code;
+    r->failed = 1;
+    en_error_vset(&r->err, code, r->path, line, offset, fmt, ap);
+    r->err.zst = r->src && r->src->zstd != NULL && offset != EPSNET_POS_NONE;
+    return code;
+}
+
+int en_reader_fail(epsnet_reader *r, int code, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    uint64_t line = EPSNET_POS_NONE, off = EPSNET_POS_NONE;
+    if (r->text)
+        line = r->src->lineno ? r->src->lineno : 1;
+    else
+        off = en_source_offset(r->src);
+    int rc = reader_vfail(r, code, line, off, fmt, ap);
+    va_end(ap);
+    return rc;
+}
+
+int en_reader_fail_at(epsnet_reader *r, int code, uint64_t offset, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    int rc = reader_vfail(r, code, EPSNET_POS_NONE, offset, fmt, ap);
+    va_end(ap);
+    return rc;
+}
+
+int en_reader_check_count(epsnet_reader *r, uint64_t n, const char *what)
+{
+    if (n > r->settings.max_count)
+        return en_reader_fail(r, EPSNET_ELIMIT, "%s %llu exceeds the limit of %llu", what,
+                              (unsigned long long)n, (unsigned long long)r->settings.max_count);
+    return 0;
+}
+
+static int queue_push(epsnet_reader *r, const epsnet_record *rec)
+{
+    if (r->qpos == r->qlen)
+        r->qpos = r->qlen = 0;
+    if (r->qlen == r->qcap &&
+        en_grow((void **)&r->queue, &r->qcap, r->qlen + 1, sizeof *r->queue))
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    r->queue[r->qlen++] = *rec;
+    return 0;
+}
+
+int en_reader_push_vertex(epsnet_reader *r, double x, double y, double z)
+{
+    if (!isfinite(x) || !isfinite(y) || !isfinite(z))
+        return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu has a non-finite coordinate (%g %g %g)",
+                              (unsigned long long)r->nverts + 1, x, y, z);
+    if (r->live) {
+        if (en_u64set_add(r->live, r->nverts) < 0)
+            return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+        uint64_t n = en_u64set_count(r->live);
+        if (n > r->live_peak)
+            r->live_peak = n;
+        if (r->settings.mem_limit && en_u64set_bytes(r->live) > r->settings.mem_limit)
+            return en_reader_fail(r, EPSNET_ELIMIT,
+                                  "%llu vertices are live at once, over the memory budget of %llu bytes "
+                                  "(does the stream finalize its vertices?)",
+                                  (unsigned long long)n, (unsigned long long)r->settings.mem_limit);
+    }
+    epsnet_record rec = { .kind = EPSNET_REC_VERTEX, .xyz = { x, y, z } };
+    r->nverts++;
+    return queue_push(r, &rec);
+}
+
+static int check_corner(epsnet_reader *r, uint64_t v)
+{
+    if (v >= r->nverts)
+        return en_reader_fail(r, EPSNET_EFORMAT,
+                              "triangle %llu references vertex %llu but only %llu vertices precede it",
+                              (unsigned long long)r->ntris + 1, (unsigned long long)v + 1,
+                              (unsigned long long)r->nverts);
+    if (r->live && !en_u64set_has(r->live, v))
+        return en_reader_fail(r, EPSNET_EFORMAT, "triangle %llu references vertex %llu, which was finalized",
+                              (unsigned long long)r->ntris + 1, (unsigned long long)v + 1);
+    return 0;
+}
+
+int en_reader_push_triangle(epsnet_reader *r, uint64_t a, uint64_t b, uint64_t c)
+{
+    int rc;
+    if ((rc = check_corner(r, a)) || (rc = check_corner(r, b)) || (rc = check_corner(r, c)))
+        return rc;
+    epsnet_record rec = { .kind = EPSNET_REC_TRIANGLE, .v = { a, b, c } };
+    r->ntris++;
+    return queue_push(r, &rec);
+}
+
+int en_reader_push_finalize(epsnet_reader *r, uint64_t v)
+{
+    if (v >= r->nverts)
+        return en_reader_fail(r, EPSNET_EFORMAT, "finalizes vertex %llu but only %llu vertices exist",
+                              (unsigned long long)v + 1, (unsigned long long)r->nverts);
+    if (r->live && !en_u64set_remove(r->live, v))
+        return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu is finalized twice", (unsigned long long)v + 1);
+    epsnet_record rec = { .kind = EPSNET_REC_FINALIZE, .v = { v, 0, 0 } };
+    return queue_push(r, &rec);
+}
+
+static const en_format *detect(const epsnet_reader *r, const char *path, const char *forced)
+{
+    if (forced)
+        return en_format_by_name(forced);
+    const en_format *f = en_format_by_path(path);
+    if (f)
+        return f;
+    /* Unknown extension: let the content decide. */
+    en_source *s = r->src;
+    size_t n = en_source_fill(s, 4096);
+    int best = 0;
+    for (size_t i = 0; en_formats[i]; i++) {
+        int score = en_formats[i]->probe ? en_formats[i]->probe(s->cur, n) : 0;
+        if (score > best) {
+            best = score;
+            f = en_formats[i];
+        }
+    }
+    return best >= 50 ? f : NULL;
+}
+
+int epsnet_reader_open(epsnet_reader **out, const char *path,
+                       const epsnet_reader_settings *settings, epsnet_error *err)
+{
+    if (!out || !path)
+        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "epsnet_reader_open: NULL argument");
+    *out = NULL;
+    epsnet_reader *r = en_calloc(1, sizeof *r);
+    if (!r)
+        return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    if (settings)
+        r->settings = *settings;
+    else
+        epsnet_reader_default_settings(&r->settings);
+    r->path = en_strdup(path);
+    if (!r->path) {
+        en_free(r);
+        return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    }
+    int rc = en_source_open(&r->src, path, err);
+    if (rc) {
+        epsnet_reader_close(&r);
+        return rc;
+    }
+    r->fmt = detect(r, path, r->settings.format);
+    if (!r->fmt) {
+        rc = en_error_set(err, EPSNET_EUNSUPPORTED, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                          r->settings.format ? "unknown format '%s' (readable: %s)"
+                                             : "cannot tell the mesh format%s (readable: %s)",
+                          r->settings.format ? r->settings.format : " from the name or the content",
+                          epsnet_formats_readable());
+        epsnet_reader_close(&r);
+        return rc;
+    }
+    r->info.format = r->fmt->name;
+    r->info.encoding = "ascii";
+    r->info.compressed = r->src->zstd != NULL;
+    r->info.nverts = EPSNET_COUNT_UNKNOWN;
+    r->info.nfaces = EPSNET_COUNT_UNKNOWN;
+    r->info.coord_type = EPSNET_COORD_FLOAT32;
+    r->info.sorted_axis = -1;
+    rc = r->fmt->open_reader(r);
+    if (rc == 0 && r->info.streaming) {
+        r->live = en_u64set_new();
+        if (!r->live)
+            rc = en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    }
+    if (rc) {
+        if (err)
+            *err = r->err;
+        if (!r->failed)
+            en_error_set(err, rc, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "%s", epsnet_strerror(rc));
+        epsnet_reader_close(&r);
+        return rc;
+    }
+    *out = r;
+    return 0;
+}
+
+const epsnet_mesh_info *epsnet_reader_info(const epsnet_reader *r)
+{
+    return &r->info;
+}
+
+int epsnet_reader_next(epsnet_reader *r, epsnet_record *rec, epsnet_error *err)
+{
+    while (r->qpos == r->qlen) {
+        if (r->failed) {
+            if (err)
+                *err = r->err;
+            return r->err.code;
+        }
+        if (r->done)
+            return 0;
+        r->qpos = r->qlen = 0;
+        int rc = r->fmt->fill(r);
+        if (rc < 0) {
+            if (!r->failed)
+                en_reader_fail(r, rc, "%s", epsnet_strerror(rc));
+            /* note: records the driver queued before it failed are valid and
+             * are delivered first; the error follows on the next call. */
+            if (r->qlen)
+                break;
+            if (err)
+                *err = r->err;
+            return r->err.code;
+        }
+        if (rc == 0)
+            r->done = 1;
+    }
+    *rec = r->queue[r->qpos++];
+    return 1;
+}
+
+uint64_t epsnet_reader_bytes_read(const epsnet_reader *r)
+{
+    return r->src ? r->src->raw_read : 0;
+}
+
+uint64_t epsnet_reader_file_size(const epsnet_reader *r)
+{
+    return r->src ? r->src->file_size : 0;
+}
+
+void epsnet_reader_close(epsnet_reader **pr)
+{
+    epsnet_reader *r = pr ? *pr : NULL;
+    if (!r)
+        return;
+    if (r->fmt && r->fmt->close_reader)
+        r->fmt->close_reader(r);
+    en_u64set_free(&r->live);
+    en_source_close(&r->src);
+    en_free(r->queue);
+    en_free(r->path);
+    en_free(r);
+    *pr = NULL;
+}

@@ -1,0 +1,570 @@
+#include "io/sink.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zstd.h>
+
+#include "common/alloc.h"
+#include "common/error.h"
+
+#define EN_SINK_BUF (1u << 20)
+
+/* ---- registry of named temporaries, for signal-time cleanup ----
+ * note: only used when O_TMPFILE is unavailable; anonymous files need no
+ * cleanup at all, which is why they are tried first. Slots are claimed with
+ * atomics so a handler never sees a half-written path. */
+#define EN_TEMP_SLOTS 64
+static char en_temp_paths[EN_TEMP_SLOTS][PATH_MAX];
+static volatile sig_atomic_t en_temp_used[EN_TEMP_SLOTS];
+
+static int temp_register(const char *path)
+{
+    for (int i = 0; i < EN_TEMP_SLOTS; i++) {
+        sig_atomic_t expected = 0;
+        if (__atomic_compare_exchange_n(&en_temp_used[i], &expected, 2, 0,
+                                        __ATOMIC_ACQ_REL, __ATOMIC_RELAXED)) {
+            snprintf(en_temp_paths[i], PATH_MAX, "%s", path);
+            __atomic_store_n(&en_temp_used[i], 1, __ATOMIC_RELEASE);
+            return i;
+        }
+    }
+    return -1;
+}
+
+static void temp_unregister(int slot)
+{
+    if (slot >= 0)
+        __atomic_store_n(&en_temp_used[slot], 0, __ATOMIC_RELEASE);
+}
+
+void en_tempfiles_cleanup_signal_safe(void)
+{
+    for (int i = 0; i < EN_TEMP_SLOTS; i++)
+        if (__atomic_load_n(&en_temp_used[i], __ATOMIC_ACQUIRE) == 1)
+            unlink(en_temp_paths[i]);
+}
+
+void epsnet_remove_temporaries(void)
+{
+    en_tempfiles_cleanup_signal_safe();
+}
+
+/* ---- the sink ---- */
+
+struct en_sink {
+    int fd;
+    int is_stdout;
+    int anonymous;           /* O_TMPFILE: linked into place at commit */
+    int temp_slot;           /* registry slot of a named temporary, or -1 */
+    char *path;              /* destination */
+    char *dir;               /* destination directory */
+    char *tmp_path;          /* named temporary, NULL when anonymous */
+    uint8_t *buf;
+    size_t len;
+    uint64_t offset;         /* bytes accepted (uncompressed) */
+    ZSTD_CStream *zc;
+    uint8_t *zout;
+    size_t zout_cap;
+    int failed;
+    epsnet_error err;
+};
+
+const char *en_sink_path(const en_sink *s)
+{
+    return s->path;
+}
+
+static int sink_fail_errno(en_sink *s, int e, const char *what, epsnet_error *err)
+{
+    if (!s->failed) {
+        s->failed = 1;
+        en_error_set(&s->err, en_error_from_errno(e), s->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                     "%s: %s", what, strerror(e));
+    }
+    if (err)
+        *err = s->err;
+    return s->err.code;
+}
+
+static int write_all(en_sink *s, const uint8_t *p, size_t n, epsnet_error *err)
+{
+    while (n) {
+        ssize_t k = write(s->fd, p, n);
+        if (k < 0) {
+            if (errno == EINTR)
+                continue;
+            return sink_fail_errno(s, errno, "write failed", err);
+        }
+        if (k == 0)
+            return sink_fail_errno(s, ENOSPC, "write failed", err);
+        p += k;
+        n -= (size_t)k;
+    }
+    return 0;
+}
+
+static int flush_buf(en_sink *s, ZSTD_EndDirective mode, epsnet_error *err)
+{
+    if (!s->zc) {
+        int rc = write_all(s, s->buf, s->len, err);
+        s->len = 0;
+        return rc;
+    }
+    ZSTD_inBuffer in = { s->buf, s->len, 0 };
+    for (;;) {
+        ZSTD_outBuffer out = { s->zout, s->zout_cap, 0 };
+        size_t r = ZSTD_compressStream2(s->zc, &out, &in, mode);
+        if (ZSTD_isError(r)) {
+            s->failed = 1;
+            en_error_set(&s->err, EPSNET_EIO, s->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                         "zstd compression failed: %s", ZSTD_getErrorName(r));
+            if (err)
+                *err = s->err;
+            return s->err.code;
+        }
+        if (out.pos && write_all(s, s->zout, out.pos, err))
+            return s->err.code;
+        if (mode == ZSTD_e_end ? r == 0 : in.pos == in.size)
+            break;
+    }
+    s->len = 0;
+    return 0;
+}
+
+static char *dir_of(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    if (!slash)
+        return en_strdup(".");
+    if (slash == path)
+        return en_strdup("/");
+    size_t n = (size_t)(slash - path);
+    char *d = en_malloc(n + 1);
+    if (d) {
+        memcpy(d, path, n);
+        d[n] = '\0';
+    }
+    return d;
+}
+
+int en_sink_open(en_sink **out, const char *path, int zstd_level, epsnet_error *err)
+{
+    *out = NULL;
+    en_sink *s = en_calloc(1, sizeof *s);
+    if (!s)
+        return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    s->fd = -1;
+    s->temp_slot = -1;
+    s->path = en_strdup(path);
+    s->dir = s->path ? dir_of(path) : NULL;
+    s->buf = en_malloc(EN_SINK_BUF);
+    if (!s->path || !s->dir || !s->buf)
+        goto nomem;
+    if (zstd_level > 0) {
+        s->zc = ZSTD_createCStream();
+        s->zout_cap = ZSTD_CStreamOutSize();
+        s->zout = en_malloc(s->zout_cap);
+        if (!s->zc || !s->zout)
+            goto nomem;
+        ZSTD_CCtx_setParameter(s->zc, ZSTD_c_compressionLevel, zstd_level);
+        ZSTD_CCtx_setParameter(s->zc, ZSTD_c_checksumFlag, 1);
+    }
+    if (strcmp(path, "-") == 0) {
+        s->fd = 1;
+        s->is_stdout = 1;
+        *out = s;
+        return 0;
+    }
+    struct stat st;
+    if (stat(path, &st) == 0 && S_ISDIR(st.st_mode)) {
+        en_sink_abort(&s);
+        return en_error_set(err, EPSNET_EIO, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "output path is a directory");
+    }
+#ifdef O_TMPFILE
+    /* Anonymous until commit, so a crash or SIGKILL leaves nothing behind;
+     * linking it later needs /proc. */
+    if (access("/proc/self/fd", X_OK) == 0)
+        s->fd = open(s->dir, O_TMPFILE | O_WRONLY | O_CLOEXEC, 0666);
+    if (s->fd >= 0) {
+        /* O_TMPFILE ignores the umask-derived mode of a linked name on
+         * some kernels; give the final file ordinary permissions. */
+        mode_t um = umask(0);
+        umask(um);
+        fchmod(s->fd, 0666 & ~um);
+        s->anonymous = 1;
+    }
+#endif
+    if (s->fd < 0) {
+        const char *base = strrchr(path, '/');
+        base = base ? base + 1 : path;
+        size_t n = strlen(s->dir) + strlen(base) + 32;
+        s->tmp_path = en_malloc(n);
+        if (!s->tmp_path)
+            goto nomem;
+        snprintf(s->tmp_path, n, "%s/.%s.epsnet-XXXXXX", s->dir, base);
+        s->fd = mkostemp(s->tmp_path, O_CLOEXEC);
+        if (s->fd < 0) {
+            int e = errno;
+            en_free(s->tmp_path);
+            s->tmp_path = NULL;
+            en_sink_abort(&s);
+            return en_error_set(err, en_error_from_errno(e), path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "cannot create output: %s", strerror(e));
+        }
+        s->temp_slot = temp_register(s->tmp_path);
+    }
+    *out = s;
+    return 0;
+nomem:
+    en_sink_abort(&s);
+    return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+}
+
+int en_sink_write(en_sink *s, const void *data, size_t n, epsnet_error *err)
+{
+    if (s->failed) {
+        if (err)
+            *err = s->err;
+        return s->err.code;
+    }
+    const uint8_t *p = data;
+    s->offset += n;
+    while (n) {
+        size_t room = EN_SINK_BUF - s->len;
+        size_t k = n < room ? n : room;
+        memcpy(s->buf + s->len, p, k);
+        s->len += k;
+        p += k;
+        n -= k;
+        if (s->len == EN_SINK_BUF && flush_buf(s, ZSTD_e_continue, err))
+            return s->err.code;
+    }
+    return 0;
+}
+
+uint64_t en_sink_offset(const en_sink *s)
+{
+    return s->offset;
+}
+
+int en_sink_can_patch(const en_sink *s)
+{
+    return !s->zc && !s->is_stdout;
+}
+
+int en_sink_patch(en_sink *s, uint64_t offset, const void *data, size_t n, epsnet_error *err)
+{
+    if (!en_sink_can_patch(s))
+        return en_error_set(err, EPSNET_EUNSUPPORTED, s->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "cannot rewrite a compressed or piped output");
+    if (flush_buf(s, ZSTD_e_continue, err))
+        return s->err.code;
+    const uint8_t *p = data;
+    while (n) {
+        ssize_t k = pwrite(s->fd, p, n, (off_t)offset);
+        if (k < 0) {
+            if (errno == EINTR)
+                continue;
+            return sink_fail_errno(s, errno, "write failed", err);
+        }
+        p += k;
+        offset += (uint64_t)k;
+        n -= (size_t)k;
+    }
+    return 0;
+}
+
+static void sink_free(en_sink *s)
+{
+    if (s->zc)
+        ZSTD_freeCStream(s->zc);
+    en_free(s->zout);
+    en_free(s->buf);
+    en_free(s->tmp_path);
+    en_free(s->dir);
+    en_free(s->path);
+    en_free(s);
+}
+
+void en_sink_abort(en_sink **ps)
+{
+    en_sink *s = ps ? *ps : NULL;
+    if (!s)
+        return;
+    if (s->fd >= 0 && !s->is_stdout)
+        close(s->fd);
+    if (s->tmp_path) {
+        unlink(s->tmp_path);
+        temp_unregister(s->temp_slot);
+    }
+    sink_free(s);
+    *ps = NULL;
+}
+
+int en_sink_commit(en_sink **ps, epsnet_error *err)
+{
+    en_sink *s = *ps;
+    int rc = 0;
+    if (s->failed) {
+        rc = s->err.code;
+        if (err)
+            *err = s->err;
+        goto fail;
+    }
+    if ((rc = flush_buf(s, s->zc ? ZSTD_e_end : ZSTD_e_continue, err)))
+        goto fail;
+    if (s->is_stdout) {
+        sink_free(s);
+        *ps = NULL;
+        return 0;
+    }
+    if (s->anonymous) {
+        /* note: linkat() cannot replace an existing file, so the anonymous
+         * file gets a unique name first and is then renamed over the
+         * destination, which is atomic. */
+        char fdpath[64];
+        snprintf(fdpath, sizeof fdpath, "/proc/self/fd/%d", s->fd);
+        const char *base = strrchr(s->path, '/');
+        base = base ? base + 1 : s->path;
+        size_t n = strlen(s->dir) + strlen(base) + 48;
+        s->tmp_path = en_malloc(n);
+        if (!s->tmp_path) {
+            rc = sink_fail_errno(s, ENOMEM, "cannot move output into place", err);
+            goto fail;
+        }
+        for (unsigned attempt = 0;; attempt++) {
+            snprintf(s->tmp_path, n, "%s/.%s.epsnet-%ld-%u", s->dir, base, (long)getpid(), attempt);
+            s->temp_slot = temp_register(s->tmp_path);
+            if (linkat(AT_FDCWD, fdpath, AT_FDCWD, s->tmp_path, AT_SYMLINK_FOLLOW) == 0)
+                break;
+            int e = errno;
+            temp_unregister(s->temp_slot);
+            s->temp_slot = -1;
+            if (e != EEXIST || attempt > 100) {
+                en_free(s->tmp_path);
+                s->tmp_path = NULL;
+                rc = sink_fail_errno(s, e, "cannot move output into place", err);
+                goto fail;
+            }
+        }
+    }
+    if (close(s->fd) != 0) {
+        int e = errno;
+        s->fd = -1;
+        rc = sink_fail_errno(s, e, "close failed", err);
+        goto fail;
+    }
+    s->fd = -1;
+    if (s->tmp_path) {
+        if (rename(s->tmp_path, s->path) != 0) {
+            rc = sink_fail_errno(s, errno, "cannot move output into place", err);
+            goto fail;
+        }
+        temp_unregister(s->temp_slot);
+        en_free(s->tmp_path);
+        s->tmp_path = NULL;
+    }
+    sink_free(s);
+    *ps = NULL;
+    return 0;
+fail:
+    en_sink_abort(ps);
+    return rc;
+}
+
+/* ---- spill files ---- */
+
+struct en_spill {
+    int fd;
+    char *owner;            /* for messages */
+    int reading;
+    ZSTD_CStream *zc;
+    ZSTD_DStream *zd;
+    uint8_t *zbuf;          /* compressed staging, both directions */
+    size_t zcap, zlen, zpos;
+    int eof;
+    uint64_t disk;
+};
+
+int en_spill_open(en_spill **out, const char *dir, const char *owner, epsnet_error *err)
+{
+    *out = NULL;
+    if (!dir || !*dir)
+        dir = getenv("TMPDIR");
+    if (!dir || !*dir)
+        dir = "/tmp";
+    en_spill *sp = en_calloc(1, sizeof *sp);
+    if (!sp)
+        return en_error_set(err, EPSNET_ENOMEM, dir, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    sp->fd = -1;
+    sp->owner = en_strdup(owner ? owner : dir);
+    if (!sp->owner) {
+        en_free(sp);
+        return en_error_set(err, EPSNET_ENOMEM, dir, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    }
+#ifdef O_TMPFILE
+    sp->fd = open(dir, O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
+#endif
+    if (sp->fd < 0) {
+        /* note: unlinked right away, so nothing can be left behind. */
+        size_t n = strlen(dir) + 32;
+        char *path = en_malloc(n);
+        if (path) {
+            snprintf(path, n, "%s/.epsnet-spill-XXXXXX", dir);
+            sp->fd = mkostemp(path, O_CLOEXEC);
+            if (sp->fd >= 0)
+                unlink(path);
+            en_free(path);
+        }
+    }
+    if (sp->fd < 0) {
+        int e = errno;
+        en_spill_close(&sp);
+        return en_error_set(err, en_error_from_errno(e), dir, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "cannot create a temporary file: %s", strerror(e));
+    }
+    sp->zc = ZSTD_createCStream();
+    sp->zcap = ZSTD_CStreamOutSize();
+    sp->zbuf = en_malloc(sp->zcap);
+    if (!sp->zc || !sp->zbuf) {
+        en_spill_close(&sp);
+        return en_error_set(err, EPSNET_ENOMEM, dir, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    }
+    ZSTD_CCtx_setParameter(sp->zc, ZSTD_c_compressionLevel, 1);
+    *out = sp;
+    return 0;
+}
+
+static int spill_io_fail(const en_spill *sp, int e, epsnet_error *err)
+{
+    return en_error_set(err, en_error_from_errno(e), sp->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                        "temporary file: %s", strerror(e));
+}
+
+static int spill_write_raw(en_spill *sp, const uint8_t *p, size_t n, epsnet_error *err)
+{
+    while (n) {
+        ssize_t k = write(sp->fd, p, n);
+        if (k < 0) {
+            if (errno == EINTR)
+                continue;
+            return spill_io_fail(sp, errno, err);
+        }
+        if (k == 0)
+            return spill_io_fail(sp, ENOSPC, err);
+        p += k;
+        n -= (size_t)k;
+        sp->disk += (uint64_t)k;
+    }
+    return 0;
+}
+
+static int spill_compress(en_spill *sp, const void *data, size_t n, ZSTD_EndDirective mode,
+                          epsnet_error *err)
+{
+    ZSTD_inBuffer in = { data, n, 0 };
+    for (;;) {
+        ZSTD_outBuffer out = { sp->zbuf, sp->zcap, 0 };
+        size_t r = ZSTD_compressStream2(sp->zc, &out, &in, mode);
+        if (ZSTD_isError(r))
+            return en_error_set(err, EPSNET_EIO, sp->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "temporary file: zstd: %s", ZSTD_getErrorName(r));
+        if (out.pos && spill_write_raw(sp, sp->zbuf, out.pos, err))
+            return EPSNET_EIO;
+        if (mode == ZSTD_e_end ? r == 0 : in.pos == in.size)
+            return 0;
+    }
+}
+
+int en_spill_write(en_spill *sp, const void *data, size_t n, epsnet_error *err)
+{
+    if (sp->reading)
+        return en_error_set(err, EPSNET_EINTERNAL, sp->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "temporary file: write after rewind");
+    return spill_compress(sp, data, n, ZSTD_e_continue, err);
+}
+
+int en_spill_rewind(en_spill *sp, epsnet_error *err)
+{
+    if (!sp->reading) {
+        int rc = spill_compress(sp, NULL, 0, ZSTD_e_end, err);
+        if (rc)
+            return rc;
+        ZSTD_freeCStream(sp->zc);
+        sp->zc = NULL;
+        en_free(sp->zbuf);
+        sp->zcap = ZSTD_DStreamInSize();
+        sp->zbuf = en_malloc(sp->zcap);
+        sp->zd = ZSTD_createDStream();
+        if (!sp->zbuf || !sp->zd)
+            return en_error_set(err, EPSNET_ENOMEM, sp->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "out of memory");
+        sp->reading = 1;
+    }
+    ZSTD_initDStream(sp->zd);
+    sp->zlen = sp->zpos = 0;
+    sp->eof = 0;
+    if (lseek(sp->fd, 0, SEEK_SET) < 0)
+        return spill_io_fail(sp, errno, err);
+    return 0;
+}
+
+int64_t en_spill_read(en_spill *sp, void *data, size_t n, epsnet_error *err)
+{
+    ZSTD_outBuffer out = { data, n, 0 };
+    while (out.pos < out.size) {
+        if (sp->zpos == sp->zlen) {
+            if (sp->eof)
+                break;
+            ssize_t k = read(sp->fd, sp->zbuf, sp->zcap);
+            if (k < 0) {
+                if (errno == EINTR)
+                    continue;
+                return spill_io_fail(sp, errno, err);
+            }
+            if (k == 0) {
+                sp->eof = 1;
+                break;
+            }
+            sp->zlen = (size_t)k;
+            sp->zpos = 0;
+        }
+        ZSTD_inBuffer in = { sp->zbuf, sp->zlen, sp->zpos };
+        size_t r = ZSTD_decompressStream(sp->zd, &out, &in);
+        sp->zpos = in.pos;
+        if (ZSTD_isError(r))
+            return en_error_set(err, EPSNET_EIO, sp->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "temporary file: zstd: %s", ZSTD_getErrorName(r));
+    }
+    return (int64_t)out.pos;
+}
+
+uint64_t en_spill_disk_bytes(const en_spill *sp)
+{
+    return sp->disk;
+}
+
+void en_spill_close(en_spill **psp)
+{
+    en_spill *sp = psp ? *psp : NULL;
+    if (!sp)
+        return;
+    if (sp->fd >= 0)
+        close(sp->fd);
+    if (sp->zc)
+        ZSTD_freeCStream(sp->zc);
+    if (sp->zd)
+        ZSTD_freeDStream(sp->zd);
+    en_free(sp->zbuf);
+    en_free(sp->owner);
+    en_free(sp);
+    *psp = NULL;
+}

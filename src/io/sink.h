@@ -1,0 +1,76 @@
+/*
+ * Byte sink: buffered output that becomes visible at its path only on commit
+ * (SPEC §5: nothing half-written at the -o path), with optional zstd
+ * compression. Also the spill file: an anonymous temporary file that
+ * disappears when closed or when the process dies, used for data that must be
+ * written once and read back (PLY faces of a streaming input, sort runs).
+ */
+#ifndef EN_IO_SINK_H
+#define EN_IO_SINK_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "epsnet/epsnet.h"
+
+typedef struct en_sink en_sink;
+
+/*
+ * Create a sink for path ("-" = stdout). zstd_level > 0 compresses; 0 writes
+ * plain bytes. @return 0 or a negative code with err filled; on failure *s is
+ * NULL and nothing was created.
+ */
+int en_sink_open(en_sink **s, const char *path, int zstd_level, epsnet_error *err);
+
+/* Append bytes. @return 0 or a negative code with err filled (sticky). */
+int en_sink_write(en_sink *s, const void *data, size_t n, epsnet_error *err);
+
+/* Bytes written so far (before compression). */
+uint64_t en_sink_offset(const en_sink *s);
+
+/*
+ * Overwrite n bytes at offset, already written. Only for plain (uncompressed)
+ * seekable sinks; @return EPSNET_EUNSUPPORTED otherwise (callers then fall
+ * back to spilling).
+ */
+int en_sink_patch(en_sink *s, uint64_t offset, const void *data, size_t n,
+                  epsnet_error *err);
+int en_sink_can_patch(const en_sink *s);
+
+/* Flush, close and move into place; frees s and sets *s to NULL. On failure
+ * nothing is left at the path. */
+int en_sink_commit(en_sink **s, epsnet_error *err);
+
+/* Discard; frees s and sets *s to NULL. Accepts NULL. */
+void en_sink_abort(en_sink **s);
+
+/* The path the sink will commit to, for messages. */
+const char *en_sink_path(const en_sink *s);
+
+/* ---- spill files ---- */
+
+typedef struct en_spill en_spill;
+
+/* Anonymous zstd-compressed temporary file in dir (NULL = $TMPDIR or /tmp).
+ * owner names the file the spill serves (the output path), so that a failure
+ * such as a full disk is reported against what the user asked for. */
+int en_spill_open(en_spill **sp, const char *dir, const char *owner, epsnet_error *err);
+int en_spill_write(en_spill *sp, const void *data, size_t n, epsnet_error *err);
+/* Switch from writing to reading from the start. */
+int en_spill_rewind(en_spill *sp, epsnet_error *err);
+/* Read up to n bytes; @return bytes read (0 at end) or a negative code. */
+int64_t en_spill_read(en_spill *sp, void *data, size_t n, epsnet_error *err);
+/* Compressed bytes on disk. */
+uint64_t en_spill_disk_bytes(const en_spill *sp);
+void en_spill_close(en_spill **sp);
+
+/* ---- signal safety for named temporaries ---- */
+
+/*
+ * Remove every named temporary file this process still has open. Safe to
+ * call from a signal handler (it only calls unlink). The CLI calls it from
+ * its SIGINT/SIGTERM handler.
+ */
+void en_tempfiles_cleanup_signal_safe(void);
+
+#endif /* EN_IO_SINK_H */

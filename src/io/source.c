@@ -1,0 +1,300 @@
+#include "io/source.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zstd.h>
+
+#include "common/alloc.h"
+#include "common/error.h"
+
+#define EN_SOURCE_CAP (2u << 20)   /* window; fill() never asks for more than half */
+#define EN_ZSTD_MAGIC 0xFD2FB528u
+
+int en_path_has_zst(const char *path)
+{
+    size_t n = strlen(path);
+    return n >= 4 && strcasecmp(path + n - 4, ".zst") == 0;
+}
+
+static int src_fail(en_source *s, int code, const char *fmt, const char *detail)
+{
+    if (!s->failed) {
+        s->failed = 1;
+        en_error_set(&s->err, code, s->path, EPSNET_POS_NONE, en_source_offset(s), fmt, detail);
+        s->err.zst = s->zstd != NULL;
+    }
+    return code;
+}
+
+/* Read raw bytes from the fd; returns bytes read, 0 at EOF, -1 on error. */
+static ssize_t raw_read(en_source *s, uint8_t *dst, size_t n)
+{
+    for (;;) {
+        ssize_t k = read(s->fd, dst, n);
+        if (k >= 0) {
+            s->raw_read += (uint64_t)k;
+            return k;
+        }
+        if (errno != EINTR) {
+            src_fail(s, EPSNET_EIO, "read failed: %s", strerror(errno));
+            return -1;
+        }
+    }
+}
+
+/* Append up to room bytes of decompressed data at dst. */
+static ssize_t produce(en_source *s, uint8_t *dst, size_t room)
+{
+    if (!s->zstd)
+        return raw_read(s, dst, room);
+    ZSTD_outBuffer out = { dst, room, 0 };
+    while (out.pos == 0) {
+        if (s->zin_pos == s->zin_len) {
+            ssize_t k = raw_read(s, s->zin, s->zin_cap);
+            if (k < 0)
+                return -1;
+            if (k == 0) {
+                if (s->zframe_open) {
+                    src_fail(s, EPSNET_EFORMAT, "%s", "truncated zstd stream");
+                    return -1;
+                }
+                return 0;
+            }
+            s->zin_len = (size_t)k;
+            s->zin_pos = 0;
+        }
+        ZSTD_inBuffer in = { s->zin, s->zin_len, s->zin_pos };
+        size_t r = ZSTD_decompressStream(s->zstd, &out, &in);
+        s->zin_pos = in.pos;
+        if (ZSTD_isError(r)) {
+            src_fail(s, EPSNET_EFORMAT, "corrupt zstd data: %s", ZSTD_getErrorName(r));
+            return -1;
+        }
+        s->zframe_open = r != 0;
+    }
+    return (ssize_t)out.pos;
+}
+
+size_t en_source_fill(en_source *s, size_t want)
+{
+    size_t avail = (size_t)(s->end - s->cur);
+    if (avail >= want || s->eof || s->failed)
+        return avail;
+    /* Slide the unconsumed tail to the front, then top up. */
+    size_t off = (size_t)(s->cur - s->buf);
+    if (off) {
+        memmove(s->buf, s->cur, avail);
+        s->base += off;
+        s->cur = s->buf;
+        s->end = s->buf + avail;
+    }
+    while (avail < want) {
+        /* note: one byte stays spare so en_source_line() can always NUL-terminate
+         * a last line that has no newline. */
+        ssize_t k = produce(s, s->buf + avail, s->cap - 1 - avail);
+        if (k < 0)
+            break;
+        if (k == 0) {
+            s->eof = 1;
+            break;
+        }
+        avail += (size_t)k;
+        s->end = s->buf + avail;
+    }
+    return avail;
+}
+
+int en_source_open(en_source **out, const char *path, epsnet_error *err)
+{
+    *out = NULL;
+    en_source *s = en_calloc(1, sizeof *s);
+    if (!s)
+        return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    s->fd = -1;
+    s->path = en_strdup(path);
+    s->cap = EN_SOURCE_CAP;
+    s->buf = en_malloc(s->cap);
+    if (!s->path || !s->buf) {
+        en_source_close(&s);
+        return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    }
+    s->cur = s->end = s->buf;
+    if (strcmp(path, "-") == 0) {
+        s->fd = 0;
+    } else {
+        s->fd = open(path, O_RDONLY | O_CLOEXEC);
+        if (s->fd < 0) {
+            int e = errno;
+            en_source_close(&s);
+            return en_error_set(err, EPSNET_EIO, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "cannot open: %s", strerror(e));
+        }
+        s->own_fd = 1;
+        struct stat st;
+        if (fstat(s->fd, &st) == 0) {
+            if (S_ISDIR(st.st_mode)) {
+                en_source_close(&s);
+                return en_error_set(err, EPSNET_EIO, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                    "is a directory");
+            }
+            if (S_ISREG(st.st_mode))
+                s->file_size = (uint64_t)st.st_size;
+        }
+#ifdef POSIX_FADV_SEQUENTIAL
+        posix_fadvise(s->fd, 0, 0, POSIX_FADV_SEQUENTIAL);
+#endif
+    }
+    /* Sniff the zstd magic on the raw bytes before any decoding. */
+    ssize_t k = raw_read(s, s->buf, 4);
+    while (k > 0 && k < 4) {
+        ssize_t more = raw_read(s, s->buf + k, (size_t)(4 - k));
+        if (more <= 0)
+            break;
+        k += more;
+    }
+    if (k < 0) {
+        int rc = en_source_error(s, err);
+        en_source_close(&s);
+        return rc;
+    }
+    uint32_t magic = 0;
+    if (k == 4)
+        magic = (uint32_t)s->buf[0] | (uint32_t)s->buf[1] << 8 |
+                (uint32_t)s->buf[2] << 16 | (uint32_t)s->buf[3] << 24;
+    if (magic == EN_ZSTD_MAGIC) {
+        s->zstd = ZSTD_createDStream();
+        s->zin_cap = ZSTD_DStreamInSize();
+        s->zin = en_malloc(s->zin_cap > 4 ? s->zin_cap : 4);
+        if (!s->zstd || !s->zin) {
+            en_source_close(&s);
+            return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+        }
+        ZSTD_initDStream(s->zstd);
+        memcpy(s->zin, s->buf, 4);
+        s->zin_len = 4;
+        s->zin_pos = 0;
+        s->zframe_open = 1;
+    } else if (en_path_has_zst(path)) {
+        en_source_close(&s);
+        return en_error_set(err, EPSNET_EFORMAT, path, EPSNET_POS_NONE, 0,
+                            "name ends in .zst but the data is not zstd-compressed");
+    } else {
+        s->end = s->buf + (k > 0 ? k : 0);
+    }
+    *out = s;
+    return 0;
+}
+
+void en_source_close(en_source **ps)
+{
+    en_source *s = ps ? *ps : NULL;
+    if (!s)
+        return;
+    if (s->own_fd && s->fd >= 0)
+        close(s->fd);
+    if (s->zstd)
+        ZSTD_freeDStream(s->zstd);
+    en_free(s->zin);
+    en_free(s->buf);
+    en_free(s->path);
+    en_free(s);
+    *ps = NULL;
+}
+
+int en_source_error(const en_source *s, epsnet_error *err)
+{
+    if (err)
+        *err = s->err;
+    return s->err.code ? s->err.code : EPSNET_EIO;
+}
+
+int en_source_line(en_source *s, char **line, size_t *len, size_t max_len,
+                   epsnet_error *err)
+{
+    if (max_len > EN_SOURCE_CAP / 2)
+        max_len = EN_SOURCE_CAP / 2;
+    size_t scanned = 0;
+    for (;;) {
+        size_t avail = (size_t)(s->end - s->cur);
+        uint8_t *nl = avail > scanned ? memchr(s->cur + scanned, '\n', avail - scanned) : NULL;
+        if (nl) {
+            size_t n = (size_t)(nl - s->cur);
+            if (n > max_len)
+                goto too_long;
+            char *p = (char *)s->cur;
+            if (memchr(p, '\0', n))
+                goto nul_byte;
+            *nl = '\0';
+            if (n && p[n - 1] == '\r')
+                p[--n] = '\0';
+            s->cur = nl + 1;
+            s->lineno++;
+            *line = p;
+            *len = n;
+            return 1;
+        }
+        scanned = avail;
+        if (avail > max_len)
+            goto too_long;
+        if (s->eof || s->failed) {
+            if (s->failed)
+                return en_source_error(s, err);
+            if (avail == 0)
+                return 0;
+            /* Last line without a newline: terminate it in the spare room
+             * (fill() keeps the window strictly smaller than the buffer). */
+            char *p = (char *)s->cur;
+            if (memchr(p, '\0', avail))
+                goto nul_byte;
+            size_t n = avail;
+            p[n] = '\0';
+            if (n && p[n - 1] == '\r')
+                p[--n] = '\0';
+            s->cur = s->end;
+            s->lineno++;
+            *line = p;
+            *len = n;
+            return 1;
+        }
+        size_t before = avail;
+        /* fill() slides the window, so scanned offsets stay valid relative to cur */
+        en_source_fill(s, before + 1);
+        if ((size_t)(s->end - s->cur) == before && !s->eof && !s->failed)
+            goto too_long;
+    }
+too_long:
+    return en_error_set(err, EPSNET_EFORMAT, s->path, s->lineno + 1, EPSNET_POS_NONE,
+                        "line longer than %zu bytes", max_len);
+nul_byte:
+    return en_error_set(err, EPSNET_EFORMAT, s->path, s->lineno + 1, EPSNET_POS_NONE,
+                        "NUL byte in a text file (binary data?)");
+}
+
+int en_source_read(en_source *s, void *dst, size_t n, const char *what,
+                   epsnet_error *err)
+{
+    uint8_t *d = dst;
+    while (n) {
+        size_t want = n < EN_SOURCE_CAP / 2 ? n : EN_SOURCE_CAP / 2;
+        size_t avail = en_source_fill(s, want);
+        if (avail == 0) {
+            if (s->failed)
+                return en_source_error(s, err);
+            int rc = en_error_set(err, EPSNET_EFORMAT, s->path, EPSNET_POS_NONE,
+                                  en_source_offset(s), "truncated file: unexpected end of data in %s", what);
+            if (err)
+                err->zst = s->zstd != NULL;
+            return rc;
+        }
+        size_t k = avail < n ? avail : n;
+        memcpy(d, s->cur, k);
+        s->cur += k;
+        d += k;
+        n -= k;
+    }
+    return 0;
+}

@@ -1,0 +1,81 @@
+/*
+ * Byte source: a buffered window over a file or stdin, with zstd frames
+ * decompressed transparently (detected by magic, whatever the name). Format
+ * readers parse straight out of the window; offsets are those of the
+ * decompressed bytes, which is what an error message must point at.
+ */
+#ifndef EN_IO_SOURCE_H
+#define EN_IO_SOURCE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "epsnet/epsnet.h"
+
+typedef struct en_source {
+    /* Window of bytes not consumed yet: parsers advance cur up to end. */
+    const uint8_t *cur;
+    const uint8_t *end;
+
+    uint8_t *buf;          /* owned; window lives inside */
+    size_t cap;
+    uint64_t base;         /* decompressed offset of buf[0] */
+    uint64_t lineno;       /* lines returned by en_source_line() so far */
+    int eof;               /* no more bytes beyond end */
+    int failed;            /* a read or decode error was recorded in err */
+
+    int fd;
+    int own_fd;
+    uint64_t file_size;    /* 0 if unknown */
+    uint64_t raw_read;     /* bytes read from fd */
+
+    void *zstd;            /* ZSTD_DStream*, NULL for plain input */
+    uint8_t *zin;
+    size_t zin_len, zin_pos, zin_cap;
+    int zframe_open;       /* inside a zstd frame that has not ended */
+
+    char *path;            /* for messages */
+    epsnet_error err;      /* first failure */
+} en_source;
+
+/* Open path ("-" = stdin). @return 0 or a negative code with err filled;
+ * on failure *s is NULL. */
+int en_source_open(en_source **s, const char *path, epsnet_error *err);
+void en_source_close(en_source **s);
+
+/*
+ * Make at least want bytes available in [cur, end) unless the input ends
+ * first. @return the number of bytes available (< want only at end of input
+ * or on error; check s->failed). want must be <= 1 MiB.
+ */
+size_t en_source_fill(en_source *s, size_t want);
+
+/* Offset of cur in the decompressed stream. */
+static inline uint64_t en_source_offset(const en_source *s)
+{
+    return s->base + (uint64_t)(s->cur - s->buf);
+}
+
+/*
+ * Next text line, without its '\n' or "\r\n", NUL-terminated in place.
+ * @return 1 with line and len set, 0 at end of input, or a negative code with
+ * err filled (a line longer than max_len, a read error, a NUL byte).
+ */
+int en_source_line(en_source *s, char **line, size_t *len, size_t max_len,
+                   epsnet_error *err);
+
+/*
+ * Copy exactly n bytes into dst. @return 0, or EPSNET_EFORMAT (truncated:
+ * the message says what was expected, from what) / EPSNET_EIO with err
+ * filled. what names the item being read, e.g. "vertex 12".
+ */
+int en_source_read(en_source *s, void *dst, size_t n, const char *what,
+                   epsnet_error *err);
+
+/* Copy the source's own failure (I/O or zstd) into err and return its code. */
+int en_source_error(const en_source *s, epsnet_error *err);
+
+/* True when the file name ends with ".zst" (case-insensitive). */
+int en_path_has_zst(const char *path);
+
+#endif /* EN_IO_SOURCE_H */

@@ -1,0 +1,191 @@
+/*
+ * Writer front end: picks the driver, owns the sink (temporary file renamed on
+ * commit), and checks that triangles only reference vertices already written.
+ */
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/alloc.h"
+#include "io/format.h"
+
+void epsnet_writer_default_settings(epsnet_writer_settings *s)
+{
+    memset(s, 0, sizeof *s);
+    s->format = NULL;
+    s->ascii = 0;
+    s->coord_type = -1;
+    s->zstd_level = 3;
+    s->tmpdir = NULL;
+}
+
+int en_writer_printf(epsnet_writer *w, const char *fmt, ...)
+{
+    char buf[512];
+    va_list ap;
+    va_start(ap, fmt);
+    int n = vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    if (n < 0 || (size_t)n >= sizeof buf)
+        return en_error_set(&w->err, EPSNET_EINTERNAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "formatted output too long");
+    return en_writer_bytes(w, buf, (size_t)n);
+}
+
+int en_format_coord(char *buf, double v, epsnet_coord_type t)
+{
+    /* note: shortest text that parses back to the same bits, so ASCII
+     * round trips keep every coordinate exact (SPEC §1: output vertices are
+     * bit-identical input vertices). */
+    if (t == EPSNET_COORD_FLOAT32) {
+        float f = (float)v;
+        for (int prec = 6; prec < 9; prec++) {
+            int n = snprintf(buf, 32, "%.*g", prec, (double)f);
+            if (strtof(buf, NULL) == f)
+                return n;
+        }
+        return snprintf(buf, 32, "%.9g", (double)f);
+    }
+    for (int prec = 15; prec < 17; prec++) {
+        int n = snprintf(buf, 32, "%.*g", prec, v);
+        if (strtod(buf, NULL) == v)
+            return n;
+    }
+    return snprintf(buf, 32, "%.17g", v);
+}
+
+int epsnet_writer_open(epsnet_writer **out, const char *path,
+                       const epsnet_writer_settings *settings,
+                       const epsnet_mesh_info *info, epsnet_error *err)
+{
+    if (!out || !path)
+        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "epsnet_writer_open: NULL argument");
+    *out = NULL;
+    epsnet_writer *w = en_calloc(1, sizeof *w);
+    if (!w)
+        return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    if (settings)
+        w->settings = *settings;
+    else
+        epsnet_writer_default_settings(&w->settings);
+    w->path = en_strdup(path);
+    w->tmpdir = w->settings.tmpdir ? en_strdup(w->settings.tmpdir) : NULL;
+    w->settings.tmpdir = w->tmpdir;
+    w->settings.format = NULL; /* resolved below; the caller's string is not kept */
+    if (!w->path || (settings && settings->tmpdir && !w->tmpdir)) {
+        epsnet_writer_abort(&w);
+        return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    }
+    if (info) {
+        w->info = *info;
+    } else {
+        w->info.nverts = w->info.nfaces = EPSNET_COUNT_UNKNOWN;
+        w->info.coord_type = EPSNET_COORD_FLOAT32;
+        w->info.sorted_axis = -1;
+    }
+    w->info.format = NULL;
+    w->info.encoding = NULL;
+    w->coord_type = settings && settings->coord_type >= 0 ? (epsnet_coord_type)settings->coord_type
+                                                          : w->info.coord_type;
+    const char *fname = settings ? settings->format : NULL;
+    w->fmt = fname ? en_format_by_name(fname) : en_format_by_path(path);
+    if (!w->fmt || !w->fmt->open_writer) {
+        int rc = en_error_set(err, EPSNET_EUNSUPPORTED, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                              "cannot write %s%s (writable: %s)", fname ? "format " : "this file type",
+                              fname ? fname : "", epsnet_formats_writable());
+        epsnet_writer_abort(&w);
+        return rc;
+    }
+    int zl = en_path_has_zst(path) ? (w->settings.zstd_level > 0 ? w->settings.zstd_level : 3) : 0;
+    int rc = en_sink_open(&w->sink, path, zl, err);
+    if (rc == 0) {
+        rc = w->fmt->open_writer(w);
+        if (rc && err)
+            *err = w->err;
+    }
+    if (rc) {
+        epsnet_writer_abort(&w);
+        return rc;
+    }
+    *out = w;
+    return 0;
+}
+
+int epsnet_writer_put(epsnet_writer *w, const epsnet_record *rec, epsnet_error *err)
+{
+    if (w->failed)
+        goto fail;
+    switch (rec->kind) {
+    case EPSNET_REC_VERTEX:
+        w->nverts++;
+        break;
+    case EPSNET_REC_TRIANGLE:
+        for (int k = 0; k < 3; k++)
+            if (rec->v[k] >= w->nverts) {
+                en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                             "triangle %llu references vertex %llu before it was written",
+                             (unsigned long long)w->ntris + 1, (unsigned long long)rec->v[k] + 1);
+                w->failed = 1;
+                goto fail;
+            }
+        w->ntris++;
+        break;
+    case EPSNET_REC_FINALIZE:
+        if (rec->v[0] >= w->nverts) {
+            en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                         "finalizes vertex %llu before it was written", (unsigned long long)rec->v[0] + 1);
+            w->failed = 1;
+            goto fail;
+        }
+        break;
+    default:
+        en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                     "unknown record kind %d", (int)rec->kind);
+        w->failed = 1;
+        goto fail;
+    }
+    if (w->fmt->put(w, rec) == 0)
+        return 0;
+    w->failed = 1;
+fail:
+    if (err)
+        *err = w->err;
+    return w->err.code ? w->err.code : EPSNET_EIO;
+}
+
+int epsnet_writer_commit(epsnet_writer **pw, epsnet_error *err)
+{
+    epsnet_writer *w = pw ? *pw : NULL;
+    if (!w)
+        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "epsnet_writer_commit: NULL writer");
+    int rc = w->failed ? (w->err.code ? w->err.code : EPSNET_EIO) : w->fmt->finish(w);
+    if (rc) {
+        if (err)
+            *err = w->err;
+        epsnet_writer_abort(pw);
+        return rc;
+    }
+    if (w->fmt->close_writer)
+        w->fmt->close_writer(w);
+    w->fmt = NULL;
+    rc = en_sink_commit(&w->sink, err);
+    epsnet_writer_abort(pw);
+    return rc;
+}
+
+void epsnet_writer_abort(epsnet_writer **pw)
+{
+    epsnet_writer *w = pw ? *pw : NULL;
+    if (!w)
+        return;
+    if (w->fmt && w->fmt->close_writer)
+        w->fmt->close_writer(w);
+    en_sink_abort(&w->sink);
+    en_free(w->tmpdir);
+    en_free(w->path);
+    en_free(w);
+    *pw = NULL;
+}

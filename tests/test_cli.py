@@ -1,0 +1,230 @@
+#!/usr/bin/env python3
+"""Command-line behaviour that users and scripts rely on (SPEC §4, §5):
+exit codes per failure class, one error line naming file, position and
+reason, and nothing left at the -o path (or beside it) after a failure."""
+import os
+import resource
+import signal
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+
+EPSNET = sys.argv[1] if len(sys.argv) > 1 else os.environ["EPSNET_BIN"]
+TMP = tempfile.mkdtemp(prefix="epsnet-cli-")
+failures = 0
+
+
+def run(*args, preexec=None, timeout=120):
+    p = subprocess.run([EPSNET, *args], capture_output=True, text=True,
+                       preexec_fn=preexec, timeout=timeout)
+    return p.returncode, p.stdout, p.stderr
+
+
+def path(name):
+    return os.path.join(TMP, name)
+
+
+def write(name, data):
+    p = path(name)
+    with open(p, "wb") as f:
+        f.write(data if isinstance(data, bytes) else data.encode())
+    return p
+
+
+def leftovers(folder):
+    return [f for f in os.listdir(folder) if ".epsnet-" in f]
+
+
+def case(fn):
+    global failures
+    try:
+        fn()
+        print("ok  ", fn.__name__)
+    except AssertionError as e:
+        failures += 1
+        print("FAIL", fn.__name__, "-", e)
+    return fn
+
+
+def expect_bad_input(name, data, position, code=2, reason=None):
+    """convert must fail with one stderr line naming the file and position."""
+    src = write(name, data)
+    out = path("out_" + name.replace(".", "_") + ".ply")
+    rc, _, err = run("convert", src, "-o", out, "-q")
+    lines = err.strip().splitlines()
+    assert rc == code, f"{name}: exit {rc}, want {code}; stderr={err!r}"
+    assert len(lines) == 1, f"{name}: want one error line, got {lines!r}"
+    assert src in lines[0], f"{name}: file not named in {lines[0]!r}"
+    assert position in lines[0], f"{name}: position {position!r} not in {lines[0]!r}"
+    if reason:
+        assert reason in lines[0], f"{name}: reason {reason!r} not in {lines[0]!r}"
+    assert not os.path.exists(out), f"{name}: output left behind"
+    assert not leftovers(TMP), f"{name}: temporaries left: {leftovers(TMP)}"
+
+
+@case
+def version_and_help():
+    rc, out, _ = run("--version")
+    assert rc == 0 and out.startswith("epsnet "), out
+    rc, out, _ = run("--help")
+    assert rc == 0 and "convert" in out and "exit status" in out, out
+    for cmd in ("convert", "info", "gen"):
+        rc, out, _ = run(cmd, "--help")
+        assert rc == 0 and out.startswith("usage: epsnet " + cmd), (cmd, out)
+
+
+@case
+def usage_errors_exit_1():
+    assert run()[0] == 1
+    assert run("frobnicate")[0] == 1
+    assert run("convert", "x.ply")[0] == 1          # no -o
+    assert run("gen", "sphere", "-o", path("a.ply"), "--faces", "lots")[0] == 1
+
+
+@case
+def missing_input_is_io_error():
+    rc, _, err = run("convert", path("nope.ply"), "-o", path("o.ply"))
+    assert rc == 3, (rc, err)
+    assert "nope.ply" in err and "cannot open" in err, err
+
+
+@case
+def unwritable_output_is_io_error():
+    src = write("tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    rc, _, err = run("convert", src, "-o", path("no/such/dir/out.ply"))
+    assert rc == 3, (rc, err)
+
+
+@case
+def unknown_format_exit_5():
+    src = write("mesh.xyz", "hello\n")
+    rc, _, err = run("convert", src, "-o", path("o.ply"))
+    assert rc == 5, (rc, err)
+    src = write("tri2.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    rc, _, err = run("convert", src, "-o", path("o.unknownext"))
+    assert rc == 5, (rc, err)
+    assert not os.path.exists(path("o.unknownext"))
+
+
+@case
+def zst_that_is_not_zstd():
+    expect_bad_input("fake.ply.zst", "ply\nformat ascii 1.0\n", "byte 0", reason="not zstd")
+
+
+@case
+def truncated_zstd():
+    import shutil
+    if not shutil.which("zstd"):
+        return
+    src = write("t.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n" * 2000)
+    subprocess.run(["zstd", "-q", "-f", src, "-o", src + ".zst"], check=True)
+    data = open(src + ".zst", "rb").read()
+    expect_bad_input("trunc.obj.zst", data[: len(data) // 2], "byte", reason="zstd")
+
+
+@case
+def obj_bad_inputs():
+    base = "v 0 0 0\nv 1 0 0\nv 0 1 0\n"
+    expect_bad_input("zero.obj", base + "f 0 1 2\n", ":4:")
+    expect_bad_input("range.obj", base + "f 1 2 9\n", ":4:")
+    expect_bad_input("nan.obj", base + "v nan 0 0\n", ":4:")
+    expect_bad_input("inf.obj", "v 0 inf 0\n" + base, ":1:")
+    expect_bad_input("garbage.obj", base + "f 1 2 x3\n", ":4:")
+
+
+@case
+def ply_bad_inputs():
+    hdr = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n" \
+          "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+    good = "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"
+    expect_bad_input("trunc.ply", hdr + good[:12], ":", reason="")
+    expect_bad_input("range.ply", hdr + "0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", ":13:")
+    huge = hdr.replace("element vertex 3", "element vertex 1099511627776")
+    src = write("huge.ply", huge + good)
+    rc, _, err = run("convert", src, "-o", path("h.ply"), "-q")
+    assert rc == 4, (rc, err)
+    bin_hdr = hdr.replace("format ascii", "format binary_little_endian").encode()
+    body = struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0) + struct.pack("<B3i", 3, 0, 1, 2)
+    expect_bad_input("trunc_bin.ply", bin_hdr + body[:-5], "byte")
+
+
+@case
+def sma_finalized_reference():
+    expect_bad_input("fin.sma", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 -1\nf 2 4 3\n", ":6:",
+                     reason="finalized")
+
+
+@case
+def empty_mesh_is_valid():
+    src = write("empty.obj", "# nothing here\n")
+    out = path("empty_out.ply")
+    rc, _, err = run("convert", src, "-o", out, "-q")
+    assert rc == 0, (rc, err)
+    rc, out_text, err = run("info", out)
+    assert rc == 0 and "vertices:    0" in out_text and "triangles:   0" in out_text, (out_text, err)
+
+
+@case
+def gen_convert_info_roundtrip():
+    ply = path("s.ply")
+    rc, _, err = run("gen", "sphere", "--faces", "2000", "-o", ply, "-q")
+    assert rc == 0, err
+    rc, info1, err = run("info", ply)
+    assert rc == 0, err
+    for ext in ("obj", "sma", "smb", "ply.zst"):
+        o = path("s." + ext)
+        rc, _, err = run("convert", ply, "-o", o, "-q")
+        assert rc == 0, (ext, err)
+        rc, info2, err = run("info", o)
+        assert rc == 0, (ext, err)
+        for key in ("vertices:", "triangles:", "bbox:"):
+            l1 = [l for l in info1.splitlines() if l.startswith(key)]
+            l2 = [l for l in info2.splitlines() if l.startswith(key)]
+            assert l1 == l2, (ext, l1, l2)
+
+
+@case
+def gen_sorted_stream_reports_sorted_and_narrow():
+    sma = path("g.sma")
+    rc, _, err = run("gen", "sphere", "--faces", "20000", "-o", sma, "-q")
+    assert rc == 0, err
+    rc, out, err = run("info", sma)
+    assert rc == 0, err
+    assert "sorted:      " in out and "z" in [l for l in out.splitlines() if l.startswith("sorted:")][0], out
+    width = int([l for l in out.splitlines() if l.startswith("width:")][0].split()[1])
+    nv = int([l for l in out.splitlines() if l.startswith("vertices:")][0].split()[1])
+    assert width < nv // 4, (width, nv)
+
+
+@case
+def file_size_limit_leaves_nothing():
+    out = path("big.ply")
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (200_000, 200_000))
+
+    rc, _, err = run("gen", "bumpy", "--faces", "200000", "-o", out, "-q", preexec=limit)
+    assert rc == 3, (rc, err)
+    assert "big.ply" in err, err
+    assert not os.path.exists(out)
+    assert not leftovers(TMP), leftovers(TMP)
+
+
+@case
+def sigint_leaves_nothing():
+    out = path("interrupted.ply")
+    p = subprocess.Popen([EPSNET, "gen", "bumpy", "--faces", "20000000", "-o", out, "-q"],
+                         stderr=subprocess.PIPE)
+    time.sleep(0.5)
+    p.send_signal(signal.SIGINT)
+    p.wait(timeout=60)
+    assert p.returncode == 130, p.returncode
+    assert not os.path.exists(out)
+    assert not leftovers(TMP), leftovers(TMP)
+
+
+subprocess.run(["rm", "-rf", TMP])
+print(f"{failures} failed")
+sys.exit(1 if failures else 0)

@@ -1,0 +1,281 @@
+/*
+ * The shared I/O layer under every format: byte source (lines, zstd), sink
+ * (atomic commit, abort leaves nothing), spill files, the live-vertex set,
+ * size parsing and error messages.
+ */
+#include <dirent.h>
+#include <zstd.h>
+
+#include "common/u64set.h"
+#include "io/sink.h"
+#include "io/format.h"
+#include "io/source.h"
+#include "testlib.h"
+
+static int count_entries(const char *dir)
+{
+    DIR *d = opendir(dir);
+    int n = 0;
+    struct dirent *e;
+    while ((e = readdir(d)))
+        if (strcmp(e->d_name, ".") && strcmp(e->d_name, ".."))
+            n++;
+    closedir(d);
+    return n;
+}
+
+TEST(source_lines_handle_crlf_and_missing_final_newline)
+{
+    const char *p = tl_write_str("lines.txt", "alpha\r\nbeta\n\ngamma");
+    en_source *s = NULL;
+    epsnet_error err;
+    CHECK_EQ_INT(en_source_open(&s, p, &err), 0);
+    char *line;
+    size_t len;
+    const char *want[] = { "alpha", "beta", "", "gamma" };
+    for (int i = 0; i < 4; i++) {
+        CHECK_EQ_INT(en_source_line(s, &line, &len, 1 << 16, &err), 1);
+        CHECK(strcmp(line, want[i]) == 0);
+        CHECK_EQ_U64(len, strlen(want[i]));
+    }
+    CHECK_EQ_INT(en_source_line(s, &line, &len, 1 << 16, &err), 0);
+    CHECK_EQ_U64(s->lineno, 4);
+    en_source_close(&s);
+    CHECK(s == NULL);
+}
+
+TEST(source_rejects_overlong_line_with_its_number)
+{
+    size_t n = 300000;
+    char *big = malloc(n + 16);
+    memcpy(big, "ok\n", 3);
+    memset(big + 3, 'a', n);
+    big[n + 3] = '\n';
+    const char *p = tl_write("long.txt", big, n + 4);
+    free(big);
+    en_source *s = NULL;
+    epsnet_error err;
+    CHECK_EQ_INT(en_source_open(&s, p, &err), 0);
+    char *line;
+    size_t len;
+    CHECK_EQ_INT(en_source_line(s, &line, &len, 1000, &err), 1);
+    CHECK_EQ_INT(en_source_line(s, &line, &len, 1000, &err), EPSNET_EFORMAT);
+    CHECK_EQ_U64(err.line, 2);
+    CHECK_STR_CONTAINS(epsnet_error_message(&err), "long.txt:2: line longer than 1000 bytes");
+    en_source_close(&s);
+}
+
+TEST(source_reads_zstd_transparently_whatever_the_name)
+{
+    char text[5000];
+    for (int i = 0; i < 5000; i++)
+        text[i] = (char)('a' + i % 26);
+    size_t cap = ZSTD_compressBound(sizeof text);
+    void *z = malloc(cap);
+    size_t zn = ZSTD_compress(z, cap, text, sizeof text, 3);
+    CHECK(!ZSTD_isError(zn));
+    const char *p = tl_write("data.bin", z, zn); /* no .zst in the name */
+    free(z);
+    en_source *s = NULL;
+    epsnet_error err;
+    CHECK_EQ_INT(en_source_open(&s, p, &err), 0);
+    char back[5000];
+    CHECK_EQ_INT(en_source_read(s, back, sizeof back, "test data", &err), 0);
+    CHECK(memcmp(back, text, sizeof text) == 0);
+    char extra;
+    CHECK_EQ_INT(en_source_read(s, &extra, 1, "one more byte", &err), EPSNET_EFORMAT);
+    CHECK_STR_CONTAINS(epsnet_error_message(&err), "decompressed byte 5000: truncated file");
+    en_source_close(&s);
+}
+
+TEST(source_reports_corrupt_zstd)
+{
+    char text[4096];
+    memset(text, 'q', sizeof text);
+    size_t cap = ZSTD_compressBound(sizeof text);
+    unsigned char *z = malloc(cap);
+    size_t zn = ZSTD_compress(z, cap, text, sizeof text, 1);
+    z[zn / 2] ^= 0x5a;
+    z[zn - 3] ^= 0xff; /* the checksum at least will not match */
+    const char *p = tl_write("bad.zst", z, zn);
+    free(z);
+    en_source *s = NULL;
+    epsnet_error err;
+    CHECK_EQ_INT(en_source_open(&s, p, &err), 0);
+    char back[4096];
+    int rc = en_source_read(s, back, sizeof back, "data", &err);
+    CHECK_EQ_INT(rc, EPSNET_EFORMAT);
+    CHECK_STR_CONTAINS(epsnet_error_message(&err), "bad.zst");
+    en_source_close(&s);
+}
+
+TEST(sink_commit_renames_and_abort_leaves_nothing)
+{
+    char dir[600];
+    snprintf(dir, sizeof dir, "%s/sinkdir", tl_tmpdir());
+    mkdir(dir, 0777);
+    char dst[700];
+    snprintf(dst, sizeof dst, "%s/out.bin", dir);
+    epsnet_error err;
+    en_sink *s = NULL;
+    CHECK_EQ_INT(en_sink_open(&s, dst, 0, &err), 0);
+    CHECK_EQ_INT(en_sink_write(s, "hello world", 11, &err), 0);
+    CHECK(!tl_exists(dst));
+    CHECK(en_sink_can_patch(s));
+    CHECK_EQ_INT(en_sink_patch(s, 0, "J", 1, &err), 0);
+    CHECK_EQ_INT(en_sink_commit(&s, &err), 0);
+    CHECK(s == NULL);
+    FILE *f = fopen(dst, "rb");
+    char buf[32] = { 0 };
+    CHECK(f && fread(buf, 1, sizeof buf, f) == 11);
+    if (f)
+        fclose(f);
+    CHECK(strcmp(buf, "Jello world") == 0);
+
+    char dst2[700];
+    snprintf(dst2, sizeof dst2, "%s/aborted.bin", dir);
+    CHECK_EQ_INT(en_sink_open(&s, dst2, 0, &err), 0);
+    CHECK_EQ_INT(en_sink_write(s, "partial", 7, &err), 0);
+    en_sink_abort(&s);
+    CHECK(!tl_exists(dst2));
+    CHECK_EQ_INT(count_entries(dir), 1); /* only out.bin */
+}
+
+TEST(sink_zstd_output_reads_back)
+{
+    const char *dst = tl_path("c.txt.zst");
+    epsnet_error err;
+    en_sink *s = NULL;
+    CHECK_EQ_INT(en_sink_open(&s, dst, 3, &err), 0);
+    CHECK(!en_sink_can_patch(s));
+    for (int i = 0; i < 100000; i++)
+        en_sink_write(s, "0123456789", 10, &err);
+    CHECK_EQ_INT(en_sink_commit(&s, &err), 0);
+    en_source *src = NULL;
+    CHECK_EQ_INT(en_source_open(&src, dst, &err), 0);
+    char buf[10];
+    int ok = 1;
+    for (int i = 0; i < 100000 && ok; i++)
+        ok = en_source_read(src, buf, 10, "chunk", &err) == 0 && memcmp(buf, "0123456789", 10) == 0;
+    CHECK(ok);
+    CHECK_EQ_INT(en_source_fill(src, 1), 0);
+    CHECK(src->eof && !src->failed);
+    en_source_close(&src);
+}
+
+TEST(sink_into_missing_directory_fails_cleanly)
+{
+    epsnet_error err;
+    en_sink *s = NULL;
+    CHECK_EQ_INT(en_sink_open(&s, "/nonexistent-dir-epsnet/x.ply", 0, &err), EPSNET_EIO);
+    CHECK(s == NULL);
+    CHECK_STR_CONTAINS(epsnet_error_message(&err), "/nonexistent-dir-epsnet/x.ply");
+}
+
+TEST(spill_round_trips_and_leaves_no_file)
+{
+    char dir[600];
+    snprintf(dir, sizeof dir, "%s/spilldir", tl_tmpdir());
+    mkdir(dir, 0777);
+    epsnet_error err;
+    en_spill *sp = NULL;
+    CHECK_EQ_INT(en_spill_open(&sp, dir, "out.ply", &err), 0);
+    CHECK_EQ_INT(count_entries(dir), 0); /* anonymous from the start */
+    uint64_t sum = 0;
+    for (uint64_t i = 0; i < 300000; i++) {
+        en_spill_write(sp, &i, sizeof i, &err);
+        sum += i;
+    }
+    CHECK_EQ_INT(en_spill_rewind(sp, &err), 0);
+    uint64_t v, back = 0, n = 0;
+    while (en_spill_read(sp, &v, sizeof v, &err) == (int64_t)sizeof v) {
+        back += v;
+        n++;
+    }
+    CHECK_EQ_U64(n, 300000);
+    CHECK_EQ_U64(back, sum);
+    CHECK(en_spill_disk_bytes(sp) < 300000 * 8 / 2); /* compressed */
+    en_spill_close(&sp);
+    CHECK_EQ_INT(count_entries(dir), 0);
+}
+
+TEST(u64set_add_remove_many)
+{
+    en_u64set *s = en_u64set_new();
+    for (uint64_t i = 0; i < 100000; i++)
+        CHECK_EQ_INT(en_u64set_add(s, i * 7919), 1);
+    CHECK_EQ_INT(en_u64set_add(s, 7919), 0);
+    CHECK_EQ_U64(en_u64set_count(s), 100000);
+    for (uint64_t i = 0; i < 100000; i += 2)
+        CHECK_EQ_INT(en_u64set_remove(s, i * 7919), 1);
+    int ok = 1;
+    for (uint64_t i = 0; i < 100000; i++)
+        ok &= en_u64set_has(s, i * 7919) == (int)(i & 1);
+    CHECK(ok);
+    CHECK_EQ_INT(en_u64set_remove(s, 2), 0);
+    CHECK_EQ_U64(en_u64set_count(s), 50000);
+    en_u64set_free(&s);
+    CHECK(s == NULL);
+}
+
+TEST(parse_size_accepts_binary_suffixes)
+{
+    uint64_t v;
+    CHECK_EQ_INT(epsnet_parse_size("64M", &v), 0);
+    CHECK_EQ_U64(v, 64ull << 20);
+    CHECK_EQ_INT(epsnet_parse_size("2G", &v), 0);
+    CHECK_EQ_U64(v, 2ull << 30);
+    CHECK_EQ_INT(epsnet_parse_size("1.5k", &v), 0);
+    CHECK_EQ_U64(v, 1536);
+    CHECK_EQ_INT(epsnet_parse_size("512MiB", &v), 0);
+    CHECK_EQ_U64(v, 512ull << 20);
+    CHECK_EQ_INT(epsnet_parse_size("4096", &v), 0);
+    CHECK_EQ_U64(v, 4096);
+    CHECK_EQ_INT(epsnet_parse_size("-1M", &v), EPSNET_EINVAL);
+    CHECK_EQ_INT(epsnet_parse_size("12Q", &v), EPSNET_EINVAL);
+    CHECK_EQ_INT(epsnet_parse_size("", &v), EPSNET_EINVAL);
+    CHECK_EQ_INT(epsnet_parse_size("1e30G", &v), EPSNET_EINVAL);
+}
+
+TEST(error_messages_name_file_and_position)
+{
+    epsnet_error e;
+    en_error_set(&e, EPSNET_EFORMAT, "m.obj", 12, EPSNET_POS_NONE, "index %d out of range", 9);
+    CHECK(strcmp(epsnet_error_message(&e), "m.obj:12: index 9 out of range") == 0);
+    en_error_set(&e, EPSNET_EFORMAT, "m.ply", EPSNET_POS_NONE, 4096, "truncated\nfile");
+    CHECK(strcmp(epsnet_error_message(&e), "m.ply: byte 4096: truncated file") == 0);
+    CHECK(strcmp(epsnet_strerror(EPSNET_ELIMIT), "limit exceeded") == 0);
+}
+
+TEST(format_coord_is_shortest_exact)
+{
+    char buf[32];
+    en_format_coord(buf, (double)0.1f, EPSNET_COORD_FLOAT32);
+    CHECK(strcmp(buf, "0.1") == 0);
+    en_format_coord(buf, 0.1, EPSNET_COORD_FLOAT64);
+    CHECK(strcmp(buf, "0.1") == 0);
+    double hard = 1.0 / 3.0;
+    en_format_coord(buf, hard, EPSNET_COORD_FLOAT64);
+    CHECK(strtod(buf, NULL) == hard);
+    float hf = 16777217.0f / 3.0f;
+    en_format_coord(buf, (double)hf, EPSNET_COORD_FLOAT32);
+    CHECK(strtof(buf, NULL) == hf);
+}
+
+int main(void)
+{
+    RUN(source_lines_handle_crlf_and_missing_final_newline);
+    RUN(source_rejects_overlong_line_with_its_number);
+    RUN(source_reads_zstd_transparently_whatever_the_name);
+    RUN(source_reports_corrupt_zstd);
+    RUN(sink_commit_renames_and_abort_leaves_nothing);
+    RUN(sink_zstd_output_reads_back);
+    RUN(sink_into_missing_directory_fails_cleanly);
+    RUN(spill_round_trips_and_leaves_no_file);
+    RUN(u64set_add_remove_many);
+    RUN(parse_size_accepts_binary_suffixes);
+    RUN(error_messages_name_file_and_position);
+    RUN(format_coord_is_shortest_exact);
+    tl_cleanup();
+    return tl_finish();
+}

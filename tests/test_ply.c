@@ -1,0 +1,853 @@
+/*
+ * PLY reader and writer (src/io/fmt_ply.c).
+ *
+ * The reference mesh: a tetrahedron and, beside it, a quad that the reader
+ * must split into two triangles by a fan from its first corner.
+ *
+ *        3                     7 ------ 6
+ *        |\                    |      / |
+ *        | \                   |    /   |
+ *        |  2                  |  /     |
+ *        | / \                 |/       |
+ *        0 --- 1               4 ------ 5
+ *
+ *   tetrahedron faces: (0 2 1) (0 1 3) (0 3 2) (1 2 3)
+ *   quad (4 5 6 7)  -> (4 5 6) (4 6 7)
+ *
+ * Coordinates are not round numbers (0.1, 1e-3, ...) so that every path has
+ * to carry float32 bits exactly.
+ */
+#include <dirent.h>
+#include <stdint.h>
+
+#include "testlib.h"
+
+#define NV 8
+static const float ref_xyz[NV][3] = {
+    { 0.1f, 0.2f, 0.3f },   { 1.5f, -0.25f, 0.001f }, { 0.7f, 1.1f, -3.75f }, { 1e-3f, 2.0f, 1e6f },
+    { 2.0f, 0.0f, 0.0f },   { 3.0f, 0.1f, 0.0f },     { 3.0f, 1.0f, 0.2f },   { 2.0f, 1.0f, 0.3f },
+};
+#define NPOLY 5
+static const int ref_poly_n[NPOLY] = { 3, 3, 3, 3, 4 };
+static const uint32_t ref_poly[NPOLY][4] = {
+    { 0, 2, 1, 0 }, { 0, 1, 3, 0 }, { 0, 3, 2, 0 }, { 1, 2, 3, 0 }, { 4, 5, 6, 7 },
+};
+#define NT 6
+static const uint64_t ref_tri[NT][3] = {
+    { 0, 2, 1 }, { 0, 1, 3 }, { 0, 3, 2 }, { 1, 2, 3 }, { 4, 5, 6 }, { 4, 6, 7 },
+};
+
+/* ---- a tiny PLY encoder for inputs (independent of the code under test) ---- */
+
+typedef struct bytes {
+    uint8_t *d;
+    size_t n, cap;
+} bytes;
+
+static void b_put(bytes *b, const void *p, size_t n)
+{
+    if (b->n + n > b->cap) {
+        b->cap = (b->n + n) * 2 + 256;
+        b->d = realloc(b->d, b->cap);
+    }
+    memcpy(b->d + b->n, p, n);
+    b->n += n;
+}
+
+static void b_str(bytes *b, const char *s)
+{
+    b_put(b, s, strlen(s));
+}
+
+static int host_is_be(void)
+{
+    const uint16_t one = 1;
+    return *(const uint8_t *)&one == 0;
+}
+
+/* Put the n-byte value v in the file's byte order. */
+static void b_num(bytes *b, const void *v, size_t n, int be)
+{
+    uint8_t tmp[8];
+    memcpy(tmp, v, n);
+    if (be != host_is_be())
+        for (size_t i = 0; i < n / 2; i++) {
+            uint8_t t = tmp[i];
+            tmp[i] = tmp[n - 1 - i];
+            tmp[n - 1 - i] = t;
+        }
+    b_put(b, tmp, n);
+}
+
+/* Encode an integer as one of the PLY integer types. */
+static void b_int(bytes *b, const char *type, int64_t v, int be)
+{
+    if (!strcmp(type, "uchar") || !strcmp(type, "char") || !strcmp(type, "uint8") || !strcmp(type, "int8")) {
+        int8_t x = (int8_t)v;
+        b_num(b, &x, 1, be);
+    } else if (!strcmp(type, "ushort") || !strcmp(type, "short") || !strcmp(type, "uint16") ||
+               !strcmp(type, "int16")) {
+        int16_t x = (int16_t)v;
+        b_num(b, &x, 2, be);
+    } else {
+        int32_t x = (int32_t)v;
+        b_num(b, &x, 4, be);
+    }
+}
+
+enum { ASCII, LE, BE };
+static const char *enc_name[] = { "ascii", "binary_little_endian", "binary_big_endian" };
+
+typedef struct layout {
+    int with_extras;          /* normals, colours and extra elements */
+    const char *count_type;   /* face list types */
+    const char *index_type;
+} layout;
+
+/* The reference mesh as PLY in encoding enc. */
+static bytes make_ply(int enc, const layout *l)
+{
+    bytes b = { 0 };
+    char line[256];
+    snprintf(line, sizeof line, "ply\nformat %s 1.0\ncomment test mesh\n", enc_name[enc]);
+    b_str(&b, line);
+    if (l->with_extras)
+        b_str(&b, "obj_info scanner 7\nelement camera 1\nproperty float view_px\nproperty uchar flag\n");
+    snprintf(line, sizeof line, "element vertex %d\n", NV);
+    b_str(&b, line);
+    if (l->with_extras)
+        b_str(&b, "property double confidence\nproperty float x\nproperty uchar red\nproperty uchar green\n"
+                  "property uchar blue\nproperty float y\nproperty float nx\nproperty float ny\n"
+                  "property float nz\nproperty float z\nproperty short intensity\n");
+    else
+        b_str(&b, "property float x\nproperty float y\nproperty float z\n");
+    if (l->with_extras)
+        b_str(&b, "element edge 2\nproperty int vertex1\nproperty list uchar int tags\nproperty int vertex2\n");
+    snprintf(line, sizeof line, "element face %d\n", NPOLY);
+    b_str(&b, line);
+    if (l->with_extras)
+        b_str(&b, "property uchar flags\n");
+    snprintf(line, sizeof line, "property list %s %s vertex_indices\n", l->count_type, l->index_type);
+    b_str(&b, line);
+    if (l->with_extras)
+        b_str(&b, "property list uchar float texcoord\nelement material 1\nproperty uchar ambient_red\n");
+    b_str(&b, "end_header\n");
+
+    if (l->with_extras) {
+        if (enc == ASCII) {
+            b_str(&b, "0.5 7\n");
+        } else {
+            float f = 0.5f;
+            b_num(&b, &f, 4, enc == BE);
+            b_int(&b, "uchar", 7, 0);
+        }
+    }
+    for (int i = 0; i < NV; i++) {
+        const float *p = ref_xyz[i];
+        if (enc == ASCII) {
+            if (l->with_extras)
+                snprintf(line, sizeof line, "0.25 %.9g 255 128 0 %.9g 0 0 1 %.9g -12\n", (double)p[0],
+                         (double)p[1], (double)p[2]);
+            else
+                snprintf(line, sizeof line, "%.9g %.9g %.9g\n", (double)p[0], (double)p[1], (double)p[2]);
+            b_str(&b, line);
+            continue;
+        }
+        double conf = 0.25;
+        float n[3] = { 0, 0, 1 };
+        if (l->with_extras)
+            b_num(&b, &conf, 8, enc == BE);
+        b_num(&b, &p[0], 4, enc == BE);
+        if (l->with_extras)
+            b_put(&b, "\xff\x80\x00", 3);
+        b_num(&b, &p[1], 4, enc == BE);
+        if (l->with_extras)
+            for (int k = 0; k < 3; k++)
+                b_num(&b, &n[k], 4, enc == BE);
+        b_num(&b, &p[2], 4, enc == BE);
+        if (l->with_extras)
+            b_int(&b, "short", -12, enc == BE);
+    }
+    if (l->with_extras) {
+        for (int e = 0; e < 2; e++) {
+            if (enc == ASCII) {
+                b_str(&b, e ? "1 0 2\n" : "0 2 5 6 1\n");
+                continue;
+            }
+            b_int(&b, "int", e, enc == BE);
+            b_int(&b, "uchar", e ? 0 : 2, 0);
+            for (int k = 0; k < (e ? 0 : 2); k++)
+                b_int(&b, "int", 5 + k, enc == BE);
+            b_int(&b, "int", e + 1, enc == BE);
+        }
+    }
+    for (int f = 0; f < NPOLY; f++) {
+        if (enc == ASCII) {
+            int n = 0;
+            if (l->with_extras)
+                n += snprintf(line + n, sizeof line - (size_t)n, "9 ");
+            n += snprintf(line + n, sizeof line - (size_t)n, "%d", ref_poly_n[f]);
+            for (int k = 0; k < ref_poly_n[f]; k++)
+                n += snprintf(line + n, sizeof line - (size_t)n, " %u", ref_poly[f][k]);
+            if (l->with_extras)
+                n += snprintf(line + n, sizeof line - (size_t)n, " 2 0.5 0.75");
+            snprintf(line + n, sizeof line - (size_t)n, "\n");
+            b_str(&b, line);
+            continue;
+        }
+        if (l->with_extras)
+            b_int(&b, "uchar", 9, 0);
+        b_int(&b, l->count_type, ref_poly_n[f], enc == BE);
+        for (int k = 0; k < ref_poly_n[f]; k++)
+            b_int(&b, l->index_type, ref_poly[f][k], enc == BE);
+        if (l->with_extras) {
+            float t[2] = { 0.5f, 0.75f };
+            b_int(&b, "uchar", 2, 0);
+            b_num(&b, &t[0], 4, enc == BE);
+            b_num(&b, &t[1], 4, enc == BE);
+        }
+    }
+    if (l->with_extras)
+        b_str(&b, enc == ASCII ? "3\n" : "\x03");
+    return b;
+}
+
+static void check_reference(const tl_mesh *m)
+{
+    CHECK_EQ_U64(m->nv, NV);
+    CHECK_EQ_U64(m->nt, NT);
+    CHECK_EQ_U64(m->nfin, 0);
+    if (m->nv != NV || m->nt != NT)
+        return;
+    for (int i = 0; i < NV; i++)
+        for (int k = 0; k < 3; k++)
+            CHECK(m->xyz[3 * i + k] == (double)ref_xyz[i][k]);
+    for (int t = 0; t < NT; t++)
+        for (int k = 0; k < 3; k++)
+            CHECK_EQ_U64(m->tri[3 * t + k], ref_tri[t][k]);
+}
+
+static const char *write_bytes(const char *name, bytes *b)
+{
+    const char *p = tl_write(name, b->d, b->n);
+    free(b->d);
+    b->d = NULL;
+    return p;
+}
+
+/* ---- reading ---- */
+
+TEST(ascii_le_and_be_give_the_reference_records)
+{
+    static const char *names[] = { "ref_ascii.ply", "ref_le.ply", "ref_be.ply" };
+    static const char *enc_info[] = { "ascii", "binary_le", "binary_be" };
+    layout l = { 0, "uchar", "int" };
+    for (int enc = ASCII; enc <= BE; enc++) {
+        bytes b = make_ply(enc, &l);
+        const char *p = write_bytes(names[enc], &b);
+        tl_mesh m;
+        epsnet_error err;
+        int rc = tl_read_mesh(p, &m, &err);
+        CHECK_EQ_INT(rc, 0);
+        if (rc)
+            fprintf(stderr, "  %s\n", epsnet_error_message(&err));
+        check_reference(&m);
+        CHECK(strcmp(m.info.format, "ply") == 0);
+        CHECK(strcmp(m.info.encoding, enc_info[enc]) == 0);
+        CHECK_EQ_U64(m.info.nverts, NV);
+        CHECK_EQ_U64(m.info.nfaces, EPSNET_COUNT_UNKNOWN);
+        CHECK_EQ_INT(m.info.coord_type, EPSNET_COORD_FLOAT32);
+        tl_mesh_free(&m);
+    }
+}
+
+TEST(extra_properties_and_elements_are_skipped)
+{
+    static const char *names[] = { "extra_ascii.ply", "extra_le.ply", "extra_be.ply" };
+    layout l = { 1, "uchar", "int" };
+    for (int enc = ASCII; enc <= BE; enc++) {
+        bytes b = make_ply(enc, &l);
+        const char *p = write_bytes(names[enc], &b);
+        tl_mesh m;
+        epsnet_error err;
+        int rc = tl_read_mesh(p, &m, &err);
+        CHECK_EQ_INT(rc, 0);
+        if (rc)
+            fprintf(stderr, "  %s\n", epsnet_error_message(&err));
+        check_reference(&m);
+        tl_mesh_free(&m);
+    }
+}
+
+TEST(every_list_type_pair_reads_the_same_faces)
+{
+    static const char *pairs[][2] = {
+        { "uchar", "int" }, { "ushort", "uint" }, { "int", "int" }, { "uint8", "uint16" },
+        { "char", "short" }, { "int32", "uint32" }, { "uchar", "uchar" },
+    };
+    for (size_t i = 0; i < sizeof pairs / sizeof pairs[0]; i++)
+        for (int enc = ASCII; enc <= BE; enc++) {
+            layout l = { 0, pairs[i][0], pairs[i][1] };
+            bytes b = make_ply(enc, &l);
+            char name[64];
+            snprintf(name, sizeof name, "types_%zu_%d.ply", i, enc);
+            const char *p = write_bytes(name, &b);
+            tl_mesh m;
+            epsnet_error err;
+            CHECK_EQ_INT(tl_read_mesh(p, &m, &err), 0);
+            check_reference(&m);
+            tl_mesh_free(&m);
+        }
+}
+
+TEST(double_coordinates_set_float64_and_stay_exact)
+{
+    bytes b = { 0 };
+    b_str(&b, "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty double x\n"
+              "property double y\nproperty double z\nelement face 1\n"
+              "property list uchar uint vertex_index\nend_header\n");
+    const double v[9] = { 0.1, 0.2, 0.3, 1.0 / 3, -2e300, 5e-310, 7, 8, 9 };
+    for (int i = 0; i < 9; i++)
+        b_num(&b, &v[i], 8, 1);
+    b_int(&b, "uchar", 3, 1);
+    for (int k = 0; k < 3; k++)
+        b_int(&b, "uint", 2 - k, 1);
+    const char *p = write_bytes("double.ply", &b);
+    tl_mesh m;
+    epsnet_error err;
+    CHECK_EQ_INT(tl_read_mesh(p, &m, &err), 0);
+    CHECK_EQ_INT(m.info.coord_type, EPSNET_COORD_FLOAT64);
+    CHECK_EQ_U64(m.nv, 3);
+    CHECK_EQ_U64(m.nt, 1);
+    if (m.nv == 3)
+        CHECK(memcmp(m.xyz, v, sizeof v) == 0);
+    if (m.nt == 1) {
+        CHECK_EQ_U64(m.tri[0], 2);
+        CHECK_EQ_U64(m.tri[1], 1);
+        CHECK_EQ_U64(m.tri[2], 0);
+    }
+    tl_mesh_free(&m);
+}
+
+/*   Polygons with 0, 1 and 2 corners carry no triangle: skipped, not fatal.
+ *   A pentagon fans into (0 1 2) (0 2 3) (0 3 4). */
+TEST(short_polygons_are_skipped_and_pentagons_fanned)
+{
+    const char *p = tl_write_str("short.ply",
+                                 "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+                                 "property float z\nelement face 4\nproperty list uchar int vertex_indices\n"
+                                 "end_header\n0 0 0\n1 0 0\n1 1 0\n0.5 2 0\n0 1 0\n0\n1 3\n2 0 1\n5 0 1 2 3 4\n");
+    tl_mesh m;
+    epsnet_error err;
+    CHECK_EQ_INT(tl_read_mesh(p, &m, &err), 0);
+    CHECK_EQ_U64(m.nv, 5);
+    CHECK_EQ_U64(m.nt, 3);
+    const uint64_t want[9] = { 0, 1, 2, 0, 2, 3, 0, 3, 4 };
+    if (m.nt == 3)
+        CHECK(memcmp(m.tri, want, sizeof want) == 0);
+    tl_mesh_free(&m);
+}
+
+/* A polygon of 300000 corners (1.2 MB of indices, more than the reader's
+ * window) still fans into 299998 triangles (0 k k+1), here over 3 vertices
+ * whose indices cycle 0 1 2 0 1 2 ... */
+TEST(polygon_longer_than_the_read_window_is_fanned)
+{
+    const int corners = 300000;
+    bytes b = { 0 };
+    b_str(&b, "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+              "property float z\nelement face 1\nproperty list int int vertex_indices\nend_header\n");
+    for (int i = 0; i < 9; i++) {
+        float f = (float)i;
+        b_num(&b, &f, 4, 0);
+    }
+    b_int(&b, "int", corners, 0);
+    for (int k = 0; k < corners; k++)
+        b_int(&b, "int", k % 3, 0);
+    const char *p = write_bytes("long_polygon.ply", &b);
+    tl_mesh m;
+    epsnet_error err;
+    CHECK_EQ_INT(tl_read_mesh(p, &m, &err), 0);
+    CHECK_EQ_U64(m.nt, (uint64_t)corners - 2);
+    int bad = 0;
+    for (uint64_t t = 0; t < m.nt; t++)
+        bad += m.tri[3 * t] != 0 || m.tri[3 * t + 1] != (t + 1) % 3 || m.tri[3 * t + 2] != (t + 2) % 3;
+    CHECK_EQ_INT(bad, 0);
+    tl_mesh_free(&m);
+}
+
+TEST(empty_mesh_and_point_cloud_are_valid)
+{
+    const char *p = tl_write_str("empty.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 0\n"
+                                              "property float x\nproperty float y\nproperty float z\n"
+                                              "element face 0\nproperty list uchar int vertex_indices\n"
+                                              "end_header\n");
+    tl_mesh m;
+    epsnet_error err;
+    CHECK_EQ_INT(tl_read_mesh(p, &m, &err), 0);
+    CHECK_EQ_U64(m.nv, 0);
+    CHECK_EQ_U64(m.nt, 0);
+    CHECK_EQ_U64(m.info.nfaces, 0);
+    tl_mesh_free(&m);
+    p = tl_write_str("points.ply", "ply\r\nformat ascii 1.0\r\nelement vertex 2\r\nproperty float x\r\n"
+                                   "property float y\r\nproperty float z\r\nend_header\r\n1 2 3\r\n4 5 6\r\n\r\n");
+    CHECK_EQ_INT(tl_read_mesh(p, &m, &err), 0);
+    CHECK_EQ_U64(m.nv, 2);
+    CHECK_EQ_U64(m.nt, 0);
+    if (m.nv == 2)
+        CHECK(m.xyz[5] == 6.0);
+    tl_mesh_free(&m);
+}
+
+TEST(content_probe_finds_ply_without_the_extension)
+{
+    layout l = { 0, "uchar", "int" };
+    bytes b = make_ply(LE, &l);
+    const char *p = write_bytes("mesh.data", &b);
+    tl_mesh m;
+    epsnet_error err;
+    CHECK_EQ_INT(tl_read_mesh(p, &m, &err), 0);
+    check_reference(&m);
+    tl_mesh_free(&m);
+}
+
+/* ---- bad input: one error with file, position and reason ---- */
+
+static void expect_error(const char *name, const void *data, size_t n, int code, const char *where,
+                         const char *reason)
+{
+    const char *p = tl_write(name, data, n);
+    tl_mesh m;
+    epsnet_error err;
+    memset(&err, 0, sizeof err);
+    int rc = tl_read_mesh(p, &m, &err);
+    tl_mesh_free(&m);
+    CHECK_EQ_INT(rc, code);
+    const char *msg = epsnet_error_message(&err);
+    CHECK_STR_CONTAINS(msg, p);
+    CHECK_STR_CONTAINS(msg, where);
+    CHECK_STR_CONTAINS(msg, reason);
+}
+
+static void expect_error_str(const char *name, const char *text, int code, const char *where,
+                             const char *reason)
+{
+    expect_error(name, text, strlen(text), code, where, reason);
+}
+
+#define HDR_ASCII                                                                                  \
+    "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n" \
+    "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+/* HDR_ASCII is 9 lines: the first vertex is on line 10, the face on line 13. */
+
+TEST(truncated_binary_names_the_byte_offset)
+{
+    layout l = { 0, "uchar", "int" };
+    bytes b = make_ply(LE, &l);
+    size_t header = (size_t)(strstr((char *)b.d, "end_header\n") - (char *)b.d) + 11;
+    /* cut in the middle of vertex 6 (0-based 5): it starts at header + 60 */
+    char where[64];
+    snprintf(where, sizeof where, ": byte %zu:", header + 60);
+    expect_error("trunc_v.ply", b.d, header + 60 + 7, EPSNET_EFORMAT, where, "truncated");
+    /* cut inside the indices of the quad, after 4 faces of 13 bytes: the
+     * error points at the start of the face that is incomplete */
+    size_t faces = header + 12 * NV;
+    snprintf(where, sizeof where, ": byte %zu:", faces + 4 * 13);
+    expect_error("trunc_f.ply", b.d, faces + 4 * 13 + 1 + 4 * 2 + 3, EPSNET_EFORMAT, where,
+                 "face 5 of 5 is incomplete");
+    free(b.d);
+}
+
+TEST(truncated_ascii_names_the_last_line)
+{
+    expect_error_str("trunc.ply", HDR_ASCII "0 0 0\n1 0 0\n0 1 0\n", EPSNET_EFORMAT, ":12:",
+                     "face 1 of 1 is missing");
+    expect_error_str("trunc_v.ply", HDR_ASCII "0 0 0\n1 0 0\n", EPSNET_EFORMAT, ":11:",
+                     "vertex 3 of 3 is missing");
+}
+
+TEST(vertex_count_lying_up_or_down_is_an_error)
+{
+    /* up: the face line is read as a fourth vertex and has a value too many */
+    expect_error_str("lie_up.ply",
+                     "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+                     "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                     "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+                     EPSNET_EFORMAT, ":13:", "extra value '2'");
+    /* down: the third vertex is read as a face and '0.5' is no count */
+    expect_error_str("lie_down.ply",
+                     "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+                     "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                     "0 0 0\n1 0 0\n0.5 1 0\n3 0 1 2\n",
+                     EPSNET_EFORMAT, ":12:", "'0.5' is not a valid uchar list count");
+    /* down, and the records happen to parse: the surplus is trailing data */
+    expect_error_str("lie_down2.ply",
+                     "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                     "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                     "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 2 1 0\n",
+                     EPSNET_EFORMAT, ":14:", "trailing data");
+    /* binary, count lying down: the leftover bytes are trailing data */
+    layout l = { 0, "uchar", "int" };
+    bytes b = make_ply(LE, &l);
+    char *five = strstr((char *)b.d, "element face 5");
+    five[13] = '4';
+    size_t header = (size_t)(strstr((char *)b.d, "end_header\n") - (char *)b.d) + 11;
+    char where[64];
+    snprintf(where, sizeof where, ": byte %zu:", header + 12 * NV + 4 * 13);
+    expect_error("lie_bin.ply", b.d, b.n, EPSNET_EFORMAT, where, "trailing data");
+    free(b.d);
+}
+
+TEST(bad_indices_are_rejected_with_their_position)
+{
+    expect_error_str("range.ply", HDR_ASCII "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", EPSNET_EFORMAT, ":13:",
+                     "references vertex 4 but only 3 vertices precede it");
+    expect_error_str("neg.ply", HDR_ASCII "0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n", EPSNET_EFORMAT, ":13:",
+                     "negative vertex index -1");
+    layout l = { 0, "uchar", "int" };
+    bytes b = make_ply(BE, &l);
+    size_t header = (size_t)(strstr((char *)b.d, "end_header\n") - (char *)b.d) + 11;
+    size_t third_index_of_face2 = header + 12 * NV + 13 + 1 + 8;
+    b.d[third_index_of_face2 + 3] = 8;   /* big-endian int 3 -> 8 */
+    char where[64];
+    snprintf(where, sizeof where, ": byte %zu:", third_index_of_face2);
+    expect_error("range_be.ply", b.d, b.n, EPSNET_EFORMAT, where, "vertex index 8 is out of range");
+    memset(b.d + third_index_of_face2, 0xff, 4);
+    expect_error("neg_be.ply", b.d, b.n, EPSNET_EFORMAT, where, "negative vertex index -1");
+    free(b.d);
+}
+
+TEST(non_finite_and_garbage_values_are_rejected)
+{
+    expect_error_str("nan.ply", HDR_ASCII "0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n", EPSNET_EFORMAT, ":11:",
+                     "non-finite");
+    expect_error_str("inf.ply", HDR_ASCII "0 0 0\n1 0 1e999\n0 1 0\n3 0 1 2\n", EPSNET_EFORMAT, ":11:",
+                     "non-finite");
+    expect_error_str("garbage.ply", HDR_ASCII "0 0 0\n1 abc 0\n0 1 0\n3 0 1 2\n", EPSNET_EFORMAT, ":11:",
+                     "'abc' is not a valid float for 'y'");
+    expect_error_str("missing.ply", HDR_ASCII "0 0 0\n1 0\n0 1 0\n3 0 1 2\n", EPSNET_EFORMAT, ":11:",
+                     "missing value for 'z'");
+    layout l = { 0, "uchar", "int" };
+    bytes b = make_ply(LE, &l);
+    size_t header = (size_t)(strstr((char *)b.d, "end_header\n") - (char *)b.d) + 11;
+    memcpy(b.d + header + 12 * 2 + 4, "\x00\x00\xc0\x7f", 4);   /* y of vertex 3 = NaN */
+    char where[64];
+    snprintf(where, sizeof where, ": byte %zu:", header + 12 * 2);
+    expect_error("nan_le.ply", b.d, b.n, EPSNET_EFORMAT, where, "vertex 3 has a non-finite coordinate");
+    free(b.d);
+}
+
+TEST(absurd_counts_fail_before_reading_data)
+{
+    expect_error_str("huge.ply",
+                     "ply\nformat binary_little_endian 1.0\nelement vertex 1099511627776\nproperty float x\n"
+                     "property float y\nproperty float z\nend_header\n",
+                     EPSNET_ELIMIT, ":3:", "vertex count 1099511627776 exceeds the limit");
+    expect_error_str("hugelist.ply",
+                     "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                     "property float z\nelement face 1\nproperty list int int vertex_indices\nend_header\n"
+                     "0 0 0\n1 0 0\n0 1 0\n200000000 0 1 2\n",
+                     EPSNET_EFORMAT, ":13:", "list count 200000000 is out of range");
+    bytes b = { 0 };
+    b_str(&b, "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+              "property float z\nelement face 1\nproperty list int int vertex_indices\nend_header\n");
+    size_t header = b.n;
+    float zero = 0;
+    for (int i = 0; i < 9; i++)
+        b_num(&b, &zero, 4, 0);
+    b_int(&b, "int", 200000000, 0);
+    char where[64];
+    snprintf(where, sizeof where, ": byte %zu:", header + 36);
+    expect_error("hugelist_le.ply", b.d, b.n, EPSNET_EFORMAT, where, "list count 200000000 is out of range");
+    free(b.d);
+}
+
+TEST(header_errors_name_their_line)
+{
+    expect_error_str("face_first.ply",
+                     "ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\n"
+                     "element vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
+                     "3 0 1 2\n0 0 0\n1 0 0\n0 1 0\n",
+                     EPSNET_EFORMAT, ":5:", "'face' comes before element 'vertex'");
+    expect_error_str("format.ply", "ply\nformat binary_middle_endian 1.0\nend_header\n", EPSNET_EFORMAT, ":2:",
+                     "unknown PLY format 'binary_middle_endian'");
+    expect_error_str("no_z.ply",
+                     "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n1 2\n",
+                     EPSNET_EFORMAT, ":6:", "lacks property 'z'");
+    expect_error_str("type.ply",
+                     "ply\nformat ascii 1.0\nelement vertex 1\nproperty float128 x\nend_header\n", EPSNET_EFORMAT,
+                     ":4:", "unknown property type 'float128'");
+    expect_error_str("no_end.ply", "ply\nformat ascii 1.0\nelement vertex 0\n", EPSNET_EFORMAT, ":3:",
+                     "no 'end_header'");
+    expect_error_str("keyword.ply", "ply\nformat ascii 1.0\nelemnt vertex 0\nend_header\n", EPSNET_EFORMAT, ":3:",
+                     "unknown header keyword 'elemnt'");
+}
+
+/* ---- writing ---- */
+
+static int count_dir_entries(void)
+{
+    DIR *d = opendir(tl_tmpdir());
+    int n = 0;
+    struct dirent *e;
+    while ((e = readdir(d)))
+        if (strcmp(e->d_name, ".") && strcmp(e->d_name, ".."))
+            n++;
+    closedir(d);
+    return n;
+}
+
+/*
+ * A streaming input: triangles interleaved with vertices, and FINALIZE
+ * records, as the generator and the simplifier produce them.
+ *
+ *   v0 v1 v2 T(0 1 2) F0 v3 T(1 3 2) F1 v4 T(2 3 4) F2 F3 F4
+ */
+static const double stream_xyz[5][3] = {
+    { 0.1, 0.2, 0.3 }, { 1.0 / 3, 2.5, -1e-7 }, { 7e20, -0.0, 1.25 }, { 2, 3, 4 }, { -5, 6.000001, 0.7 },
+};
+static const uint64_t stream_tri[3][3] = { { 0, 1, 2 }, { 1, 3, 2 }, { 2, 3, 4 } };
+
+static int write_stream(const char *path, const epsnet_writer_settings *ws, const epsnet_mesh_info *info,
+                        epsnet_error *err)
+{
+    epsnet_writer *w = NULL;
+    int rc = epsnet_writer_open(&w, path, ws, info, err);
+    if (rc)
+        return rc;
+    static const char plan[] = "vvvtfvtfvtfff";
+    int v = 0, t = 0, f = 0;
+    for (const char *c = plan; *c && rc == 0; c++) {
+        epsnet_record rec;
+        memset(&rec, 0, sizeof rec);
+        if (*c == 'v') {
+            rec.kind = EPSNET_REC_VERTEX;
+            memcpy(rec.xyz, stream_xyz[v++], sizeof rec.xyz);
+        } else if (*c == 't') {
+            rec.kind = EPSNET_REC_TRIANGLE;
+            memcpy(rec.v, stream_tri[t++], sizeof rec.v);
+        } else {
+            rec.kind = EPSNET_REC_FINALIZE;
+            rec.v[0] = (uint64_t)f++;
+        }
+        rc = epsnet_writer_put(w, &rec, err);
+    }
+    if (rc == 0)
+        return epsnet_writer_commit(&w, err);
+    epsnet_writer_abort(&w);
+    return rc;
+}
+
+static void check_stream(const char *path, int coord64)
+{
+    tl_mesh m;
+    epsnet_error err;
+    int rc = tl_read_mesh(path, &m, &err);
+    CHECK_EQ_INT(rc, 0);
+    if (rc)
+        fprintf(stderr, "  %s\n", epsnet_error_message(&err));
+    CHECK_EQ_U64(m.nv, 5);
+    CHECK_EQ_U64(m.nt, 3);
+    CHECK_EQ_U64(m.nfin, 0);
+    CHECK_EQ_INT(m.info.coord_type, coord64 ? EPSNET_COORD_FLOAT64 : EPSNET_COORD_FLOAT32);
+    if (m.nv == 5)
+        for (int i = 0; i < 5; i++)
+            for (int k = 0; k < 3; k++) {
+                double want = coord64 ? stream_xyz[i][k] : (double)(float)stream_xyz[i][k];
+                CHECK(memcmp(&m.xyz[3 * i + k], &want, sizeof want) == 0);
+            }
+    if (m.nt == 3)
+        CHECK(memcmp(m.tri, stream_tri, sizeof stream_tri) == 0);
+    tl_mesh_free(&m);
+}
+
+TEST(streaming_input_round_trips_in_every_writer_mode)
+{
+    static const char *names[] = { "rt.ply", "rt.ply.zst" };
+    for (int zst = 0; zst < 2; zst++)
+        for (int ascii = 0; ascii < 2; ascii++)
+            for (int coord64 = 0; coord64 < 2; coord64++)
+                for (int known = 0; known < 2; known++) {
+                    epsnet_writer_settings ws;
+                    epsnet_writer_default_settings(&ws);
+                    ws.ascii = ascii;
+                    ws.coord_type = coord64;
+                    epsnet_mesh_info info;
+                    memset(&info, 0, sizeof info);
+                    info.nverts = known ? 5 : EPSNET_COUNT_UNKNOWN;
+                    info.nfaces = known ? 3 : EPSNET_COUNT_UNKNOWN;
+                    info.sorted_axis = -1;
+                    const char *p = tl_path(names[zst]);
+                    epsnet_error err;
+                    int rc = write_stream(p, &ws, &info, &err);
+                    CHECK_EQ_INT(rc, 0);
+                    if (rc)
+                        fprintf(stderr, "  zst=%d ascii=%d coord64=%d known=%d: %s\n", zst, ascii, coord64,
+                                known, epsnet_error_message(&err));
+                    check_stream(p, coord64);
+                    remove(p);
+                }
+}
+
+TEST(reference_mesh_round_trips_through_the_writer)
+{
+    layout l = { 1, "ushort", "uint" };
+    bytes b = make_ply(BE, &l);
+    const char *in = write_bytes("rt_in.ply", &b);
+    tl_mesh m;
+    epsnet_error err;
+    CHECK_EQ_INT(tl_read_mesh(in, &m, &err), 0);
+    for (int ascii = 0; ascii < 2; ascii++) {
+        epsnet_writer_settings ws;
+        epsnet_writer_default_settings(&ws);
+        ws.ascii = ascii;
+        const char *out = tl_path(ascii ? "rt_out_a.ply" : "rt_out_b.ply");
+        CHECK_EQ_INT(tl_write_mesh(out, &m, &ws, &err), 0);
+        tl_mesh back;
+        CHECK_EQ_INT(tl_read_mesh(out, &back, &err), 0);
+        check_reference(&back);
+        CHECK(strcmp(back.info.encoding, ascii ? "ascii" : "binary_le") == 0);
+        tl_mesh_free(&back);
+    }
+    tl_mesh_free(&m);
+}
+
+TEST(binary_output_is_standard_little_endian_ply)
+{
+    /*   0 --- 1      one triangle, float coordinates, known counts
+     *    \   /
+     *      2                                                          */
+    tl_mesh m;
+    memset(&m, 0, sizeof m);
+    double xyz[9] = { 0, 0, 0, 1, 0, 0, 0.5, -1, 0 };
+    uint64_t tri[3] = { 0, 2, 1 };
+    m.xyz = xyz;
+    m.tri = tri;
+    m.nv = 3;
+    m.nt = 1;
+    m.info.coord_type = EPSNET_COORD_FLOAT32;
+    const char *out = tl_path("std.ply");
+    epsnet_error err;
+    CHECK_EQ_INT(tl_write_mesh(out, &m, NULL, &err), 0);
+    FILE *f = fopen(out, "rb");
+    char buf[2048];
+    size_t n = f ? fread(buf, 1, sizeof buf - 1, f) : 0;
+    if (f)
+        fclose(f);
+    buf[n] = '\0';
+    CHECK(strncmp(buf, "ply\nformat binary_little_endian 1.0\n", 36) == 0);
+    CHECK_STR_CONTAINS(buf, "\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                            "element face 1\nproperty list uchar int vertex_indices\n");
+    char *end = strstr(buf, "end_header\n");
+    CHECK(end != NULL);
+    if (end) {
+        size_t body = (size_t)(end + 11 - buf);
+        CHECK_EQ_U64(n, body + 36 + 13);
+        const uint8_t face[13] = { 3, 0, 0, 0, 0, 2, 0, 0, 0, 1, 0, 0, 0 };
+        CHECK(n >= body + 49 && memcmp(buf + body + 36, face, 13) == 0);
+        float y2 = -1;
+        uint8_t le[4];
+        memcpy(le, &y2, 4);
+        if (host_is_be())
+            for (int i = 0; i < 2; i++) {
+                uint8_t t = le[i];
+                le[i] = le[3 - i];
+                le[3 - i] = t;
+            }
+        CHECK(n >= body + 36 && memcmp(buf + body + 28, le, 4) == 0);
+    }
+}
+
+TEST(failed_conversion_leaves_no_output)
+{
+    const char *in = tl_write_str("bad_in.ply", HDR_ASCII "0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
+    int before = count_dir_entries();
+    static const char *outs[] = { "never.ply", "never.ply.zst" };
+    for (int i = 0; i < 2; i++) {
+        epsnet_reader *r = NULL;
+        epsnet_writer *w = NULL;
+        epsnet_error err;
+        int rc = epsnet_reader_open(&r, in, NULL, &err);
+        CHECK_EQ_INT(rc, 0);
+        const char *out = tl_path(outs[i]);
+        if (rc == 0)
+            rc = epsnet_writer_open(&w, out, NULL, epsnet_reader_info(r), &err);
+        CHECK_EQ_INT(rc, 0);
+        epsnet_record rec;
+        while (rc == 0 && (rc = epsnet_reader_next(r, &rec, &err)) > 0)
+            rc = epsnet_writer_put(w, &rec, &err);
+        CHECK_EQ_INT(rc, EPSNET_EFORMAT);
+        CHECK_STR_CONTAINS(epsnet_error_message(&err), ":13:");
+        epsnet_writer_abort(&w);
+        epsnet_reader_close(&r);
+        CHECK(w == NULL);
+        CHECK(!tl_exists(out));
+        CHECK_EQ_INT(count_dir_entries(), before);
+    }
+}
+
+TEST(writer_rejects_vertices_beyond_the_announced_count)
+{
+    /* Faces go straight to the file once the announced vertices are in; a
+     * later vertex would corrupt it, so it is refused and nothing remains. */
+    const char *out = tl_path("announced.ply");
+    epsnet_mesh_info info;
+    memset(&info, 0, sizeof info);
+    info.nverts = 3;
+    info.nfaces = EPSNET_COUNT_UNKNOWN;
+    epsnet_writer *w = NULL;
+    epsnet_error err;
+    CHECK_EQ_INT(epsnet_writer_open(&w, out, NULL, &info, &err), 0);
+    epsnet_record rec = { .kind = EPSNET_REC_VERTEX, .xyz = { 1, 2, 3 } };
+    for (int i = 0; i < 3; i++)
+        CHECK_EQ_INT(epsnet_writer_put(w, &rec, &err), 0);
+    epsnet_record tri = { .kind = EPSNET_REC_TRIANGLE, .v = { 0, 1, 2 } };
+    CHECK_EQ_INT(epsnet_writer_put(w, &tri, &err), 0);
+    CHECK_EQ_INT(epsnet_writer_put(w, &rec, &err), EPSNET_EINVAL);
+    CHECK_STR_CONTAINS(epsnet_error_message(&err), "vertex 4 arrives after the 3 vertices announced");
+    epsnet_writer_abort(&w);
+    CHECK(!tl_exists(out));
+}
+
+TEST(zst_output_with_wrong_announced_counts_fails_cleanly)
+{
+    epsnet_writer_settings ws;
+    epsnet_writer_default_settings(&ws);
+    epsnet_mesh_info info;
+    memset(&info, 0, sizeof info);
+    info.nverts = 6;
+    info.nfaces = 3;
+    const char *p = tl_path("lying.ply.zst");
+    epsnet_error err;
+    CHECK_EQ_INT(write_stream(p, &ws, &info, &err), EPSNET_EINVAL);
+    CHECK_STR_CONTAINS(epsnet_error_message(&err), "announced 6 vertices and 3 triangles but got 5 and 3");
+    CHECK(!tl_exists(p));
+}
+
+int main(void)
+{
+    RUN(ascii_le_and_be_give_the_reference_records);
+    RUN(extra_properties_and_elements_are_skipped);
+    RUN(every_list_type_pair_reads_the_same_faces);
+    RUN(double_coordinates_set_float64_and_stay_exact);
+    RUN(short_polygons_are_skipped_and_pentagons_fanned);
+    RUN(polygon_longer_than_the_read_window_is_fanned);
+    RUN(empty_mesh_and_point_cloud_are_valid);
+    RUN(content_probe_finds_ply_without_the_extension);
+    RUN(truncated_binary_names_the_byte_offset);
+    RUN(truncated_ascii_names_the_last_line);
+    RUN(vertex_count_lying_up_or_down_is_an_error);
+    RUN(bad_indices_are_rejected_with_their_position);
+    RUN(non_finite_and_garbage_values_are_rejected);
+    RUN(absurd_counts_fail_before_reading_data);
+    RUN(header_errors_name_their_line);
+    RUN(streaming_input_round_trips_in_every_writer_mode);
+    RUN(reference_mesh_round_trips_through_the_writer);
+    RUN(binary_output_is_standard_little_endian_ply);
+    RUN(failed_conversion_leaves_no_output);
+    RUN(writer_rejects_vertices_beyond_the_announced_count);
+    RUN(zst_output_with_wrong_announced_counts_fails_cleanly);
+    int rc = tl_finish();
+    tl_cleanup();
+    return rc;
+}

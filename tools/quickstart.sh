@@ -1,0 +1,53 @@
+#!/bin/sh
+# The README's two commands. On a fresh Debian 12 machine (as root, or with
+# sudo) it installs whatever is missing, builds, and then runs:
+#   sh tools/quickstart.sh demo   the main job on a generated mesh
+#   sh tools/quickstart.sh test   the whole test suite (what CI runs)
+set -eu
+cd "$(dirname "$0")/.."
+
+mode=${1:-demo}
+packages="gcc libc6-dev meson ninja-build pkg-config libzstd-dev zstd python3"
+missing=""
+for p in $packages; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
+done
+if [ -n "$missing" ]; then
+    echo "quickstart: installing$missing" >&2
+    sudo=""
+    [ "$(id -u)" = 0 ] || sudo=sudo
+    $sudo apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends $missing >/dev/null
+fi
+
+jobs=$(nproc 2>/dev/null || echo 2)
+
+case "$mode" in
+demo)
+    [ -d build-release ] || meson setup build-release --buildtype=release >/dev/null
+    ninja -C build-release >/dev/null
+    mkdir -p demo
+    bin=build-release/tools/epsnet
+    $bin gen bumpy --faces 1M --seed 7 -o demo/bumpy.ply
+    $bin info demo/bumpy.ply
+    $bin convert demo/bumpy.ply -o demo/bumpy.sma.zst -q
+    $bin info demo/bumpy.sma.zst
+    ;;
+test)
+    status=0
+    # Warnings are errors here (house rule); release build, both suites.
+    [ -d build-ci ] || meson setup build-ci -Dwerror=true --buildtype=debugoptimized >/dev/null
+    ninja -C build-ci >/dev/null
+    meson test -C build-ci --num-processes "$jobs" --print-errorlogs || status=1
+    # Address and undefined-behaviour sanitizers over the fast suite.
+    [ -d build-asan ] || meson setup build-asan -Dwerror=true -Db_sanitize=address,undefined \
+        -Db_lundef=false --buildtype=debug -Dslow_tests=false >/dev/null
+    ninja -C build-asan >/dev/null
+    meson test -C build-asan --suite fast --num-processes "$jobs" --print-errorlogs || status=1
+    exit $status
+    ;;
+*)
+    echo "usage: sh tools/quickstart.sh [demo|test]" >&2
+    exit 1
+    ;;
+esac
