@@ -61,15 +61,19 @@ static const char off_stn[] =
     "0.001 2 1e6 0 0 1 0 1\n2 0 0 0 0 1 1 0\n3 0.1 0 0 0 1 0 0\n3 1 0.2 0 0 1 0 0\n2 1 0.3 0 0 1 0 0\n"
     "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n4 4 5 6 7\n";
 
+/* Every coordinate text above is a float printed at its own precision, so
+ * the streams are FLOAT32 and each text reads as its float (the rule of
+ * src/io/text_scan.h): 0.1 reads as 0.1f, not as the double 0.1. */
 static void check_off_reference(const tl_mesh *m)
 {
+    CHECK_EQ_INT(m->info.coord_type, EPSNET_COORD_FLOAT32);
     CHECK_EQ_U64(m->nv, NV);
     CHECK_EQ_U64(m->nt, NT);
     if (m->nv != NV || m->nt != NT)
         return;
     for (int i = 0; i < NV; i++)
         for (int k = 0; k < 3; k++)
-            CHECK(m->xyz[3 * i + k] == off_xyz[i][k]);
+            CHECK(m->xyz[3 * i + k] == (double)(float)off_xyz[i][k]);
     for (int t = 0; t < NT; t++)
         for (int k = 0; k < 3; k++)
             CHECK_EQ_U64(m->tri[3 * t + k], off_tri[t][k]);
@@ -157,6 +161,80 @@ TEST(off_bad_input_names_the_line)
     expect_error_str("4d.off", "4OFF\n1 0 0\n0 0 0 1\n", EPSNET_EUNSUPPORTED, ":1:", "4D");
     expect_error_str("notoff.off", "# comment\nPLY\n", EPSNET_EFORMAT, ":2:", "not an OFF file");
     expect_error_str("nocounts.off", "OFF\n# only a comment\n", EPSNET_EFORMAT, ":2:", "no counts line");
+}
+
+/*
+ * Coordinate type (src/io/text_scan.h): a triangle whose corners are written
+ * once as float texts and once with 17 digits.
+ *
+ *   2
+ *   | \
+ *   0--1
+ */
+static const double off_precise[3][3] = {
+    { 0.1, 0.2, 0.3 }, { 1.0 / 3.0, 2.0 / 3.0, 1e-7 }, { -2.5e10 / 7.0, 1.1, 123456.789 },
+};
+
+/* The triangle above as OFF, each coordinate printed as (type)value with
+ * number_format ("%.9g" of the float, "%.17g" of the double). */
+static const char *off_triangle_file(const char *name, const char *number_format, int as_float)
+{
+    char text[1024];
+    size_t n = (size_t)snprintf(text, sizeof text, "OFF\n3 1 0\n");
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++) {
+            double v = as_float ? (double)(float)off_precise[i][k] : off_precise[i][k];
+            n += (size_t)snprintf(text + n, sizeof text - n, number_format, v);
+            n += (size_t)snprintf(text + n, sizeof text - n, k == 2 ? "\n" : " ");
+        }
+    snprintf(text + n, sizeof text - n, "3 0 1 2\n");
+    return tl_write_str(name, text);
+}
+
+TEST(off_float_texts_make_a_float32_stream_of_exact_floats)
+{
+    /* %.9g has more digits than the shortest text of a float: still a float text */
+    tl_mesh m;
+    epsnet_error err;
+    CHECK_EQ_INT(tl_read_mesh(off_triangle_file("float.off", "%.9g", 1), &m, &err), 0);
+    CHECK_EQ_INT(m.info.coord_type, EPSNET_COORD_FLOAT32);
+    CHECK_EQ_U64(m.nv, 3);
+    for (uint64_t i = 0; i < m.nv && i < 3; i++)
+        for (int k = 0; k < 3; k++)
+            CHECK(m.xyz[3 * i + k] == (double)(float)off_precise[i][k]);
+    tl_mesh_free(&m);
+}
+
+TEST(off_seventeen_digit_texts_make_a_float64_stream_of_exact_doubles)
+{
+    tl_mesh m;
+    epsnet_error err;
+    CHECK_EQ_INT(tl_read_mesh(off_triangle_file("double.off", "%.17g", 0), &m, &err), 0);
+    CHECK_EQ_INT(m.info.coord_type, EPSNET_COORD_FLOAT64);
+    CHECK_EQ_U64(m.nv, 3);
+    for (uint64_t i = 0; i < m.nv && i < 3; i++)
+        for (int k = 0; k < 3; k++)
+            CHECK(m.xyz[3 * i + k] == off_precise[i][k]);
+    tl_mesh_free(&m);
+}
+
+/* One precise coordinate among float texts is enough for FLOAT64. Face
+ * lines are not coordinates: "1 0 0.30000000000000004" is a one-corner
+ * polygon (skipped) whose third token is no float text. */
+TEST(off_coordinate_type_looks_at_vertex_lines_only)
+{
+    static const char precise[] = "OFF\n3 1 0\n0 0 0\n1 0 0.30000000000000004\n0 1 0\n3 0 1 2\n";
+    static const char face_line[] = "OFF\n3 2 0\n0.1 0 0\n1 0 0\n0 1 0\n3 0 1 2\n1 0 0.30000000000000004\n";
+    tl_mesh m;
+    epsnet_error err;
+    CHECK_EQ_INT(tl_read_mesh(tl_write_str("one.off", precise), &m, &err), 0);
+    CHECK_EQ_INT(m.info.coord_type, EPSNET_COORD_FLOAT64);
+    CHECK(m.nv == 3 && m.xyz[5] == 0.30000000000000004);
+    tl_mesh_free(&m);
+    CHECK_EQ_INT(tl_read_mesh(tl_write_str("face_line.off", face_line), &m, &err), 0);
+    CHECK_EQ_INT(m.info.coord_type, EPSNET_COORD_FLOAT32);
+    CHECK(m.nv == 3 && m.xyz[0] == (double)0.1f);
+    tl_mesh_free(&m);
 }
 
 /* ---- STL ---- */
@@ -347,6 +425,9 @@ int main(void)
     RUN(off_variants_give_the_reference_records);
     RUN(off_short_polygons_are_skipped);
     RUN(off_bad_input_names_the_line);
+    RUN(off_float_texts_make_a_float32_stream_of_exact_floats);
+    RUN(off_seventeen_digit_texts_make_a_float64_stream_of_exact_doubles);
+    RUN(off_coordinate_type_looks_at_vertex_lines_only);
     RUN(ascii_stl_cube_welds_into_8_vertices);
     RUN(binary_stl_starting_with_solid_is_read_as_binary);
     RUN(degenerate_facets_pass_through);

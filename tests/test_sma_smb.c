@@ -567,6 +567,30 @@ TEST(empty_streams_are_valid)
     CHECK_EQ_INT(m.n, 0);
 }
 
+/* The authors' writer writes the header with the first record, so its empty
+ * mesh is the version byte and the empty block word of the final flush. */
+TEST(smb_authors_empty_mesh_of_five_zero_bytes_is_valid)
+{
+    static const uint8_t empty[5] = { 0, 0, 0, 0, 0 };
+    records m;
+    epsnet_error err;
+    CHECK_EQ_INT(read_records(tl_write("authors_empty.smb", empty, sizeof empty), &m, &err), 0);
+    CHECK_EQ_INT(m.n, 0);
+    CHECK_EQ_U64(m.info.nverts, 0);
+    CHECK_EQ_U64(m.info.nfaces, 0);
+    uint8_t packed[64];
+    size_t n = ZSTD_compress(packed, sizeof packed, empty, sizeof empty, 3);
+    CHECK(!ZSTD_isError(n));
+    CHECK_EQ_INT(read_records(tl_write("authors_empty.smb.zst", packed, n), &m, &err), 0);
+    CHECK_EQ_INT(m.n, 0);
+    /* a non-empty block word, or a cut header, is still no valid file */
+    static const uint8_t mask[5] = { 0, 1, 0, 0, 0 };
+    int rc = read_records(tl_write("five_bytes.smb", mask, sizeof mask), &m, &err);
+    check_error(rc, &err, EPSNET_EFORMAT, "five_bytes.smb: byte", "truncated file");
+    rc = read_records(tl_write("four_bytes.smb", empty, 4), &m, &err);
+    check_error(rc, &err, EPSNET_EFORMAT, "four_bytes.smb: byte", "truncated file");
+}
+
 int main(void)
 {
     RUN(sma_negative_indices_and_x_lines_give_the_exact_record_sequence);
@@ -589,6 +613,7 @@ int main(void)
     RUN(header_counts_over_the_reader_limit_are_refused_before_reading);
     RUN(smb_writer_refuses_coordinates_beyond_float32);
     RUN(empty_streams_are_valid);
+    RUN(smb_authors_empty_mesh_of_five_zero_bytes_is_valid);
     int rc = tl_finish();
     tl_cleanup();
     return rc;

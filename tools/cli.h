@@ -33,6 +33,7 @@ int cmd_convert(int argc, char **argv);
 int cmd_info(int argc, char **argv);
 int cmd_gen(int argc, char **argv);
 int cmd_sample(int argc, char **argv);
+int cmd_simplify(int argc, char **argv);
 
 extern int cli_quiet;        /* -q: no progress, no summaries */
 

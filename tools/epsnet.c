@@ -13,6 +13,7 @@ static const cli_command commands[] = {
     { "info", "counts, bbox, format, sortedness and stream width of a mesh", cmd_info },
     { "gen", "generate a synthetic mesh of any size", cmd_gen },
     { "sample", "find the feature-sensitive samples of a mesh (paper §4)", cmd_sample },
+    { "simplify", "keep only the samples: feature-preserving simplification", cmd_simplify },
 };
 
 static void usage(FILE *f)

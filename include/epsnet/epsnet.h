@@ -13,7 +13,8 @@
  *   5. Generating   - synthetic meshes of any size, written as a stream.
  *   6. Settings     - the job context and its settings, statistics.
  *   7. Sampling     - classify every vertex as sample or not (paper §4).
- *   8. Utilities    - size parsing, version, signal-time cleanup.
+ *   8. Simplifying  - keep only the samples: the shape approximation.
+ *   9. Utilities    - size parsing, version, signal-time cleanup.
  *
  * Conventions
  *   - Every function that can fail returns 0 (or a positive count) on success
@@ -391,7 +392,19 @@ typedef struct epsnet_settings {
      * non-zero to cancel (the run then fails with EPSNET_EINTR). Default: NULL. */
     int (*progress)(void *opaque, uint64_t done, uint64_t total);
     void *progress_opaque;
-    uint8_t reserved[128];
+    /* Simplification: at most this many ε-net passes (paper §4.2, §5); pass
+     * i > 1 re-samples the previous result under a rotation derived from
+     * seed and removes what became a non-sample. 1 = one sampling, no
+     * re-sampling. Default: 1. */
+    int passes;
+    /* Simplification: a collapse is refused when it would turn any face's
+     * normal by more than this many degrees (this also forbids flips).
+     * Default: 60 (measured: see bench/RESULTS.md). */
+    double max_normal_dev;
+    /* Write ASCII instead of binary where the output format offers both.
+     * Default: 0. */
+    int ascii;
+    uint8_t reserved[112];
 } epsnet_settings;
 
 EPSNET_API void epsnet_default_settings(epsnet_settings *s);
@@ -413,18 +426,29 @@ typedef struct epsnet_stats {
     uint64_t feature_edges;       /* edges whose faces lie in different G triangles */
     uint64_t candidates;          /* vertices on a feature edge (paper §4.2) */
     uint64_t samples;             /* samples, locked vertices included */
-    uint64_t locked;              /* boundary, non-manifold and isolated vertices */
+    uint64_t locked;              /* boundary and non-manifold vertices (kept as samples) */
     uint64_t boundary_vertices;
     uint64_t nonmanifold_vertices;
     uint64_t needle_vertices;     /* normals not in an open hemisphere */
     uint64_t multi_cover_samples; /* samples enclosing more than one G vertex */
+    uint64_t isolated_vertices;   /* referenced by no face: not on the surface */
+    uint64_t output_vertices;     /* simplify: vertices written */
+    uint64_t output_faces;        /* simplify: triangles written */
+    uint64_t collapses;           /* simplify: half-edge collapses done, all passes */
+    uint64_t passes;              /* simplify: ε-net passes run */
+    uint64_t remaining_nonsamples;/* simplify: non-samples whose every collapse was refused */
+    uint64_t refused_link;        /* ... of those, refused by the link condition (topology) */
+    uint64_t refused_normal;      /* ... a face would flip or turn past max_normal_dev */
+    uint64_t refused_zero_area;   /* ... a face would lose its area */
+    uint64_t refused_duplicate;   /* ... a face would duplicate an existing one */
     uint64_t max_active;          /* largest active set: vertices + faces in memory */
     uint64_t peak_rss;            /* bytes, 0 if unknown */
     double seconds_read;          /* per stage, wall clock */
     double seconds_normals;
     double seconds_classify;
     double seconds_write;
-    uint8_t reserved[128];
+    double seconds_simplify;
+    uint8_t reserved[48];
 } epsnet_stats;
 
 typedef struct epsnet_context epsnet_context;
@@ -475,7 +499,26 @@ EPSNET_API int epsnet_stats_write_json(const epsnet_context *ctx, const char *co
                                        const char *path, epsnet_error *err);
 
 /* ------------------------------------------------------------------------
- * 8. Utilities
+ * 8. Simplifying (paper §4.2, §5; SPEC §1 "Shape approximation")
+ * ------------------------------------------------------------------------ */
+
+/*
+ * Simplify the mesh at in_path so that (after settings.passes ε-net passes)
+ * only samples, locked vertices and non-samples whose every collapse was
+ * refused remain, and write it to out_path (format from the extension; ASCII
+ * with settings.ascii). Non-samples are removed by half-edge collapses onto a
+ * neighbour, cheapest first by quadric error, so every output vertex is an
+ * input vertex with bit-identical coordinates; unreferenced input vertices
+ * are dropped. Closed manifold input stays closed manifold with the same
+ * genus.
+ * @return 0, or a negative code with err filled; nothing is left at
+ * out_path on failure. Statistics are in epsnet_context_stats(ctx).
+ */
+EPSNET_API int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *out_path,
+                                    epsnet_error *err);
+
+/* ------------------------------------------------------------------------
+ * 9. Utilities
  * ------------------------------------------------------------------------ */
 
 /*

@@ -22,6 +22,9 @@ void epsnet_default_settings(epsnet_settings *s)
     s->seed = 1;
     s->threads = 0;
     s->mem = 0;
+    s->passes = 1;
+    s->max_normal_dev = 60.0;
+    s->ascii = 0;
 }
 
 static int bad(epsnet_error *err, const char *what)
@@ -66,9 +69,16 @@ int epsnet_context_new(epsnet_context **out, const epsnet_settings *settings, ep
         c->settings = *settings;
     else
         epsnet_default_settings(&c->settings);
-    if (c->settings.threads < 0) {
+    const char *why = NULL;
+    if (c->settings.threads < 0)
+        why = "threads must be 0 (all cores) or more";
+    else if (c->settings.passes < 1)
+        why = "passes must be 1 or more";
+    else if (!(c->settings.max_normal_dev > 0 && c->settings.max_normal_dev <= 180))
+        why = "max_normal_dev must be in (0, 180] degrees";
+    if (why) {
         en_free(c);
-        return bad(err, "threads must be 0 (all cores) or more");
+        return bad(err, why);
     }
     int rc = make_sphere(&c->settings, &c->sphere, err);
     if (rc == 0 && c->settings.tmpdir) {
@@ -110,9 +120,12 @@ int epsnet_stats_write_json(const epsnet_context *c, const char *command, const 
         "  \"command\": \"%s\",\n"
         "  \"version\": \"%s\",\n"
         "  \"gaussian_sphere\": {\"level\": %d, \"frequency\": %u, \"vertices\": %u, \"triangles\": %u},\n"
+        "  \"passes_requested\": %d,\n"
+        "  \"max_normal_dev\": %.6g,\n"
         "  \"vertices\": %" PRIu64 ",\n"
         "  \"faces\": %" PRIu64 ",\n"
         "  \"zero_area_faces\": %" PRIu64 ",\n"
+        "  \"isolated_vertices\": %" PRIu64 ",\n"
         "  \"gaussian_vertices\": %" PRIu64 ",\n"
         "  \"feature_edges\": %" PRIu64 ",\n"
         "  \"candidates\": %" PRIu64 ",\n"
@@ -122,16 +135,26 @@ int epsnet_stats_write_json(const epsnet_context *c, const char *command, const 
         "  \"nonmanifold_vertices\": %" PRIu64 ",\n"
         "  \"needle_vertices\": %" PRIu64 ",\n"
         "  \"multi_cover_samples\": %" PRIu64 ",\n"
+        "  \"output_vertices\": %" PRIu64 ",\n"
+        "  \"output_faces\": %" PRIu64 ",\n"
+        "  \"collapses\": %" PRIu64 ",\n"
+        "  \"passes\": %" PRIu64 ",\n"
+        "  \"remaining_nonsamples\": %" PRIu64 ",\n"
+        "  \"refused\": {\"link\": %" PRIu64 ", \"normal\": %" PRIu64 ", \"zero_area\": %" PRIu64
+        ", \"duplicate\": %" PRIu64 "},\n"
         "  \"max_active\": %" PRIu64 ",\n"
         "  \"peak_rss\": %" PRIu64 ",\n"
-        "  \"seconds\": {\"read\": %.6f, \"normals\": %.6f, \"classify\": %.6f, \"write\": %.6f}\n"
+        "  \"seconds\": {\"read\": %.6f, \"normals\": %.6f, \"classify\": %.6f, \"simplify\": %.6f, "
+        "\"write\": %.6f}\n"
         "}\n",
         command ? command : c->command, epsnet_version(), st->frequency ? -1 : st->level,
-        c->sphere.n, c->sphere.nverts, c->sphere.ntris, s->vertices, s->faces, s->zero_area_faces,
-        s->gaussian_vertices, s->feature_edges, s->candidates, s->samples, s->locked,
-        s->boundary_vertices, s->nonmanifold_vertices, s->needle_vertices, s->multi_cover_samples,
+        c->sphere.n, c->sphere.nverts, c->sphere.ntris, st->passes, st->max_normal_dev, s->vertices, s->faces,
+        s->zero_area_faces, s->isolated_vertices, s->gaussian_vertices, s->feature_edges, s->candidates,
+        s->samples, s->locked, s->boundary_vertices, s->nonmanifold_vertices, s->needle_vertices,
+        s->multi_cover_samples, s->output_vertices, s->output_faces, s->collapses, s->passes,
+        s->remaining_nonsamples, s->refused_link, s->refused_normal, s->refused_zero_area, s->refused_duplicate,
         s->max_active, s->peak_rss, s->seconds_read, s->seconds_normals, s->seconds_classify,
-        s->seconds_write);
+        s->seconds_simplify, s->seconds_write);
     if (n < 0 || (size_t)n >= sizeof buf)
         return en_error_set(err, EPSNET_EINTERNAL, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "stats too long");
     en_sink *sink = NULL;

@@ -6,40 +6,12 @@
 #include "common/alloc.h"
 #include "epsnet/epsnet.h"
 
-/* Corner order a file happens to use must not change a normal's rounding,
- * or the same mesh shuffled would give other samples (SPEC §1 invariants). */
-static int less_xyz(const double *a, const double *b)
-{
-    if (a[0] != b[0])
-        return a[0] < b[0];
-    if (a[1] != b[1])
-        return a[1] < b[1];
-    return a[2] < b[2];
-}
-
-static void face_normal(const en_slab *s, uint32_t f, double n[3])
-{
-    const uint32_t *t = s->tri + 3 * (size_t)f;
-    const double *p[3] = { s->pos + 3 * (size_t)t[0], s->pos + 3 * (size_t)t[1], s->pos + 3 * (size_t)t[2] };
-    int k = 0;
-    if (less_xyz(p[1], p[k]))
-        k = 1;
-    if (less_xyz(p[2], p[k]))
-        k = 2;
-    const double *a = p[k], *b = p[(k + 1) % 3], *c = p[(k + 2) % 3];
-    double u[3] = { b[0] - a[0], b[1] - a[1], b[2] - a[2] };
-    double w[3] = { c[0] - a[0], c[1] - a[1], c[2] - a[2] };
-    n[0] = u[1] * w[2] - u[2] * w[1];
-    n[1] = u[2] * w[0] - u[0] * w[2];
-    n[2] = u[0] * w[1] - u[1] * w[0];
-}
-
 int en_classify_faces(const gauss_sphere *g, const en_slab *s, uint32_t f0, uint32_t f1,
                       double *fnormal, int32_t *ftri, en_classify_counts *counts, uint32_t *bad_face)
 {
     for (uint32_t f = f0; f < f1; f++) {
         double n[3], *out = fnormal + 3 * (size_t)f;
-        face_normal(s, f, n);
+        en_triangle_normal(s->pos, s->tri + 3 * (size_t)f, n);
         int ok = gauss_to_frame(g, n, out);
         if (ok < 0) {
             *bad_face = f;
@@ -97,7 +69,11 @@ int en_classify_vertices(const gauss_sphere *g, const en_slab *s, const double *
         vclass[v] = 0;
         vgvertex[v] = -1;
         uint8_t vf = s->vflags[v];
-        if (vf & (EN_V_BOUNDARY | EN_V_NONMANIFOLD | EN_V_ISOLATED)) {
+        if (vf & EN_V_ISOLATED) {
+            counts->isolated++; /* not on the surface: neither a sample nor removable */
+            continue;
+        }
+        if (vf & (EN_V_BOUNDARY | EN_V_NONMANIFOLD)) {
             vclass[v] = EN_C_LOCKED | EN_C_SAMPLE;
             counts->locked++;
             counts->samples++;
@@ -194,4 +170,5 @@ void en_classify_counts_add(en_classify_counts *into, const en_classify_counts *
     into->needles += c->needles;
     into->multi_cover += c->multi_cover;
     into->unverified_hemisphere += c->unverified_hemisphere;
+    into->isolated += c->isolated;
 }

@@ -3,7 +3,8 @@
  * G's frame, face -> Gaussian triangle, candidates (vertices on a feature
  * edge), and the exact sample rule: a vertex is a sample iff the spherical
  * polygon of its face normals has a non-zero winding number about a vertex of
- * G. Boundary, non-manifold and isolated vertices are locked as samples.
+ * G. Boundary and non-manifold vertices are locked as samples; isolated
+ * (unreferenced) vertices are not on the surface and are neither.
  *
  * Work is split into index ranges so the worker pool can share one slab;
  * every function writes only the entries of its range.
@@ -20,7 +21,7 @@
 enum {
     EN_C_CANDIDATE = 1 << 0, /* touches a feature edge (paper Definition 5) */
     EN_C_SAMPLE = 1 << 1,    /* kept: winding != 0, needle, or locked */
-    EN_C_LOCKED = 1 << 2,    /* boundary / non-manifold / isolated (SPEC §1) */
+    EN_C_LOCKED = 1 << 2,    /* boundary / non-manifold (SPEC §1) */
     EN_C_NEEDLE = 1 << 3,    /* normals not in an open hemisphere */
     EN_C_MULTI = 1 << 4,     /* encloses more than one Gaussian vertex */
 };
@@ -36,13 +37,12 @@ typedef struct en_classify_counts {
     uint64_t needles;
     uint64_t multi_cover;
     uint64_t unverified_hemisphere; /* see gauss_in_open_hemisphere() */
+    uint64_t isolated;
 } en_classify_counts;
 
 /*
  * Faces [f0, f1): frame normal (3 doubles, zero for a zero-area face) and
- * Gaussian triangle (-1 for a zero-area face). The normal is the double
- * cross product taken from the corner with the smallest coordinates, so it
- * does not depend on which corner a file lists first.
+ * Gaussian triangle (-1 for a zero-area face), from en_triangle_normal().
  * @return 0, EPSNET_EFORMAT when a normal overflows, or EPSNET_EINTERNAL if
  * point location fails (a bug); *bad_face is set on failure.
  */

@@ -223,7 +223,7 @@ int en_slab_read_all(en_slab *s, epsnet_reader *r, epsnet_error *err)
     int rc;
     while ((rc = epsnet_reader_next(r, &rec, err)) > 0) {
         if (rec.kind == EPSNET_REC_VERTEX) {
-            if (en_slab_add_vertex(s, s->nv, rec.xyz, EN_V_OWNED) < 0)
+            if (en_slab_add_vertex(s, s->nv, rec.xyz, EN_V_OWNED | EN_V_COMPLETE) < 0)
                 return en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
                                     "out of memory holding the mesh (%u vertices)", s->nv);
         } else if (rec.kind == EPSNET_REC_TRIANGLE) {
@@ -238,4 +238,31 @@ int en_slab_read_all(en_slab *s, epsnet_reader *r, epsnet_error *err)
         return en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "out of memory building vertex stars");
     return 0;
+}
+
+/* Corner order a file happens to use must not change a normal's rounding,
+ * or the same mesh shuffled would give other samples (SPEC §1 invariants). */
+static int less_xyz(const double *a, const double *b)
+{
+    if (a[0] != b[0])
+        return a[0] < b[0];
+    if (a[1] != b[1])
+        return a[1] < b[1];
+    return a[2] < b[2];
+}
+
+void en_triangle_normal(const double *pos, const uint32_t t[3], double n[3])
+{
+    const double *p[3] = { pos + 3 * (size_t)t[0], pos + 3 * (size_t)t[1], pos + 3 * (size_t)t[2] };
+    int k = 0;
+    if (less_xyz(p[1], p[k]))
+        k = 1;
+    if (less_xyz(p[2], p[k]))
+        k = 2;
+    const double *a = p[k], *b = p[(k + 1) % 3], *c = p[(k + 2) % 3];
+    double u[3] = { b[0] - a[0], b[1] - a[1], b[2] - a[2] };
+    double w[3] = { c[0] - a[0], c[1] - a[1], c[2] - a[2] };
+    n[0] = u[1] * w[2] - u[2] * w[1];
+    n[1] = u[2] * w[0] - u[0] * w[2];
+    n[2] = u[0] * w[1] - u[1] * w[0];
 }

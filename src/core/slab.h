@@ -18,6 +18,7 @@
 
 enum {
     EN_V_OWNED = 1 << 0,      /* classified (and later simplified) by this slab */
+    EN_V_COMPLETE = 1 << 4,   /* every face around the vertex is in this slab */
     EN_V_BOUNDARY = 1 << 1,   /* on an open boundary: locked (SPEC §1) */
     EN_V_NONMANIFOLD = 1 << 2,/* star is not one fan: locked (SPEC §1) */
     EN_V_ISOLATED = 1 << 3,   /* referenced by no face */
@@ -56,6 +57,14 @@ int en_slab_add_face(en_slab *s, uint32_t a, uint32_t b, uint32_t c);
  * @return 0, or -1 when out of memory.
  */
 int en_slab_build_stars(en_slab *s);
+
+/*
+ * Normal (not normalised) of the triangle t over positions pos: the double
+ * cross product taken from the corner with the smallest coordinates, so it
+ * does not depend on which corner a file lists first. A zero result is what
+ * "zero-area face" means everywhere (SPEC §1: such faces have no normal).
+ */
+void en_triangle_normal(const double *pos, const uint32_t t[3], double n[3]);
 
 static inline uint32_t en_slab_degree(const en_slab *s, uint32_t v)
 {

@@ -8,6 +8,11 @@
  * values), so vertex lines are read as "x y z" followed by any numbers,
  * which covers every variant without counting them. The 4D and n-D variants
  * and binary OFF are refused as unsupported.
+ *
+ * note: OFF declares no coordinate type either. Like OBJ and SMA, the type
+ * comes from the vertex lines in the first 64 KiB and coordinates are read
+ * by the rule of src/io/text_scan.h, so a float mesh round-trips bit-exact
+ * and a float32 writer never rounds a value that was read as a double.
  */
 #include <inttypes.h>
 #include <stdlib.h>
@@ -15,6 +20,7 @@
 
 #include "common/alloc.h"
 #include "io/format.h"
+#include "io/text_scan.h"
 
 #define OFF_LINE_MAX ((size_t)1 << 20)
 #define OFF_MAX_POLYGON ((uint64_t)1 << 20)
@@ -93,14 +99,10 @@ static int parse_count(const char *s, uint64_t *out)
     return 0;
 }
 
-static int parse_number(const char *s, double *out)
+/* A whole token as a coordinate of a stream of the given type. */
+static int parse_number(char *s, epsnet_coord_type type, double *out)
 {
-    char *end;
-    double v = strtod(s, &end);
-    if (end == s || *end)
-        return -1;
-    *out = v;
-    return 0;
+    return en_text_scan_coord(&s, type, out) == 1 ? 0 : -1;
 }
 
 /* Index token: an integer, negative ones reported as such by the caller. */
@@ -177,6 +179,11 @@ static int off_open_reader(epsnet_reader *r)
         (rc = en_reader_check_count(r, o->nfaces, "face count")))
         return rc;
     r->info.encoding = "ascii";
+    r->info.coord_type = en_text_peek_coord_type(r->src, NULL, o->nverts);
+    if (r->src->failed) {
+        r->failed = 1;
+        return en_source_error(r->src, &r->err);
+    }
     r->info.nverts = o->nverts;
     r->info.nfaces = o->nfaces == 0 ? 0 : EPSNET_COUNT_UNKNOWN;
     return 0;
@@ -194,7 +201,7 @@ static int check_extras(epsnet_reader *r, const char *what, uint64_t index, char
 {
     for (char *tok; (tok = next_token(cursor));) {
         double ignored;
-        if (parse_number(tok, &ignored))
+        if (parse_number(tok, EPSNET_COORD_FLOAT64, &ignored))
             return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": '%s' is not a number", what,
                                   index + 1, tok);
     }
@@ -213,7 +220,7 @@ static int read_vertex(epsnet_reader *r, off_reader *o)
         if (!tok)
             return en_reader_fail(r, EPSNET_EFORMAT, "vertex %" PRIu64 ": expected 3 coordinates, found %d",
                                   o->verts_read + 1, k);
-        if (parse_number(tok, &xyz[k]))
+        if (parse_number(tok, r->info.coord_type, &xyz[k]))
             return en_reader_fail(r, EPSNET_EFORMAT, "vertex %" PRIu64 ": '%s' is not a number",
                                   o->verts_read + 1, tok);
     }

@@ -23,10 +23,8 @@
  * reader needs pre-order streams (each triangle after its vertices), which
  * is what the epsnet pipeline consumes (SPEC §2).
  *
- * note: like OBJ, SMA has no coordinate type; info.coord_type is FLOAT32
- * when every coordinate in the first 64 KiB is a float printed at its own
- * precision, FLOAT64 otherwise. In a FLOAT32 stream such texts read as their
- * float (bit-exact float round trips); more precise texts keep their double.
+ * note: like OBJ, SMA has no coordinate type; info.coord_type is decided
+ * from the `v` lines of the first 64 KiB by the rule of src/io/text_scan.h.
  *
  * Writer: the last triangle is held back until the next record, so that
  * FINALIZE records right after it become negative corners; any other
@@ -42,206 +40,26 @@
 
 #include "common/alloc.h"
 #include "io/format.h"
+#include "io/text_scan.h"
 
 #define SMA_MAX_LINE ((size_t)1 << 16)
-#define SMA_PEEK_BYTES ((size_t)64 << 10)
 #define SMA_FILL_BATCH 4096
 /* "# nverts " + this many characters, so counts can be patched in place. */
 #define SMA_COUNT_WIDTH 20
 
-/* ---- text scanning ---- */
-
-static int is_blank(char c)
+/* An index token after blanks, by the SMA grammar: the whole token must be
+ * the integer. @return 1 with *out set, 0 at the end of the line, -1 on a
+ * bad token (*pp then points at it). */
+static int scan_index(char **pp, int64_t *out)
 {
-    return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
-}
-
-static char *skip_blanks(char *p)
-{
-    while (is_blank(*p))
-        p++;
-    return p;
-}
-
-static int ends_token(char c)
-{
-    return c == '\0' || is_blank(c);
-}
-
-static int quoted_len(const char *p)
-{
-    int n = 0;
-    while (n < 40 && !ends_token(p[n]))
-        n++;
-    return n;
-}
-
-/* @return 1 with *out set, 0 at the end of the line, -1 on a bad token. */
-static int scan_int64(char **pp, int64_t *out)
-{
-    char *p = skip_blanks(*pp);
+    char *p = en_text_skip_blanks(*pp);
     *pp = p;
     if (*p == '\0')
         return 0;
-    int neg = 0;
-    if (*p == '+' || *p == '-')
-        neg = *p++ == '-';
-    if (*p < '0' || *p > '9')
+    if (en_text_scan_int64(&p, out) || !en_text_ends_token(*p))
         return -1;
-    uint64_t v = 0;
-    while (*p >= '0' && *p <= '9') {
-        unsigned digit = (unsigned)(*p++ - '0');
-        if (v > ((uint64_t)INT64_MAX - digit) / 10)
-            return -1;
-        v = v * 10 + digit;
-    }
-    if (!ends_token(*p))
-        return -1;
-    *out = neg ? -(int64_t)v : (int64_t)v;
     *pp = p;
     return 1;
-}
-
-/* Significant decimal digits of the number text [p, end), and the power of
- * ten of the last one: leading and trailing zeros of the mantissa do not
- * count ("0.0120" has 2 digits, the last at 10^-3). */
-static int significant_digits(const char *p, const char *end, int *last_exp10)
-{
-    while (p < end && (*p == '+' || *p == '-'))
-        p++;
-    int int_len = 0;
-    while (p + int_len < end && p[int_len] >= '0' && p[int_len] <= '9')
-        int_len++;
-    int digits = 0, zeros = 0, started = 0, index = 0, frac = 0, in_frac = 0;
-    long exp10 = 0;
-    for (; p < end && *p != 'e' && *p != 'E'; p++) {
-        if (*p == '.') {
-            in_frac = 1;
-            continue;
-        }
-        if (*p < '0' || *p > '9')
-            continue;
-        int at = in_frac ? -++frac : int_len - 1 - index++;
-        if (*p == '0') {
-            zeros += started;
-            continue;
-        }
-        started = 1;
-        digits += zeros + 1;
-        zeros = 0;
-        exp10 = at;
-    }
-    if (p < end) {
-        long e = strtol(p + 1, NULL, 10);
-        exp10 += e < -1000 ? -1000 : e > 1000 ? 1000 : e;
-    }
-    *last_exp10 = (int)exp10;
-    return digits;
-}
-
-/*
- * True when the text [p, end) is the float f printed at the text's own
- * precision, as any float printer (shortest, %.9g, %f) writes it: f is
- * within half a unit of the text's last digit.
- * note: FLT_DIG is 6, so up to 6 digits every decimal is such a text, which
- * keeps the common case at one strtof(); near the half-unit border the
- * answer comes from printing f, which is exact.
- */
-static int is_float_text(const char *p, const char *end, float f)
-{
-    int last_exp10;
-    int k = significant_digits(p, end, &last_exp10);
-    if (k == 0)
-        return f == 0;
-    if (!isfinite(f))
-        return 0;
-    if (k <= 6 && isnormal(f))
-        return 1;
-    double d = strtod(p, NULL);
-    if ((double)f == d)
-        return 1;
-    if (k >= 17)
-        return 0;       /* f printed at 17+ digits reads back as exactly f */
-    /* slack: d is the text rounded to a double, and pow() may be off by an
-     * ulp; within it, only printing f decides exactly */
-    double half = 0.5 * pow(10.0, last_exp10), diff = fabs((double)f - d);
-    double slack = 4.5e-16 * fabs(d) + 1e-15 * half;
-    if (diff + slack < half)
-        return 1;
-    if (diff - slack > half)
-        return 0;
-    char printed[64];
-    snprintf(printed, sizeof printed, "%.*e", k - 1, (double)f);
-    return strtod(printed, NULL) == d;
-}
-
-/*
- * @return 1 with *out set, 0 at the end of the line, -1 on a token that is
- * not a number.
- * note: in a float32 stream a float text stands for its float, so float
- * meshes come back bit-exact (SPEC §1); a text more precise than any float
- * keeps its double value, so nothing written is lost.
- */
-static int scan_coord(char **pp, epsnet_coord_type type, double *out)
-{
-    char *p = skip_blanks(*pp);
-    *pp = p;
-    if (*p == '\0')
-        return 0;
-    char *end;
-    if (type == EPSNET_COORD_FLOAT64) {
-        *out = strtod(p, &end);
-    } else {
-        float f = strtof(p, &end);
-        if (end != p)
-            *out = is_float_text(p, end, f) ? (double)f : strtod(p, NULL);
-    }
-    if (end == p || !ends_token(*end))
-        return -1;
-    *pp = end;
-    return 1;
-}
-
-static size_t copy_token(const char *p, const char *end, char *buf, size_t cap)
-{
-    size_t n = 0;
-    while (p + n < end && !ends_token(p[n]) && p[n] != '\n' && n + 1 < cap) {
-        buf[n] = p[n];
-        n++;
-    }
-    buf[n] = '\0';
-    return n;
-}
-
-static epsnet_coord_type peek_coord_type(en_source *src)
-{
-    size_t avail = en_source_fill(src, SMA_PEEK_BYTES);
-    if (avail > SMA_PEEK_BYTES)
-        avail = SMA_PEEK_BYTES;  /* the same window whatever read() returned */
-    const char *p = (const char *)src->cur, *end = p + avail;
-    while (p < end) {
-        const char *eol = memchr(p, '\n', (size_t)(end - p));
-        if (!eol)
-            break;
-        while (p < eol && is_blank(*p))
-            p++;
-        if (eol - p > 2 && p[0] == 'v' && is_blank(p[1])) {
-            const char *q = p + 1;
-            for (int k = 0; k < 3; k++) {
-                char tok[64];
-                while (q < eol && is_blank(*q))
-                    q++;
-                size_t n = copy_token(q, eol, tok, sizeof tok);
-                if (n == 0)
-                    break;
-                if (!is_float_text(tok, tok + n, strtof(tok, NULL)))
-                    return EPSNET_COORD_FLOAT64;
-                q += n;
-            }
-        }
-        p = eol + 1;
-    }
-    return EPSNET_COORD_FLOAT32;
 }
 
 /* ---- reader ---- */
@@ -260,7 +78,7 @@ static int source_failed(epsnet_reader *r, int rc)
 static int parse_header_count(epsnet_reader *r, char *p, const char *what, uint64_t *out)
 {
     int64_t n;
-    if (scan_int64(&p, &n) != 1 || n < 0)
+    if (scan_index(&p, &n) != 1 || n < 0)
         return 0;
     int rc = en_reader_check_count(r, (uint64_t)n, what);
     if (rc == 0)
@@ -271,7 +89,7 @@ static int parse_header_count(epsnet_reader *r, char *p, const char *what, uint6
 static void parse_header_point(char *p, epsnet_coord_type type, double xyz[3], int *has)
 {
     for (int k = 0; k < 3; k++)
-        if (scan_coord(&p, type, &xyz[k]) != 1)
+        if (en_text_scan_coord(&p, type, &xyz[k]) != 1)
             return;
     *has = 1;
 }
@@ -279,9 +97,9 @@ static void parse_header_point(char *p, epsnet_coord_type type, double xyz[3], i
 /* Header comments are advisory text; ones that do not parse are ignored. */
 static int parse_header_comment(epsnet_reader *r, sma_header *h, char *line)
 {
-    char *p = skip_blanks(line + 1);
+    char *p = en_text_skip_blanks(line + 1);
     char word[16];
-    size_t n = copy_token(p, p + strlen(p), word, sizeof word);
+    size_t n = en_text_copy_token(p, p + strlen(p), word, sizeof word);
     p += n;
     if (strcmp(word, "nverts") == 0)
         return parse_header_count(r, p, "vertex count", &r->info.nverts);
@@ -327,7 +145,7 @@ static int sma_open_reader(epsnet_reader *r)
     r->text = 1;
     r->info.encoding = "ascii";
     r->info.streaming = 1;
-    r->info.coord_type = peek_coord_type(r->src);
+    r->info.coord_type = en_text_peek_coord_type(r->src, "v", UINT64_MAX);
     return read_header(r);
 }
 
@@ -353,17 +171,17 @@ static int resolve_index(epsnet_reader *r, int64_t k, uint64_t *out)
 static int scan_ints(epsnet_reader *r, char *p, int64_t *out, int n, const char *what)
 {
     for (int k = 0; k < n; k++) {
-        int rc = scan_int64(&p, &out[k]);
+        int rc = scan_index(&p, &out[k]);
         if (rc == 0)
             return en_reader_fail(r, EPSNET_EFORMAT, "%s has %d indices, expected %d", what, k, n);
         if (rc < 0)
             return en_reader_fail(r, EPSNET_EFORMAT, "%s: '%.*s' is not an integer index", what,
-                                  quoted_len(p), p);
+                                  en_text_quoted_len(p), p);
     }
-    p = skip_blanks(p);
+    p = en_text_skip_blanks(p);
     if (*p)
         return en_reader_fail(r, EPSNET_EFORMAT, "%s: unexpected '%.*s' after %d indices", what,
-                              quoted_len(p), p, n);
+                              en_text_quoted_len(p), p, n);
     return 0;
 }
 
@@ -371,18 +189,18 @@ static int parse_vertex(epsnet_reader *r, char *p)
 {
     double xyz[3];
     for (int k = 0; k < 3; k++) {
-        int rc = scan_coord(&p, r->info.coord_type, &xyz[k]);
+        int rc = en_text_scan_coord(&p, r->info.coord_type, &xyz[k]);
         if (rc == 0)
             return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu has %d coordinates, expected 3",
                                   (unsigned long long)r->nverts + 1, k);
         if (rc < 0)
             return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu: '%.*s' is not a number",
-                                  (unsigned long long)r->nverts + 1, quoted_len(p), p);
+                                  (unsigned long long)r->nverts + 1, en_text_quoted_len(p), p);
     }
-    p = skip_blanks(p);
+    p = en_text_skip_blanks(p);
     if (*p)
         return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu: unexpected '%.*s' after 3 coordinates",
-                              (unsigned long long)r->nverts + 1, quoted_len(p), p);
+                              (unsigned long long)r->nverts + 1, en_text_quoted_len(p), p);
     return en_reader_push_vertex(r, xyz[0], xyz[1], xyz[2]);
 }
 
@@ -418,10 +236,10 @@ static int parse_finalize(epsnet_reader *r, char *p)
 
 static int parse_statement(epsnet_reader *r, char *line)
 {
-    char *p = skip_blanks(line);
+    char *p = en_text_skip_blanks(line);
     if (*p == '\0' || *p == '#')
         return 0;
-    if (ends_token(p[1])) {
+    if (en_text_ends_token(p[1])) {
         if (p[0] == 'v')
             return parse_vertex(r, p + 1);
         if (p[0] == 'f')
@@ -430,7 +248,7 @@ static int parse_statement(epsnet_reader *r, char *line)
             return parse_finalize(r, p + 1);
     }
     return en_reader_fail(r, EPSNET_EFORMAT, "unknown SMA statement '%.*s' (expected v, f, x or #)",
-                          quoted_len(p), p);
+                          en_text_quoted_len(p), p);
 }
 
 /* Lying or truncated files: the header counts are a promise. */
@@ -476,12 +294,12 @@ static int sma_probe(const uint8_t *head, size_t n)
         char word[16];
         if (stop - p > 2 && p[0] == '#') {
             const char *q = p + 1;
-            while (q < stop && is_blank(*q))
+            while (q < stop && en_text_is_blank(*q))
                 q++;
-            copy_token(q, stop, word, sizeof word);
+            en_text_copy_token(q, stop, word, sizeof word);
             if (!strcmp(word, "nverts") || !strcmp(word, "nfaces") || !strcmp(word, "bb_min"))
                 return 70;
-        } else if (stop - p > 2 && p[0] == 'x' && is_blank(p[1])) {
+        } else if (stop - p > 2 && p[0] == 'x' && en_text_is_blank(p[1])) {
             return 70;
         }
         if (!eol)

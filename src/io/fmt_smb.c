@@ -34,6 +34,11 @@
  * is chosen once and applied through a function pointer (STYLE.md: rply's
  * drivers), not tested per value.
  *
+ * note: the authors' writer (smwriter_smb.cpp) writes the rest of the header
+ * only with the first record, so an empty mesh is the version byte followed
+ * by the empty block word of its final flush: five zero bytes. That whole
+ * file is read as a valid empty mesh (SPEC §5).
+ *
  * Writer: little-endian, version 0, no comments. Counts come from the
  * announced info (-1 when unknown) and are patched with the real ones on
  * seekable outputs; on compressed or piped outputs an announced count that
@@ -57,6 +62,8 @@
 #define SMB_MAX_COMMENT_BYTES (((size_t)1 << 20) - 4096)
 #define SMB_PEEK_BYTES ((size_t)1 << 20)
 #define SMB_FILL_BATCH 4096
+/* Version byte and one empty block word: the authors' empty mesh. */
+#define SMB_EMPTY_FILE_BYTES 5
 
 typedef uint32_t (*smb_get32)(const uint8_t *p);
 
@@ -228,6 +235,17 @@ typedef struct smb_reader {
     int record_in_block;
 } smb_reader;
 
+/* The authors' empty mesh (file comment): no header beyond the version. */
+static int open_empty(epsnet_reader *r, smb_reader *st)
+{
+    st->get32 = get32_le;
+    st->nverts = st->nfaces = 0;
+    r->info.encoding = "binary_le";
+    r->info.nverts = r->info.nfaces = 0;
+    r->src->cur += SMB_EMPTY_FILE_BYTES;
+    return 0;
+}
+
 static int smb_open_reader(epsnet_reader *r)
 {
     en_source *s = r->src;
@@ -244,6 +262,8 @@ static int smb_open_reader(epsnet_reader *r)
         return en_source_error(s, &r->err);
     }
     const uint8_t *p = s->cur;
+    if (n == SMB_EMPTY_FILE_BYTES && p[0] == 0 && get32_le(p + 1) == 0)
+        return open_empty(r, st);
     if (n < 2)
         return en_reader_fail_at(r, EPSNET_EFORMAT, n, "truncated file: no SMB header");
     if (p[0] != 0)

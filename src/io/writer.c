@@ -9,6 +9,7 @@
 
 #include "common/alloc.h"
 #include "io/format.h"
+#include "io/text_scan.h"
 
 void epsnet_writer_default_settings(epsnet_writer_settings *s)
 {
@@ -37,22 +38,8 @@ int en_format_coord(char *buf, double v, epsnet_coord_type t)
 {
     /* note: shortest text that parses back to the same bits, so ASCII
      * round trips keep every coordinate exact (SPEC §1: output vertices are
-     * bit-identical input vertices). */
-    if (t == EPSNET_COORD_FLOAT32) {
-        float f = (float)v;
-        for (int prec = 6; prec < 9; prec++) {
-            int n = snprintf(buf, 32, "%.*g", prec, (double)f);
-            if (strtof(buf, NULL) == f)
-                return n;
-        }
-        return snprintf(buf, 32, "%.9g", (double)f);
-    }
-    for (int prec = 15; prec < 17; prec++) {
-        int n = snprintf(buf, 32, "%.*g", prec, v);
-        if (strtod(buf, NULL) == v)
-            return n;
-    }
-    return snprintf(buf, 32, "%.17g", v);
+     * bit-identical input vertices); src/io/text_scan.c explains the method. */
+    return en_text_format_coord(buf, v, t);
 }
 
 int epsnet_writer_open(epsnet_writer **out, const char *path,

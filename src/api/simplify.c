@@ -1,0 +1,165 @@
+/*
+ * epsnet_simplify_file(): sampling followed by the removal of non-samples
+ * (paper §4.2, §5), repeated under new rotations for the ε-net passes. The
+ * whole mesh is one slab here (SPEC §2: the one-slab case of the same core).
+ */
+#include <stdio.h>
+#include <string.h>
+
+#include "api/jobs.h"
+#include "common/alloc.h"
+#include "common/error.h"
+#include "common/util.h"
+#include "core/collapse.h"
+
+/* Rotation of pass i >= 2: derived from the seed, so runs are repeatable.
+ * note: splitmix64's increment keeps pass rotations unrelated to each other
+ * and to the --seed rotation of pass 1. */
+static void pass_rotation(uint64_t seed, int pass, gauss_rotation *r)
+{
+    gauss_rotation_from_seed(seed + 0x9e3779b97f4a7c15ull * (uint64_t)pass, r);
+}
+
+static int write_slab(const en_slab *s, const char *path, epsnet_coord_type ct, int ascii, epsnet_error *err)
+{
+    epsnet_writer_settings ws;
+    epsnet_writer_default_settings(&ws);
+    ws.ascii = ascii;
+    epsnet_mesh_info info;
+    memset(&info, 0, sizeof info);
+    info.nverts = s->nv;
+    info.nfaces = s->nt;
+    info.coord_type = ct;
+    info.sorted_axis = -1;
+    epsnet_writer *w = NULL;
+    int rc = epsnet_writer_open(&w, path, &ws, &info, err);
+    epsnet_record rec;
+    memset(&rec, 0, sizeof rec);
+    for (uint32_t v = 0; v < s->nv && rc == 0; v++) {
+        rec.kind = EPSNET_REC_VERTEX;
+        memcpy(rec.xyz, s->pos + 3 * (size_t)v, sizeof rec.xyz);
+        rc = epsnet_writer_put(w, &rec, err);
+    }
+    for (uint32_t f = 0; f < s->nt && rc == 0; f++) {
+        rec.kind = EPSNET_REC_TRIANGLE;
+        for (int k = 0; k < 3; k++)
+            rec.v[k] = s->tri[3 * (size_t)f + k];
+        rc = epsnet_writer_put(w, &rec, err);
+    }
+    if (rc == 0)
+        return epsnet_writer_commit(&w, err);
+    epsnet_writer_abort(&w);
+    return rc;
+}
+
+/* One pass: classify s under g, collapse its removable vertices, and replace
+ * s (and q) by what remains. *removed = vertices collapsed away. */
+static int simplify_pass(epsnet_context *ctx, const gauss_sphere *g, en_slab *s, en_quadric **q,
+                         const char *path, uint64_t *removed, int first, epsnet_error *err)
+{
+    en_classification c;
+    int rc = en_job_classify(ctx, g, s, &c, path, err);
+    uint8_t *removable = NULL, *falive = NULL, *valive = NULL;
+    uint32_t *tri = NULL;
+    if (rc)
+        goto out;
+    if (first)
+        en_job_count(ctx, &c.counts);
+    removable = en_malloc((size_t)s->nv + 1);
+    valive = en_malloc((size_t)s->nv + 1);
+    falive = en_malloc((size_t)s->nt + 1);
+    tri = en_malloc(3 * sizeof *tri * (size_t)s->nt + 4);
+    if (!removable || !valive || !falive || !tri) {
+        rc = en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+        goto out;
+    }
+    uint64_t nremovable = 0;
+    for (uint32_t v = 0; v < s->nv; v++) {
+        uint8_t f = s->vflags[v];
+        removable[v] = (f & EN_V_OWNED) && (f & EN_V_COMPLETE) &&
+                       !(f & (EN_V_BOUNDARY | EN_V_NONMANIFOLD | EN_V_ISOLATED)) && !(c.vclass[v] & EN_C_SAMPLE);
+        nremovable += removable[v];
+    }
+    *removed = 0;
+    if (nremovable == 0)
+        goto out;
+    en_collapse_settings cs = { ctx->settings.max_normal_dev };
+    en_collapse_counts cc;
+    double t0 = en_now();
+    if (en_collapse_slab(s, removable, *q, &cs, falive, valive, tri, &cc)) {
+        rc = en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory simplifying");
+        goto out;
+    }
+    ctx->stats.collapses += cc.collapses;
+    ctx->stats.remaining_nonsamples = cc.remaining;
+    ctx->stats.refused_link = cc.refused[0];
+    ctx->stats.refused_normal = cc.refused[1];
+    ctx->stats.refused_zero_area = cc.refused[2];
+    ctx->stats.refused_duplicate = cc.refused[3];
+    *removed = cc.collapses;
+    en_slab next;
+    en_quadric *nq = NULL;
+    if (en_slab_compact(s, tri, falive, *q, &next, &nq)) {
+        rc = en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory simplifying");
+        goto out;
+    }
+    en_slab_free(s);
+    *s = next;
+    en_free(*q);
+    *q = nq;
+    ctx->stats.seconds_simplify += en_now() - t0;
+out:
+    en_free(removable);
+    en_free(valive);
+    en_free(falive);
+    en_free(tri);
+    en_classification_free(&c);
+    return rc;
+}
+
+int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *out_path, epsnet_error *err)
+{
+    if (!ctx || !in_path || !out_path)
+        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "epsnet_simplify_file: NULL argument");
+    memset(&ctx->stats, 0, sizeof ctx->stats);
+    snprintf(ctx->command, sizeof ctx->command, "simplify");
+    epsnet_stats *st = &ctx->stats;
+    st->gaussian_vertices = ctx->sphere.nverts;
+    en_slab slab;
+    en_slab_init(&slab);
+    en_quadric *q = NULL;
+    epsnet_coord_type ct = EPSNET_COORD_FLOAT32;
+    int rc = en_job_load(ctx, in_path, &slab, &ct, err);
+    if (rc == 0) {
+        q = en_malloc(((size_t)slab.nv + 1) * sizeof *q);
+        if (!q)
+            rc = en_error_set(err, EPSNET_ENOMEM, in_path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+        else
+            en_quadrics_from_faces(&slab, q);
+    }
+    for (int pass = 1; rc == 0 && pass <= ctx->settings.passes; pass++) {
+        gauss_sphere g = ctx->sphere;
+        if (pass > 1) {
+            gauss_rotation r;
+            pass_rotation(ctx->settings.seed, pass, &r);
+            gauss_init(&g, ctx->sphere.n, &r);
+        }
+        uint64_t removed = 0;
+        rc = simplify_pass(ctx, &g, &slab, &q, in_path, &removed, pass == 1, err);
+        st->passes = (uint64_t)pass;
+        if (rc == 0 && removed == 0 && pass > 1)
+            break; /* converged: this rotation found nothing more to remove */
+    }
+    if (rc == 0) {
+        double t0 = en_now();
+        rc = write_slab(&slab, out_path, ct, ctx->settings.ascii, err);
+        st->seconds_write = en_now() - t0;
+        st->output_vertices = slab.nv;
+        st->output_faces = slab.nt;
+    }
+    st->peak_rss = en_peak_rss_bytes();
+    en_free(q);
+    en_slab_free(&slab);
+    return rc;
+}

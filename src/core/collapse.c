@@ -1,0 +1,503 @@
+/*
+ * Half-edge collapses of non-samples, cheapest first (paper §4.2, §5; SPEC §1).
+ *
+ * Papers implemented:
+ *   Garland, Heckbert. Surface simplification using quadric error metrics.
+ *     SIGGRAPH 1997 (the plane quadrics and their accumulation).
+ *   Dey, Edelsbrunner, Guha, Nekhayev. Topology preserving edge contraction.
+ *     1999 (the link condition).
+ *
+ * The outline: quadrics per vertex -> best target per removable vertex ->
+ * a priority queue of (cost, v, u) -> pop, re-check, collapse -> refresh the
+ * ring around u -> repeat until the queue is empty.
+ *
+ * note: entries are never removed from the queue; each vertex carries a
+ * version that every change around it bumps, and a popped entry whose version
+ * is old is dropped. Validity can also go stale two rings away (a link
+ * condition depends on the target's neighbours), so a current entry is
+ * checked again when it is popped.
+ */
+#include "core/collapse.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "common/alloc.h"
+#include "epsnet/epsnet.h"
+
+/* ---- quadrics ---- */
+
+static void quadric_add(en_quadric *a, const en_quadric *b)
+{
+    a->a2 += b->a2, a->ab += b->ab, a->ac += b->ac, a->ad += b->ad, a->b2 += b->b2;
+    a->bc += b->bc, a->bd += b->bd, a->c2 += b->c2, a->cd += b->cd, a->d2 += b->d2;
+}
+
+static double quadric_eval(const en_quadric *q, const double p[3])
+{
+    double x = p[0], y = p[1], z = p[2];
+    return q->a2 * x * x + 2 * q->ab * x * y + 2 * q->ac * x * z + 2 * q->ad * x + q->b2 * y * y +
+           2 * q->bc * y * z + 2 * q->bd * y + q->c2 * z * z + 2 * q->cd * z + q->d2;
+}
+
+void en_quadrics_from_faces(const en_slab *s, en_quadric *q)
+{
+    memset(q, 0, (size_t)s->nv * sizeof *q);
+    for (uint32_t f = 0; f < s->nt; f++) {
+        const uint32_t *t = s->tri + 3 * (size_t)f;
+        double n[3];
+        en_triangle_normal(s->pos, t, n);
+        double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        if (len == 0)
+            continue;
+        /* note: weight = area, so a plane counts by how much surface it
+         * carries and sliver triangles do not dominate. */
+        double area = 0.5 * len, a = n[0] / len, b = n[1] / len, c = n[2] / len;
+        const double *p = s->pos + 3 * (size_t)t[0];
+        double d = -(a * p[0] + b * p[1] + c * p[2]);
+        en_quadric k = { area * a * a, area * a * b, area * a * c, area * a * d, area * b * b,
+                         area * b * c, area * b * d, area * c * c, area * c * d, area * d * d };
+        for (int i = 0; i < 3; i++)
+            quadric_add(&q[t[i]], &k);
+    }
+}
+
+/* ---- the dynamic mesh ---- */
+
+typedef struct heap_entry {
+    double cost;
+    uint64_t gv, gu;      /* global ids: ties break the same on every run */
+    uint32_t v, u, ver;
+} heap_entry;
+
+typedef struct target {
+    double cost;
+    uint64_t gu;
+    uint32_t u;
+} target;
+
+typedef struct state {
+    const en_slab *s;
+    const uint8_t *removable;
+    en_quadric *q;
+    double cos_bound;
+    uint32_t *tri;
+    uint8_t *falive, *valive;
+    double *fnormal;          /* current unit normal per face */
+
+    /* vertex -> alive faces: list of v is pool[vf_start[v] .. + vf_count[v]) */
+    uint32_t *pool;
+    size_t pool_len, pool_cap;
+    uint32_t *vf_start, *vf_count, *vf_cap;
+
+    uint32_t *ver;            /* bumped by every change around a vertex */
+    uint32_t *mark;           /* stamp per vertex for neighbour sets */
+    uint32_t stamp;
+    uint8_t *refused;         /* EN_REFUSE_* seen on the last evaluation */
+
+    heap_entry *heap;
+    size_t heap_len, heap_cap;
+
+    target *cand;             /* scratch: one vertex's targets */
+    size_t cand_cap;
+    uint32_t *faces;          /* scratch: one vertex's faces */
+    size_t faces_cap;
+
+    uint64_t collapses;
+} state;
+
+static int entry_less(const heap_entry *a, const heap_entry *b)
+{
+    if (a->cost != b->cost)
+        return a->cost < b->cost;
+    if (a->gv != b->gv)
+        return a->gv < b->gv;
+    return a->gu < b->gu;
+}
+
+static int heap_push(state *st, heap_entry e)
+{
+    if (st->heap_len == st->heap_cap &&
+        en_grow((void **)&st->heap, &st->heap_cap, st->heap_len + 1, sizeof *st->heap))
+        return EPSNET_ENOMEM;
+    size_t i = st->heap_len++;
+    while (i > 0) {
+        size_t parent = (i - 1) / 2;
+        if (!entry_less(&e, &st->heap[parent]))
+            break;
+        st->heap[i] = st->heap[parent];
+        i = parent;
+    }
+    st->heap[i] = e;
+    return 0;
+}
+
+static heap_entry heap_pop(state *st)
+{
+    heap_entry top = st->heap[0], last = st->heap[--st->heap_len];
+    size_t i = 0, n = st->heap_len;
+    for (;;) {
+        size_t c = 2 * i + 1;
+        if (c >= n)
+            break;
+        if (c + 1 < n && entry_less(&st->heap[c + 1], &st->heap[c]))
+            c++;
+        if (!entry_less(&st->heap[c], &last))
+            break;
+        st->heap[i] = st->heap[c];
+        i = c;
+    }
+    if (n)
+        st->heap[i] = last;
+    return top;
+}
+
+static void unit_normal(const state *st, const uint32_t t[3], double n[3])
+{
+    en_triangle_normal(st->s->pos, t, n);
+    double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (len > 0)
+        n[0] /= len, n[1] /= len, n[2] /= len;
+}
+
+static int has_corner(const uint32_t *t, uint32_t v)
+{
+    return t[0] == v || t[1] == v || t[2] == v;
+}
+
+/* The two corners of triangle t other than v, in counter-clockwise order. */
+static void other_corners(const uint32_t *t, uint32_t v, uint32_t *x, uint32_t *y)
+{
+    int k = t[0] == v ? 0 : t[1] == v ? 1 : 2;
+    *x = t[(k + 1) % 3];
+    *y = t[(k + 2) % 3];
+}
+
+static int list_append(state *st, uint32_t v, uint32_t f)
+{
+    if (st->vf_count[v] == st->vf_cap[v]) {
+        /* Move the list to the end of the pool with room to grow. */
+        uint32_t cap = st->vf_cap[v] ? 2 * st->vf_cap[v] : 8;
+        if (en_grow((void **)&st->pool, &st->pool_cap, st->pool_len + cap, sizeof *st->pool))
+            return EPSNET_ENOMEM;
+        memcpy(st->pool + st->pool_len, st->pool + st->vf_start[v], st->vf_count[v] * sizeof *st->pool);
+        st->vf_start[v] = (uint32_t)st->pool_len;
+        st->vf_cap[v] = cap;
+        st->pool_len += cap;
+    }
+    st->pool[st->vf_start[v] + st->vf_count[v]++] = f;
+    return 0;
+}
+
+static void list_remove(state *st, uint32_t v, uint32_t f)
+{
+    uint32_t *l = st->pool + st->vf_start[v];
+    for (uint32_t i = 0; i < st->vf_count[v]; i++)
+        if (l[i] == f) {
+            /* note: keep the order (not swap-remove) so that iteration, and
+             * with it every tie, is the same on every run and platform. */
+            memmove(l + i, l + i + 1, (st->vf_count[v] - i - 1) * sizeof *l);
+            st->vf_count[v]--;
+            return;
+        }
+}
+
+/* Does u have an alive face on both x and y? */
+static int has_face_on(const state *st, uint32_t u, uint32_t x, uint32_t y)
+{
+    const uint32_t *l = st->pool + st->vf_start[u];
+    for (uint32_t i = 0; i < st->vf_count[u]; i++) {
+        const uint32_t *t = st->tri + 3 * (size_t)l[i];
+        if (has_corner(t, x) && has_corner(t, y))
+            return 1;
+    }
+    return 0;
+}
+
+/*
+ * Can v collapse onto u? Returns 0 or the EN_REFUSE_* reason.
+ * Link condition: the neighbours v and u share must be exactly the two
+ * vertices opposite the edge v-u, else the collapse pinches the surface.
+ */
+static int check_collapse(state *st, uint32_t v, uint32_t u)
+{
+    if (!(st->s->vflags[u] & EN_V_COMPLETE))
+        return EN_REFUSE_INCOMPLETE;
+    uint32_t stamp = ++st->stamp;
+    const uint32_t *lu = st->pool + st->vf_start[u];
+    for (uint32_t i = 0; i < st->vf_count[u]; i++) {
+        const uint32_t *t = st->tri + 3 * (size_t)lu[i];
+        for (int k = 0; k < 3; k++)
+            st->mark[t[k]] = stamp;
+    }
+    const uint32_t *lv = st->pool + st->vf_start[v];
+    uint32_t opp[2], nedge = 0;
+    for (uint32_t i = 0; i < st->vf_count[v]; i++) {
+        const uint32_t *t = st->tri + 3 * (size_t)lv[i];
+        if (!has_corner(t, u))
+            continue;
+        if (nedge == 2)
+            return EN_REFUSE_LINK; /* edge with more than two faces */
+        opp[nedge++] = t[0] != v && t[0] != u ? t[0] : t[1] != v && t[1] != u ? t[1] : t[2];
+    }
+    if (nedge != 2)
+        return EN_REFUSE_LINK;
+    for (uint32_t i = 0; i < st->vf_count[v]; i++) {
+        const uint32_t *t = st->tri + 3 * (size_t)lv[i];
+        for (int k = 0; k < 3; k++) {
+            uint32_t x = t[k];
+            if (x != v && x != u && st->mark[x] == stamp && x != opp[0] && x != opp[1])
+                return EN_REFUSE_LINK;
+        }
+    }
+    for (uint32_t i = 0; i < st->vf_count[v]; i++) {
+        uint32_t f = lv[i];
+        const uint32_t *t = st->tri + 3 * (size_t)f;
+        if (has_corner(t, u))
+            continue;
+        uint32_t nt[3] = { t[0] == v ? u : t[0], t[1] == v ? u : t[1], t[2] == v ? u : t[2] };
+        double n[3];
+        en_triangle_normal(st->s->pos, nt, n);
+        double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        if (len == 0)
+            return EN_REFUSE_ZERO_AREA;
+        const double *c = st->fnormal + 3 * (size_t)f;
+        if ((n[0] * c[0] + n[1] * c[1] + n[2] * c[2]) / len < st->cos_bound)
+            return EN_REFUSE_NORMAL;
+        uint32_t x, y;
+        other_corners(t, v, &x, &y);
+        if (has_face_on(st, u, x, y))
+            return EN_REFUSE_DUPLICATE;
+    }
+    return 0;
+}
+
+static int target_less(const target *a, const target *b)
+{
+    return a->cost != b->cost ? a->cost < b->cost : a->gu < b->gu;
+}
+
+/* Queue the cheapest valid collapse of v, or record why there is none. */
+static int queue_best(state *st, uint32_t v)
+{
+    if (!st->removable[v] || !st->valive[v])
+        return 0;
+    const en_slab *s = st->s;
+    if (en_grow((void **)&st->cand, &st->cand_cap, st->vf_count[v], sizeof *st->cand))
+        return EPSNET_ENOMEM;
+    target *cand = st->cand;
+    uint32_t n = 0;
+    const uint32_t *lv = st->pool + st->vf_start[v];
+    /* Each neighbour is the corner after v in exactly one face of v's
+     * (manifold, closed) star, so it is listed once. */
+    for (uint32_t i = 0; i < st->vf_count[v]; i++) {
+        uint32_t x, y;
+        other_corners(st->tri + 3 * (size_t)lv[i], v, &x, &y);
+        const double *p = s->pos + 3 * (size_t)x;
+        cand[n].cost = quadric_eval(&st->q[v], p) + quadric_eval(&st->q[x], p);
+        cand[n].gu = s->gid[x];
+        cand[n].u = x;
+        n++;
+    }
+    /* insertion sort: stars are small (a pole fan is the rare long one) */
+    for (uint32_t i = 1; i < n; i++) {
+        target t = cand[i];
+        uint32_t j = i;
+        while (j > 0 && target_less(&t, &cand[j - 1])) {
+            cand[j] = cand[j - 1];
+            j--;
+        }
+        cand[j] = t;
+    }
+    uint8_t reasons = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        int why = check_collapse(st, v, cand[i].u);
+        if (why == 0) {
+            st->refused[v] = 0;
+            heap_entry e = { cand[i].cost, s->gid[v], cand[i].gu, v, cand[i].u, st->ver[v] };
+            return heap_push(st, e);
+        }
+        reasons |= (uint8_t)why;
+    }
+    st->refused[v] = reasons;
+    return 0;
+}
+
+static int do_collapse(state *st, uint32_t v, uint32_t u)
+{
+    /* v's list is consumed here; copy it since u's list may move in the pool */
+    uint32_t nf = st->vf_count[v];
+    if (en_grow((void **)&st->faces, &st->faces_cap, nf, sizeof *st->faces))
+        return EPSNET_ENOMEM;
+    uint32_t *faces = st->faces;
+    memcpy(faces, st->pool + st->vf_start[v], nf * sizeof *faces);
+    for (uint32_t i = 0; i < nf; i++) {
+        uint32_t f = faces[i];
+        uint32_t *t = st->tri + 3 * (size_t)f;
+        if (has_corner(t, u)) {
+            st->falive[f] = 0;
+            for (int k = 0; k < 3; k++)
+                if (t[k] != v)
+                    list_remove(st, t[k], f);
+        } else {
+            for (int k = 0; k < 3; k++)
+                if (t[k] == v)
+                    t[k] = u;
+            unit_normal(st, t, st->fnormal + 3 * (size_t)f);
+            if (list_append(st, u, f))
+                return EPSNET_ENOMEM;
+        }
+    }
+    st->vf_count[v] = 0;
+    st->valive[v] = 0;
+    quadric_add(&st->q[u], &st->q[v]);
+    st->collapses++;
+
+    /* Everything around u changed: its cost, and its neighbours' costs and
+     * link conditions. */
+    const uint32_t *lu = st->pool + st->vf_start[u];
+    uint32_t stamp = ++st->stamp;
+    st->ver[u]++;
+    st->mark[u] = stamp;
+    for (uint32_t i = 0; i < st->vf_count[u]; i++) {
+        const uint32_t *t = st->tri + 3 * (size_t)lu[i];
+        for (int k = 0; k < 3; k++)
+            if (st->mark[t[k]] != stamp) {
+                st->mark[t[k]] = stamp;
+                st->ver[t[k]]++;
+            }
+    }
+    /* Re-queue in a fixed order: u, then u's neighbours as its faces list them. */
+    int rc = queue_best(st, u);
+    uint32_t count = st->vf_count[u];
+    for (uint32_t i = 0; i < count && rc == 0; i++) {
+        uint32_t x, y;
+        other_corners(st->tri + 3 * (size_t)st->pool[st->vf_start[u] + i], u, &x, &y);
+        rc = queue_best(st, x);
+    }
+    return rc;
+}
+
+static void state_free(state *st)
+{
+    en_free(st->fnormal);
+    en_free(st->pool);
+    en_free(st->vf_start);
+    en_free(st->vf_count);
+    en_free(st->vf_cap);
+    en_free(st->ver);
+    en_free(st->mark);
+    en_free(st->refused);
+    en_free(st->heap);
+    en_free(st->cand);
+    en_free(st->faces);
+}
+
+int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q,
+                     const en_collapse_settings *cs, uint8_t *face_alive, uint8_t *vertex_alive,
+                     uint32_t *tri_out, en_collapse_counts *counts)
+{
+    state st = { 0 };
+    st.s = s;
+    st.removable = removable;
+    st.q = q;
+    st.cos_bound = cos(cs->max_normal_dev_deg * (M_PI / 180.0));
+    st.tri = tri_out;
+    st.falive = face_alive;
+    st.valive = vertex_alive;
+    memcpy(st.tri, s->tri, 3 * sizeof *st.tri * (size_t)s->nt);
+    memset(st.falive, 1, s->nt);
+    memset(st.valive, 1, s->nv);
+    st.fnormal = en_malloc(3 * sizeof *st.fnormal * (size_t)s->nt + 8);
+    st.pool_cap = 3 * (size_t)s->nt + 8;
+    st.pool = en_malloc(st.pool_cap * sizeof *st.pool);
+    st.vf_start = en_malloc(((size_t)s->nv + 1) * sizeof *st.vf_start);
+    st.vf_count = en_malloc(((size_t)s->nv + 1) * sizeof *st.vf_count);
+    st.vf_cap = en_malloc(((size_t)s->nv + 1) * sizeof *st.vf_cap);
+    st.ver = en_calloc((size_t)s->nv + 1, sizeof *st.ver);
+    st.mark = en_calloc((size_t)s->nv + 1, sizeof *st.mark);
+    st.refused = en_calloc((size_t)s->nv + 1, 1);
+    int rc = 0;
+    if (!st.fnormal || !st.pool || !st.vf_start || !st.vf_count || !st.vf_cap || !st.ver || !st.mark ||
+        !st.refused) {
+        rc = EPSNET_ENOMEM;
+        goto out;
+    }
+    memcpy(st.pool, s->star, s->star_start[s->nv] * sizeof *st.pool);
+    st.pool_len = s->star_start[s->nv];
+    for (uint32_t v = 0; v < s->nv; v++) {
+        st.vf_start[v] = s->star_start[v];
+        st.vf_count[v] = st.vf_cap[v] = en_slab_degree(s, v);
+    }
+    for (uint32_t f = 0; f < s->nt; f++)
+        unit_normal(&st, st.tri + 3 * (size_t)f, st.fnormal + 3 * (size_t)f);
+
+    for (uint32_t v = 0; v < s->nv && rc == 0; v++)
+        rc = queue_best(&st, v);
+    while (rc == 0 && st.heap_len) {
+        heap_entry e = heap_pop(&st);
+        if (!st.valive[e.v] || !st.valive[e.u] || e.ver != st.ver[e.v])
+            continue; /* stale: a newer entry was queued when it changed */
+        if (check_collapse(&st, e.v, e.u)) {
+            rc = queue_best(&st, e.v); /* went stale two rings away */
+            continue;
+        }
+        rc = do_collapse(&st, e.v, e.u);
+    }
+    if (rc == 0) {
+        memset(counts, 0, sizeof *counts);
+        counts->collapses = st.collapses;
+        for (uint32_t v = 0; v < s->nv; v++) {
+            if (!removable[v] || !st.valive[v])
+                continue;
+            counts->remaining++;
+            for (int k = 0; k < EN_REFUSE_KINDS; k++)
+                counts->refused[k] += (st.refused[v] >> k) & 1;
+        }
+    }
+out:
+    state_free(&st);
+    return rc;
+}
+
+int en_slab_compact(const en_slab *s, const uint32_t *tri, const uint8_t *face_alive,
+                    const en_quadric *q, en_slab *out, en_quadric **q_out)
+{
+    en_slab_init(out);
+    *q_out = NULL;
+    int64_t *map = en_malloc(((size_t)s->nv + 1) * sizeof *map);
+    if (!map)
+        return -1;
+    for (uint32_t v = 0; v < s->nv; v++)
+        map[v] = -1;
+    for (uint32_t f = 0; f < s->nt; f++)
+        if (face_alive[f])
+            for (int k = 0; k < 3; k++)
+                map[tri[3 * (size_t)f + k]] = 0;
+    en_quadric *nq = en_malloc(((size_t)s->nv + 1) * sizeof *nq);
+    int rc = nq ? 0 : -1;
+    for (uint32_t v = 0; v < s->nv && rc == 0; v++) {
+        if (map[v] < 0)
+            continue;
+        uint8_t keep = s->vflags[v] & (EN_V_OWNED | EN_V_COMPLETE);
+        map[v] = en_slab_add_vertex(out, s->gid[v], s->pos + 3 * (size_t)v, keep);
+        if (map[v] < 0)
+            rc = -1;
+        else
+            nq[map[v]] = q[v];
+    }
+    for (uint32_t f = 0; f < s->nt && rc == 0; f++)
+        if (face_alive[f])
+            rc = en_slab_add_face(out, (uint32_t)map[tri[3 * (size_t)f]], (uint32_t)map[tri[3 * (size_t)f + 1]],
+                                  (uint32_t)map[tri[3 * (size_t)f + 2]]);
+    if (rc == 0)
+        rc = en_slab_build_stars(out);
+    en_free(map);
+    if (rc) {
+        en_free(nq);
+        en_slab_free(out);
+        return -1;
+    }
+    *q_out = nq;
+    return 0;
+}

@@ -1,0 +1,64 @@
+/*
+ * Shape approximation on a slab (paper §4.2 and §5, SPEC §1): remove the
+ * removable vertices by half-edge collapses v -> u, cheapest first by
+ * Garland-Heckbert quadric error, refusing any collapse that would change
+ * topology, flip or over-turn a face, create a zero-area or duplicate face.
+ * Only v moves (onto u, an input vertex), so every surviving vertex keeps its
+ * input coordinates bit for bit.
+ */
+#ifndef EN_CORE_COLLAPSE_H
+#define EN_CORE_COLLAPSE_H
+
+#include <stdint.h>
+
+#include "core/slab.h"
+
+/* Symmetric 4x4 plane quadric, upper triangle (Garland & Heckbert 1997). */
+typedef struct en_quadric {
+    double a2, ab, ac, ad, b2, bc, bd, c2, cd, d2;
+} en_quadric;
+
+/* Why a vertex's collapses were refused (bits, one vertex may have several). */
+enum {
+    EN_REFUSE_LINK = 1 << 0,      /* link condition: would change topology */
+    EN_REFUSE_NORMAL = 1 << 1,    /* a face would flip or turn past the bound */
+    EN_REFUSE_ZERO_AREA = 1 << 2, /* a face would have no normal */
+    EN_REFUSE_DUPLICATE = 1 << 3, /* a face would duplicate an existing one */
+    EN_REFUSE_INCOMPLETE = 1 << 4,/* the target's star is not all in this slab */
+};
+#define EN_REFUSE_KINDS 5
+
+typedef struct en_collapse_settings {
+    double max_normal_dev_deg;   /* face normal may turn at most this much per collapse */
+} en_collapse_settings;
+
+typedef struct en_collapse_counts {
+    uint64_t collapses;
+    uint64_t remaining;          /* removable vertices still present */
+    uint64_t refused[EN_REFUSE_KINDS]; /* remaining vertices refused for each reason */
+} en_collapse_counts;
+
+/* Per-vertex quadrics of the slab's faces (area-weighted planes). q has one
+ * entry per slab vertex and is overwritten. */
+void en_quadrics_from_faces(const en_slab *s, en_quadric *q);
+
+/*
+ * Collapse every vertex v with removable[v] != 0 that can go, cheapest first.
+ * Needs the slab's stars. q (per vertex) accumulates through the collapses.
+ * On return face_alive[f] says which faces remain (nt entries) and
+ * vertex_alive[v] which vertices were not collapsed away (nv entries).
+ * @return 0 or EPSNET_ENOMEM.
+ */
+int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q,
+                     const en_collapse_settings *cs, uint8_t *face_alive, uint8_t *vertex_alive,
+                     uint32_t *tri_out, en_collapse_counts *counts);
+
+/*
+ * Build the slab of what remains: alive faces (with corners from tri) and
+ * the vertices they reference, in the old order, with their quadrics. The
+ * new slab's stars are built. @return 0 or -1 (out of memory).
+ */
+int en_slab_compact(const en_slab *s, const uint32_t *tri, const uint8_t *face_alive,
+                    const en_quadric *q, en_slab *out, en_quadric **q_out);
+
+#endif

@@ -1,0 +1,748 @@
+/*
+ * The .smz codec; docs/smz.md describes every byte. Little-endian
+ * throughout, whatever the host.
+ */
+#include "io/smz.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+#include <zstd.h>
+#include <zstd_errors.h>
+
+#include "common/alloc.h"
+#include "common/error.h"
+
+const uint8_t en_smz_magic[8] = { 0x89, 'S', 'M', 'Z', '\r', '\n', 0x1a, '\n' };
+const uint8_t en_smz_end_magic[8] = { 'S', 'M', 'Z', 'I', 'N', 'D', 'E', 'X' };
+static const uint8_t block_tag[4] = { 'S', 'M', 'Z', 'B' };
+static const uint8_t index_tag[4] = { 'S', 'M', 'Z', 'I' };
+
+#define AXIS_NONE 255u
+#define FLAG_SORTED 1u
+#define FLAG_BBOX 2u
+/* Three u32 section sizes open every raw payload. */
+#define RAW_PREFIX_BYTES 12
+
+/* ---- little-endian helpers ---- */
+
+static void put32(uint8_t *p, uint32_t v)
+{
+    for (int i = 0; i < 4; i++)
+        p[i] = (uint8_t)(v >> (8 * i));
+}
+
+static void put64(uint8_t *p, uint64_t v)
+{
+    for (int i = 0; i < 8; i++)
+        p[i] = (uint8_t)(v >> (8 * i));
+}
+
+static uint32_t get32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+static uint64_t get64(const uint8_t *p)
+{
+    return (uint64_t)get32(p) | (uint64_t)get32(p + 4) << 32;
+}
+
+static void put_f64(uint8_t *p, double d)
+{
+    uint64_t u;
+    memcpy(&u, &d, sizeof u);
+    put64(p, u);
+}
+
+static double get_f64(const uint8_t *p)
+{
+    uint64_t u = get64(p);
+    double d;
+    memcpy(&d, &u, sizeof d);
+    return d;
+}
+
+uint32_t en_smz_crc32(uint32_t crc, const void *data, size_t n)
+{
+    /* note: bitwise CRC-32 (IEEE, reflected 0xEDB88320). Only headers, the
+     * index and the trailer are summed this way; block payloads rely on
+     * zstd's XXH64 content checksum, which is far faster. */
+    const uint8_t *p = data;
+    crc = ~crc;
+    while (n--) {
+        crc ^= *p++;
+        for (int k = 0; k < 8; k++)
+            crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+    }
+    return ~crc;
+}
+
+static void set_why(char *why, size_t n, const char *text)
+{
+    if (why && n)
+        snprintf(why, n, "%s", text);
+}
+
+/* ---- header ---- */
+
+void en_smz_header_encode(const en_smz_header *h, uint8_t out[EN_SMZ_HEADER_BYTES])
+{
+    memset(out, 0, EN_SMZ_HEADER_BYTES);
+    memcpy(out, en_smz_magic, 8);
+    out[8] = EN_SMZ_VERSION & 0xff;
+    out[9] = EN_SMZ_VERSION >> 8;
+    out[10] = h->coord_type == EPSNET_COORD_FLOAT64 ? 1 : 0;
+    out[11] = (uint8_t)((h->sorted && h->axis >= 0 ? FLAG_SORTED : 0) | (h->has_bbox ? FLAG_BBOX : 0));
+    out[12] = h->axis >= 0 && h->axis < 3 ? (uint8_t)h->axis : (uint8_t)AXIS_NONE;
+    put64(out + 16, h->nverts);
+    put64(out + 24, h->nfaces);
+    for (int k = 0; k < 6; k++)
+        put_f64(out + 32 + 8 * k, h->has_bbox ? h->bbox[k] : 0.0);
+    put32(out + 92, en_smz_crc32(0, out, 92));
+}
+
+int en_smz_header_decode(const uint8_t in[EN_SMZ_HEADER_BYTES], en_smz_header *h, char *why, size_t why_len)
+{
+    memset(h, 0, sizeof *h);
+    if (memcmp(in, en_smz_magic, 8) != 0) {
+        set_why(why, why_len, "not an .smz file (bad magic)");
+        return -1;
+    }
+    unsigned version = (unsigned)in[8] | (unsigned)in[9] << 8;
+    if (version != EN_SMZ_VERSION) {
+        snprintf(why, why_len, "unsupported .smz version %u (this build reads %u)", version, EN_SMZ_VERSION);
+        return 8;
+    }
+    if (get32(in + 92) != en_smz_crc32(0, in, 92)) {
+        set_why(why, why_len, "header checksum mismatch (corrupt header)");
+        return 92;
+    }
+    if (in[10] > 1) {
+        snprintf(why, why_len, "coordinate type %u is not 0 (float32) or 1 (float64)", in[10]);
+        return 10;
+    }
+    if (in[11] & ~(FLAG_SORTED | FLAG_BBOX)) {
+        snprintf(why, why_len, "unknown header flags 0x%02x", in[11]);
+        return 11;
+    }
+    if (in[12] > 2 && in[12] != AXIS_NONE) {
+        snprintf(why, why_len, "stream axis %u is not 0, 1, 2 or 255", in[12]);
+        return 12;
+    }
+    h->coord_type = in[10] ? EPSNET_COORD_FLOAT64 : EPSNET_COORD_FLOAT32;
+    h->axis = in[12] == AXIS_NONE ? -1 : in[12];
+    h->sorted = (in[11] & FLAG_SORTED) && h->axis >= 0;
+    h->has_bbox = (in[11] & FLAG_BBOX) != 0;
+    h->nverts = get64(in + 16);
+    h->nfaces = get64(in + 24);
+    for (int k = 0; k < 6; k++)
+        h->bbox[k] = get_f64(in + 32 + 8 * k);
+    if (h->has_bbox)
+        for (int k = 0; k < 3; k++)
+            if (!isfinite(h->bbox[k]) || !isfinite(h->bbox[k + 3]) || h->bbox[k] > h->bbox[k + 3]) {
+                set_why(why, why_len, "bounding box is not finite or has min > max");
+                return 32;
+            }
+    return 0;
+}
+
+/* ---- block header ---- */
+
+void en_smz_block_header_encode(const en_smz_block_header *b, uint8_t out[EN_SMZ_BLOCK_HEADER_BYTES])
+{
+    memcpy(out, block_tag, 4);
+    put32(out + 4, b->compressed_bytes);
+    put32(out + 8, b->raw_bytes);
+    put32(out + 12, b->records);
+    put32(out + 16, b->nverts);
+    put32(out + 20, b->ntris);
+    put32(out + 24, b->nfinal);
+    put64(out + 28, b->first_vertex);
+    put32(out + 36, en_smz_crc32(0, out, 36));
+}
+
+int en_smz_block_header_decode(const uint8_t in[EN_SMZ_BLOCK_HEADER_BYTES], en_smz_block_header *b,
+                               char *why, size_t why_len)
+{
+    if (memcmp(in, block_tag, 4) != 0) {
+        set_why(why, why_len, "bad block tag");
+        return -1;
+    }
+    if (get32(in + 36) != en_smz_crc32(0, in, 36)) {
+        set_why(why, why_len, "block header checksum mismatch");
+        return -1;
+    }
+    b->compressed_bytes = get32(in + 4);
+    b->raw_bytes = get32(in + 8);
+    b->records = get32(in + 12);
+    b->nverts = get32(in + 16);
+    b->ntris = get32(in + 20);
+    b->nfinal = get32(in + 24);
+    b->first_vertex = get64(in + 28);
+    if (b->raw_bytes > EN_SMZ_MAX_RAW_BYTES || b->records > EN_SMZ_MAX_RECORDS ||
+        b->compressed_bytes > ZSTD_compressBound(EN_SMZ_MAX_RAW_BYTES)) {
+        snprintf(why, why_len, "block sizes over the limits (%u raw bytes, %u records, %u compressed bytes)",
+                 b->raw_bytes, b->records, b->compressed_bytes);
+        return -1;
+    }
+    if ((uint64_t)b->nverts + b->ntris + b->nfinal != b->records || b->records == 0) {
+        snprintf(why, why_len, "block counts disagree (%u records, %u vertices, %u triangles, %u finalizations)",
+                 b->records, b->nverts, b->ntris, b->nfinal);
+        return -1;
+    }
+    return 0;
+}
+
+/* ---- index and trailer ---- */
+
+void en_smz_index_entry_encode(const en_smz_index_entry *e, uint8_t out[EN_SMZ_INDEX_ENTRY_BYTES])
+{
+    put64(out, e->offset);
+    put64(out + 8, e->first_vertex);
+    put64(out + 16, e->first_triangle);
+    put32(out + 24, e->records);
+    put32(out + 28, e->compressed_bytes);
+    put_f64(out + 32, e->axis_min);
+    put_f64(out + 40, e->axis_max);
+}
+
+void en_smz_index_entry_decode(const uint8_t in[EN_SMZ_INDEX_ENTRY_BYTES], en_smz_index_entry *e)
+{
+    e->offset = get64(in);
+    e->first_vertex = get64(in + 8);
+    e->first_triangle = get64(in + 16);
+    e->records = get32(in + 24);
+    e->compressed_bytes = get32(in + 28);
+    e->axis_min = get_f64(in + 32);
+    e->axis_max = get_f64(in + 40);
+}
+
+void en_smz_trailer_encode(const en_smz_trailer *t, uint8_t out[EN_SMZ_TRAILER_BYTES])
+{
+    memset(out, 0, EN_SMZ_TRAILER_BYTES);
+    put64(out, t->index_offset);
+    put64(out + 8, t->blocks);
+    put64(out + 16, t->nverts);
+    put64(out + 24, t->nfaces);
+    put64(out + 32, t->nfinal);
+    for (int k = 0; k < 6; k++)
+        put_f64(out + 40 + 8 * k, t->has_bbox ? t->bbox[k] : 0.0);
+    out[88] = (uint8_t)((t->sorted && t->axis >= 0 ? FLAG_SORTED : 0) | (t->has_bbox ? FLAG_BBOX : 0));
+    out[89] = t->axis >= 0 && t->axis < 3 ? (uint8_t)t->axis : (uint8_t)AXIS_NONE;
+    put32(out + 92, t->index_crc);
+    put32(out + 96, en_smz_crc32(0, out, 96));
+    memcpy(out + 104, en_smz_end_magic, 8);
+}
+
+int en_smz_trailer_decode(const uint8_t in[EN_SMZ_TRAILER_BYTES], en_smz_trailer *t, char *why, size_t why_len)
+{
+    memset(t, 0, sizeof *t);
+    if (memcmp(in + 104, en_smz_end_magic, 8) != 0) {
+        set_why(why, why_len, "bad trailer magic (the file is truncated or was not finished)");
+        return -1;
+    }
+    if (get32(in + 96) != en_smz_crc32(0, in, 96)) {
+        set_why(why, why_len, "trailer checksum mismatch");
+        return -1;
+    }
+    t->index_offset = get64(in);
+    t->blocks = get64(in + 8);
+    t->nverts = get64(in + 16);
+    t->nfaces = get64(in + 24);
+    t->nfinal = get64(in + 32);
+    for (int k = 0; k < 6; k++)
+        t->bbox[k] = get_f64(in + 40 + 8 * k);
+    t->has_bbox = (in[88] & FLAG_BBOX) != 0;
+    t->axis = in[89] == AXIS_NONE ? -1 : in[89];
+    t->sorted = (in[88] & FLAG_SORTED) && t->axis >= 0;
+    t->index_crc = get32(in + 92);
+    return 0;
+}
+
+/* ---- varints ---- */
+
+static size_t put_varint(uint8_t *p, uint64_t v)
+{
+    size_t n = 0;
+    while (v >= 0x80) {
+        p[n++] = (uint8_t)(v | 0x80);
+        v >>= 7;
+    }
+    p[n++] = (uint8_t)v;
+    return n;
+}
+
+/* @return bytes used, or 0 when the varint runs past end or is over-long. */
+static inline size_t get_varint(const uint8_t *p, const uint8_t *end, uint64_t *v)
+{
+    uint64_t x = 0;
+    for (size_t i = 0; i < 10 && p + i < end; i++) {
+        uint64_t b = p[i];
+        if (i == 9 && b > 1)
+            return 0;
+        x |= (b & 0x7f) << (7 * i);
+        if (!(b & 0x80)) {
+            *v = x;
+            return i + 1;
+        }
+    }
+    return 0;
+}
+
+static inline uint64_t zigzag(int64_t v)
+{
+    return ((uint64_t)v << 1) ^ (uint64_t)(v >> 63);
+}
+
+static inline int64_t unzigzag(uint64_t u)
+{
+    return (int64_t)(u >> 1) ^ -(int64_t)(u & 1);
+}
+
+/* ---- block payload ---- */
+
+static int coord_width(epsnet_coord_type ct)
+{
+    return ct == EPSNET_COORD_FLOAT64 ? 8 : 4;
+}
+
+static uint64_t coord_bits(double v, epsnet_coord_type ct)
+{
+    if (ct == EPSNET_COORD_FLOAT64) {
+        uint64_t u;
+        memcpy(&u, &v, sizeof u);
+        return u;
+    }
+    float f = (float)v;
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    return u;
+}
+
+static double bits_coord(uint64_t u, epsnet_coord_type ct)
+{
+    if (ct == EPSNET_COORD_FLOAT64) {
+        double d;
+        memcpy(&d, &u, sizeof d);
+        return d;
+    }
+    uint32_t w = (uint32_t)u;
+    float f;
+    memcpy(&f, &w, sizeof f);
+    return f;
+}
+
+int en_smz_unpack(void *dctx, const uint8_t *payload, const en_smz_block_header *b, uint8_t *raw,
+                  char *why, size_t why_len)
+{
+    /* note: the frame header descriptor (RFC 8878 §3.1.1.1.1) is the byte
+     * after the magic; bit 2 says the frame ends with an XXH64 checksum. */
+    if (b->compressed_bytes < 6 || get32(payload) != ZSTD_MAGICNUMBER) {
+        set_why(why, why_len, "payload is not a zstd frame");
+        return -1;
+    }
+    if (!(payload[4] & 4)) {
+        set_why(why, why_len, "payload has no content checksum");
+        return -1;
+    }
+    unsigned long long content = ZSTD_getFrameContentSize(payload, b->compressed_bytes);
+    if (content != b->raw_bytes) {
+        set_why(why, why_len, "payload size disagrees with the block header");
+        return -1;
+    }
+    if (ZSTD_findFrameCompressedSize(payload, b->compressed_bytes) != b->compressed_bytes) {
+        set_why(why, why_len, "payload is not exactly one zstd frame");
+        return -1;
+    }
+    size_t r = ZSTD_decompressDCtx(dctx, raw, b->raw_bytes, payload, b->compressed_bytes);
+    if (ZSTD_isError(r)) {
+        if (ZSTD_getErrorCode(r) == ZSTD_error_checksum_wrong)
+            set_why(why, why_len, "checksum mismatch");
+        else
+            snprintf(why, why_len, "corrupt zstd data (%s)", ZSTD_getErrorName(r));
+        return -1;
+    }
+    if (r != b->raw_bytes) {
+        set_why(why, why_len, "payload decompresses to the wrong size");
+        return -1;
+    }
+    return 0;
+}
+
+/* Section layout of a raw payload, checked against the block header. */
+typedef struct raw_sections {
+    const uint8_t *kinds, *coords, *tris, *fins, *end;
+} raw_sections;
+
+static int split_sections(const uint8_t *raw, const en_smz_block_header *b, int width, raw_sections *s,
+                          char *why, size_t why_len)
+{
+    if (b->raw_bytes < RAW_PREFIX_BYTES) {
+        set_why(why, why_len, "payload too short");
+        return -1;
+    }
+    uint64_t kb = get32(raw), tb = get32(raw + 4), fb = get32(raw + 8);
+    uint64_t cb = (uint64_t)b->nverts * 3 * (uint64_t)width;
+    if (RAW_PREFIX_BYTES + kb + cb + tb + fb != b->raw_bytes) {
+        set_why(why, why_len, "payload section sizes do not add up");
+        return -1;
+    }
+    s->kinds = raw + RAW_PREFIX_BYTES;
+    s->coords = s->kinds + kb;
+    s->tris = s->coords + cb;
+    s->fins = s->tris + tb;
+    s->end = s->fins + fb;
+    return 0;
+}
+
+int en_smz_decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet_coord_type ct,
+                        epsnet_record *out, char *why, size_t why_len)
+{
+    int width = coord_width(ct);
+    raw_sections s;
+    if (split_sections(raw, b, width, &s, why, why_len))
+        return -1;
+    const uint8_t *kp = s.kinds, *tp = s.tris, *fp = s.fins;
+    const uint8_t *plane[3][8];
+    for (int k = 0; k < 3; k++)
+        for (int j = 0; j < width; j++)
+            plane[k][j] = s.coords + ((size_t)k * (size_t)width + (size_t)j) * b->nverts;
+    uint64_t prev[3] = { 0, 0, 0 };
+    uint64_t nv = b->first_vertex, vi = 0, nt = 0, nf = 0;
+    uint32_t rec = 0;
+    while (rec < b->records) {
+        uint64_t run;
+        size_t used = get_varint(kp, s.coords, &run);
+        if (!used || (run & 3) == 0) {
+            set_why(why, why_len, "bad record-kind run");
+            return -1;
+        }
+        kp += used;
+        int kind = (int)(run & 3);
+        uint64_t len = (run >> 2) + 1;
+        if (len > b->records - rec) {
+            set_why(why, why_len, "record-kind runs exceed the record count");
+            return -1;
+        }
+        for (uint64_t i = 0; i < len; i++, rec++) {
+            epsnet_record *r = out + rec;
+            r->kind = (epsnet_record_kind)kind;
+            if (kind == EPSNET_REC_VERTEX) {
+                if (vi == b->nverts)
+                    goto counts;
+                for (int k = 0; k < 3; k++) {
+                    uint64_t d = 0;
+                    for (int j = 0; j < width; j++)
+                        d |= (uint64_t)plane[k][j][vi] << (8 * j);
+                    prev[k] += d;
+                    if (width == 4)
+                        prev[k] &= 0xffffffffu;
+                    r->xyz[k] = bits_coord(prev[k], ct);
+                }
+                vi++;
+                nv++;
+            } else if (kind == EPSNET_REC_TRIANGLE) {
+                uint64_t d0, d1, d2;
+                size_t u0 = get_varint(tp, s.fins, &d0);
+                size_t u1 = u0 ? get_varint(tp + u0, s.fins, &d1) : 0;
+                size_t u2 = u1 ? get_varint(tp + u0 + u1, s.fins, &d2) : 0;
+                if (!u2 || nt == b->ntris) {
+                    set_why(why, why_len, "triangle section ends early");
+                    return -1;
+                }
+                tp += u0 + u1 + u2;
+                if (d0 >= nv) {
+                    set_why(why, why_len, "a triangle references a vertex that does not exist yet");
+                    return -1;
+                }
+                uint64_t a = nv - 1 - d0;
+                int64_t e1 = unzigzag(d1), e2 = unzigzag(d2);
+                /* note: corners b and c are a + delta, computed in unsigned
+                 * arithmetic; anything outside [0, nv) is rejected. */
+                uint64_t bv = a + (uint64_t)e1, cv = a + (uint64_t)e2;
+                if (bv >= nv || cv >= nv) {
+                    set_why(why, why_len, "a triangle references a vertex that does not exist yet");
+                    return -1;
+                }
+                r->v[0] = a;
+                r->v[1] = bv;
+                r->v[2] = cv;
+                nt++;
+            } else {
+                uint64_t d;
+                size_t u = get_varint(fp, s.end, &d);
+                if (!u || nf == b->nfinal) {
+                    set_why(why, why_len, "finalization section ends early");
+                    return -1;
+                }
+                fp += u;
+                if (d >= nv) {
+                    set_why(why, why_len, "a finalization names a vertex that does not exist yet");
+                    return -1;
+                }
+                r->v[0] = nv - 1 - d;
+                r->v[1] = r->v[2] = 0;
+                nf++;
+            }
+        }
+    }
+    if (vi != b->nverts || nt != b->ntris || nf != b->nfinal)
+        goto counts;
+    if (kp != s.coords || tp != s.fins || fp != s.end) {
+        set_why(why, why_len, "payload has unused bytes");
+        return -1;
+    }
+    return 0;
+counts:
+    set_why(why, why_len, "record kinds disagree with the block's counts");
+    return -1;
+}
+
+/* ---- encoder ---- */
+
+typedef struct byte_buf {
+    uint8_t *p;
+    size_t len, cap;
+} byte_buf;
+
+static int buf_reserve(byte_buf *b, size_t more)
+{
+    return en_grow((void **)&b->p, &b->cap, b->len + more, 1);
+}
+
+struct en_smz_encoder {
+    epsnet_coord_type ct;
+    byte_buf kinds, tris, fins;
+    uint64_t *bits;          /* 3 per vertex */
+    size_t bits_cap;         /* in vertices */
+    uint32_t nverts, ntris, nfinal;
+    int run_kind;
+    uint64_t run_len;
+};
+
+en_smz_encoder *en_smz_encoder_new(epsnet_coord_type ct)
+{
+    en_smz_encoder *e = en_calloc(1, sizeof *e);
+    if (e)
+        e->ct = ct;
+    return e;
+}
+
+void en_smz_encoder_free(en_smz_encoder **pe)
+{
+    en_smz_encoder *e = pe ? *pe : NULL;
+    if (!e)
+        return;
+    en_free(e->kinds.p);
+    en_free(e->tris.p);
+    en_free(e->fins.p);
+    en_free(e->bits);
+    en_free(e);
+    *pe = NULL;
+}
+
+static int close_run(en_smz_encoder *e)
+{
+    if (!e->run_len)
+        return 0;
+    if (buf_reserve(&e->kinds, 10))
+        return -1;
+    e->kinds.len += put_varint(e->kinds.p + e->kinds.len, (e->run_len - 1) << 2 | (uint64_t)e->run_kind);
+    e->run_len = 0;
+    return 0;
+}
+
+int en_smz_encoder_add(en_smz_encoder *e, const epsnet_record *rec, uint64_t nverts_before)
+{
+    int kind = (int)rec->kind;
+    if (kind != e->run_kind && close_run(e))
+        return -1;
+    if (kind == EPSNET_REC_VERTEX) {
+        size_t cap = e->bits_cap;
+        if (e->nverts == cap) {
+            void *p = e->bits;
+            if (en_grow(&p, &cap, (size_t)e->nverts + 1, 3 * sizeof *e->bits))
+                return -1;
+            e->bits = p;
+            e->bits_cap = cap;
+        }
+        for (int k = 0; k < 3; k++)
+            e->bits[3 * (size_t)e->nverts + (size_t)k] = coord_bits(rec->xyz[k], e->ct);
+        e->nverts++;
+    } else if (kind == EPSNET_REC_TRIANGLE) {
+        if (buf_reserve(&e->tris, 30))
+            return -1;
+        uint64_t a = rec->v[0];
+        uint8_t *p = e->tris.p + e->tris.len;
+        size_t n = put_varint(p, nverts_before - 1 - a);
+        n += put_varint(p + n, zigzag((int64_t)(rec->v[1] - a)));
+        n += put_varint(p + n, zigzag((int64_t)(rec->v[2] - a)));
+        e->tris.len += n;
+        e->ntris++;
+    } else {
+        if (buf_reserve(&e->fins, 10))
+            return -1;
+        e->fins.len += put_varint(e->fins.p + e->fins.len, nverts_before - 1 - rec->v[0]);
+        e->nfinal++;
+    }
+    e->run_kind = kind;
+    e->run_len++;
+    return 0;
+}
+
+uint32_t en_smz_encoder_records(const en_smz_encoder *e)
+{
+    return e->nverts + e->ntris + e->nfinal;
+}
+
+size_t en_smz_encoder_raw_bytes(const en_smz_encoder *e)
+{
+    return RAW_PREFIX_BYTES + e->kinds.len + 10 + (size_t)e->nverts * 3 * (size_t)coord_width(e->ct) +
+           e->tris.len + e->fins.len;
+}
+
+int en_smz_encoder_flush(en_smz_encoder *e, void *cctx, uint8_t **out, size_t *out_cap,
+                         en_smz_block_header *b)
+{
+    if (close_run(e))
+        return -1;
+    int width = coord_width(e->ct);
+    size_t cb = (size_t)e->nverts * 3 * (size_t)width;
+    size_t raw_len = RAW_PREFIX_BYTES + e->kinds.len + cb + e->tris.len + e->fins.len;
+    uint8_t *raw = en_malloc(raw_len);
+    if (!raw)
+        return -1;
+    put32(raw, (uint32_t)e->kinds.len);
+    put32(raw + 4, (uint32_t)e->tris.len);
+    put32(raw + 8, (uint32_t)e->fins.len);
+    uint8_t *p = raw + RAW_PREFIX_BYTES;
+    memcpy(p, e->kinds.p, e->kinds.len);
+    p += e->kinds.len;
+    /* note: coordinates become per-axis differences of their bit patterns,
+     * split into byte planes: along the stream axis the differences are
+     * small, so their high planes are nearly all zero and zstd packs them
+     * to almost nothing (docs/smz.md "Coordinates"). */
+    for (int k = 0; k < 3; k++) {
+        uint64_t prev = 0;
+        for (uint32_t i = 0; i < e->nverts; i++) {
+            uint64_t cur = e->bits[3 * (size_t)i + (size_t)k];
+            uint64_t d = cur - prev;
+            prev = cur;
+            for (int j = 0; j < width; j++)
+                p[((size_t)k * (size_t)width + (size_t)j) * e->nverts + i] = (uint8_t)(d >> (8 * j));
+        }
+    }
+    p += cb;
+    memcpy(p, e->tris.p, e->tris.len);
+    p += e->tris.len;
+    memcpy(p, e->fins.p, e->fins.len);
+    size_t bound = ZSTD_compressBound(raw_len);
+    if (bound > *out_cap) {
+        uint8_t *n = en_realloc(*out, bound);
+        if (!n) {
+            en_free(raw);
+            return -1;
+        }
+        *out = n;
+        *out_cap = bound;
+    }
+    size_t z = ZSTD_compress2(cctx, *out, *out_cap, raw, raw_len);
+    en_free(raw);
+    if (ZSTD_isError(z))
+        return -1;
+    b->compressed_bytes = (uint32_t)z;
+    b->raw_bytes = (uint32_t)raw_len;
+    b->records = en_smz_encoder_records(e);
+    b->nverts = e->nverts;
+    b->ntris = e->ntris;
+    b->nfinal = e->nfinal;
+    e->kinds.len = e->tris.len = e->fins.len = 0;
+    e->nverts = e->ntris = e->nfinal = 0;
+    e->run_kind = 0;
+    e->run_len = 0;
+    return 0;
+}
+
+/* ---- random access ---- */
+
+static int pread_all(int fd, void *buf, size_t n, uint64_t off)
+{
+    uint8_t *p = buf;
+    while (n) {
+        ssize_t k = pread(fd, p, n, (off_t)off);
+        if (k < 0 && errno == EINTR)
+            continue;
+        if (k <= 0)
+            return -1;
+        p += k;
+        n -= (size_t)k;
+        off += (uint64_t)k;
+    }
+    return 0;
+}
+
+int en_smz_read_index(int fd, const char *path, uint64_t file_size, en_smz_index *idx, epsnet_error *err)
+{
+    memset(idx, 0, sizeof *idx);
+    uint8_t hb[EN_SMZ_HEADER_BYTES], tb[EN_SMZ_TRAILER_BYTES];
+    char why[200];
+    if (file_size < EN_SMZ_HEADER_BYTES + EN_SMZ_INDEX_HEAD_BYTES + EN_SMZ_TRAILER_BYTES)
+        return en_error_set(err, EPSNET_EFORMAT, path, EPSNET_POS_NONE, file_size,
+                            "truncated file: too short for an .smz header, index and trailer");
+    if (pread_all(fd, hb, sizeof hb, 0) || pread_all(fd, tb, sizeof tb, file_size - sizeof tb))
+        return en_error_set(err, EPSNET_EIO, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "read failed: %s",
+                            strerror(errno));
+    int bad = en_smz_header_decode(hb, &idx->header, why, sizeof why);
+    if (bad)
+        return en_error_set(err, EPSNET_EFORMAT, path, EPSNET_POS_NONE, bad < 0 ? 0 : (uint64_t)bad, "%s", why);
+    uint64_t toff = file_size - sizeof tb;
+    if (en_smz_trailer_decode(tb, &idx->trailer, why, sizeof why))
+        return en_error_set(err, EPSNET_EFORMAT, path, EPSNET_POS_NONE, toff, "%s", why);
+    const en_smz_trailer *t = &idx->trailer;
+    if (t->index_offset < EN_SMZ_HEADER_BYTES || t->index_offset > toff ||
+        t->blocks > (toff - t->index_offset) / EN_SMZ_INDEX_ENTRY_BYTES ||
+        t->index_offset + EN_SMZ_INDEX_HEAD_BYTES + t->blocks * EN_SMZ_INDEX_ENTRY_BYTES != toff)
+        return en_error_set(err, EPSNET_EFORMAT, path, EPSNET_POS_NONE, toff,
+                            "trailer's index position and block count do not fit the file");
+    size_t n = (size_t)(toff - t->index_offset);
+    uint8_t *ib = en_malloc(n);
+    idx->entries = en_calloc(t->blocks ? (size_t)t->blocks : 1, sizeof *idx->entries);
+    if (!ib || !idx->entries) {
+        en_free(ib);
+        en_smz_index_free(idx);
+        return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    }
+    int rc = 0;
+    if (pread_all(fd, ib, n, t->index_offset))
+        rc = en_error_set(err, EPSNET_EIO, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "read failed");
+    else if (memcmp(ib, index_tag, 4) != 0 || en_smz_crc32(0, ib, n) != t->index_crc)
+        rc = en_error_set(err, EPSNET_EFORMAT, path, EPSNET_POS_NONE, t->index_offset,
+                          "index is corrupt (bad tag or checksum)");
+    uint64_t expect = EN_SMZ_HEADER_BYTES;
+    for (uint64_t i = 0; rc == 0 && i < t->blocks; i++) {
+        en_smz_index_entry *e = &idx->entries[i];
+        en_smz_index_entry_decode(ib + EN_SMZ_INDEX_HEAD_BYTES + i * EN_SMZ_INDEX_ENTRY_BYTES, e);
+        if (e->offset != expect)
+            rc = en_error_set(err, EPSNET_EFORMAT, path, EPSNET_POS_NONE, t->index_offset,
+                              "index entry %llu points at byte %llu, expected %llu", (unsigned long long)i,
+                              (unsigned long long)e->offset, (unsigned long long)expect);
+        expect = e->offset + EN_SMZ_BLOCK_HEADER_BYTES + e->compressed_bytes;
+    }
+    if (rc == 0 && expect != t->index_offset)
+        rc = en_error_set(err, EPSNET_EFORMAT, path, EPSNET_POS_NONE, t->index_offset,
+                          "index does not cover the blocks");
+    en_free(ib);
+    if (rc)
+        en_smz_index_free(idx);
+    return rc;
+}
+
+void en_smz_index_free(en_smz_index *idx)
+{
+    en_free(idx->entries);
+    idx->entries = NULL;
+}
