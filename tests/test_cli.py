@@ -225,6 +225,132 @@ def sigint_leaves_nothing():
     assert not leftovers(TMP), leftovers(TMP)
 
 
+@case
+def sample_writes_one_point_per_sample_and_stats():
+    src = path("smp.ply")
+    rc, _, err = run("gen", "sphere", "--faces", "20000", "-o", src, "-q")
+    assert rc == 0, err
+    out, stats = path("smp_out.ply"), path("smp.json")
+    rc, _, err = run("sample", src, "-o", out, "--level", "2", "--stats", stats, "-q")
+    assert rc == 0, err
+    import json
+    st = json.load(open(stats))
+    assert st["gaussian_vertices"] == 66 and st["samples"] == 66, st
+    head = open(out, "rb").read(400).decode("latin1")
+    assert "element vertex 66\n" in head and "property int gvertex" in head, head
+    rc, _, err = run("sample", src, "-o", path("smp_mesh.ply"), "--mesh", "--level", "2", "-q")
+    assert rc == 0, err
+    head = open(path("smp_mesh.ply"), "rb").read(400).decode("latin1")
+    assert "property uchar sample" in head and "element face" in head, head
+
+
+@case
+def sample_and_simplify_reject_bad_options():
+    src = write("t.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    for args in (["--level", "15"], ["--frequency", "0"], ["--rotation", "1,2"], ["--seed", "1", "--rotation",
+                 "identity"], ["--threads", "x"]):
+        rc, _, err = run("sample", src, "-o", path("x.ply"), *args)
+        assert rc == 1, (args, rc, err)
+    for args in (["--passes", "0"], ["--max-normal-dev", "0"], ["--max-normal-dev", "200"]):
+        rc, _, err = run("simplify", src, "-o", path("x.ply"), *args)
+        assert rc == 1, (args, rc, err)
+    assert not os.path.exists(path("x.ply"))
+
+
+@case
+def simplify_keeps_samples_and_reports():
+    src = path("simp_in.ply")
+    rc, _, err = run("gen", "torus", "--faces", "20000", "-o", src, "-q")
+    assert rc == 0, err
+    out, stats = path("simp_out.obj"), path("simp.json")
+    rc, _, err = run("simplify", src, "-o", out, "--level", "2", "--stats", stats)
+    assert rc == 0, err
+    assert "epsnet simplify:" in err and "non-samples left" in err, err
+    import json
+    st = json.load(open(stats))
+    assert st["output_vertices"] == st["samples"] + st["remaining_nonsamples"], st
+    assert st["output_faces"] < st["faces"], st
+    rc, info, err = run("info", out)
+    assert rc == 0, err
+    assert f"vertices:    {st['output_vertices']}" in info, info
+
+
+@case
+def simplify_bad_input_leaves_nothing():
+    expect_bad_input("bad_simp.obj", "v 0 0 0\nv 1 0 0\nf 1 2 3\n", ":3:")
+    src = path("bad_simp.obj")
+    out = path("bad_simp_out.ply")
+    rc, _, err = run("simplify", src, "-o", out)
+    assert rc == 2 and ":3:" in err and not os.path.exists(out), (rc, err)
+
+
+@case
+def sort_then_check_strict():
+    src = path("sort_in.ply")
+    rc, _, err = run("gen", "bumpy", "--faces", "30000", "--shuffle", "-o", src, "-q")
+    assert rc == 0, err
+    out = path("sorted.smz")
+    rc, _, err = run("sort", src, "-o", out, "--mem", "1M")
+    assert rc == 0, err
+    assert "epsnet sort:" in err and "runs" in err, err
+    rc, text, err = run("check", out, "--strict")
+    assert rc == 0, (rc, err)
+    assert "valid:       yes" in text and "checksums:   every block verified" in text, text
+    rc, text2, err = run("check", out, "--strict", "--axis", "x")
+    sorted_line = [l for l in text.splitlines() if l.startswith("sorted:")][0]
+    assert (rc == 0) == ("x" in sorted_line.split("(")[0]), (rc, sorted_line, err)
+    rc, _, err = run("check", src)
+    assert rc == 2 and "no finalization" in err and src in err, (rc, err)
+    assert len(err.strip().splitlines()) == 1, err
+    assert not leftovers(TMP), leftovers(TMP)
+
+
+@case
+def check_names_the_corrupt_block_and_offset():
+    src = path("ck_in.ply")
+    rc, _, err = run("gen", "sphere", "--faces", "20000", "-o", src, "-q")
+    assert rc == 0, err
+    good = path("ck.smz")
+    rc, _, err = run("sort", src, "-o", good, "-q")
+    assert rc == 0, err
+    data = bytearray(open(good, "rb").read())
+    assert data[96:100] == b"SMZB", data[96:100]
+    data[96 + 40 + 20] ^= 0x40          # inside block 0's payload
+    bad = write("ck_bad.smz", bytes(data))
+    rc, _, err = run("check", bad)
+    lines = err.strip().splitlines()
+    assert rc == 2 and len(lines) == 1, (rc, err)
+    assert bad in lines[0] and "byte 96" in lines[0] and "block 0 is corrupt" in lines[0], lines[0]
+
+
+@case
+def sort_usage_and_io_errors():
+    src = write("sort_tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    assert run("sort", src, "-o", path("a.smz"), "--axis", "w")[0] == 1
+    assert run("sort", src)[0] == 1
+    assert run("sort", src, "-o", path("a.smz"), "--mem", "lots")[0] == 1
+    rc, _, err = run("sort", path("missing.ply"), "-o", path("a.smz"))
+    assert rc == 3 and "missing.ply" in err, (rc, err)
+    rc, _, err = run("sort", src, "-o", path("one.smz"), "-q")
+    assert rc == 0 and err == "", (rc, err)
+    rc, text, err = run("check", path("one.smz"), "--strict")
+    assert rc == 0 and "vertices:    3" in text, (rc, text, err)
+
+
+@case
+def sort_of_a_never_finalizing_stream_hits_the_budget():
+    lines = ["v %d %d 0" % (i % 700, i // 700) for i in range(150000)]
+    lines += ["f %d %d %d" % (i, i + 1, i + 2) for i in range(1, 149998, 3)]
+    src = write("nofin.sma", "\n".join(lines) + "\n")
+    out = path("nofin.smz")
+    rc, _, err = run("sort", src, "-o", out, "--mem", "1M", "-q")
+    assert rc == 4, (rc, err)
+    assert "memory budget" in err and src in err, err
+    assert len(err.strip().splitlines()) == 1, err
+    assert not os.path.exists(out)
+    assert not leftovers(TMP), leftovers(TMP)
+
+
 subprocess.run(["rm", "-rf", TMP])
 print(f"{failures} failed")
 sys.exit(1 if failures else 0)

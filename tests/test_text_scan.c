@@ -103,7 +103,8 @@ TEST(float_texts_are_floats_printed_at_their_own_precision)
     CHECK(is_float_text("0"));
     CHECK(is_float_text("-0.0"));
     CHECK(!is_float_text("0.30000000000000004"));
-    CHECK(!is_float_text("0.1000000015"));        /* 0.1f is 0.100000001490116... */
+    CHECK(is_float_text("0.1000000015"));         /* 0.1f is 0.100000001490116... */
+    CHECK(!is_float_text("0.1000000016"));
     CHECK(!is_float_text("1e39"));                /* no float */
     CHECK(!is_float_text("3.4028236e38"));        /* rounds to infinity */
     CHECK(is_float_text("3.40282347e+38"));       /* FLT_MAX */
@@ -231,7 +232,8 @@ static int decimal_digits(const char *t, int *negative, char *digits, size_t cap
 }
 
 /* The text is exactly f printed (correctly rounded) with as many
- * significant digits as the text has. */
+ * significant digits as the text has, or it reads as exactly f even as a
+ * double (then reading it as a float changes nothing). */
 static int reference_is_float_text(const char *text, float f)
 {
     char want[64], got[64];
@@ -242,6 +244,8 @@ static int reference_is_float_text(const char *text, float f)
         return f == 0;
     if (!isfinite(f))
         return 0;
+    if (strtod(text, NULL) == (double)f)
+        return 1;
     char printed[96];
     snprintf(printed, sizeof printed, "%.*e", k - 1, (double)f);
     decimal_digits(printed, &neg_f, got, sizeof got, &e_f);
@@ -299,8 +303,9 @@ TEST(float_text_check_agrees_with_the_exact_reference_on_random_texts)
             fprintf(stderr, "  '%s': got %d, reference %d\n", text, got, want);
     }
     CHECK_EQ_INT(mismatches, 0);
+    printf("  %ld of %ld texts are float texts\n", float_texts, total);
     /* both answers are well represented, so the comparison means something */
-    CHECK(float_texts > total / 4 && float_texts < total * 3 / 4);
+    CHECK(float_texts > total / 10 && float_texts < total * 9 / 10);
 }
 
 /* ---- printing against the snprintf search ---- */
@@ -325,6 +330,7 @@ static int reference_format(char *buf, double v, epsnet_coord_type type)
 
 typedef struct format_tally {
     long values, mismatches, undecided;
+    long undecided_finite;       /* not counting floats beyond float range */
 } format_tally;
 
 /* en_format_coord() must give the reference text; its fast method, when it
@@ -337,6 +343,7 @@ static void check_format(double v, epsnet_coord_type type, format_tally *t)
     int nf = en_text_format_coord_fast(fast, v, type);
     t->values++;
     t->undecided += nf == 0;
+    t->undecided_finite += nf == 0 && (type == EPSNET_COORD_FLOAT64 || isfinite((float)v));
     int bad = ng != nw || strcmp(got, want) != 0 || (nf != 0 && (nf != nw || strcmp(fast, want) != 0));
     if (bad && t->mismatches++ < 10)
         fprintf(stderr, "  %a (%s): reference '%s', got '%s', fast '%s'\n", v,
@@ -359,7 +366,7 @@ TEST(format_coord_pins_known_texts)
         { 0.1, EPSNET_COORD_FLOAT32, "0.1" },
         { 0.1, EPSNET_COORD_FLOAT64, "0.1" },
         { 1.0 / 3.0, EPSNET_COORD_FLOAT64, "0.3333333333333333" },
-        { 1.0 / 3.0, EPSNET_COORD_FLOAT32, "0.333333343" },
+        { 1.0 / 3.0, EPSNET_COORD_FLOAT32, "0.33333334" },
         { 16777216.0, EPSNET_COORD_FLOAT32, "16777216" },
         { -0.0, EPSNET_COORD_FLOAT64, "-0" },
         { -0.0, EPSNET_COORD_FLOAT32, "-0" },
@@ -367,7 +374,7 @@ TEST(format_coord_pins_known_texts)
         { 0x1p-149, EPSNET_COORD_FLOAT32, "1.4013e-45" },
         { 0x1p-1074, EPSNET_COORD_FLOAT64, "4.94065645841247e-324" },
         { DBL_MAX, EPSNET_COORD_FLOAT64, "1.7976931348623157e+308" },
-        { FLT_MAX, EPSNET_COORD_FLOAT32, "3.40282347e+38" },
+        { FLT_MAX, EPSNET_COORD_FLOAT32, "3.4028235e+38" },
         { 1e15, EPSNET_COORD_FLOAT64, "1e+15" },
         { 1e-5, EPSNET_COORD_FLOAT64, "1e-05" },
         { 1e-4, EPSNET_COORD_FLOAT64, "0.0001" },
@@ -391,7 +398,7 @@ TEST(format_coord_pins_known_texts)
 TEST(format_coord_equals_the_search_on_random_doubles_and_floats)
 {
     uint64_t rng = 7;
-    format_tally t = { 0, 0, 0 };
+    format_tally t = { 0, 0, 0, 0 };
     for (int i = 0; i < 1500000; i++) {
         double v = double_from_bits(next_random(&rng));
         if (isfinite(v))
@@ -405,14 +412,15 @@ TEST(format_coord_equals_the_search_on_random_doubles_and_floats)
         check_both_types(mesh, &t);
     }
     CHECK_EQ_INT(t.mismatches, 0);
-    /* the fast method decides almost everything (else nothing was sped up) */
-    CHECK(t.undecided * 10000 < t.values);
+    /* the fast method decides them all, exact ties included (else nothing
+     * was sped up, or its tie rules go untested) */
+    CHECK_EQ_INT(t.undecided_finite, 0);
     printf("  %ld values, %ld left to the search\n", t.values, t.undecided);
 }
 
 TEST(format_coord_equals_the_search_on_edge_values)
 {
-    format_tally t = { 0, 0, 0 };
+    format_tally t = { 0, 0, 0, 0 };
     uint64_t rng = 99;
     /* every power of two, each with its neighbours */
     for (int e = -1074; e <= 1023; e++) {
@@ -452,6 +460,7 @@ TEST(format_coord_equals_the_search_on_edge_values)
     for (size_t i = 0; i < sizeof extremes / sizeof *extremes; i++)
         check_both_types(extremes[i], &t);
     CHECK_EQ_INT(t.mismatches, 0);
+    CHECK_EQ_INT(t.undecided_finite, 0);   /* only floats that overflow are left */
     printf("  %ld values, %ld left to the search\n", t.values, t.undecided);
 }
 

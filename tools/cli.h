@@ -34,6 +34,9 @@ int cmd_info(int argc, char **argv);
 int cmd_gen(int argc, char **argv);
 int cmd_sample(int argc, char **argv);
 int cmd_simplify(int argc, char **argv);
+int cmd_hausdorff(int argc, char **argv);
+int cmd_sort(int argc, char **argv);
+int cmd_check(int argc, char **argv);
 
 extern int cli_quiet;        /* -q: no progress, no summaries */
 
@@ -67,7 +70,8 @@ double cli_now(void);
  * --level, --frequency, --seed, --rotation, -j/--threads, --mem, --tmpdir,
  * --stats. CLI_METHOD_OPTIONS goes into a getopt_long table; the codes are
  * >= 1000 except -j. cli_method_option() handles one; it returns 1 when it
- * took the option, 0 when the code is not a method option, or EXIT_USAGE.
+ * took the option, 0 when the code is not a method option, or -1 after
+ * printing a usage error.
  */
 #define CLI_METHOD_OPTIONS                                          \
     { "level", required_argument, NULL, 1000 },                     \

@@ -148,51 +148,64 @@ void cli_method_init(cli_method *m)
     epsnet_default_settings(&m->settings);
 }
 
+/* Print a usage error and return -1, the method-option failure value. */
+static int method_usage(const char *cmd, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+static int method_usage(const char *cmd, const char *fmt, ...)
+{
+    char msg[256];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    cli_usage_error(cmd, "%s", msg);
+    return -1;
+}
+
 int cli_method_option(const char *cmd, int code, const char *arg, cli_method *m)
 {
     uint64_t v = 0;
-    int rc;
     switch (code) {
     case 1000:
-        if ((rc = cli_parse_u64(cmd, "--level", arg, &v)))
-            return rc;
+        if (cli_parse_u64(cmd, "--level", arg, &v))
+            return -1;
         if (v > 14)
-            return cli_usage_error(cmd, "--level must be between 0 and 14");
+            return method_usage(cmd, "--level must be between 0 and 14");
         m->settings.level = (int)v;
         return 1;
     case 1001:
-        if ((rc = cli_parse_u64(cmd, "--frequency", arg, &v)))
-            return rc;
+        if (cli_parse_u64(cmd, "--frequency", arg, &v))
+            return -1;
         if (v < 1 || v > 16384)
-            return cli_usage_error(cmd, "--frequency must be between 1 and 16384");
+            return method_usage(cmd, "--frequency must be between 1 and 16384");
         m->settings.frequency = (uint32_t)v;
         return 1;
     case 1002:
-        if ((rc = cli_parse_u64(cmd, "--seed", arg, &m->settings.seed)))
-            return rc;
+        if (cli_parse_u64(cmd, "--seed", arg, &m->settings.seed))
+            return -1;
         if (m->rotation_given)
-            return cli_usage_error(cmd, "give --seed or --rotation, not both");
+            return method_usage(cmd, "give --seed or --rotation, not both");
         m->seed_given = 1;
         m->settings.rotation_mode = EPSNET_ROTATION_SEED;
         return 1;
     case 1003:
         if (m->seed_given)
-            return cli_usage_error(cmd, "give --seed or --rotation, not both");
+            return method_usage(cmd, "give --seed or --rotation, not both");
         if (epsnet_parse_rotation(arg, &m->settings))
-            return cli_usage_error(cmd, "--rotation: '%s' is not default, identity, AX,AY,AZ,DEG or q:W,X,Y,Z",
+            return method_usage(cmd, "--rotation: '%s' is not default, identity, AX,AY,AZ,DEG or q:W,X,Y,Z",
                                    arg);
         m->rotation_given = 1;
         return 1;
     case 'j':
-        if ((rc = cli_parse_u64(cmd, "--threads", arg, &v)))
-            return rc;
+        if (cli_parse_u64(cmd, "--threads", arg, &v))
+            return -1;
         if (v > 1024)
-            return cli_usage_error(cmd, "--threads must be at most 1024");
+            return method_usage(cmd, "--threads must be at most 1024");
         m->settings.threads = (int)v;
         return 1;
     case 1004:
-        if ((rc = cli_parse_size(cmd, "--mem", arg, &m->settings.mem)))
-            return rc;
+        if (cli_parse_size(cmd, "--mem", arg, &m->settings.mem))
+            return -1;
         return 1;
     case 1005:
         m->settings.tmpdir = arg;

@@ -37,8 +37,8 @@ int cmd_sample(int argc, char **argv)
     optind = 1;
     while ((c = getopt_long(argc, argv, "o:j:qh", opts, NULL)) != -1) {
         if ((rc = cli_method_option("sample", c, optarg, &m)) != 0) {
-            if (rc != 1)
-                return rc;
+            if (rc < 0)
+                return EXIT_USAGE;
             continue;
         }
         switch (c) {

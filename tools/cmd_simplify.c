@@ -42,8 +42,8 @@ int cmd_simplify(int argc, char **argv)
     optind = 1;
     while ((c = getopt_long(argc, argv, "o:j:qh", opts, NULL)) != -1) {
         if ((rc = cli_method_option("simplify", c, optarg, &m)) != 0) {
-            if (rc != 1)
-                return rc;
+            if (rc < 0)
+                return EXIT_USAGE;
             continue;
         }
         switch (c) {

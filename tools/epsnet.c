@@ -14,6 +14,9 @@ static const cli_command commands[] = {
     { "gen", "generate a synthetic mesh of any size", cmd_gen },
     { "sample", "find the feature-sensitive samples of a mesh (paper §4)", cmd_sample },
     { "simplify", "keep only the samples: feature-preserving simplification", cmd_simplify },
+    { "hausdorff", "Metro-style distance and normal deviation between two meshes", cmd_hausdorff },
+    { "sort", "any mesh into a spatially sorted streaming mesh, out of core", cmd_sort },
+    { "check", "validate a streaming mesh: order, references, finalization, checksums", cmd_check },
 };
 
 static void usage(FILE *f)

@@ -28,10 +28,12 @@ demo)
     ninja -C build-release >/dev/null
     mkdir -p demo
     bin=build-release/tools/epsnet
-    $bin gen bumpy --faces 1M --seed 7 -o demo/bumpy.ply
-    $bin info demo/bumpy.ply
-    $bin convert demo/bumpy.ply -o demo/bumpy.sma.zst -q
-    $bin info demo/bumpy.sma.zst
+    # A scan-like mesh of 1M faces, shuffled like an ordinary scanner PLY.
+    [ -f demo/bumpy.ply ] || $bin gen bumpy --faces 1M --seed 7 --shuffle -o demo/bumpy.ply
+    # The main job: keep the feature-sensitive samples, drop the rest.
+    $bin simplify demo/bumpy.ply -o demo/bumpy_simplified.ply --level 4 --stats demo/stats.json
+    $bin sample demo/bumpy.ply -o demo/bumpy_samples.ply --level 4 -q
+    echo "outputs in demo/: bumpy_simplified.ply (mesh), bumpy_samples.ply (points), stats.json"
     ;;
 test)
     status=0

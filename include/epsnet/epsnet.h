@@ -15,6 +15,10 @@
  *   7. Sampling     - classify every vertex as sample or not (paper §4).
  *   8. Simplifying  - keep only the samples: the shape approximation.
  *   9. Utilities    - size parsing, version, signal-time cleanup.
+ *  10. Measuring    - Metro-style distance and normal deviation between two
+ *                     meshes (epsnet hausdorff).
+ *  11. Sorting      - any mesh, of any size, into a spatially sorted,
+ *                     finalized streaming mesh (epsnet sort), out of core.
  *
  * Conventions
  *   - Every function that can fail returns 0 (or a positive count) on success
@@ -538,6 +542,174 @@ EPSNET_API void epsnet_remove_temporaries(void);
 
 /* "MAJOR.MINOR.PATCH" of the linked library. */
 EPSNET_API const char *epsnet_version(void);
+
+/* ------------------------------------------------------------------------
+ * 10. Measuring
+ *
+ * A Metro-style comparison of two meshes A and B (the measure behind the
+ * paper's Tables 1 and 2). Each mesh is sampled: every vertex used by a
+ * face, points along every edge and stratified points inside every face;
+ * each sample is measured against the other surface with an exact
+ * point-to-triangle distance. Both directions are reported, since the
+ * Hausdorff distance is the larger of two one-sided maxima.
+ *
+ * Sampling density: samples_per_face * (faces of the mesh) points inside
+ * faces, spread in proportion to area (at least one per face with area);
+ * edge points at twice that spacing (never more in total than the face
+ * points); every used vertex once. Zero-area faces (collinear or coincident
+ * corners) get no interior points but are sampled and measured as their
+ * edges: a segment or a point, never "distance 0 to everything near them".
+ *
+ * Weights: max is over every sample. mean and rms are integrals over the
+ * surface, estimated from the face points, each weighted by its face's area
+ * divided by that face's point count (Metro's area weighting); a mesh with
+ * no area at all falls back to equal weights over its vertex and edge
+ * points.
+ *
+ * Normal deviation (the L2,1 measure of paper §3.2 that the method bounds):
+ * for each face point, the angle between its face's normal and the normal
+ * of the other surface at the closest point. Where that closest point is on
+ * an edge or vertex shared by several faces (to within 1e-10 of the other
+ * mesh's diagonal), the face whose normal is nearest to the sample's is
+ * used: the normal cone there holds every direction in between. Normals are
+ * oriented, so a face flipped against its neighbour shows as about 180
+ * degrees. Reported as max and area-weighted mean, in degrees; samples whose
+ * nearest faces are all zero-area have no normal to compare and are not
+ * counted.
+ *
+ * The numbers depend only on the two meshes, samples_per_face and seed:
+ * never on the thread count or on the machine's scheduling.
+ * ------------------------------------------------------------------------ */
+
+typedef struct epsnet_hausdorff_settings {
+    /* Interior points per face, on average (area-proportional), 1 .. 100000.
+     * Default: 10. */
+    uint32_t samples_per_face;
+    /* Seed of the stratified jitter. Default: 1. */
+    uint64_t seed;
+    /* Threads; 0 = all cores. Default: 0. */
+    int threads;
+    uint8_t reserved[64];
+} epsnet_hausdorff_settings;
+
+EPSNET_API void epsnet_hausdorff_default_settings(epsnet_hausdorff_settings *s);
+
+/* One direction: the samples of one mesh measured against the other surface. */
+typedef struct epsnet_hausdorff_side {
+    double max;                /* largest distance, over every sample */
+    double mean;               /* area-weighted mean distance */
+    double rms;                /* area-weighted root mean square distance */
+    uint64_t samples;          /* points measured: vertices + edge + face points */
+    double normal_max;         /* largest normal deviation, degrees */
+    double normal_mean;        /* area-weighted mean normal deviation, degrees */
+    uint64_t normal_samples;   /* face points that had a normal to compare with */
+    double area;               /* surface area of the sampled mesh */
+} epsnet_hausdorff_side;
+
+typedef struct epsnet_hausdorff_result {
+    epsnet_hausdorff_side a_to_b;  /* samples of A, distances to B */
+    epsnet_hausdorff_side b_to_a;  /* samples of B, distances to A */
+    double hausdorff;              /* symmetric: max(a_to_b.max, b_to_a.max) */
+    double diagonal;               /* diagonal of the bounding box of all of A's vertices */
+    uint64_t a_vertices, a_faces, a_zero_area_faces;
+    uint64_t b_vertices, b_faces, b_zero_area_faces;
+    uint8_t reserved[64];
+} epsnet_hausdorff_result;
+
+/*
+ * Read the meshes at a and b (any readable format, optionally .zst) and
+ * measure them against each other. Both are held in memory (about 100 bytes
+ * per face each, plus 24 per vertex).
+ * @return 0 with *out filled, or a negative code with err filled:
+ * EPSNET_EINVAL when exactly one of the meshes has no faces (the distance to
+ * an empty surface is undefined; two empty meshes measure 0), the reader's
+ * codes for bad files, EPSNET_ELIMIT beyond 2^32-2 vertices or faces,
+ * EPSNET_EUNSUPPORTED for coordinates beyond 1e150 in magnitude (their
+ * squared distances would overflow), EPSNET_ENOMEM.
+ * Ownership: nothing is kept; s may be NULL for defaults.
+ */
+EPSNET_API int epsnet_hausdorff_files(const char *a, const char *b,
+                                      const epsnet_hausdorff_settings *s,
+                                      epsnet_hausdorff_result *out, epsnet_error *err);
+
+/*
+ * Write r as a JSON object to path ("-" = stdout), the values relative to
+ * r->diagonal beside the absolute ones; a_name and b_name are recorded as
+ * given (may be NULL). The file appears only when complete.
+ * @return 0 or a negative code with err filled.
+ */
+EPSNET_API int epsnet_hausdorff_write_json(const epsnet_hausdorff_result *r, const char *a_name,
+                                           const char *b_name, const char *path,
+                                           epsnet_error *err);
+
+/* ------------------------------------------------------------------------
+ * 11. Sorting (SPEC §2 "Input")
+ *
+ * The pipeline needs a spatially sorted streaming mesh: vertices in
+ * non-decreasing order along one axis, each triangle right after its last
+ * vertex, each vertex finalized right after its last triangle. Sorting turns
+ * any readable mesh into one, out of core: vertices and face corners are
+ * external-sorted in zstd-compressed temporary runs (anonymous files that
+ * vanish on any exit), so memory stays near `mem` whatever the mesh size.
+ *
+ * The output, for the same input and settings, is the same bytes:
+ *   - vertices ordered by their coordinate along the axis; equal coordinates
+ *     keep their input order;
+ *   - triangles ordered by their last corner in that order, then by input
+ *     order, each with its corners (and so its orientation) as in the input;
+ *   - each vertex finalized right after the last triangle that uses it;
+ *   - vertices that no triangle uses are dropped (and counted).
+ * Input finalization records are ignored; a streaming input is still read
+ * under the memory budget (a stream that never finalizes hits it: ELIMIT).
+ * ------------------------------------------------------------------------ */
+
+typedef struct epsnet_sort_settings {
+    /* Stream axis: 0, 1, 2 for x, y, z; -1 = the longest side of the
+     * bounding box (ties go to the earlier axis). Default: -1. */
+    int axis;
+    /* Memory budget in bytes for the sort's buffers. Beyond it there is a
+     * fixed overhead of a few MB (reader window, compressors), so budgets
+     * below about 16M are honoured only approximately. Default: 512M. */
+    uint64_t mem;
+    /* Folder for the temporary runs; NULL = the output's folder.
+     * Default: NULL. */
+    const char *tmpdir;
+    /* Output format name, or NULL to choose from the output's extension.
+     * Default: NULL. */
+    const char *format;
+    /* Progress callback, as in epsnet_settings: done/total in arbitrary
+     * units over the whole job; non-zero cancels (EPSNET_EINTR).
+     * Default: NULL. */
+    int (*progress)(void *opaque, uint64_t done, uint64_t total);
+    void *progress_opaque;
+    uint8_t reserved[64];
+} epsnet_sort_settings;
+
+EPSNET_API void epsnet_sort_default_settings(epsnet_sort_settings *s);
+
+typedef struct epsnet_sort_stats {
+    uint64_t vertices;            /* input vertices */
+    uint64_t faces;               /* input (and output) triangles */
+    uint64_t unreferenced;        /* input vertices no triangle uses: dropped */
+    int axis;                     /* the axis used */
+    uint64_t runs;                /* sorted runs written to temporary files */
+    uint64_t temp_bytes;          /* compressed bytes written to them */
+    uint64_t peak_memory;         /* largest total of the sort's own buffers */
+    uint64_t peak_rss;            /* process high-water mark, 0 if unknown */
+    uint64_t max_width;           /* most vertices live at once in the output */
+    double seconds;
+    uint8_t reserved[64];
+} epsnet_sort_stats;
+
+/*
+ * Sort the mesh at in_path into out_path (any writable format; .smz keeps
+ * the finalization and the sorted flag). settings and stats may be NULL.
+ * @return 0, or a negative code with err filled; on failure nothing is left
+ * at out_path and every temporary file is gone.
+ */
+EPSNET_API int epsnet_sort_file(const char *in_path, const char *out_path,
+                                const epsnet_sort_settings *settings,
+                                epsnet_sort_stats *stats, epsnet_error *err);
 
 #ifdef __cplusplus
 }

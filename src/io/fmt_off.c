@@ -15,7 +15,6 @@
  * and a float32 writer never rounds a value that was read as a double.
  */
 #include <inttypes.h>
-#include <stdlib.h>
 #include <string.h>
 
 #include "common/alloc.h"

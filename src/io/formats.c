@@ -11,10 +11,11 @@ extern const en_format en_format_off;
 extern const en_format en_format_stl;
 extern const en_format en_format_sma;
 extern const en_format en_format_smb;
+extern const en_format en_format_smz;
 
 const en_format *const en_formats[] = {
     &en_format_ply, &en_format_obj, &en_format_off, &en_format_stl,
-    &en_format_sma, &en_format_smb, NULL,
+    &en_format_sma, &en_format_smb, &en_format_smz, NULL,
 };
 
 const en_format *en_format_by_name(const char *name)

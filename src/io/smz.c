@@ -194,6 +194,14 @@ int en_smz_block_header_decode(const uint8_t in[EN_SMZ_BLOCK_HEADER_BYTES], en_s
                  b->records, b->nverts, b->ntris, b->nfinal);
         return -1;
     }
+    /* note: the smallest possible encoding of the announced records must fit
+     * in the raw size, so a hostile header cannot make a decoder allocate
+     * record arrays out of proportion to the data. */
+    if (12 + 12 * (uint64_t)b->nverts + 3 * (uint64_t)b->ntris + b->nfinal + 1 > (uint64_t)b->raw_bytes) {
+        snprintf(why, why_len, "block announces %u records, more than its %u raw bytes can hold", b->records,
+                 b->raw_bytes);
+        return -1;
+    }
     return 0;
 }
 
@@ -620,7 +628,8 @@ int en_smz_encoder_flush(en_smz_encoder *e, void *cctx, uint8_t **out, size_t *o
     put32(raw + 4, (uint32_t)e->tris.len);
     put32(raw + 8, (uint32_t)e->fins.len);
     uint8_t *p = raw + RAW_PREFIX_BYTES;
-    memcpy(p, e->kinds.p, e->kinds.len);
+    if (e->kinds.len)
+        memcpy(p, e->kinds.p, e->kinds.len);
     p += e->kinds.len;
     /* note: coordinates become per-axis differences of their bit patterns,
      * split into byte planes: along the stream axis the differences are
@@ -637,9 +646,11 @@ int en_smz_encoder_flush(en_smz_encoder *e, void *cctx, uint8_t **out, size_t *o
         }
     }
     p += cb;
-    memcpy(p, e->tris.p, e->tris.len);
+    if (e->tris.len)
+        memcpy(p, e->tris.p, e->tris.len);
     p += e->tris.len;
-    memcpy(p, e->fins.p, e->fins.len);
+    if (e->fins.len)
+        memcpy(p, e->fins.p, e->fins.len);
     size_t bound = ZSTD_compressBound(raw_len);
     if (bound > *out_cap) {
         uint8_t *n = en_realloc(*out, bound);

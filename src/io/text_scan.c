@@ -16,10 +16,14 @@
  *      when that multiple lies strictly between the midpoints to v's
  *      neighbours, scaled the same way (a neighbour at a power of two is
  *      twice as close below).
- *   3. Every comparison is made with the error bound on both sides; when it
- *      cannot be decided (an exact tie, or a value on a midpoint), the fast
- *      method gives up and the slow search decides. That happens for a few
- *      values in a million, so the result is always the search's result.
+ *   3. Every comparison allows for that error. Where 10^j is exact the
+ *      scaled values are exact too, and ties are settled the way printf
+ *      (half to even) and strtod (midpoint to the even mantissa) settle
+ *      them; with an inexact 10^j (j < 0, so v is an integer) a possible tie
+ *      is checked with exact integer arithmetic. What is still undecided
+ *      (none in millions of random values; floats that overflow to
+ *      infinity) goes to the slow search, so the text is always the
+ *      search's text.
  */
 #include "io/text_scan.h"
 
@@ -259,19 +263,33 @@ static fixed fixed_add_units(fixed a, uint64_t units)
 
 static void mul_64x64(uint64_t a, uint64_t b, uint64_t *hi, uint64_t *lo)
 {
+#if defined(__SIZEOF_INT128__)
+    __extension__ typedef unsigned __int128 u128;
+    u128 p = (u128)a * b;
+    *hi = (uint64_t)(p >> 64);
+    *lo = (uint64_t)p;
+#else
     uint64_t a0 = a & 0xffffffffu, a1 = a >> 32, b0 = b & 0xffffffffu, b1 = b >> 32;
     uint64_t p00 = a0 * b0, p01 = a0 * b1, p10 = a1 * b0, p11 = a1 * b1;
     uint64_t mid = (p00 >> 32) + (p01 & 0xffffffffu) + (p10 & 0xffffffffu);
     *lo = (mid << 32) | (p00 & 0xffffffffu);
     *hi = p11 + (p01 >> 32) + (p10 >> 32) + (mid >> 32);
+#endif
 }
 
 static int leading_zeros(uint64_t x)
 {
+#if defined(__GNUC__) || defined(__clang__)
+    return x ? __builtin_clzll(x) : 64;
+#else
     int n = 0;
-    for (uint64_t bit = (uint64_t)1 << 63; bit && !(x & bit); bit >>= 1)
-        n++;
-    return n;
+    for (int step = 32; step; step /= 2)
+        if (!(x >> (64 - step))) {
+            n += step;
+            x <<= step;
+        }
+    return n + !x;
+#endif
 }
 
 static int floor_div(int a, int b)
@@ -290,42 +308,53 @@ static int floor_div(int a, int b)
 static const struct pow10_row {
     uint64_t hi, lo;
     int shift;
+    int exact;
 } pow10_rows[POW10_ROWS] = {
-    { 0xe61acf033d1a45df, 0x6fb92487298e33bd, 1151 },  /* 10^-308 */
-    { 0xe858ad248f5c22c9, 0xd1b3400f8f9cff68, 1058 },  /* 10^-280 */
-    { 0xea9c227723ee8bcb, 0x465e15a979c1cadc, 965 },   /* 10^-252 */
-    { 0xece53cec4a314ebd, 0xa4f8bf5635246428, 872 },   /* 10^-224 */
-    { 0xef340a98172aace4, 0x86fb897116c87c34, 779 },   /* 10^-196 */
-    { 0xf18899b1bc3f8ca1, 0xdc44e6c3cb279ac1, 686 },   /* 10^-168 */
-    { 0xf3e2f893dec3f126, 0x5a89dba3c3efccfa, 593 },   /* 10^-140 */
-    { 0xf64335bcf065d37d, 0x4d4617b5ff4a16d5, 500 },   /* 10^-112 */
-    { 0xf8a95fcf88747d94, 0x75a44c6397ce912a, 407 },   /* 10^-84 */
-    { 0xfb158592be068d2e, 0xeed6e2f0f0d56712, 314 },   /* 10^-56 */
-    { 0xfd87b5f28300ca0d, 0x8bca9d6e188853fc, 221 },   /* 10^-28 */
-    { 0x8000000000000000, 0x0000000000000000, 127 },   /* 10^0, exact */
-    { 0x813f3978f8940984, 0x4000000000000000, 34 },    /* 10^28, exact */
-    { 0x82818f1281ed449f, 0xbff8f10e7a8921a4, -59 },   /* 10^56 */
-    { 0x83c7088e1aab65db, 0x792667c6da79e0fa, -152 },  /* 10^84 */
-    { 0x850fadc09923329e, 0x03e2cf6bc604ddb0, -245 },  /* 10^112 */
-    { 0x865b86925b9bc5c2, 0x0b8a2392ba45a9b2, -338 },  /* 10^140 */
-    { 0x87aa9aff79042286, 0x90fb44d2f05d0842, -431 },  /* 10^168 */
-    { 0x88fcf317f22241e2, 0x441fece3bdf81f03, -524 },  /* 10^196 */
-    { 0x8a5296ffe33cc92f, 0x82bd6b70d99aaa6f, -617 },  /* 10^224 */
-    { 0x8bab8eefb6409c1a, 0x1ad089b6c2f7548e, -710 },  /* 10^252 */
-    { 0x8d07e33455637eb2, 0xdb0b487b6423e1e8, -803 },  /* 10^280 */
-    { 0x8e679c2f5e44ff8f, 0x570f09eaa7ea7648, -896 },  /* 10^308 */
-    { 0x8fcac257558ee4e6, 0x213a4f0aa5e8a7b1, -989 },  /* 10^336 */
+    { 0xe61acf033d1a45df, 0x6fb92487298e33bd, 1151, 0 },  /* 10^-308 */
+    { 0xe858ad248f5c22c9, 0xd1b3400f8f9cff68, 1058, 0 },  /* 10^-280 */
+    { 0xea9c227723ee8bcb, 0x465e15a979c1cadc, 965, 0 },   /* 10^-252 */
+    { 0xece53cec4a314ebd, 0xa4f8bf5635246428, 872, 0 },   /* 10^-224 */
+    { 0xef340a98172aace4, 0x86fb897116c87c34, 779, 0 },   /* 10^-196 */
+    { 0xf18899b1bc3f8ca1, 0xdc44e6c3cb279ac1, 686, 0 },   /* 10^-168 */
+    { 0xf3e2f893dec3f126, 0x5a89dba3c3efccfa, 593, 0 },   /* 10^-140 */
+    { 0xf64335bcf065d37d, 0x4d4617b5ff4a16d5, 500, 0 },   /* 10^-112 */
+    { 0xf8a95fcf88747d94, 0x75a44c6397ce912a, 407, 0 },   /* 10^-84 */
+    { 0xfb158592be068d2e, 0xeed6e2f0f0d56712, 314, 0 },   /* 10^-56 */
+    { 0xfd87b5f28300ca0d, 0x8bca9d6e188853fc, 221, 0 },   /* 10^-28 */
+    { 0x8000000000000000, 0x0000000000000000, 127, 1 },   /* 10^0, exact */
+    { 0x813f3978f8940984, 0x4000000000000000, 34, 1 },    /* 10^28, exact */
+    { 0x82818f1281ed449f, 0xbff8f10e7a8921a4, -59, 0 },   /* 10^56 */
+    { 0x83c7088e1aab65db, 0x792667c6da79e0fa, -152, 0 },  /* 10^84 */
+    { 0x850fadc09923329e, 0x03e2cf6bc604ddb0, -245, 0 },  /* 10^112 */
+    { 0x865b86925b9bc5c2, 0x0b8a2392ba45a9b2, -338, 0 },  /* 10^140 */
+    { 0x87aa9aff79042286, 0x90fb44d2f05d0842, -431, 0 },  /* 10^168 */
+    { 0x88fcf317f22241e2, 0x441fece3bdf81f03, -524, 0 },  /* 10^196 */
+    { 0x8a5296ffe33cc92f, 0x82bd6b70d99aaa6f, -617, 0 },  /* 10^224 */
+    { 0x8bab8eefb6409c1a, 0x1ad089b6c2f7548e, -710, 0 },  /* 10^252 */
+    { 0x8d07e33455637eb2, 0xdb0b487b6423e1e8, -803, 0 },  /* 10^280 */
+    { 0x8e679c2f5e44ff8f, 0x570f09eaa7ea7648, -896, 0 },  /* 10^308 */
+    { 0x8fcac257558ee4e6, 0x213a4f0aa5e8a7b1, -989, 0 },  /* 10^336 */
 };
 
-static const uint64_t pow10_u64[18] = {
+static const uint64_t pow10_u64[20] = {
     1, 10, 100, 1000, 10000, 100000, 1000000, 10000000, 100000000, 1000000000,
     10000000000u, 100000000000u, 1000000000000u, 10000000000000u, 100000000000000u,
-    1000000000000000u, 10000000000000000u, 100000000000000000u,
+    1000000000000000u, 10000000000000000u, 100000000000000000u, 1000000000000000000u,
+    10000000000000000000u,
 };
 
-/* 10^j ≈ (p[0]:p[1])·2^-*shift, truncated, top bit set. @return -1 when j is
- * outside the table (never for finite floats and doubles). */
-static int pow10_approx(int j, uint64_t p[2], int *shift)
+static const uint64_t pow5_u64[POW10_STEP] = {
+    1u, 5u, 25u, 125u, 625u, 3125u, 15625u, 78125u, 390625u, 1953125u, 9765625u, 48828125u,
+    244140625u, 1220703125u, 6103515625u, 30517578125u, 152587890625u, 762939453125u,
+    3814697265625u, 19073486328125u, 95367431640625u, 476837158203125u, 2384185791015625u,
+    11920928955078125u, 59604644775390625u, 298023223876953125u, 1490116119384765625u,
+    7450580596923828125u,
+};
+
+/* 10^j ≈ (p[0]:p[1])·2^-*shift, truncated, top bit set; *exact when nothing
+ * was truncated. @return -1 when j is outside the table (never for finite
+ * floats and doubles). */
+static int pow10_approx(int j, uint64_t p[2], int *shift, int *exact)
 {
     int a = floor_div(j, POW10_STEP), b = j - POW10_STEP * a;
     if (a < POW10_MIN_A || a >= POW10_MIN_A + POW10_ROWS)
@@ -335,11 +364,10 @@ static int pow10_approx(int j, uint64_t p[2], int *shift)
         p[0] = row->hi;
         p[1] = row->lo;
         *shift = row->shift;
+        *exact = row->exact;
         return 0;
     }
-    uint64_t five = 1;
-    for (int i = 0; i < b; i++)
-        five *= 5;
+    uint64_t five = pow5_u64[b];
     uint64_t h0, l0, h1, l1;
     mul_64x64(row->lo, five, &h0, &l0);
     mul_64x64(row->hi, five, &h1, &l1);
@@ -350,12 +378,13 @@ static int pow10_approx(int j, uint64_t p[2], int *shift)
     /* 10^j = row·2^-row.shift · five·2^b, and the 192-bit product lost
      * 64 - lz bits */
     *shift = row->shift - b + lz - 64;
+    *exact = row->exact && (lz ? l0 << lz : l0) == 0;
     return 0;
 }
 
-/* floor(n·p·2^-sh) as 64.64 fixed point; @return -1 if sh is not in (0, 128)
- * or the result does not fit. */
-static int scale(uint64_t n, const uint64_t p[2], int sh, fixed *out)
+/* floor(n·p·2^-sh) as 64.64 fixed point; *exact when no set bit was shifted
+ * out. @return -1 if sh is not in (0, 128) or the result does not fit. */
+static int scale(uint64_t n, const uint64_t p[2], int sh, fixed *out, int *exact)
 {
     if (sh <= 0 || sh >= 128)
         return -1;
@@ -368,12 +397,15 @@ static int scale(uint64_t n, const uint64_t p[2], int sh, fixed *out)
             return -1;
         out->f = r0 >> sh | r1 << (64 - sh);
         out->i = r1 >> sh | r2 << (64 - sh);
+        *exact = r0 << (64 - sh) == 0;
     } else if (sh == 64) {
         out->f = r1;
         out->i = r2;
+        *exact = r0 == 0;
     } else {
         out->f = r1 >> (sh - 64) | r2 << (128 - sh);
         out->i = r2 >> (sh - 64);
+        *exact = r0 == 0 && r1 << (128 - sh) == 0;
     }
     return 0;
 }
@@ -416,55 +448,124 @@ static binary_value decompose_float(float v)
     return b;
 }
 
+/* A scaled value: computed below the exact one by less than
+ * SCALE_ERROR_UNITS units of 2^-64 (file comment, step 1), or exact. */
+typedef struct bound {
+    fixed at;
+    int exact;
+    uint64_t n;                  /* the exact value is n·2^e2·10^j */
+} bound;
+
+#define SCALE_ERROR_UNITS 2
+
 /* v, and the midpoints to its neighbours, scaled by 10^j. */
 typedef struct scaled_value {
-    fixed x, lo, hi;
+    bound x, lo, hi;
+    int e2, j;
+    int even;                    /* v's mantissa is even: midpoints read as v */
 } scaled_value;
+
+static int scale_bound(uint64_t n, const uint64_t p[2], int sh, int p_exact, bound *out)
+{
+    if (scale(n, p, sh, &out->at, &out->exact))
+        return -1;
+    out->exact &= p_exact;
+    out->n = n;
+    return 0;
+}
 
 static int scale_value(binary_value b, int j, scaled_value *s)
 {
     uint64_t p[2];
-    int shift;
-    if (pow10_approx(j, p, &shift))
+    int shift, exact;
+    if (pow10_approx(j, p, &shift, &exact))
         return -1;
     /* 4m·2^(e-2), so that both midpoints are integers times 2^(e-2) */
     int sh = shift - (b.e - 2) - 64;
     uint64_t n = 4 * b.m;
-    return scale(n, p, sh, &s->x) || scale(n + 2, p, sh, &s->hi) ||
-           scale(n - (b.closer_below ? 1 : 2), p, sh, &s->lo) ? -1 : 0;
+    s->even = (b.m & 1) == 0;
+    s->e2 = b.e - 2;
+    s->j = j;
+    return scale_bound(n, p, sh, exact, &s->x) || scale_bound(n + 2, p, sh, exact, &s->hi) ||
+           scale_bound(n - (b.closer_below ? 1 : 2), p, sh, exact, &s->lo) ? -1 : 0;
 }
 
-/* The computed value is below the exact one by less than this many units
- * of 2^-64 (file comment, step 1). */
-#define SCALE_ERROR_UNITS 2
+enum { DECIDED_NO = 0, DECIDED_YES = 1, UNDECIDED = 2 };
 
-enum { DECIDED_NO = 0, DECIDED_YES = 1, UNDECIDED = -1 };
-
-/* Round x to a multiple of t (a power of ten), half to even never needed:
- * an exact half is UNDECIDED. *d gets the multiplier. */
-static int round_to_multiple(fixed x, uint64_t t, uint64_t *d)
+/* Is n·2^e2·10^j exactly c/2? Decided by integer arithmetic for j in
+ * [-19, 0) and results within 128 bits; otherwise 0 (not known to be).
+ * note: this is the only question left when 10^j is inexact. For j >= 0 the
+ * table is exact wherever a tie can occur, and for j < 0 (v an integer) a
+ * value within 2^-63 of c/2 without equalling it would need a numerator
+ * difference of 1 over 2·10^-j > 2^63, i.e. j <= -19. */
+static int exactly_half_of(uint64_t n, int e2, int j, uint64_t c)
 {
-    fixed rem = { x.i % t, x.f };
-    fixed half = { t / 2, t == 1 ? (uint64_t)1 << 63 : 0 };
-    *d = x.i / t;
-    if (!fixed_less(half, fixed_add_units(rem, SCALE_ERROR_UNITS)))
-        return DECIDED_YES;     /* rem + error <= half: down */
-    if (fixed_less(half, rem)) {
-        (*d)++;
-        return DECIDED_YES;
-    }
-    return UNDECIDED;
+    if (j >= 0 || j < -19 || e2 < 0 || 64 - leading_zeros(n) + e2 + 1 > 127)
+        return 0;
+    int sh = e2 + 1;
+    uint64_t left_hi = sh >= 64 ? n << (sh - 64) : n >> (64 - sh);
+    uint64_t left_lo = sh >= 64 ? 0 : n << sh;
+    uint64_t right_hi, right_lo;
+    mul_64x64(c, pow10_u64[-j], &right_hi, &right_lo);
+    return left_hi == right_hi && left_lo == right_lo;
 }
 
-/* Is the integer c strictly between the (exact) midpoints? */
+/* Sign of c minus the exact value behind b: -1, 0 or 1, or UNDECIDED. c is
+ * an integer or a half (fraction 0 or 2^63). */
+static int compare(fixed c, const bound *b, const scaled_value *s)
+{
+    if (fixed_less(c, b->at))
+        return -1;
+    if (b->exact)
+        return fixed_less(b->at, c) ? 1 : 0;
+    if (!fixed_less(c, fixed_add_units(b->at, SCALE_ERROR_UNITS)))
+        return 1;
+    return exactly_half_of(b->n, s->e2, s->j, 2 * c.i + (c.f != 0)) ? 0 : UNDECIDED;
+}
+
+/* Round x to a multiple of t (a power of ten), an exact half to even as
+ * printf does; *d gets the multiplier. */
+/* x / 10^k for the few k a precision search needs, as constant divisions. */
+static uint64_t div_pow10(uint64_t x, int k)
+{
+    switch (k) {
+    case 0:
+        return x;
+    case 1:
+        return x / 10;
+    case 2:
+        return x / 100;
+    case 3:
+        return x / 1000;
+    default:
+        return x / pow10_u64[k];
+    }
+}
+
+static int round_to_multiple(const scaled_value *s, int k, uint64_t *d)
+{
+    uint64_t t = pow10_u64[k];
+    *d = div_pow10(s->x.at.i, k);
+    fixed half = { *d * t + t / 2, t == 1 ? (uint64_t)1 << 63 : 0 };
+    int side = compare(half, &s->x, s);
+    if (side == UNDECIDED)
+        return UNDECIDED;
+    if (side < 0 || (side == 0 && (*d & 1)))
+        (*d)++;
+    return DECIDED_YES;
+}
+
+/* Does the integer c read back as v: strictly between the midpoints, or on
+ * one when v's mantissa is even (strtod rounds half to even)? */
 static int between_midpoints(uint64_t c, const scaled_value *s)
 {
     fixed cf = { c, 0 };
-    if (fixed_less(cf, s->lo) || !fixed_less(cf, fixed_add_units(s->hi, SCALE_ERROR_UNITS)))
+    int side_lo = compare(cf, &s->lo, s), side_hi = compare(cf, &s->hi, s);
+    if (side_lo < 0 || side_hi == 1 || ((side_lo == 0 || side_hi == 0) && !s->even))
         return DECIDED_NO;
-    if (fixed_less(cf, s->hi) && !fixed_less(cf, fixed_add_units(s->lo, SCALE_ERROR_UNITS)))
-        return DECIDED_YES;
-    return UNDECIDED;
+    if (side_lo == UNDECIDED || side_hi == UNDECIDED)
+        return UNDECIDED;
+    return DECIDED_YES;
 }
 
 /* %.{precision}g of (-1)^negative · digits·10^(exp10 - ndigits + 1), where
@@ -532,14 +633,14 @@ int en_text_format_coord_fast(char *buf, double v, epsnet_coord_type type)
     scaled_value s;
     if (scale_value(b, pmax - 1 - exp10, &s))
         return 0;
-    if (s.x.i >= pow10_u64[pmax]) {
+    if (s.x.at.i >= pow10_u64[pmax]) {
         exp10++;
         if (scale_value(b, pmax - 1 - exp10, &s))
             return 0;
     }
     for (int p = pmin; p <= pmax; p++) {
         uint64_t t = pow10_u64[pmax - p], d;
-        if (round_to_multiple(s.x, t, &d) != DECIDED_YES)
+        if (round_to_multiple(&s, pmax - p, &d) != DECIDED_YES)
             return 0;
         if (d < pow10_u64[p - 1] || d > pow10_u64[p])
             return 0;

@@ -35,7 +35,7 @@ double en_closest_on_triangle(const double p[3], const double a[3], const double
 double en_closest_on_segment(const double p[3], const double a[3], const double b[3], double q[3]);
 
 typedef struct en_bvh_node {
-    double lo[3], hi[3];
+    float lo[3], hi[3];   /* rounded outward from the double coordinates */
     uint32_t first;   /* leaf: first slot in en_bvh.order; inner: index of the left child */
     uint32_t count;   /* leaf: number of triangles (>= 1); inner: 0, right child = first + 1 */
 } en_bvh_node;
@@ -46,7 +46,9 @@ typedef struct en_bvh {
     uint32_t nt;
     uint32_t nnodes;
     en_bvh_node *nodes;   /* nodes[0] is the root when nt > 0 */
-    uint32_t *order;      /* triangle ids in leaf order (Morton order): nt */
+    uint32_t *order;      /* triangle id of each slot (leaf order, i.e. Morton order): nt */
+    double *packed;       /* 9 per slot: the triangle's corners, copied */
+    uint8_t *degenerate;  /* per slot: en_tri_is_degenerate() */
 } en_bvh;
 
 /*
@@ -74,16 +76,49 @@ typedef struct en_bvh_hit {
     double point[3];
     uint32_t face;
     double face_dot;      /* dot(prefer, unit normal of face); -2 when none */
+    uint32_t slot;        /* where the nearest triangle sits: the hint of a next query */
 } en_bvh_hit;
 
 /*
- * Nearest triangle to p. hint is a triangle id to start from (the previous
- * answer of a coherent sequence of queries), or UINT32_MAX. prefer is a unit
- * direction for the tie rule above, or NULL. tie_abs2 is the absolute
- * squared tolerance of a tie (e.g. (1e-12 * diagonal)^2).
+ * Nearest triangle to p. hint is the slot of a previous answer to start from
+ * (in a coherent sequence of queries it is nearly right), or UINT32_MAX. prefer is a unit
+ * direction for the tie rule above, or NULL. tie_dist is how much farther
+ * than the nearest a triangle may be and still tie (e.g. 1e-10 * diagonal).
  * @return 0, or -1 when the hierarchy is empty.
  */
 int en_bvh_nearest(const en_bvh *bvh, const double p[3], uint32_t hint, const double *prefer,
-                   double tie_abs2, en_bvh_hit *hit);
+                   double tie_dist, en_bvh_hit *hit);
+
+/*
+ * A local copy of the triangles near one region, for a batch of queries in
+ * that region (the points of one sampled face): gathered by one traversal,
+ * scanned contiguously by each query instead of walking the tree again.
+ */
+enum { EN_BVH_LOCAL_MAX = 128 };
+
+typedef struct en_bvh_local {
+    uint32_t n;
+    uint32_t slot[EN_BVH_LOCAL_MAX];          /* slot in the hierarchy */
+    uint8_t degenerate[EN_BVH_LOCAL_MAX];
+    double corners[9 * EN_BVH_LOCAL_MAX];     /* copied from the hierarchy */
+} en_bvh_local;
+
+/*
+ * Gather every triangle whose box comes within radius of the box [lo, hi].
+ * When radius bounds the distance from every point of [lo, hi] that will be
+ * queried to the mesh (plus the tie distance), the nearest triangles of
+ * those points are all in local.
+ * @return 0, or -1 when more than EN_BVH_LOCAL_MAX qualify (local is then
+ * incomplete: query the hierarchy instead).
+ */
+int en_bvh_gather(const en_bvh *bvh, const double lo[3], const double hi[3], double radius,
+                  en_bvh_local *local);
+
+/*
+ * en_bvh_nearest() among the gathered triangles. hint and hit->slot are
+ * indices into local here, not slots of the hierarchy.
+ */
+void en_bvh_nearest_local(const en_bvh *bvh, const en_bvh_local *local, const double p[3], uint32_t hint,
+                          const double *prefer, double tie_dist, en_bvh_hit *hit);
 
 #endif /* EN_METRICS_BVH_H */

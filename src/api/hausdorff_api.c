@@ -1,0 +1,229 @@
+/*
+ * epsnet_hausdorff_files() and its JSON report: read both meshes through the
+ * public reader into indexed arrays (polygons arrive triangulated, zero-area
+ * faces as they are) and hand them to the measure in metrics/hausdorff.c.
+ */
+#include <inttypes.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "common/alloc.h"
+#include "common/error.h"
+#include "io/sink.h"
+#include "metrics/hausdorff.h"
+
+/* Beyond this, squared distances of differences overflow a double. */
+#define MAX_COORDINATE 1e150
+/* uint32 indices, with UINT32_MAX kept free as "no face" in the hierarchy. */
+#define MAX_ELEMENTS (UINT32_MAX - 1u)
+
+typedef struct loaded_mesh {
+    double *xyz;
+    uint32_t *tri;
+    size_t cap_xyz, cap_tri;     /* in elements of 3 */
+    uint32_t nv, nt;
+} loaded_mesh;
+
+static void loaded_free(loaded_mesh *m)
+{
+    en_free(m->xyz);
+    en_free(m->tri);
+    memset(m, 0, sizeof *m);
+}
+
+static int add_vertex(loaded_mesh *m, const char *path, const double xyz[3], epsnet_error *err)
+{
+    if (m->nv >= MAX_ELEMENTS)
+        return en_error_set(err, EPSNET_ELIMIT, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "more than %u vertices: too many to measure", MAX_ELEMENTS);
+    for (int k = 0; k < 3; k++)
+        if (fabs(xyz[k]) > MAX_COORDINATE)
+            return en_error_set(err, EPSNET_EUNSUPPORTED, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "vertex %" PRIu32 ": coordinate %g is too large to measure distances "
+                                "(limit 1e150)", m->nv + 1, xyz[k]);
+    if (en_grow((void **)&m->xyz, &m->cap_xyz, (size_t)m->nv + 1, 3 * sizeof *m->xyz))
+        return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "out of memory holding %" PRIu32 " vertices", m->nv);
+    memcpy(m->xyz + 3 * (size_t)m->nv, xyz, 3 * sizeof *xyz);
+    m->nv++;
+    return 0;
+}
+
+/* Indices were checked by the reader against the vertices read so far, so
+ * they fit in 32 bits once the vertex count does. */
+static int add_triangle(loaded_mesh *m, const char *path, const uint64_t v[3], epsnet_error *err)
+{
+    if (m->nt >= MAX_ELEMENTS)
+        return en_error_set(err, EPSNET_ELIMIT, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "more than %u faces: too many to measure", MAX_ELEMENTS);
+    if (en_grow((void **)&m->tri, &m->cap_tri, (size_t)m->nt + 1, 3 * sizeof *m->tri))
+        return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "out of memory holding %" PRIu32 " faces", m->nt);
+    for (int k = 0; k < 3; k++)
+        m->tri[3 * (size_t)m->nt + k] = (uint32_t)v[k];
+    m->nt++;
+    return 0;
+}
+
+static int load_mesh(const char *path, loaded_mesh *m, epsnet_error *err)
+{
+    epsnet_reader *r = NULL;
+    int rc = epsnet_reader_open(&r, path, NULL, err);
+    epsnet_record rec;
+    while (rc == 0 && (rc = epsnet_reader_next(r, &rec, err)) > 0) {
+        if (rec.kind == EPSNET_REC_VERTEX)
+            rc = add_vertex(m, path, rec.xyz, err);
+        else if (rec.kind == EPSNET_REC_TRIANGLE)
+            rc = add_triangle(m, path, rec.v, err);
+        else
+            rc = 0;
+    }
+    epsnet_reader_close(&r);
+    return rc < 0 ? rc : 0;
+}
+
+int epsnet_hausdorff_files(const char *a, const char *b, const epsnet_hausdorff_settings *s,
+                           epsnet_hausdorff_result *out, epsnet_error *err)
+{
+    en_error_clear(err);
+    if (!a || !b || !out)
+        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "epsnet_hausdorff_files: NULL argument");
+    epsnet_hausdorff_settings defaults;
+    if (!s) {
+        epsnet_hausdorff_default_settings(&defaults);
+        s = &defaults;
+    }
+    if (s->samples_per_face < 1 || s->samples_per_face > 100000 || s->threads < 0)
+        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "samples per face must be 1..100000 and threads 0 or more");
+    loaded_mesh ma = { 0 }, mb = { 0 };
+    int rc = load_mesh(a, &ma, err);
+    if (rc == 0)
+        rc = load_mesh(b, &mb, err);
+    if (rc == 0 && (ma.nt == 0) != (mb.nt == 0))
+        rc = en_error_set(err, EPSNET_EINVAL, ma.nt == 0 ? a : b, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                          "no faces: the distance to an empty surface is undefined");
+    if (rc == 0) {
+        en_hd_mesh ha = { ma.xyz, ma.nv, ma.tri, ma.nt }, hb = { mb.xyz, mb.nv, mb.tri, mb.nt };
+        rc = en_hausdorff(&ha, &hb, s, out);
+        if (rc == EPSNET_ENOMEM)
+            en_error_set(err, rc, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                         "out of memory measuring %s against %s", a, b);
+        else if (rc)
+            en_error_set(err, rc, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                         "measuring %s against %s failed", a, b);
+    }
+    loaded_free(&ma);
+    loaded_free(&mb);
+    return rc;
+}
+
+/* ---- JSON ---- */
+
+static int sink_printf(en_sink *sink, epsnet_error *err, const char *fmt, ...) EN_PRINTF(3, 4);
+
+static int sink_printf(en_sink *sink, epsnet_error *err, const char *fmt, ...)
+{
+    char buf[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    int n = vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    if (n < 0 || (size_t)n >= sizeof buf)
+        return en_error_set(err, EPSNET_EINTERNAL, en_sink_path(sink), EPSNET_POS_NONE,
+                            EPSNET_POS_NONE, "JSON line too long");
+    return en_sink_write(sink, buf, (size_t)n, err);
+}
+
+/* A JSON string (or null), escaping quotes, backslashes and control bytes. */
+static int sink_json_string(en_sink *sink, const char *text, epsnet_error *err)
+{
+    if (!text)
+        return en_sink_write(sink, "null", 4, err);
+    int rc = en_sink_write(sink, "\"", 1, err);
+    for (const unsigned char *c = (const unsigned char *)text; rc == 0 && *c; c++) {
+        if (*c == '"' || *c == '\\')
+            rc = sink_printf(sink, err, "\\%c", *c);
+        else if (*c < 0x20)
+            rc = sink_printf(sink, err, "\\u%04x", *c);
+        else
+            rc = en_sink_write(sink, c, 1, err);
+    }
+    return rc ? rc : en_sink_write(sink, "\"", 1, err);
+}
+
+/* value / diagonal, as a JSON number, or null when there is no diagonal. */
+static void relative(char *buf, size_t n, double value, double diagonal)
+{
+    if (diagonal > 0)
+        snprintf(buf, n, "%.9g", value / diagonal);
+    else
+        snprintf(buf, n, "null");
+}
+
+static int write_side(en_sink *sink, const char *name, const epsnet_hausdorff_side *s, double diagonal,
+                      int last, epsnet_error *err)
+{
+    char rmax[32], rmean[32], rrms[32];
+    relative(rmax, sizeof rmax, s->max, diagonal);
+    relative(rmean, sizeof rmean, s->mean, diagonal);
+    relative(rrms, sizeof rrms, s->rms, diagonal);
+    return sink_printf(sink, err,
+                       "  \"%s\": {\"max\": %.17g, \"mean\": %.17g, \"rms\": %.17g, "
+                       "\"max_relative\": %s, \"mean_relative\": %s, \"rms_relative\": %s, "
+                       "\"samples\": %" PRIu64 ", \"area\": %.17g, "
+                       "\"normal_deviation_deg\": {\"max\": %.17g, \"mean\": %.17g, \"samples\": %" PRIu64
+                       "}}%s\n",
+                       name, s->max, s->mean, s->rms, rmax, rmean, rrms, s->samples, s->area,
+                       s->normal_max, s->normal_mean, s->normal_samples, last ? "" : ",");
+}
+
+static int write_mesh(en_sink *sink, const char *key, const char *name, uint64_t nv, uint64_t nt,
+                      uint64_t zero_area, epsnet_error *err)
+{
+    int rc = sink_printf(sink, err, "  \"%s\": {\"path\": ", key);
+    if (rc == 0)
+        rc = sink_json_string(sink, name, err);
+    if (rc == 0)
+        rc = sink_printf(sink, err,
+                         ", \"vertices\": %" PRIu64 ", \"faces\": %" PRIu64 ", \"zero_area_faces\": %" PRIu64
+                         "},\n",
+                         nv, nt, zero_area);
+    return rc;
+}
+
+int epsnet_hausdorff_write_json(const epsnet_hausdorff_result *r, const char *a_name, const char *b_name,
+                                const char *path, epsnet_error *err)
+{
+    en_error_clear(err);
+    if (!r || !path)
+        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "epsnet_hausdorff_write_json: NULL argument");
+    en_sink *sink = NULL;
+    int rc = en_sink_open(&sink, path, 0, err);
+    if (rc)
+        return rc;
+    char rh[32];
+    relative(rh, sizeof rh, r->hausdorff, r->diagonal);
+    rc = sink_printf(sink, err, "{\n  \"command\": \"hausdorff\",\n  \"version\": \"%s\",\n", epsnet_version());
+    if (rc == 0)
+        rc = write_mesh(sink, "a", a_name, r->a_vertices, r->a_faces, r->a_zero_area_faces, err);
+    if (rc == 0)
+        rc = write_mesh(sink, "b", b_name, r->b_vertices, r->b_faces, r->b_zero_area_faces, err);
+    if (rc == 0)
+        rc = sink_printf(sink, err, "  \"diagonal\": %.17g,\n  \"hausdorff\": %.17g,\n  \"hausdorff_relative\": %s,\n",
+                         r->diagonal, r->hausdorff, rh);
+    if (rc == 0)
+        rc = write_side(sink, "a_to_b", &r->a_to_b, r->diagonal, 0, err);
+    if (rc == 0)
+        rc = write_side(sink, "b_to_a", &r->b_to_a, r->diagonal, 1, err);
+    if (rc == 0)
+        rc = sink_printf(sink, err, "}\n");
+    if (rc == 0)
+        return en_sink_commit(&sink, err);
+    en_sink_abort(&sink);
+    return rc;
+}

@@ -1,0 +1,548 @@
+/*
+ * .smz, epsnet's native streaming mesh (SPEC §3; docs/smz.md describes
+ * every byte): a header, independent zstd blocks each with its own
+ * checksum, and an index found through a fixed-size trailer.
+ *
+ * Reader: reads the blocks in order through the source window (so .smz.zst
+ * and pipes work too) and checks what the index would tell a random-access
+ * reader: the running CRC of the index entries it would have written must
+ * equal the stored index, and the trailer's counts and bbox must match what
+ * was decoded. A header that declares the stream sorted is verified vertex
+ * by vertex (SPEC §5: a stream claimed sorted that is not is an error).
+ * Errors inside a block name the block and its byte offset.
+ *
+ * Writer: counts, bbox and the sorted flag are only known at the end, so the
+ * header carries what the caller announced and is patched on seekable
+ * outputs; the trailer always holds the exact values. On an output that
+ * cannot be patched, an announced count or sorted axis that turns out wrong
+ * is an error, and the header bbox is left out.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include <zstd.h>
+
+#include "common/alloc.h"
+#include "io/format.h"
+#include "io/smz.h"
+
+#define SMZ_FILL_BATCH 4096
+
+/* ---- reader ---- */
+
+typedef struct smz_reader {
+    en_smz_header header;
+    ZSTD_DCtx *dctx;
+    uint8_t *payload;
+    size_t payload_cap;
+    uint8_t *raw;
+    size_t raw_cap;
+    epsnet_record *recs;
+    size_t recs_cap;
+    uint32_t nrecs, pos;           /* decoded records of the current block */
+    uint64_t block_no;             /* blocks read so far */
+    uint64_t block_offset;         /* of the current block */
+    uint64_t ntris_before;         /* triangles before the current block */
+    uint64_t nfinal;
+    uint32_t index_crc;            /* of the index this reader would write */
+    double prev_axis;
+    double lo[3], hi[3];
+    int finished;
+} smz_reader;
+
+static int source_failed(epsnet_reader *r)
+{
+    r->failed = 1;
+    return en_source_error(r->src, &r->err);
+}
+
+static int smz_open_reader(epsnet_reader *r)
+{
+    smz_reader *st = en_calloc(1, sizeof *st);
+    if (!st)
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    r->state = st;
+    r->text = 0;
+    st->dctx = ZSTD_createDCtx();
+    if (!st->dctx)
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    uint8_t hb[EN_SMZ_HEADER_BYTES];
+    int rc = en_source_read(r->src, hb, sizeof hb, "the .smz header", &r->err);
+    if (rc) {
+        r->failed = 1;
+        return rc;
+    }
+    char why[200];
+    int bad = en_smz_header_decode(hb, &st->header, why, sizeof why);
+    if (bad)
+        return en_reader_fail_at(r, EPSNET_EFORMAT, bad < 0 ? 0 : (uint64_t)bad, "%s", why);
+    const en_smz_header *h = &st->header;
+    if ((h->nverts != EPSNET_COUNT_UNKNOWN && (rc = en_reader_check_count(r, h->nverts, "vertex count"))) ||
+        (h->nfaces != EPSNET_COUNT_UNKNOWN && (rc = en_reader_check_count(r, h->nfaces, "face count"))))
+        return rc;
+    r->info.encoding = "binary";
+    r->info.streaming = 1;
+    r->info.coord_type = h->coord_type;
+    r->info.nverts = h->nverts;
+    r->info.nfaces = h->nfaces;
+    r->info.has_bbox = h->has_bbox;
+    for (int k = 0; k < 3; k++) {
+        r->info.bbox_min[k] = h->bbox[k];
+        r->info.bbox_max[k] = h->bbox[k + 3];
+        st->lo[k] = INFINITY;
+        st->hi[k] = -INFINITY;
+    }
+    r->info.sorted_axis = h->sorted ? h->axis : -1;
+    st->prev_axis = -INFINITY;
+    static const uint8_t index_head[EN_SMZ_INDEX_HEAD_BYTES] = { 'S', 'M', 'Z', 'I', 0, 0, 0, 0 };
+    st->index_crc = en_smz_crc32(0, index_head, sizeof index_head);
+    return 0;
+}
+
+static int grow_to(void **p, size_t *cap, size_t need, size_t elem)
+{
+    return need <= *cap ? 0 : en_grow(p, cap, need, elem);
+}
+
+/* Read, check and decode the block whose tag starts at st->block_offset. */
+static int read_block(epsnet_reader *r, smz_reader *st)
+{
+    uint8_t bh[EN_SMZ_BLOCK_HEADER_BYTES];
+    char what[64], why[200];
+    snprintf(what, sizeof what, "block %llu", (unsigned long long)st->block_no);
+    int rc = en_source_read(r->src, bh, sizeof bh, what, &r->err);
+    if (rc) {
+        r->failed = 1;
+        return rc;
+    }
+    en_smz_block_header b;
+    if (en_smz_block_header_decode(bh, &b, why, sizeof why))
+        return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset, "block %llu is corrupt: %s",
+                                 (unsigned long long)st->block_no, why);
+    if (b.first_vertex != r->nverts)
+        return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset,
+                                 "block %llu is corrupt: it says %llu vertices precede it, but %llu do",
+                                 (unsigned long long)st->block_no, (unsigned long long)b.first_vertex,
+                                 (unsigned long long)r->nverts);
+    void *pp = st->payload, *rp = st->raw, *qp = st->recs;
+    if (grow_to(&pp, &st->payload_cap, b.compressed_bytes, 1) || (st->payload = pp, 0) ||
+        grow_to(&rp, &st->raw_cap, b.raw_bytes, 1) || (st->raw = rp, 0) ||
+        grow_to(&qp, &st->recs_cap, b.records, sizeof *st->recs) || (st->recs = qp, 0))
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    rc = en_source_read(r->src, st->payload, b.compressed_bytes, what, &r->err);
+    if (rc) {
+        r->failed = 1;
+        return rc;
+    }
+    if (en_smz_unpack(st->dctx, st->payload, &b, st->raw, why, sizeof why) ||
+        en_smz_decode_block(st->raw, &b, st->header.coord_type, st->recs, why, sizeof why))
+        return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset, "block %llu is corrupt: %s",
+                                 (unsigned long long)st->block_no, why);
+    en_smz_index_entry e = {
+        .offset = st->block_offset, .first_vertex = b.first_vertex, .first_triangle = r->ntris,
+        .records = b.records, .compressed_bytes = b.compressed_bytes, .axis_min = INFINITY, .axis_max = -INFINITY,
+    };
+    int axis = st->header.axis >= 0 ? st->header.axis : 0;
+    for (uint32_t i = 0; i < b.records; i++) {
+        const epsnet_record *rec = &st->recs[i];
+        if (rec->kind != EPSNET_REC_VERTEX)
+            continue;
+        double a = rec->xyz[axis];
+        if (a < e.axis_min)
+            e.axis_min = a;
+        if (a > e.axis_max)
+            e.axis_max = a;
+    }
+    uint8_t eb[EN_SMZ_INDEX_ENTRY_BYTES];
+    en_smz_index_entry_encode(&e, eb);
+    st->index_crc = en_smz_crc32(st->index_crc, eb, sizeof eb);
+    st->nrecs = b.records;
+    st->pos = 0;
+    st->ntris_before = r->ntris;
+    st->block_no++;
+    return 0;
+}
+
+static int push_one(epsnet_reader *r, smz_reader *st, const epsnet_record *rec)
+{
+    switch (rec->kind) {
+    case EPSNET_REC_VERTEX:
+        if (st->header.sorted) {
+            double a = rec->xyz[st->header.axis];
+            if (a < st->prev_axis)
+                return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset,
+                                         "block %llu: vertex %llu goes back along %c (%.9g after %.9g) "
+                                         "although the header says the stream is sorted",
+                                         (unsigned long long)st->block_no - 1, (unsigned long long)r->nverts + 1,
+                                         "xyz"[st->header.axis], a, st->prev_axis);
+            st->prev_axis = a;
+        }
+        for (int k = 0; k < 3; k++) {
+            if (rec->xyz[k] < st->lo[k])
+                st->lo[k] = rec->xyz[k];
+            if (rec->xyz[k] > st->hi[k])
+                st->hi[k] = rec->xyz[k];
+        }
+        return en_reader_push_vertex(r, rec->xyz[0], rec->xyz[1], rec->xyz[2]);
+    case EPSNET_REC_TRIANGLE:
+        return en_reader_push_triangle(r, rec->v[0], rec->v[1], rec->v[2]);
+    default:
+        st->nfinal++;
+        return en_reader_push_finalize(r, rec->v[0]);
+    }
+}
+
+/* The index and trailer after the last block: everything must agree with
+ * what was read, and nothing may follow. */
+static int read_index(epsnet_reader *r, smz_reader *st, uint64_t index_offset)
+{
+    uint8_t head[EN_SMZ_INDEX_HEAD_BYTES];
+    int rc = en_source_read(r->src, head, sizeof head, "the index", &r->err);
+    if (rc) {
+        r->failed = 1;
+        return rc;
+    }
+    uint32_t crc = en_smz_crc32(0, head, sizeof head);
+    if (memcmp(head + 4, "\0\0\0\0", 4) != 0)
+        return en_reader_fail_at(r, EPSNET_EFORMAT, index_offset + 4, "index is corrupt: reserved bytes are not 0");
+    for (uint64_t i = 0; i < st->block_no; i++) {
+        uint8_t eb[EN_SMZ_INDEX_ENTRY_BYTES];
+        rc = en_source_read(r->src, eb, sizeof eb, "the index", &r->err);
+        if (rc) {
+            r->failed = 1;
+            return rc;
+        }
+        crc = en_smz_crc32(crc, eb, sizeof eb);
+    }
+    uint64_t toff = en_source_offset(r->src);
+    if (crc != st->index_crc)
+        return en_reader_fail_at(r, EPSNET_EFORMAT, index_offset, "index is corrupt: it does not match the %llu blocks",
+                                 (unsigned long long)st->block_no);
+    uint8_t tb[EN_SMZ_TRAILER_BYTES];
+    char why[200];
+    rc = en_source_read(r->src, tb, sizeof tb, "the trailer", &r->err);
+    if (rc) {
+        r->failed = 1;
+        return rc;
+    }
+    en_smz_trailer t;
+    if (en_smz_trailer_decode(tb, &t, why, sizeof why))
+        return en_reader_fail_at(r, EPSNET_EFORMAT, toff, "%s", why);
+    if (t.index_crc != crc || t.index_offset != index_offset || t.blocks != st->block_no)
+        return en_reader_fail_at(r, EPSNET_EFORMAT, toff, "trailer does not match the index");
+    if (t.nverts != r->nverts || t.nfaces != r->ntris || t.nfinal != st->nfinal)
+        return en_reader_fail_at(r, EPSNET_EFORMAT, toff,
+                                 "trailer counts (%llu vertices, %llu triangles) do not match the blocks "
+                                 "(%llu, %llu)",
+                                 (unsigned long long)t.nverts, (unsigned long long)t.nfaces,
+                                 (unsigned long long)r->nverts, (unsigned long long)r->ntris);
+    for (int k = 0; t.has_bbox && k < 3; k++)
+        if (t.bbox[k] != st->lo[k] || t.bbox[k + 3] != st->hi[k])
+            return en_reader_fail_at(r, EPSNET_EFORMAT, toff, "trailer bounding box does not match the vertices");
+    const en_smz_header *h = &st->header;
+    if ((h->nverts != EPSNET_COUNT_UNKNOWN && h->nverts != r->nverts) ||
+        (h->nfaces != EPSNET_COUNT_UNKNOWN && h->nfaces != r->ntris))
+        return en_reader_fail_at(r, EPSNET_EFORMAT, 16,
+                                 "header announces %llu vertices and %llu triangles, the file holds %llu and %llu",
+                                 (unsigned long long)h->nverts, (unsigned long long)h->nfaces,
+                                 (unsigned long long)r->nverts, (unsigned long long)r->ntris);
+    size_t rest = en_source_fill(r->src, 1);
+    if (r->src->failed)
+        return source_failed(r);
+    if (rest)
+        return en_reader_fail(r, EPSNET_EFORMAT, "data after the .smz trailer");
+    st->finished = 1;
+    return 0;
+}
+
+/* @return 1 with a block decoded, 0 at the end of the file, or an error. */
+static int next_block(epsnet_reader *r, smz_reader *st)
+{
+    en_source *s = r->src;
+    size_t n = en_source_fill(s, 4);
+    if (s->failed)
+        return source_failed(r);
+    uint64_t off = en_source_offset(s);
+    if (n == 0)
+        return en_reader_fail_at(r, EPSNET_EFORMAT, off,
+                                 "truncated file: the stream ends after %llu blocks without its index",
+                                 (unsigned long long)st->block_no);
+    if (n >= 4 && memcmp(s->cur, "SMZB", 4) == 0) {
+        st->block_offset = off;
+        int rc = read_block(r, st);
+        return rc ? rc : 1;
+    }
+    if (n >= 4 && memcmp(s->cur, "SMZI", 4) == 0) {
+        int rc = read_index(r, st, off);
+        return rc ? rc : 0;
+    }
+    return en_reader_fail_at(r, EPSNET_EFORMAT, off, "expected block %llu or the index, found neither",
+                             (unsigned long long)st->block_no);
+}
+
+static int smz_fill(epsnet_reader *r)
+{
+    smz_reader *st = r->state;
+    while (r->qlen < SMZ_FILL_BATCH) {
+        if (st->pos == st->nrecs) {
+            if (st->finished)
+                break;
+            int rc = next_block(r, st);
+            if (rc < 0)
+                return r->qlen > 0 ? 1 : rc;
+            if (rc == 0)
+                break;
+            continue;
+        }
+        int rc = push_one(r, st, &st->recs[st->pos]);
+        if (rc)
+            return r->qlen > 0 ? 1 : rc;
+        st->pos++;
+    }
+    return r->qlen > 0;
+}
+
+static void smz_close_reader(epsnet_reader *r)
+{
+    smz_reader *st = r->state;
+    if (!st)
+        return;
+    ZSTD_freeDCtx(st->dctx);
+    en_free(st->payload);
+    en_free(st->raw);
+    en_free(st->recs);
+    en_free(st);
+    r->state = NULL;
+}
+
+static int smz_probe(const uint8_t *head, size_t n)
+{
+    return n >= 8 && memcmp(head, en_smz_magic, 8) == 0 ? 100 : 0;
+}
+
+/* ---- writer ---- */
+
+typedef struct smz_writer {
+    en_smz_encoder *enc;
+    ZSTD_CCtx *cctx;
+    uint8_t *out;
+    size_t out_cap;
+    en_smz_index_entry *index;
+    size_t nindex, index_cap;
+    en_smz_header announced;       /* as written at the start */
+    uint64_t header_offset;
+    uint64_t nverts, ntris, nfinal;
+    uint64_t block_first_vertex, block_first_triangle;
+    double block_min, block_max;
+    double lo[3], hi[3];
+    int axis;                      /* announced stream axis, -1 none */
+    int sorted_ok;
+    double prev_axis;
+} smz_writer;
+
+static int wfail_nomem(epsnet_writer *w)
+{
+    return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+}
+
+static int smz_open_writer(epsnet_writer *w)
+{
+    smz_writer *st = en_calloc(1, sizeof *st);
+    if (!st)
+        return wfail_nomem(w);
+    w->state = st;
+    st->enc = en_smz_encoder_new(w->coord_type);
+    st->cctx = ZSTD_createCCtx();
+    if (!st->enc || !st->cctx)
+        return wfail_nomem(w);
+    int level = w->settings.zstd_level > 0 ? w->settings.zstd_level : 3;
+    ZSTD_CCtx_setParameter(st->cctx, ZSTD_c_compressionLevel, level);
+    ZSTD_CCtx_setParameter(st->cctx, ZSTD_c_checksumFlag, 1);
+    ZSTD_CCtx_setParameter(st->cctx, ZSTD_c_contentSizeFlag, 1);
+    st->axis = w->info.sorted_axis >= 0 && w->info.sorted_axis < 3 ? w->info.sorted_axis : -1;
+    st->sorted_ok = 1;
+    st->prev_axis = -INFINITY;
+    st->block_min = INFINITY;
+    st->block_max = -INFINITY;
+    for (int k = 0; k < 3; k++) {
+        st->lo[k] = INFINITY;
+        st->hi[k] = -INFINITY;
+    }
+    en_smz_header *h = &st->announced;
+    h->coord_type = w->coord_type;
+    h->axis = st->axis;
+    h->sorted = st->axis >= 0;
+    h->nverts = w->info.nverts;
+    h->nfaces = w->info.nfaces;
+    /* note: an announced bbox is only a promise; it goes into the header
+     * only where the real one can replace it at the end. */
+    h->has_bbox = 0;
+    st->header_offset = en_sink_offset(w->sink);
+    uint8_t hb[EN_SMZ_HEADER_BYTES];
+    en_smz_header_encode(h, hb);
+    return en_writer_bytes(w, hb, sizeof hb);
+}
+
+static int flush_block(epsnet_writer *w, smz_writer *st)
+{
+    if (en_smz_encoder_records(st->enc) == 0)
+        return 0;
+    en_smz_block_header b;
+    if (en_smz_encoder_flush(st->enc, st->cctx, &st->out, &st->out_cap, &b))
+        return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "cannot compress a block (out of memory)");
+    b.first_vertex = st->block_first_vertex;
+    if (st->nindex == st->index_cap &&
+        en_grow((void **)&st->index, &st->index_cap, st->nindex + 1, sizeof *st->index))
+        return wfail_nomem(w);
+    st->index[st->nindex++] = (en_smz_index_entry){
+        .offset = en_sink_offset(w->sink) - st->header_offset, .first_vertex = st->block_first_vertex,
+        .first_triangle = st->block_first_triangle, .records = b.records, .compressed_bytes = b.compressed_bytes,
+        .axis_min = st->block_min, .axis_max = st->block_max,
+    };
+    uint8_t bh[EN_SMZ_BLOCK_HEADER_BYTES];
+    en_smz_block_header_encode(&b, bh);
+    int rc = en_writer_bytes(w, bh, sizeof bh);
+    if (rc == 0)
+        rc = en_writer_bytes(w, st->out, b.compressed_bytes);
+    st->block_first_vertex = st->nverts;
+    st->block_first_triangle = st->ntris;
+    st->block_min = INFINITY;
+    st->block_max = -INFINITY;
+    return rc;
+}
+
+static int smz_put(epsnet_writer *w, const epsnet_record *rec)
+{
+    smz_writer *st = w->state;
+    epsnet_record r = *rec;
+    if (rec->kind == EPSNET_REC_VERTEX) {
+        for (int k = 0; k < 3; k++) {
+            /* note: stored as the writer's coordinate type; bbox and the
+             * sorted check must see the stored values. */
+            if (w->coord_type == EPSNET_COORD_FLOAT32) {
+                float f = (float)rec->xyz[k];
+                if (isfinite(rec->xyz[k]) && !isfinite(f))
+                    return en_error_set(&w->err, EPSNET_EUNSUPPORTED, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                        "vertex %llu: coordinate %g does not fit in float32",
+                                        (unsigned long long)st->nverts + 1, rec->xyz[k]);
+                r.xyz[k] = f;
+            }
+            if (r.xyz[k] < st->lo[k])
+                st->lo[k] = r.xyz[k];
+            if (r.xyz[k] > st->hi[k])
+                st->hi[k] = r.xyz[k];
+        }
+        double a = r.xyz[st->axis >= 0 ? st->axis : 0];
+        if (st->axis >= 0 && a < st->prev_axis)
+            st->sorted_ok = 0;
+        st->prev_axis = a;
+        if (a < st->block_min)
+            st->block_min = a;
+        if (a > st->block_max)
+            st->block_max = a;
+    }
+    if (en_smz_encoder_add(st->enc, &r, st->nverts))
+        return wfail_nomem(w);
+    if (rec->kind == EPSNET_REC_VERTEX)
+        st->nverts++;
+    else if (rec->kind == EPSNET_REC_TRIANGLE)
+        st->ntris++;
+    else
+        st->nfinal++;
+    if (en_smz_encoder_raw_bytes(st->enc) >= EN_SMZ_TARGET_RAW_BYTES ||
+        en_smz_encoder_records(st->enc) >= EN_SMZ_MAX_RECORDS)
+        return flush_block(w, st);
+    return 0;
+}
+
+static int write_index(epsnet_writer *w, smz_writer *st, int sorted, int has_bbox)
+{
+    uint64_t index_offset = en_sink_offset(w->sink) - st->header_offset;
+    static const uint8_t head[EN_SMZ_INDEX_HEAD_BYTES] = { 'S', 'M', 'Z', 'I', 0, 0, 0, 0 };
+    uint32_t crc = en_smz_crc32(0, head, sizeof head);
+    int rc = en_writer_bytes(w, head, sizeof head);
+    for (size_t i = 0; rc == 0 && i < st->nindex; i++) {
+        uint8_t eb[EN_SMZ_INDEX_ENTRY_BYTES];
+        en_smz_index_entry_encode(&st->index[i], eb);
+        crc = en_smz_crc32(crc, eb, sizeof eb);
+        rc = en_writer_bytes(w, eb, sizeof eb);
+    }
+    if (rc)
+        return rc;
+    en_smz_trailer t = {
+        .index_offset = index_offset, .blocks = st->nindex, .nverts = st->nverts, .nfaces = st->ntris,
+        .nfinal = st->nfinal, .has_bbox = has_bbox, .sorted = sorted, .axis = st->axis, .index_crc = crc,
+    };
+    for (int k = 0; k < 3; k++) {
+        t.bbox[k] = st->lo[k];
+        t.bbox[k + 3] = st->hi[k];
+    }
+    uint8_t tb[EN_SMZ_TRAILER_BYTES];
+    en_smz_trailer_encode(&t, tb);
+    return en_writer_bytes(w, tb, sizeof tb);
+}
+
+static int smz_finish(epsnet_writer *w)
+{
+    smz_writer *st = w->state;
+    int rc = flush_block(w, st);
+    if (rc)
+        return rc;
+    int sorted = st->axis >= 0 && st->sorted_ok;
+    int has_bbox = st->nverts > 0;
+    if ((rc = write_index(w, st, sorted, has_bbox)))
+        return rc;
+    en_smz_header real = st->announced;
+    real.nverts = st->nverts;
+    real.nfaces = st->ntris;
+    real.sorted = sorted;
+    real.has_bbox = has_bbox;
+    for (int k = 0; k < 3; k++) {
+        real.bbox[k] = st->lo[k];
+        real.bbox[k + 3] = st->hi[k];
+    }
+    if (en_sink_can_patch(w->sink)) {
+        uint8_t hb[EN_SMZ_HEADER_BYTES];
+        en_smz_header_encode(&real, hb);
+        return en_sink_patch(w->sink, st->header_offset, hb, sizeof hb, &w->err);
+    }
+    const en_smz_header *a = &st->announced;
+    if ((a->nverts != EPSNET_COUNT_UNKNOWN && a->nverts != st->nverts) ||
+        (a->nfaces != EPSNET_COUNT_UNKNOWN && a->nfaces != st->ntris))
+        return en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "%llu vertices and %llu triangles were announced but %llu and %llu written",
+                            (unsigned long long)a->nverts, (unsigned long long)a->nfaces,
+                            (unsigned long long)st->nverts, (unsigned long long)st->ntris);
+    if (a->sorted && !sorted)
+        return en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "the stream was announced sorted along %c but its vertices are not",
+                            "xyz"[a->axis]);
+    return 0;
+}
+
+static void smz_close_writer(epsnet_writer *w)
+{
+    smz_writer *st = w->state;
+    if (!st)
+        return;
+    en_smz_encoder_free(&st->enc);
+    ZSTD_freeCCtx(st->cctx);
+    en_free(st->out);
+    en_free(st->index);
+    en_free(st);
+    w->state = NULL;
+}
+
+const en_format en_format_smz = {
+    .name = "smz",
+    .extensions = "smz",
+    .probe = smz_probe,
+    .open_reader = smz_open_reader,
+    .fill = smz_fill,
+    .close_reader = smz_close_reader,
+    .open_writer = smz_open_writer,
+    .put = smz_put,
+    .finish = smz_finish,
+    .close_writer = smz_close_writer,
+};

@@ -1,0 +1,512 @@
+/*
+ * External merge sort (see extsort.h). Runs are kept in a stack with a
+ * level each; whenever `fanin` runs of the same level sit on top, they are
+ * merged into one run of the next level, so the number of open temporary
+ * files stays at most fanin per level (a few dozen) whatever the input size,
+ * and every item is rewritten O(log_fanin(runs)) times.
+ */
+#include "sort/extsort.h"
+
+#include <string.h>
+
+#include "common/alloc.h"
+#include "common/error.h"
+#include "io/sink.h"
+
+/* note: what one open run costs while it is merged: zstd's decoder keeps a
+ * window (512 KiB at the spill's level 1) and an input buffer, plus our own
+ * read buffer. Used to size the fan-in from the budget. */
+#define RUN_READ_COST ((uint64_t)1 << 20)
+#define CURSOR_BYTES ((size_t)64 << 10)
+#define MIN_FANIN 4
+#define MAX_FANIN 128
+
+void en_mem_take(en_mem_account *m, uint64_t bytes)
+{
+    if (!m)
+        return;
+    m->used += bytes;
+    if (m->used > m->peak)
+        m->peak = m->used;
+}
+
+void en_mem_give(en_mem_account *m, uint64_t bytes)
+{
+    if (m)
+        m->used -= bytes < m->used ? bytes : m->used;
+}
+
+typedef struct run {
+    en_spill *sp;
+    int level;
+    uint64_t items;
+} run;
+
+typedef struct cursor {
+    en_spill *sp;              /* borrowed from its run */
+    uint64_t *buf;
+    size_t n, pos;             /* items in buf, next item */
+} cursor;
+
+struct en_extsort {
+    en_extsort_config cfg;
+    size_t item_bytes;
+    uint64_t *buf, *scratch;   /* run buffer and the radix sort's second half */
+    size_t (*count)[256];      /* radix histograms, 8 per key word */
+    size_t cap, n;             /* items */
+    uint64_t buf_bytes;        /* accounted */
+    run *runs;
+    size_t nruns, runs_cap;
+    size_t fanin;
+    uint64_t items;
+    uint64_t runs_written;
+    uint64_t temp_bytes;
+    /* output */
+    int finished;
+    int in_memory;             /* everything fits: hand out buf directly */
+    size_t out_pos;
+    cursor *cur;               /* fanin cursors of the final merge */
+    size_t *heap;              /* cursor indices, min-heap by key */
+    size_t heap_len;
+    size_t ncur;
+    int failed;
+    epsnet_error err;
+};
+
+static int key_less(const uint64_t *a, const uint64_t *b, size_t k)
+{
+    for (size_t i = 0; i < k; i++)
+        if (a[i] != b[i])
+            return a[i] < b[i];
+    return 0;
+}
+
+/* LSD radix sort on the key bytes, least significant first; a byte position
+ * where every item has the same value is skipped (high bytes of ids). */
+static void radix_sort(uint64_t *items, uint64_t *tmp, size_t n, size_t words, size_t key_words,
+                       size_t (*count)[256])
+{
+    size_t nbytes = key_words * 8;
+    if (n < 2)
+        return;
+    memset(count, 0, nbytes * sizeof *count);
+    for (size_t i = 0; i < n; i++) {
+        const uint64_t *it = items + i * words;
+        for (size_t w = 0; w < key_words; w++)
+            for (size_t b = 0; b < 8; b++)
+                count[(key_words - 1 - w) * 8 + b][(it[w] >> (8 * b)) & 0xff]++;
+    }
+    uint64_t *src = items, *dst = tmp;
+    for (size_t pos = 0; pos < nbytes; pos++) {
+        size_t *c = count[pos];
+        int trivial = 0;
+        for (int v = 0; v < 256; v++)
+            if (c[v] == n)
+                trivial = 1;
+        if (trivial)
+            continue;
+        size_t sum = 0;
+        for (int v = 0; v < 256; v++) {
+            size_t k = c[v];
+            c[v] = sum;
+            sum += k;
+        }
+        size_t w = key_words - 1 - pos / 8, shift = 8 * (pos % 8);
+        for (size_t i = 0; i < n; i++) {
+            const uint64_t *it = src + i * words;
+            uint64_t *o = dst + c[(it[w] >> shift) & 0xff]++ * words;
+            for (size_t j = 0; j < words; j++)
+                o[j] = it[j];
+        }
+        uint64_t *t = src;
+        src = dst;
+        dst = t;
+    }
+    if (src != items)
+        memcpy(items, src, n * words * sizeof *items);
+}
+
+int en_extsort_open(en_extsort **out, const en_extsort_config *cfg, epsnet_error *err)
+{
+    *out = NULL;
+    if (cfg->item_words < 1 || cfg->item_words > 8 || cfg->key_words < 1 || cfg->key_words > cfg->item_words)
+        return en_error_set(err, EPSNET_EINTERNAL, cfg->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "external sort: bad item layout");
+    en_extsort *es = en_calloc(1, sizeof *es);
+    if (!es)
+        return en_error_set(err, EPSNET_ENOMEM, cfg->owner, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    es->cfg = *cfg;
+    es->count = en_calloc(cfg->key_words * 8, sizeof *es->count);
+    if (!es->count) {
+        en_free(es);
+        return en_error_set(err, EPSNET_ENOMEM, cfg->owner, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    }
+    es->item_bytes = cfg->item_words * sizeof(uint64_t);
+    uint64_t fan = cfg->mem / RUN_READ_COST;
+    es->fanin = fan < MIN_FANIN ? MIN_FANIN : fan > MAX_FANIN ? MAX_FANIN : (size_t)fan;
+    /* Half of the budget for items, half for the radix sort's copy. */
+    uint64_t cap = cfg->mem / 2 / es->item_bytes;
+    if (cap < 1024)
+        cap = 1024;
+    if (cap > SIZE_MAX / es->item_bytes / 2)
+        cap = SIZE_MAX / es->item_bytes / 2;
+    es->cap = (size_t)cap;
+    *out = es;
+    return 0;
+}
+
+static int fail(en_extsort *es, int code, epsnet_error *err)
+{
+    if (!es->failed) {
+        es->failed = 1;
+        if (err)
+            es->err = *err;
+        es->err.code = code;
+    }
+    if (err)
+        *err = es->err;
+    return code;
+}
+
+static int nomem(en_extsort *es, epsnet_error *err)
+{
+    en_error_set(err, EPSNET_ENOMEM, es->cfg.owner, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    return fail(es, EPSNET_ENOMEM, err);
+}
+
+static int alloc_buffer(en_extsort *es, epsnet_error *err)
+{
+    es->buf = en_malloc(es->cap * es->item_bytes);
+    es->scratch = en_malloc(es->cap * es->item_bytes);
+    if (!es->buf || !es->scratch)
+        return nomem(es, err);
+    es->buf_bytes = 2 * (uint64_t)es->cap * es->item_bytes;
+    en_mem_take(es->cfg.account, es->buf_bytes);
+    return 0;
+}
+
+static void free_buffer(en_extsort *es)
+{
+    en_free(es->buf);
+    en_free(es->scratch);
+    es->buf = es->scratch = NULL;
+    en_mem_give(es->cfg.account, es->buf_bytes);
+    es->buf_bytes = 0;
+}
+
+static int push_run(en_extsort *es, en_spill *sp, int level, uint64_t items, epsnet_error *err)
+{
+    if (es->nruns == es->runs_cap && en_grow((void **)&es->runs, &es->runs_cap, es->nruns + 1, sizeof *es->runs)) {
+        en_spill_close(&sp);
+        return nomem(es, err);
+    }
+    es->runs[es->nruns++] = (run){ .sp = sp, .level = level, .items = items };
+    es->runs_written++;
+    return 0;
+}
+
+/* ---- merging ---- */
+
+static int cursor_refill(en_extsort *es, cursor *c, epsnet_error *err)
+{
+    int64_t got = en_spill_read(c->sp, c->buf, CURSOR_BYTES / es->item_bytes * es->item_bytes, err);
+    if (got < 0)
+        return fail(es, (int)got, err);
+    if ((size_t)got % es->item_bytes)
+        return fail(es, en_error_set(err, EPSNET_EIO, es->cfg.owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                     "temporary file: a sort run ends inside an item"),
+                    err);
+    c->n = (size_t)got / es->item_bytes;
+    c->pos = 0;
+    return 0;
+}
+
+static const uint64_t *cursor_item(const en_extsort *es, const cursor *c)
+{
+    return c->buf + c->pos * es->cfg.item_words;
+}
+
+static int heap_less(const en_extsort *es, const cursor *cs, size_t a, size_t b)
+{
+    const uint64_t *x = cursor_item(es, &cs[a]), *y = cursor_item(es, &cs[b]);
+    if (key_less(x, y, es->cfg.key_words))
+        return 1;
+    if (key_less(y, x, es->cfg.key_words))
+        return 0;
+    return a < b;  /* note: equal keys leave in run order: deterministic */
+}
+
+static void heap_down(const en_extsort *es, const cursor *cs, size_t *heap, size_t len, size_t i)
+{
+    for (;;) {
+        size_t l = 2 * i + 1, m = i;
+        if (l < len && heap_less(es, cs, heap[l], heap[m]))
+            m = l;
+        if (l + 1 < len && heap_less(es, cs, heap[l + 1], heap[m]))
+            m = l + 1;
+        if (m == i)
+            return;
+        size_t t = heap[i];
+        heap[i] = heap[m];
+        heap[m] = t;
+        i = m;
+    }
+}
+
+/* Open cursors on runs [first, first+k) and build the heap. */
+static int merge_begin(en_extsort *es, size_t first, size_t k, cursor **pcs, size_t **pheap, size_t *plen,
+                       epsnet_error *err)
+{
+    cursor *cs = en_calloc(k, sizeof *cs);
+    size_t *heap = en_calloc(k, sizeof *heap);
+    if (!cs || !heap) {
+        en_free(cs);
+        en_free(heap);
+        return nomem(es, err);
+    }
+    *pcs = cs;
+    *pheap = heap;
+    *plen = 0;
+    en_mem_take(es->cfg.account, k * (CURSOR_BYTES + RUN_READ_COST));
+    for (size_t i = 0; i < k; i++) {
+        cs[i].sp = es->runs[first + i].sp;
+        cs[i].buf = en_malloc(CURSOR_BYTES);
+        if (!cs[i].buf)
+            return nomem(es, err);
+        int rc = en_spill_rewind(cs[i].sp, err);
+        if (rc)
+            return fail(es, rc, err);
+        if ((rc = cursor_refill(es, &cs[i], err)))
+            return rc;
+        if (cs[i].n)
+            heap[(*plen)++] = i;
+    }
+    for (size_t i = *plen / 2; i-- > 0;)
+        heap_down(es, cs, heap, *plen, i);
+    return 0;
+}
+
+static void merge_end(en_extsort *es, cursor **pcs, size_t **pheap, size_t k)
+{
+    cursor *cs = *pcs;
+    for (size_t i = 0; cs && i < k; i++)
+        en_free(cs[i].buf);
+    if (cs)
+        en_mem_give(es->cfg.account, k * (CURSOR_BYTES + RUN_READ_COST));
+    en_free(cs);
+    en_free(*pheap);
+    *pcs = NULL;
+    *pheap = NULL;
+}
+
+/* Take the smallest item of a merge. @return 1, 0 when empty, or < 0. */
+static int merge_pop(en_extsort *es, cursor *cs, size_t *heap, size_t *len, uint64_t *item, epsnet_error *err)
+{
+    if (*len == 0)
+        return 0;
+    cursor *c = &cs[heap[0]];
+    memcpy(item, cursor_item(es, c), es->item_bytes);
+    if (++c->pos == c->n) {
+        int rc = cursor_refill(es, c, err);
+        if (rc)
+            return rc;
+        if (c->n == 0)
+            heap[0] = heap[--*len];
+    }
+    heap_down(es, cs, heap, *len, 0);
+    return 1;
+}
+
+static void close_runs(en_extsort *es, size_t first, size_t k)
+{
+    for (size_t i = first; i < first + k; i++) {
+        es->temp_bytes += en_spill_disk_bytes(es->runs[i].sp);
+        en_spill_close(&es->runs[i].sp);
+    }
+}
+
+/* Merge the k runs on top of the stack into one run of the given level. */
+static int merge_top(en_extsort *es, size_t k, int level, epsnet_error *err)
+{
+    size_t first = es->nruns - k;
+    cursor *cs = NULL;
+    size_t *heap = NULL, len = 0;
+    en_spill *out = NULL;
+    uint64_t *wbuf = NULL;
+    uint64_t items = 0;
+    int rc = merge_begin(es, first, k, &cs, &heap, &len, err);
+    if (rc == 0 && (rc = en_spill_open(&out, es->cfg.tmpdir, es->cfg.owner, err)))
+        fail(es, rc, err);
+    size_t wcap = CURSOR_BYTES / es->item_bytes, wn = 0;
+    if (rc == 0 && !(wbuf = en_malloc(wcap * es->item_bytes)))
+        rc = nomem(es, err);
+    while (rc == 0) {
+        int got = merge_pop(es, cs, heap, &len, wbuf + wn * es->cfg.item_words, err);
+        if (got < 0)
+            rc = got;
+        if (got > 0) {
+            items++;
+            wn++;
+        }
+        if (rc == 0 && wn && (wn == wcap || got == 0)) {
+            if ((rc = en_spill_write(out, wbuf, wn * es->item_bytes, err)))
+                fail(es, rc, err);
+            wn = 0;
+        }
+        if (got == 0)
+            break;
+    }
+    en_free(wbuf);
+    merge_end(es, &cs, &heap, k);
+    if (rc == 0 && (rc = en_spill_rewind(out, err)))
+        fail(es, rc, err);
+    if (rc) {
+        en_spill_close(&out);
+        return rc;
+    }
+    close_runs(es, first, k);
+    es->nruns = first;
+    return push_run(es, out, level, items, err);
+}
+
+/* Keep at most fanin runs per level (file comment). */
+static int cascade(en_extsort *es, epsnet_error *err)
+{
+    for (;;) {
+        if (es->nruns < es->fanin)
+            return 0;
+        int level = es->runs[es->nruns - 1].level;
+        for (size_t i = es->nruns - es->fanin; i < es->nruns; i++)
+            if (es->runs[i].level != level)
+                return 0;
+        int rc = merge_top(es, es->fanin, level + 1, err);
+        if (rc)
+            return rc;
+    }
+}
+
+static int spill_buffer(en_extsort *es, epsnet_error *err)
+{
+    radix_sort(es->buf, es->scratch, es->n, es->cfg.item_words, es->cfg.key_words, es->count);
+    en_spill *sp = NULL;
+    int rc = en_spill_open(&sp, es->cfg.tmpdir, es->cfg.owner, err);
+    if (rc == 0)
+        rc = en_spill_write(sp, es->buf, es->n * es->item_bytes, err);
+    /* note: rewinding ends the zstd frame and frees the compressor at once,
+     * so a pile of finished runs costs little memory. */
+    if (rc == 0)
+        rc = en_spill_rewind(sp, err);
+    if (rc) {
+        en_spill_close(&sp);
+        return fail(es, rc, err);
+    }
+    uint64_t n = es->n;
+    es->n = 0;
+    if ((rc = push_run(es, sp, 0, n, err)))
+        return rc;
+    return cascade(es, err);
+}
+
+int en_extsort_add(en_extsort *es, const uint64_t *item, epsnet_error *err)
+{
+    if (es->failed)
+        return fail(es, es->err.code, err);
+    if (!es->buf && alloc_buffer(es, err))
+        return es->err.code;
+    if (es->n == es->cap) {
+        int rc = spill_buffer(es, err);
+        if (rc)
+            return rc;
+    }
+    memcpy(es->buf + es->n * es->cfg.item_words, item, es->item_bytes);
+    es->n++;
+    es->items++;
+    return 0;
+}
+
+int en_extsort_finish(en_extsort *es, epsnet_error *err)
+{
+    if (es->failed)
+        return fail(es, es->err.code, err);
+    es->finished = 1;
+    if (es->nruns == 0) {
+        /* note: all items fit: sort them in place and hand them out from
+         * memory; the scratch half is no longer needed. */
+        if (es->buf)
+            radix_sort(es->buf, es->scratch, es->n, es->cfg.item_words, es->cfg.key_words, es->count);
+        en_free(es->scratch);
+        es->scratch = NULL;
+        en_mem_give(es->cfg.account, es->buf_bytes / 2);
+        es->buf_bytes -= es->buf_bytes / 2;
+        es->in_memory = 1;
+        return 0;
+    }
+    int rc = es->n ? spill_buffer(es, err) : 0;
+    free_buffer(es);
+    while (rc == 0 && es->nruns > es->fanin)
+        rc = merge_top(es, es->fanin, es->runs[es->nruns - 1].level + 1, err);
+    if (rc)
+        return rc;
+    es->ncur = es->nruns;
+    return merge_begin(es, 0, es->nruns, &es->cur, &es->heap, &es->heap_len, err);
+}
+
+const uint64_t *en_extsort_peek(en_extsort *es, int *rc, epsnet_error *err)
+{
+    *rc = 0;
+    if (es->failed) {
+        *rc = fail(es, es->err.code, err);
+        return NULL;
+    }
+    if (es->in_memory)
+        return es->out_pos < es->n ? es->buf + es->out_pos * es->cfg.item_words : NULL;
+    if (es->heap_len == 0)
+        return NULL;
+    return cursor_item(es, &es->cur[es->heap[0]]);
+}
+
+int en_extsort_next(en_extsort *es, uint64_t *item, epsnet_error *err)
+{
+    if (es->failed)
+        return fail(es, es->err.code, err);
+    if (es->in_memory) {
+        if (es->out_pos == es->n)
+            return 0;
+        memcpy(item, es->buf + es->out_pos++ * es->cfg.item_words, es->item_bytes);
+        return 1;
+    }
+    return merge_pop(es, es->cur, es->heap, &es->heap_len, item, err);
+}
+
+uint64_t en_extsort_items(const en_extsort *es)
+{
+    return es->items;
+}
+
+uint64_t en_extsort_runs(const en_extsort *es)
+{
+    return es->runs_written;
+}
+
+uint64_t en_extsort_temp_bytes(const en_extsort *es)
+{
+    uint64_t t = es->temp_bytes;
+    for (size_t i = 0; i < es->nruns; i++)
+        t += en_spill_disk_bytes(es->runs[i].sp);
+    return t;
+}
+
+void en_extsort_close(en_extsort **pes)
+{
+    en_extsort *es = pes ? *pes : NULL;
+    if (!es)
+        return;
+    merge_end(es, &es->cur, &es->heap, es->ncur);
+    for (size_t i = 0; i < es->nruns; i++)
+        en_spill_close(&es->runs[i].sp);
+    en_free(es->runs);
+    free_buffer(es);
+    en_free(es->count);
+    en_free(es);
+    *pes = NULL;
+}

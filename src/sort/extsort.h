@@ -1,0 +1,53 @@
+/*
+ * External sort of fixed-size items in bounded memory: items are buffered,
+ * radix-sorted and spilled as zstd-compressed runs (en_spill: anonymous
+ * files that vanish on any exit), then merged. Items are arrays of uint64_t
+ * words; the first key_words of them are the key, compared as unsigned
+ * numbers, most significant word first. Items with equal keys come out in
+ * an order that depends only on the input order, so output is deterministic.
+ */
+#ifndef EN_SORT_EXTSORT_H
+#define EN_SORT_EXTSORT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "epsnet/epsnet.h"
+
+/* Memory the sort stages account for (buffers they allocate themselves). */
+typedef struct en_mem_account {
+    uint64_t used;
+    uint64_t peak;
+} en_mem_account;
+
+void en_mem_take(en_mem_account *m, uint64_t bytes);
+void en_mem_give(en_mem_account *m, uint64_t bytes);
+
+typedef struct en_extsort_config {
+    size_t item_words;        /* 2 .. 8 */
+    size_t key_words;         /* 1 .. item_words */
+    uint64_t mem;             /* bytes for the run buffer and the merge */
+    const char *tmpdir;       /* NULL = $TMPDIR or /tmp */
+    const char *owner;        /* the output the runs serve, for messages */
+    en_mem_account *account;  /* may be NULL */
+} en_extsort_config;
+
+typedef struct en_extsort en_extsort;
+
+int en_extsort_open(en_extsort **es, const en_extsort_config *cfg, epsnet_error *err);
+/* Add one item (item_words words). */
+int en_extsort_add(en_extsort *es, const uint64_t *item, epsnet_error *err);
+/* No more items: prepare to hand them out in order. */
+int en_extsort_finish(en_extsort *es, epsnet_error *err);
+/* @return 1 with item filled, 0 when done, or a negative code. */
+int en_extsort_next(en_extsort *es, uint64_t *item, epsnet_error *err);
+/* Look at the next item without taking it: @return a pointer valid until the
+ * next call on es, or NULL when done or failed (check *rc). */
+const uint64_t *en_extsort_peek(en_extsort *es, int *rc, epsnet_error *err);
+uint64_t en_extsort_items(const en_extsort *es);
+/* Runs written to disk, and their compressed bytes (also after close). */
+uint64_t en_extsort_runs(const en_extsort *es);
+uint64_t en_extsort_temp_bytes(const en_extsort *es);
+void en_extsort_close(en_extsort **es);
+
+#endif /* EN_SORT_EXTSORT_H */

@@ -1,0 +1,674 @@
+/*
+ * epsnet_sort_file(): the passes of sort.h, one function each, sharing a
+ * sort_job that owns every temporary resource so that one cleanup path
+ * frees them on success and on failure alike.
+ */
+#include "sort/sort.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "common/alloc.h"
+#include "common/error.h"
+#include "common/util.h"
+#include "io/sink.h"
+#include "sort/extsort.h"
+
+#define NONE UINT64_MAX
+#define BATCH 4096               /* vertices per temporary-file read or write */
+#define PROGRESS_EVERY 0xffff
+#define PHASES 6
+#define PHASE_UNITS 1000
+
+void epsnet_sort_default_settings(epsnet_sort_settings *s)
+{
+    memset(s, 0, sizeof *s);
+    s->axis = -1;
+    s->mem = (uint64_t)512 << 20;
+    s->tmpdir = NULL;
+    s->format = NULL;
+    s->progress = NULL;
+    s->progress_opaque = NULL;
+}
+
+int en_sort_longest_axis(const double lo[3], const double hi[3])
+{
+    int best = 0;
+    for (int k = 1; k < 3; k++)
+        if (hi[k] - lo[k] > hi[best] - lo[best])
+            best = k;
+    return best;
+}
+
+/* ---- live vertices of the output: rank -> (new id, last use) ----
+ * Open addressing with linear probing and backward-shift deletion, so the
+ * table never fills with tombstones however long the stream. */
+
+typedef struct live_slot {
+    uint64_t rank;               /* NONE = empty */
+    uint64_t id;                 /* index in the output */
+    uint64_t last;               /* rank whose face group uses it last */
+    uint64_t fin_face;           /* face of that group after which it is finalized */
+} live_slot;
+
+typedef struct live_map {
+    live_slot *slots;
+    size_t mask;
+    size_t count;
+} live_map;
+
+static size_t live_hash(uint64_t k, size_t mask)
+{
+    k ^= k >> 31;
+    k *= 0x9e3779b97f4a7c15ull;
+    k ^= k >> 29;
+    return (size_t)k & mask;
+}
+
+static int live_resize(live_map *m, size_t cap)
+{
+    live_slot *s = en_malloc(cap * sizeof *s);
+    if (!s)
+        return -1;
+    for (size_t i = 0; i < cap; i++)
+        s[i].rank = NONE;
+    for (size_t i = 0; m->slots && i <= m->mask; i++) {
+        if (m->slots[i].rank == NONE)
+            continue;
+        size_t j = live_hash(m->slots[i].rank, cap - 1);
+        while (s[j].rank != NONE)
+            j = (j + 1) & (cap - 1);
+        s[j] = m->slots[i];
+    }
+    en_free(m->slots);
+    m->slots = s;
+    m->mask = cap - 1;
+    return 0;
+}
+
+static live_slot *live_find(live_map *m, uint64_t rank)
+{
+    for (size_t i = live_hash(rank, m->mask);; i = (i + 1) & m->mask) {
+        if (m->slots[i].rank == rank)
+            return &m->slots[i];
+        if (m->slots[i].rank == NONE)
+            return NULL;
+    }
+}
+
+static int live_add(live_map *m, uint64_t rank, uint64_t id, uint64_t last)
+{
+    if (!m->slots && live_resize(m, 1024))
+        return -1;
+    if (2 * (m->count + 1) > m->mask + 1 && live_resize(m, 2 * (m->mask + 1)))
+        return -1;
+    size_t i = live_hash(rank, m->mask);
+    while (m->slots[i].rank != NONE)
+        i = (i + 1) & m->mask;
+    m->slots[i] = (live_slot){ .rank = rank, .id = id, .last = last, .fin_face = NONE };
+    m->count++;
+    return 0;
+}
+
+static void live_remove(live_map *m, live_slot *s)
+{
+    size_t i = (size_t)(s - m->slots);
+    m->slots[i].rank = NONE;
+    m->count--;
+    for (size_t j = (i + 1) & m->mask; m->slots[j].rank != NONE; j = (j + 1) & m->mask) {
+        size_t home = live_hash(m->slots[j].rank, m->mask);
+        /* note: move j back into the hole when its home is not in (i, j]. */
+        if (((j - home) & m->mask) >= ((j - i) & m->mask)) {
+            m->slots[i] = m->slots[j];
+            m->slots[j].rank = NONE;
+            i = j;
+        }
+    }
+}
+
+static uint64_t live_bytes(const live_map *m)
+{
+    return m->slots ? (uint64_t)(m->mask + 1) * sizeof *m->slots : 0;
+}
+
+/* ---- the job ---- */
+
+typedef struct sort_job {
+    const char *in_path, *out_path;
+    epsnet_sort_settings set;
+    char *tmpdir;
+    en_mem_account mem;
+    epsnet_sort_stats st;
+    epsnet_reader *r;
+    epsnet_writer *w;
+    en_spill *vraw;              /* input vertices, input order */
+    en_spill *vsorted;           /* vertices in rank order */
+    en_extsort *corners, *verts, *map, *joined, *faces, *lastuse;
+    uint64_t runs, temp_bytes;   /* of the sorters already closed */
+    double lo[3], hi[3];
+    int axis;
+    epsnet_coord_type ct;
+    int phase;
+    double *vbuf;                /* BATCH xyz triples */
+    uint64_t *group;             /* faces of one last corner: 5 words each */
+    size_t group_cap;
+    live_map live;
+} sort_job;
+
+static int progress(sort_job *j, uint64_t done, uint64_t total, epsnet_error *err)
+{
+    if (!j->set.progress)
+        return 0;
+    uint64_t frac = total ? (done >= total ? PHASE_UNITS : done * PHASE_UNITS / total) : 0;
+    if (j->set.progress(j->set.progress_opaque, (uint64_t)(j->phase - 1) * PHASE_UNITS + frac,
+                        (uint64_t)PHASES * PHASE_UNITS))
+        return en_error_set(err, EPSNET_EINTR, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE, "interrupted");
+    return 0;
+}
+
+static int nomem(const sort_job *j, epsnet_error *err)
+{
+    return en_error_set(err, EPSNET_ENOMEM, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+}
+
+static int open_sorter(sort_job *j, en_extsort **es, size_t words, size_t key_words, epsnet_error *err)
+{
+    en_extsort_config c = {
+        .item_words = words, .key_words = key_words, .mem = j->set.mem / 4,
+        .tmpdir = j->tmpdir, .owner = j->out_path, .account = &j->mem,
+    };
+    return en_extsort_open(es, &c, err);
+}
+
+static void close_sorter(sort_job *j, en_extsort **es)
+{
+    if (!*es)
+        return;
+    j->runs += en_extsort_runs(*es);
+    j->temp_bytes += en_extsort_temp_bytes(*es);
+    en_extsort_close(es);
+}
+
+static void close_spill(sort_job *j, en_spill **sp)
+{
+    if (!*sp)
+        return;
+    j->temp_bytes += en_spill_disk_bytes(*sp);
+    en_spill_close(sp);
+}
+
+/* Doubles as unsigned keys in the same order (-0 just below +0). */
+static uint64_t order_key(double d)
+{
+    uint64_t u;
+    memcpy(&u, &d, sizeof u);
+    return u >> 63 ? ~u : u | (uint64_t)1 << 63;
+}
+
+static double order_value(uint64_t u)
+{
+    u = u >> 63 ? u & ~((uint64_t)1 << 63) : ~u;
+    double d;
+    memcpy(&d, &u, sizeof d);
+    return d;
+}
+
+static uint64_t dbits(double d)
+{
+    uint64_t u;
+    memcpy(&u, &d, sizeof u);
+    return u;
+}
+
+static double bitsd(uint64_t u)
+{
+    double d;
+    memcpy(&d, &u, sizeof d);
+    return d;
+}
+
+/* ---- pass 1: read ---- */
+
+static int pass_read(sort_job *j, epsnet_error *err)
+{
+    int rc;
+    for (int k = 0; k < 3; k++) {
+        j->lo[k] = INFINITY;
+        j->hi[k] = -INFINITY;
+    }
+    size_t nb = 0;
+    uint64_t n = 0;
+    epsnet_record rec;
+    while ((rc = epsnet_reader_next(j->r, &rec, err)) > 0) {
+        if ((++n & PROGRESS_EVERY) == 0 &&
+            (rc = progress(j, epsnet_reader_bytes_read(j->r), epsnet_reader_file_size(j->r), err)))
+            return rc;
+        if (rec.kind == EPSNET_REC_VERTEX) {
+            for (int k = 0; k < 3; k++) {
+                j->vbuf[3 * nb + (size_t)k] = rec.xyz[k];
+                if (rec.xyz[k] < j->lo[k])
+                    j->lo[k] = rec.xyz[k];
+                if (rec.xyz[k] > j->hi[k])
+                    j->hi[k] = rec.xyz[k];
+            }
+            j->st.vertices++;
+            if (++nb == BATCH) {
+                if ((rc = en_spill_write(j->vraw, j->vbuf, nb * 3 * sizeof *j->vbuf, err)))
+                    return rc;
+                nb = 0;
+            }
+        } else if (rec.kind == EPSNET_REC_TRIANGLE) {
+            uint64_t f = j->st.faces++;
+            for (uint64_t s = 0; s < 3; s++) {
+                uint64_t item[2] = { rec.v[s], f << 2 | s };
+                if ((rc = en_extsort_add(j->corners, item, err)))
+                    return rc;
+            }
+        }
+    }
+    if (rc < 0)
+        return rc;
+    if (nb && (rc = en_spill_write(j->vraw, j->vbuf, nb * 3 * sizeof *j->vbuf, err)))
+        return rc;
+    return en_spill_rewind(j->vraw, err);
+}
+
+/* Read exactly want vertices' xyz from sp into j->vbuf. */
+static int read_vertices(sort_job *j, en_spill *sp, size_t want, epsnet_error *err)
+{
+    int64_t got = en_spill_read(sp, j->vbuf, want * 3 * sizeof *j->vbuf, err);
+    if (got < 0)
+        return (int)got;
+    if ((size_t)got != want * 3 * sizeof *j->vbuf)
+        return en_error_set(err, EPSNET_EINTERNAL, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "temporary vertex file is short");
+    return 0;
+}
+
+/* ---- pass 2: order the vertices along the axis ---- */
+
+static int pass_order(sort_job *j, epsnet_error *err)
+{
+    int a = j->axis, o1 = (a + 1) % 3, o2 = (a + 2) % 3;
+    uint64_t nv = j->st.vertices;
+    int rc;
+    for (uint64_t v = 0; v < nv;) {
+        size_t n = nv - v < BATCH ? (size_t)(nv - v) : BATCH;
+        if ((rc = read_vertices(j, j->vraw, n, err)))
+            return rc;
+        for (size_t i = 0; i < n; i++, v++) {
+            const double *p = j->vbuf + 3 * i;
+            uint64_t item[4] = { order_key(p[a]), v, dbits(p[o1]), dbits(p[o2]) };
+            if ((rc = en_extsort_add(j->verts, item, err)))
+                return rc;
+        }
+        if ((rc = progress(j, v, nv, err)))
+            return rc;
+    }
+    close_spill(j, &j->vraw);
+    return en_extsort_finish(j->verts, err);
+}
+
+/* ---- pass 3: ranks ---- */
+
+static int pass_rank(sort_job *j, epsnet_error *err)
+{
+    int a = j->axis, o1 = (a + 1) % 3, o2 = (a + 2) % 3;
+    uint64_t item[4];
+    size_t nb = 0;
+    uint64_t rank = 0;
+    int rc;
+    while ((rc = en_extsort_next(j->verts, item, err)) > 0) {
+        double *p = j->vbuf + 3 * nb;
+        p[a] = order_value(item[0]);
+        p[o1] = bitsd(item[2]);
+        p[o2] = bitsd(item[3]);
+        uint64_t m[2] = { item[1], rank++ };
+        if ((rc = en_extsort_add(j->map, m, err)))
+            return rc;
+        if (++nb == BATCH) {
+            if ((rc = en_spill_write(j->vsorted, j->vbuf, nb * 3 * sizeof *j->vbuf, err)) ||
+                (rc = progress(j, rank, j->st.vertices, err)))
+                return rc;
+            nb = 0;
+        }
+    }
+    if (rc < 0)
+        return rc;
+    if (nb && (rc = en_spill_write(j->vsorted, j->vbuf, nb * 3 * sizeof *j->vbuf, err)))
+        return rc;
+    close_sorter(j, &j->verts);
+    if ((rc = en_spill_rewind(j->vsorted, err)))
+        return rc;
+    return en_extsort_finish(j->map, err);
+}
+
+/* ---- pass 4: corners get ranks ---- */
+
+static int internal(const sort_job *j, const char *what, epsnet_error *err)
+{
+    return en_error_set(err, EPSNET_EINTERNAL, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                        "sort: %s", what);
+}
+
+static int pass_relabel(sort_job *j, epsnet_error *err)
+{
+    int rc = en_extsort_finish(j->corners, err);
+    if (rc)
+        return rc;
+    uint64_t c[2], m[2] = { NONE, NONE }, done = 0, total = 3 * j->st.faces;
+    int have = 0;
+    while ((rc = en_extsort_next(j->corners, c, err)) > 0) {
+        while (!have || m[0] < c[0]) {
+            if ((rc = en_extsort_next(j->map, m, err)) < 0)
+                return rc;
+            if (rc == 0)
+                return internal(j, "a corner names a vertex without a rank", err);
+            have = 1;
+        }
+        if (m[0] != c[0])
+            return internal(j, "a corner names a vertex without a rank", err);
+        uint64_t out[2] = { c[1], m[1] };
+        if ((rc = en_extsort_add(j->joined, out, err)))
+            return rc;
+        if ((++done & PROGRESS_EVERY) == 0 && (rc = progress(j, done, total, err)))
+            return rc;
+    }
+    if (rc < 0)
+        return rc;
+    close_sorter(j, &j->corners);
+    close_sorter(j, &j->map);
+    return en_extsort_finish(j->joined, err);
+}
+
+/* ---- pass 5: whole faces, and last uses ---- */
+
+static int pass_faces(sort_job *j, epsnet_error *err)
+{
+    uint64_t c[3][2];
+    int rc;
+    for (uint64_t f = 0; f < j->st.faces; f++) {
+        for (int s = 0; s < 3; s++) {
+            rc = en_extsort_next(j->joined, c[s], err);
+            if (rc < 0)
+                return rc;
+            if (rc == 0 || c[s][0] != (f << 2 | (uint64_t)s))
+                return internal(j, "face corners out of step", err);
+        }
+        uint64_t last = c[0][1];
+        for (int s = 1; s < 3; s++)
+            if (c[s][1] > last)
+                last = c[s][1];
+        uint64_t face[5] = { last, f, c[0][1], c[1][1], c[2][1] };
+        if ((rc = en_extsort_add(j->faces, face, err)))
+            return rc;
+        for (int s = 0; s < 3; s++) {
+            uint64_t use[2] = { c[s][1], last };
+            if ((rc = en_extsort_add(j->lastuse, use, err)))
+                return rc;
+        }
+        if ((f & PROGRESS_EVERY) == 0 && (rc = progress(j, f, j->st.faces, err)))
+            return rc;
+    }
+    close_sorter(j, &j->joined);
+    if ((rc = en_extsort_finish(j->faces, err)))
+        return rc;
+    return en_extsort_finish(j->lastuse, err);
+}
+
+/* ---- pass 6: the output stream ---- */
+
+static int over_budget(sort_job *j, epsnet_error *err)
+{
+    uint64_t bytes = live_bytes(&j->live) + (uint64_t)j->group_cap * 5 * sizeof(uint64_t);
+    if (j->mem.used + bytes > j->mem.peak)
+        j->mem.peak = j->mem.used + bytes;
+    if (bytes <= j->set.mem / 2)
+        return 0;
+    return en_error_set(err, EPSNET_ELIMIT, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                        "the sorted stream keeps %llu vertices live at once (%llu bytes), over half of the "
+                        "memory budget of %llu bytes; raise --mem",
+                        (unsigned long long)j->live.count, (unsigned long long)bytes,
+                        (unsigned long long)j->set.mem);
+}
+
+/* Largest "last corner" among the faces that use rank, or NONE. */
+static int last_use_of(sort_job *j, uint64_t rank, uint64_t *last, epsnet_error *err)
+{
+    *last = NONE;
+    int rc;
+    const uint64_t *u;
+    while ((u = en_extsort_peek(j->lastuse, &rc, err)) && u[0] == rank) {
+        *last = u[1];
+        uint64_t skip[2];
+        if ((rc = en_extsort_next(j->lastuse, skip, err)) < 0)
+            return rc;
+    }
+    if (rc < 0)
+        return rc;
+    if (u && u[0] < rank)
+        return internal(j, "last uses out of order", err);
+    return 0;
+}
+
+static int put_record(sort_job *j, epsnet_record_kind kind, uint64_t a, uint64_t b, uint64_t c,
+                      epsnet_error *err)
+{
+    epsnet_record rec = { .kind = kind, .v = { a, b, c } };
+    return epsnet_writer_put(j->w, &rec, err);
+}
+
+/* Write the faces whose last corner is rank, finalizing each vertex after
+ * the last of them that uses it (if this is its last group). */
+static int emit_group(sort_job *j, uint64_t rank, size_t n, epsnet_error *err)
+{
+    for (size_t i = n; i-- > 0;)
+        for (int s = 0; s < 3; s++) {
+            live_slot *v = live_find(&j->live, j->group[5 * i + 2 + (size_t)s]);
+            if (!v)
+                return internal(j, "a face uses a vertex that is not live", err);
+            if (v->last == rank && v->fin_face == NONE)
+                v->fin_face = i;
+        }
+    int rc;
+    for (size_t i = 0; i < n; i++) {
+        const uint64_t *f = j->group + 5 * i + 2;
+        live_slot *v[3];
+        for (int s = 0; s < 3; s++)
+            v[s] = live_find(&j->live, f[s]);
+        if ((rc = put_record(j, EPSNET_REC_TRIANGLE, v[0]->id, v[1]->id, v[2]->id, err)))
+            return rc;
+        for (int s = 0; s < 3; s++) {
+            if ((s > 0 && f[s] == f[0]) || (s > 1 && f[s] == f[1]))
+                continue;
+            live_slot *x = live_find(&j->live, f[s]);
+            if (x->fin_face != i)
+                continue;
+            if ((rc = put_record(j, EPSNET_REC_FINALIZE, x->id, 0, 0, err)))
+                return rc;
+            live_remove(&j->live, x);
+        }
+    }
+    return 0;
+}
+
+static int pass_emit(sort_job *j, epsnet_error *err)
+{
+    uint64_t nv = j->st.vertices, next_id = 0;
+    int rc;
+    for (uint64_t rank = 0; rank < nv;) {
+        size_t nb = nv - rank < BATCH ? (size_t)(nv - rank) : BATCH;
+        if ((rc = read_vertices(j, j->vsorted, nb, err)))
+            return rc;
+        for (size_t b = 0; b < nb; b++, rank++) {
+            uint64_t last;
+            if ((rc = last_use_of(j, rank, &last, err)))
+                return rc;
+            if (last == NONE) {
+                j->st.unreferenced++;
+                continue;
+            }
+            epsnet_record rec = { .kind = EPSNET_REC_VERTEX };
+            memcpy(rec.xyz, j->vbuf + 3 * b, sizeof rec.xyz);
+            if ((rc = epsnet_writer_put(j->w, &rec, err)))
+                return rc;
+            if (live_add(&j->live, rank, next_id++, last))
+                return nomem(j, err);
+            if (j->live.count > j->st.max_width)
+                j->st.max_width = j->live.count;
+            size_t n = 0;
+            const uint64_t *f;
+            while ((f = en_extsort_peek(j->faces, &rc, err)) && f[0] == rank) {
+                if (n == j->group_cap && en_grow((void **)&j->group, &j->group_cap, n + 1, 5 * sizeof *j->group))
+                    return nomem(j, err);
+                if ((rc = en_extsort_next(j->faces, j->group + 5 * n, err)) < 0)
+                    return rc;
+                n++;
+            }
+            if (rc < 0 || (rc = over_budget(j, err)))
+                return rc;
+            if (n && (rc = emit_group(j, rank, n, err)))
+                return rc;
+        }
+        if ((rc = progress(j, rank, nv, err)))
+            return rc;
+    }
+    if (j->live.count)
+        return internal(j, "vertices left live at the end", err);
+    return 0;
+}
+
+/* ---- driver ---- */
+
+static char *dir_of(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    if (!slash)
+        return en_strdup(".");
+    size_t n = slash == path ? 1 : (size_t)(slash - path);
+    char *d = en_malloc(n + 1);
+    if (d) {
+        memcpy(d, path, n);
+        d[n] = '\0';
+    }
+    return d;
+}
+
+static int open_job(sort_job *j, epsnet_error *err)
+{
+    j->tmpdir = j->set.tmpdir ? en_strdup(j->set.tmpdir) : dir_of(j->out_path);
+    j->vbuf = en_malloc(BATCH * 3 * sizeof *j->vbuf);
+    if (!j->tmpdir || !j->vbuf)
+        return nomem(j, err);
+    epsnet_reader_settings rs;
+    epsnet_reader_default_settings(&rs);
+    /* note: a streaming input's live set is the reader's memory; the budget
+     * bounds it (SPEC §5: a stream that never finalizes hits the budget). */
+    rs.mem_limit = j->set.mem;
+    int rc = epsnet_reader_open(&j->r, j->in_path, &rs, err);
+    if (rc)
+        return rc;
+    j->ct = epsnet_reader_info(j->r)->coord_type;
+    if ((rc = en_spill_open(&j->vraw, j->tmpdir, j->out_path, err)) ||
+        (rc = en_spill_open(&j->vsorted, j->tmpdir, j->out_path, err)) ||
+        (rc = open_sorter(j, &j->corners, 2, 2, err)) || (rc = open_sorter(j, &j->verts, 4, 2, err)) ||
+        (rc = open_sorter(j, &j->map, 2, 1, err)) || (rc = open_sorter(j, &j->joined, 2, 1, err)) ||
+        (rc = open_sorter(j, &j->faces, 5, 2, err)) || (rc = open_sorter(j, &j->lastuse, 2, 2, err)))
+        return rc;
+    return 0;
+}
+
+static int open_output(sort_job *j, epsnet_error *err)
+{
+    epsnet_writer_settings ws;
+    epsnet_writer_default_settings(&ws);
+    ws.format = j->set.format;
+    ws.tmpdir = j->tmpdir;
+    epsnet_mesh_info info;
+    memset(&info, 0, sizeof info);
+    info.nverts = EPSNET_COUNT_UNKNOWN;
+    info.nfaces = j->st.faces;
+    info.coord_type = j->ct;
+    info.streaming = 1;
+    info.sorted_axis = j->axis;
+    return epsnet_writer_open(&j->w, j->out_path, &ws, &info, err);
+}
+
+static void close_job(sort_job *j)
+{
+    epsnet_writer_abort(&j->w);
+    epsnet_reader_close(&j->r);
+    close_spill(j, &j->vraw);
+    close_spill(j, &j->vsorted);
+    close_sorter(j, &j->corners);
+    close_sorter(j, &j->verts);
+    close_sorter(j, &j->map);
+    close_sorter(j, &j->joined);
+    close_sorter(j, &j->faces);
+    close_sorter(j, &j->lastuse);
+    en_free(j->live.slots);
+    en_free(j->group);
+    en_free(j->vbuf);
+    en_free(j->tmpdir);
+}
+
+static int run_job(sort_job *j, epsnet_error *err)
+{
+    int rc;
+    j->phase = 1;
+    if ((rc = open_job(j, err)) || (rc = pass_read(j, err)))
+        return rc;
+    epsnet_reader_close(&j->r);
+    if (j->set.axis < 0)
+        j->axis = j->st.vertices ? en_sort_longest_axis(j->lo, j->hi) : 2;
+    j->st.axis = j->axis;
+    j->phase = 2;
+    if ((rc = pass_order(j, err)))
+        return rc;
+    j->phase = 3;
+    if ((rc = pass_rank(j, err)))
+        return rc;
+    j->phase = 4;
+    if ((rc = pass_relabel(j, err)))
+        return rc;
+    j->phase = 5;
+    if ((rc = pass_faces(j, err)))
+        return rc;
+    j->phase = 6;
+    if ((rc = open_output(j, err)) || (rc = pass_emit(j, err)))
+        return rc;
+    return epsnet_writer_commit(&j->w, err);
+}
+
+int epsnet_sort_file(const char *in_path, const char *out_path, const epsnet_sort_settings *settings,
+                     epsnet_sort_stats *stats, epsnet_error *err)
+{
+    if (!in_path || !out_path)
+        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "epsnet_sort_file: NULL path");
+    sort_job j;
+    memset(&j, 0, sizeof j);
+    j.in_path = in_path;
+    j.out_path = out_path;
+    if (settings)
+        j.set = *settings;
+    else
+        epsnet_sort_default_settings(&j.set);
+    if (j.set.axis < -1 || j.set.axis > 2)
+        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "sort axis %d is not -1 (auto), 0, 1 or 2", j.set.axis);
+    if (j.set.mem == 0)
+        j.set.mem = (uint64_t)512 << 20;
+    j.axis = j.set.axis;
+    double t0 = en_now();
+    int rc = run_job(&j, err);
+    close_job(&j);
+    j.st.runs = j.runs;
+    j.st.temp_bytes = j.temp_bytes;
+    j.st.peak_memory = j.mem.peak;
+    j.st.peak_rss = en_peak_rss_bytes();
+    j.st.seconds = en_now() - t0;
+    if (stats)
+        *stats = j.st;
+    return rc;
+}

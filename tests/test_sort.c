@@ -1,0 +1,456 @@
+/*
+ * epsnet_sort_file() (SPEC §2 "Input"): any mesh becomes a spatially sorted,
+ * finalized streaming mesh with exactly the same triangles (as triples of
+ * coordinates, orientation included), whatever the memory budget, in the
+ * same bytes every time. The output is checked by an independent validator
+ * written here, not by the library's own reader checks alone.
+ */
+#include "sort/sort.h"
+#include "testlib.h"
+
+/* ---- helpers ---- */
+
+static int gen_to(const char *path, const char *shape, uint64_t faces, epsnet_error *err)
+{
+    epsnet_gen_settings gs;
+    epsnet_gen_default_settings(&gs);
+    gs.shape = shape;
+    gs.faces = faces;
+    gs.shuffle = 1;
+    epsnet_mesh_info info;
+    epsnet_writer *w = NULL;
+    int rc = epsnet_gen_info(&gs, &info, err);
+    if (rc == 0)
+        rc = epsnet_writer_open(&w, path, NULL, &info, err);
+    if (rc == 0)
+        rc = epsnet_gen(&gs, w, err);
+    if (rc == 0)
+        return epsnet_writer_commit(&w, err);
+    epsnet_writer_abort(&w);
+    return rc;
+}
+
+static int sort_with(const char *in, const char *out, uint64_t mem, int axis, epsnet_sort_stats *st,
+                     epsnet_error *err)
+{
+    epsnet_sort_settings s;
+    epsnet_sort_default_settings(&s);
+    s.mem = mem;
+    s.axis = axis;
+    s.tmpdir = tl_tmpdir();
+    return epsnet_sort_file(in, out, &s, st, err);
+}
+
+/* A triangle as its corners' coordinates, rotated so that the smallest
+ * corner comes first: the same triangle with the same orientation gives
+ * the same 9 numbers, a flipped one does not. */
+typedef struct coord_tri {
+    double c[9];
+} coord_tri;
+
+static int cmp_corner(const double *a, const double *b)
+{
+    for (int k = 0; k < 3; k++)
+        if (a[k] != b[k])
+            return a[k] < b[k] ? -1 : 1;
+    return 0;
+}
+
+static int cmp_tri(const void *pa, const void *pb)
+{
+    const coord_tri *a = pa, *b = pb;
+    for (int i = 0; i < 3; i++) {
+        int c = cmp_corner(a->c + 3 * i, b->c + 3 * i);
+        if (c)
+            return c;
+    }
+    return 0;
+}
+
+static coord_tri *coord_tris(const tl_mesh *m)
+{
+    coord_tri *t = malloc((m->nt ? m->nt : 1) * sizeof *t);
+    for (uint64_t f = 0; f < m->nt; f++) {
+        int first = 0;
+        for (int k = 1; k < 3; k++)
+            if (cmp_corner(m->xyz + 3 * m->tri[3 * f + k], m->xyz + 3 * m->tri[3 * f + first]) < 0)
+                first = k;
+        for (int k = 0; k < 3; k++)
+            memcpy(t[f].c + 3 * k, m->xyz + 3 * m->tri[3 * f + (first + k) % 3], 3 * sizeof(double));
+    }
+    qsort(t, m->nt, sizeof *t, cmp_tri);
+    return t;
+}
+
+static int same_triangles(const tl_mesh *a, const tl_mesh *b)
+{
+    if (a->nt != b->nt)
+        return 0;
+    coord_tri *ta = coord_tris(a), *tb = coord_tris(b);
+    int same = a->nt == 0 || memcmp(ta, tb, a->nt * sizeof *ta) == 0;
+    free(ta);
+    free(tb);
+    return same;
+}
+
+/*
+ * Independent validator of a sorted, finalized streaming mesh (SPEC §2):
+ * vertices non-decreasing along axis; each triangle right after its last
+ * vertex (its newest corner is the newest vertex); every vertex used, and
+ * finalized exactly once, right after its last triangle (only other
+ * finalizations in between). @return NULL when valid, else what is wrong.
+ */
+static const char *validate_sorted_stream(const char *path, int axis)
+{
+    static char why[200];
+    epsnet_reader *r = NULL;
+    epsnet_error err;
+    if (epsnet_reader_open(&r, path, NULL, &err))
+        return "cannot open";
+    size_t cap = 1024;
+    uint64_t *last_use = malloc(cap * sizeof *last_use);
+    char *fin = calloc(cap, 1);
+    uint64_t nv = 0, nt = 0;
+    double prev = -INFINITY;
+    int vertex_since_tri = 0;
+    const char *bad = NULL;
+    epsnet_record rec;
+    int rc;
+    while (!bad && (rc = epsnet_reader_next(r, &rec, &err)) > 0) {
+        if (rec.kind == EPSNET_REC_VERTEX) {
+            if (rec.xyz[axis] < prev)
+                bad = "vertices go back along the axis";
+            prev = rec.xyz[axis];
+            if (nv == cap) {
+                cap *= 2;
+                last_use = realloc(last_use, cap * sizeof *last_use);
+                fin = realloc(fin, cap);
+            }
+            last_use[nv] = UINT64_MAX;
+            fin[nv] = 0;
+            nv++;
+            vertex_since_tri = 1;
+        } else if (rec.kind == EPSNET_REC_TRIANGLE) {
+            uint64_t hi = rec.v[0];
+            for (int k = 0; k < 3; k++) {
+                if (rec.v[k] >= nv || fin[rec.v[k]])
+                    bad = "a triangle uses a missing or finalized vertex";
+                else
+                    last_use[rec.v[k]] = nt;
+                if (rec.v[k] > hi)
+                    hi = rec.v[k];
+            }
+            if (hi != nv - 1) {
+                snprintf(why, sizeof why, "triangle %llu does not follow its last vertex", (unsigned long long)nt);
+                bad = why;
+            }
+            nt++;
+            vertex_since_tri = 0;
+        } else {
+            uint64_t v = rec.v[0];
+            if (v >= nv || fin[v])
+                bad = "finalizes a missing or finalized vertex";
+            else if (last_use[v] == UINT64_MAX)
+                bad = "finalizes a vertex no triangle used";
+            else if (last_use[v] != nt - 1 || vertex_since_tri)
+                bad = "a vertex is finalized late";
+            else
+                fin[v] = 1;
+        }
+    }
+    if (!bad && rc < 0)
+        bad = "read error";
+    for (uint64_t v = 0; !bad && v < nv; v++)
+        if (!fin[v])
+            bad = "a vertex is never finalized";
+    epsnet_reader_close(&r);
+    free(last_use);
+    free(fin);
+    return bad;
+}
+
+static void check_sort_of(const char *in, const char *name, uint64_t expect_unreferenced)
+{
+    char out[64];
+    snprintf(out, sizeof out, "%s.smz", name);
+    epsnet_sort_stats st;
+    epsnet_error err;
+    int rc = sort_with(in, tl_path(out), (uint64_t)1 << 20, -1, &st, &err);
+    CHECK_EQ_INT(rc, 0);
+    if (rc) {
+        fprintf(stderr, "  %s: %s\n", name, epsnet_error_message(&err));
+        return;
+    }
+    printf("  %-28s V %llu F %llu dropped %llu axis %c runs %llu temp %.1f MB width %llu\n", name,
+           (unsigned long long)st.vertices, (unsigned long long)st.faces, (unsigned long long)st.unreferenced,
+           "xyz"[st.axis], (unsigned long long)st.runs, (double)st.temp_bytes / 1e6,
+           (unsigned long long)st.max_width);
+    CHECK(st.runs > 1);
+    CHECK_EQ_U64(st.unreferenced, expect_unreferenced);
+    const char *bad = validate_sorted_stream(tl_path(out), st.axis);
+    if (bad)
+        fprintf(stderr, "  %s: %s\n", name, bad);
+    CHECK(bad == NULL);
+    tl_mesh a, b;
+    CHECK_EQ_INT(tl_read_mesh(in, &a, &err), 0);
+    CHECK_EQ_INT(tl_read_mesh(tl_path(out), &b, &err), 0);
+    CHECK_EQ_U64(b.nv, a.nv - expect_unreferenced);
+    CHECK_EQ_U64(st.vertices, a.nv);
+    CHECK_EQ_U64(st.faces, a.nt);
+    CHECK(same_triangles(&a, &b));
+    CHECK_EQ_INT(b.info.sorted_axis, st.axis);
+    tl_mesh_free(&a);
+    tl_mesh_free(&b);
+    remove(tl_path(out));
+}
+
+/* ---- tests ---- */
+
+/*
+ * The whole output of a tiny mesh, exactly (x right, y up):
+ *
+ *   y
+ *   1       v3-------v4          v2 = (5,5) is used by no triangle
+ *          / \  t0  /
+ *         / t1\    /            t0 = (v0, v4, v3)
+ *   0   v1-----v0                t1 = (v1, v0, v3)
+ *       0   1   2   3   x
+ *
+ * The bbox is 5 x 5 (v2 counts): a tie, so the earlier axis, x, wins.
+ * Sorted along x: v1 v3 v0 v4 (ids 0 1 2 3); v2 is dropped. t1's last
+ * corner is v0 (id 2), t0's is v4 (id 3). v1 is last used by t1.
+ */
+TEST(tiny_mesh_sorts_to_the_exact_expected_stream)
+{
+    const char *in = tl_write_str("tiny.obj", "v 2 0 0\nv 0 0 0\nv 5 5 0\nv 1 1 0\nv 3 1 0\n"
+                                              "f 1 5 4\nf 2 1 4\n");
+    epsnet_sort_stats st;
+    epsnet_error err;
+    CHECK_EQ_INT(sort_with(in, tl_path("tiny.smz"), 1 << 20, -1, &st, &err), 0);
+    CHECK_EQ_INT(st.axis, 0);
+    CHECK_EQ_U64(st.vertices, 5);
+    CHECK_EQ_U64(st.faces, 2);
+    CHECK_EQ_U64(st.unreferenced, 1);
+    CHECK_EQ_U64(st.max_width, 3);
+    static const struct { epsnet_record_kind kind; double x, y; uint64_t a, b, c; } want[] = {
+        { EPSNET_REC_VERTEX, 0, 0, 0, 0, 0 },
+        { EPSNET_REC_VERTEX, 1, 1, 0, 0, 0 },
+        { EPSNET_REC_VERTEX, 2, 0, 0, 0, 0 },
+        { EPSNET_REC_TRIANGLE, 0, 0, 0, 2, 1 },
+        { EPSNET_REC_FINALIZE, 0, 0, 0, 0, 0 },
+        { EPSNET_REC_VERTEX, 3, 1, 0, 0, 0 },
+        { EPSNET_REC_TRIANGLE, 0, 0, 2, 3, 1 },
+        { EPSNET_REC_FINALIZE, 0, 0, 2, 0, 0 },
+        { EPSNET_REC_FINALIZE, 0, 0, 3, 0, 0 },
+        { EPSNET_REC_FINALIZE, 0, 0, 1, 0, 0 },
+    };
+    epsnet_reader *r = NULL;
+    CHECK_EQ_INT(epsnet_reader_open(&r, tl_path("tiny.smz"), NULL, &err), 0);
+    epsnet_record rec;
+    size_t i = 0;
+    while (r && epsnet_reader_next(r, &rec, &err) > 0) {
+        if (i < sizeof want / sizeof *want) {
+            CHECK_EQ_INT(rec.kind, want[i].kind);
+            if (rec.kind == EPSNET_REC_VERTEX) {
+                CHECK(rec.xyz[0] == want[i].x && rec.xyz[1] == want[i].y && rec.xyz[2] == 0);
+            } else if (rec.kind == EPSNET_REC_TRIANGLE) {
+                CHECK_EQ_U64(rec.v[0], want[i].a);
+                CHECK_EQ_U64(rec.v[1], want[i].b);
+                CHECK_EQ_U64(rec.v[2], want[i].c);
+            } else {
+                CHECK_EQ_U64(rec.v[0], want[i].a);
+            }
+        }
+        i++;
+    }
+    CHECK_EQ_U64(i, sizeof want / sizeof *want);
+    CHECK_EQ_INT(epsnet_reader_info(r)->sorted_axis, 0);
+    epsnet_reader_close(&r);
+}
+
+/* Equal coordinates keep their input order; an explicit axis is obeyed. */
+TEST(ties_keep_input_order_and_axis_is_obeyed)
+{
+    /* three vertices at y = 0 in input order 2, 0, 1 of x; sorted along y
+     * they stay 0 1 2 as given. */
+    const char *in = tl_write_str("ties.obj", "v 2 0 0\nv 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 4\nf 2 3 4\n");
+    epsnet_sort_stats st;
+    epsnet_error err;
+    CHECK_EQ_INT(sort_with(in, tl_path("ties.smz"), 1 << 20, 1, &st, &err), 0);
+    CHECK_EQ_INT(st.axis, 1);
+    tl_mesh m;
+    CHECK_EQ_INT(tl_read_mesh(tl_path("ties.smz"), &m, &err), 0);
+    CHECK_EQ_U64(m.nv, 4);
+    if (m.nv == 4) {
+        CHECK(m.xyz[0] == 2 && m.xyz[3] == 0 && m.xyz[6] == 1 && m.xyz[10] == 1);
+    }
+    tl_mesh_free(&m);
+    double lo[3] = { 0, 0, 0 }, hi[3] = { 1, 2, 2 };
+    CHECK_EQ_INT(en_sort_longest_axis(lo, hi), 1);
+    hi[2] = 2.5;
+    CHECK_EQ_INT(en_sort_longest_axis(lo, hi), 2);
+}
+
+TEST(generated_shapes_keep_every_triangle_with_many_runs)
+{
+    static const char *const shapes[] = { "sphere", "torus", "bumpy", "terrain", "cad", "dimple" };
+    for (size_t i = 0; i < sizeof shapes / sizeof *shapes; i++) {
+        char name[64];
+        snprintf(name, sizeof name, "shuffled_%s.ply", shapes[i]);
+        epsnet_error err;
+        CHECK_EQ_INT(gen_to(tl_path(name), shapes[i], 60000, &err), 0);
+        check_sort_of(tl_path(name), name, 0);
+        remove(tl_path(name));
+    }
+}
+
+/* From ../shared/data/README.md: the bunny has 1113 unused vertices. */
+TEST(shared_meshes_keep_every_triangle)
+{
+    static const struct { const char *file; uint64_t unused; } meshes[] = {
+        { "bun_zipper.ply.zst", 1113 },
+        { "armadillo_decim100k.obj.zst", 0 },
+        { "dragon_vrip_res2.ply.zst", 43 },
+        { "fandisk.obj.zst", 0 },
+        { "rocker-arm.obj.zst", 0 },
+    };
+    const char *dir = tl_shared_data();
+    if (!dir) {
+        printf("  (../shared/data not found: skipped)\n");
+        return;
+    }
+    for (size_t i = 0; i < sizeof meshes / sizeof *meshes; i++) {
+        char path[1024];
+        snprintf(path, sizeof path, "%s/%s", dir, meshes[i].file);
+        if (!tl_exists(path)) {
+            printf("  (%s missing: skipped)\n", meshes[i].file);
+            continue;
+        }
+        check_sort_of(path, meshes[i].file, meshes[i].unused);
+    }
+}
+
+/* Same input and options, same bytes; and the budget changes only how the
+ * work is cut into runs, never the output. */
+TEST(output_bytes_do_not_depend_on_the_budget)
+{
+    epsnet_error err;
+    const char *in = tl_path("det.ply");
+    CHECK_EQ_INT(gen_to(in, "bumpy", 50000, &err), 0);
+    epsnet_sort_stats a, b, c;
+    CHECK_EQ_INT(sort_with(in, tl_path("det1.smz"), 1 << 20, -1, &a, &err), 0);
+    CHECK_EQ_INT(sort_with(in, tl_path("det2.smz"), 1 << 20, -1, &b, &err), 0);
+    CHECK_EQ_INT(sort_with(in, tl_path("det3.smz"), (uint64_t)256 << 20, -1, &c, &err), 0);
+    CHECK(a.runs > 1);
+    CHECK_EQ_U64(c.runs, 0);
+    size_t n1, n2, n3;
+    FILE *f1 = fopen(tl_path("det1.smz"), "rb"), *f2 = fopen(tl_path("det2.smz"), "rb"),
+         *f3 = fopen(tl_path("det3.smz"), "rb");
+    char *b1 = malloc(1 << 22), *b2 = malloc(1 << 22), *b3 = malloc(1 << 22);
+    n1 = fread(b1, 1, 1 << 22, f1);
+    n2 = fread(b2, 1, 1 << 22, f2);
+    n3 = fread(b3, 1, 1 << 22, f3);
+    CHECK(n1 > 1000);
+    CHECK(n1 == n2 && memcmp(b1, b2, n1) == 0);
+    CHECK(n1 == n3 && memcmp(b1, b3, n1) == 0);
+    fclose(f1);
+    fclose(f2);
+    fclose(f3);
+    free(b1);
+    free(b2);
+    free(b3);
+}
+
+/* SPEC §5: a stream that never finalizes hits the memory budget with a
+ * clear error, not an out-of-memory kill. */
+TEST(never_finalizing_stream_hits_the_budget)
+{
+    epsnet_error err;
+    const char *in = tl_path("nofin.sma");
+    FILE *f = fopen(in, "w");
+    for (int i = 0; i < 200000; i++)
+        fprintf(f, "v %d %d 0\n", i % 500, i / 500);
+    for (int i = 1; i + 2 <= 200000; i += 3)
+        fprintf(f, "f %d %d %d\n", i, i + 1, i + 2);
+    fclose(f);
+    epsnet_sort_stats st;
+    int rc = sort_with(in, tl_path("nofin.smz"), 1 << 20, -1, &st, &err);
+    CHECK_EQ_INT(rc, EPSNET_ELIMIT);
+    CHECK_STR_CONTAINS(epsnet_error_message(&err), "memory budget");
+    CHECK_STR_CONTAINS(epsnet_error_message(&err), "finalize");
+    CHECK_STR_CONTAINS(epsnet_error_message(&err), "nofin.sma");
+    CHECK(!tl_exists(tl_path("nofin.smz")));
+}
+
+TEST(empty_mesh_sorts_to_an_empty_stream)
+{
+    const char *in = tl_write_str("empty.obj", "# nothing\n");
+    epsnet_sort_stats st;
+    epsnet_error err;
+    CHECK_EQ_INT(sort_with(in, tl_path("empty.smz"), 1 << 20, -1, &st, &err), 0);
+    CHECK_EQ_U64(st.vertices, 0);
+    CHECK_EQ_U64(st.faces, 0);
+    tl_mesh m;
+    CHECK_EQ_INT(tl_read_mesh(tl_path("empty.smz"), &m, &err), 0);
+    CHECK_EQ_U64(m.nv, 0);
+    CHECK_EQ_U64(m.nt, 0);
+    tl_mesh_free(&m);
+}
+
+/* Degenerate and duplicate faces are legal input (SPEC §5): kept as they
+ * are, and a vertex repeated in one face is finalized once. */
+TEST(degenerate_and_duplicate_faces_are_kept)
+{
+    const char *in = tl_write_str("degen.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 2 0\n"
+                                               "f 1 2 3\nf 1 2 3\nf 4 4 2\nf 3 3 3\n");
+    epsnet_sort_stats st;
+    epsnet_error err;
+    CHECK_EQ_INT(sort_with(in, tl_path("degen.sma"), 1 << 20, -1, &st, &err), 0);
+    const char *bad = validate_sorted_stream(tl_path("degen.sma"), st.axis);
+    CHECK(bad == NULL);
+    tl_mesh a, b;
+    CHECK_EQ_INT(tl_read_mesh(in, &a, &err), 0);
+    CHECK_EQ_INT(tl_read_mesh(tl_path("degen.sma"), &b, &err), 0);
+    CHECK_EQ_U64(b.nt, 4);
+    CHECK(same_triangles(&a, &b));
+    tl_mesh_free(&a);
+    tl_mesh_free(&b);
+}
+
+/* Temporary runs are anonymous: nothing is left in --tmpdir, on success or
+ * failure. */
+TEST(no_temporary_files_are_left)
+{
+    epsnet_error err;
+    const char *in = tl_path("tmpcheck.ply");
+    CHECK_EQ_INT(gen_to(in, "sphere", 20000, &err), 0);
+    char dir[512];
+    snprintf(dir, sizeof dir, "%s/runs", tl_tmpdir());
+    mkdir(dir, 0700);
+    epsnet_sort_settings s;
+    epsnet_sort_default_settings(&s);
+    s.mem = 1 << 20;
+    s.tmpdir = dir;
+    epsnet_sort_stats st;
+    CHECK_EQ_INT(epsnet_sort_file(in, tl_path("tmpcheck.smz"), &s, &st, &err), 0);
+    CHECK(st.runs > 1 && st.temp_bytes > 0);
+    CHECK_EQ_INT(epsnet_sort_file(in, "/nonexistent-dir/x.smz", &s, &st, &err), EPSNET_EIO);
+    char cmd[600];
+    snprintf(cmd, sizeof cmd, "test -z \"$(ls -A '%s')\"", dir);
+    CHECK_EQ_INT(system(cmd), 0);
+}
+
+int main(void)
+{
+    RUN(tiny_mesh_sorts_to_the_exact_expected_stream);
+    RUN(ties_keep_input_order_and_axis_is_obeyed);
+    RUN(generated_shapes_keep_every_triangle_with_many_runs);
+    RUN(shared_meshes_keep_every_triangle);
+    RUN(output_bytes_do_not_depend_on_the_budget);
+    RUN(never_finalizing_stream_hits_the_budget);
+    RUN(empty_mesh_sorts_to_an_empty_stream);
+    RUN(degenerate_and_duplicate_faces_are_kept);
+    RUN(no_temporary_files_are_left);
+    tl_cleanup();
+    return tl_finish();
+}
