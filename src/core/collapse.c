@@ -13,9 +13,16 @@
  *
  * note: entries are never removed from the queue; each vertex carries a
  * version that every change around it bumps, and a popped entry whose version
- * is old is dropped. Validity can also go stale two rings away (a link
- * condition depends on the target's neighbours), so a current entry is
- * checked again when it is popped.
+ * is old is dropped.
+ *
+ * note: a vertex is queued with its cheapest target *unchecked*; the checks
+ * (link condition, normals, duplicates: O(deg v * deg u)) run only when the
+ * entry is popped, and an entry that fails is replaced by the vertex's
+ * cheapest *valid* target. A vertex's valid cost is never below its
+ * unchecked cost, so the entry that pops valid is still the cheapest valid
+ * collapse in the mesh, as SPEC §1 asks; checking lazily keeps a run linear
+ * where checking every neighbour after every collapse was quadratic in the
+ * degree of the vertices that absorb many faces.
  */
 #include "core/collapse.h"
 
@@ -64,15 +71,16 @@ void en_quadrics_from_faces(const en_slab *s, en_quadric *q)
 
 /* ---- the dynamic mesh ---- */
 
+/* note: ties break on local ids, which a slab assigns in global-id order,
+ * so the order is the same on every run and for every slab split; keeping
+ * global ids out of the entry keeps it at 24 bytes. */
 typedef struct heap_entry {
     double cost;
-    uint64_t gv, gu;      /* global ids: ties break the same on every run */
     uint32_t v, u, ver;
 } heap_entry;
 
 typedef struct target {
     double cost;
-    uint64_t gu;
     uint32_t u;
 } target;
 
@@ -91,6 +99,10 @@ typedef struct state {
     uint32_t *vf_start, *vf_count, *vf_cap;
 
     uint32_t *ver;            /* bumped by every change around a vertex */
+    double *self_err;         /* q[v] evaluated at v's own position */
+    double *best_cost;        /* cost of v's cheapest queued entry */
+    uint32_t *best_u;         /* its target, UINT32_MAX when none */
+    uint8_t *fallback;        /* v's queued entry is its cheapest *valid* one */
     uint32_t *mark;           /* stamp per vertex for neighbour sets */
     uint32_t stamp;
     uint8_t *refused;         /* EN_REFUSE_* seen on the last evaluation */
@@ -110,11 +122,13 @@ static int entry_less(const heap_entry *a, const heap_entry *b)
 {
     if (a->cost != b->cost)
         return a->cost < b->cost;
-    if (a->gv != b->gv)
-        return a->gv < b->gv;
-    return a->gu < b->gu;
+    if (a->v != b->v)
+        return a->v < b->v;
+    return a->u < b->u;
 }
 
+/* A 4-ary heap: half the levels of a binary one, and the four children of
+ * a node share a cache line or two, which matters with millions of entries. */
 static int heap_push(state *st, heap_entry e)
 {
     if (st->heap_len == st->heap_cap &&
@@ -122,7 +136,7 @@ static int heap_push(state *st, heap_entry e)
         return EPSNET_ENOMEM;
     size_t i = st->heap_len++;
     while (i > 0) {
-        size_t parent = (i - 1) / 2;
+        size_t parent = (i - 1) / 4;
         if (!entry_less(&e, &st->heap[parent]))
             break;
         st->heap[i] = st->heap[parent];
@@ -137,11 +151,13 @@ static heap_entry heap_pop(state *st)
     heap_entry top = st->heap[0], last = st->heap[--st->heap_len];
     size_t i = 0, n = st->heap_len;
     for (;;) {
-        size_t c = 2 * i + 1;
-        if (c >= n)
+        size_t first = 4 * i + 1;
+        if (first >= n)
             break;
-        if (c + 1 < n && entry_less(&st->heap[c + 1], &st->heap[c]))
-            c++;
+        size_t c = first, end = first + 4 < n ? first + 4 : n;
+        for (size_t k = first + 1; k < end; k++)
+            if (entry_less(&st->heap[k], &st->heap[c]))
+                c = k;
         if (!entry_less(&st->heap[c], &last))
             break;
         st->heap[i] = st->heap[c];
@@ -274,32 +290,29 @@ static int check_collapse(state *st, uint32_t v, uint32_t u)
 
 static int target_less(const target *a, const target *b)
 {
-    return a->cost != b->cost ? a->cost < b->cost : a->gu < b->gu;
+    return a->cost != b->cost ? a->cost < b->cost : a->u < b->u;
 }
 
-/* Queue the cheapest valid collapse of v, or record why there is none. */
-static int queue_best(state *st, uint32_t v)
+/* Targets of v with their costs, cheapest first, in st->cand; @return count
+ * or -1 when out of memory. Each neighbour is the corner after v in exactly
+ * one face of v's (manifold, closed) star, so it is listed once. */
+static int64_t rank_targets(state *st, uint32_t v)
 {
-    if (!st->removable[v] || !st->valive[v])
-        return 0;
     const en_slab *s = st->s;
     if (en_grow((void **)&st->cand, &st->cand_cap, st->vf_count[v], sizeof *st->cand))
-        return EPSNET_ENOMEM;
+        return -1;
     target *cand = st->cand;
     uint32_t n = 0;
     const uint32_t *lv = st->pool + st->vf_start[v];
-    /* Each neighbour is the corner after v in exactly one face of v's
-     * (manifold, closed) star, so it is listed once. */
     for (uint32_t i = 0; i < st->vf_count[v]; i++) {
         uint32_t x, y;
         other_corners(st->tri + 3 * (size_t)lv[i], v, &x, &y);
-        const double *p = s->pos + 3 * (size_t)x;
-        cand[n].cost = quadric_eval(&st->q[v], p) + quadric_eval(&st->q[x], p);
-        cand[n].gu = s->gid[x];
+        cand[n].cost = quadric_eval(&st->q[v], s->pos + 3 * (size_t)x) + st->self_err[x];
         cand[n].u = x;
         n++;
     }
-    /* insertion sort: stars are small (a pole fan is the rare long one) */
+    /* insertion sort: stars are small (a vertex that absorbed a fan is the
+     * rare long one) */
     for (uint32_t i = 1; i < n; i++) {
         target t = cand[i];
         uint32_t j = i;
@@ -309,17 +322,68 @@ static int queue_best(state *st, uint32_t v)
         }
         cand[j] = t;
     }
+    return n;
+}
+
+/* Queue v's cheapest target, unchecked. */
+static int queue_cheapest(state *st, uint32_t v)
+{
+    if (!st->removable[v] || !st->valive[v] || st->vf_count[v] == 0)
+        return 0;
+    const en_slab *s = st->s;
+    const uint32_t *lv = st->pool + st->vf_start[v];
+    target best = { 0, UINT32_MAX };
+    for (uint32_t i = 0; i < st->vf_count[v]; i++) {
+        uint32_t x, y;
+        other_corners(st->tri + 3 * (size_t)lv[i], v, &x, &y);
+        target t = { quadric_eval(&st->q[v], s->pos + 3 * (size_t)x) + st->self_err[x], x };
+        if (best.u == UINT32_MAX || target_less(&t, &best))
+            best = t;
+    }
+    st->best_cost[v] = best.cost;
+    st->best_u[v] = best.u;
+    st->fallback[v] = 0;
+    heap_entry e = { best.cost, v, best.u, st->ver[v] };
+    return heap_push(st, e);
+}
+
+/* Queue v's cheapest valid target (checked), or record why there is none. */
+static int queue_best_valid(state *st, uint32_t v)
+{
+    int64_t n = rank_targets(st, v);
+    if (n < 0)
+        return EPSNET_ENOMEM;
     uint8_t reasons = 0;
-    for (uint32_t i = 0; i < n; i++) {
-        int why = check_collapse(st, v, cand[i].u);
+    for (int64_t i = 0; i < n; i++) {
+        target t = st->cand[i];
+        int why = check_collapse(st, v, t.u);
         if (why == 0) {
             st->refused[v] = 0;
-            heap_entry e = { cand[i].cost, s->gid[v], cand[i].gu, v, cand[i].u, st->ver[v] };
+            st->best_cost[v] = t.cost;
+            st->best_u[v] = t.u;
+            st->fallback[v] = 1;
+            heap_entry e = { t.cost, v, t.u, st->ver[v] };
             return heap_push(st, e);
         }
         reasons |= (uint8_t)why;
     }
     st->refused[v] = reasons;
+    st->best_u[v] = UINT32_MAX;
+    st->fallback[v] = 1;
+    return 0;
+}
+
+static double pair_cost(const state *st, uint32_t w, uint32_t x)
+{
+    return quadric_eval(&st->q[w], st->s->pos + 3 * (size_t)x) + st->self_err[x];
+}
+
+static int is_neighbour(const state *st, uint32_t v, uint32_t u)
+{
+    const uint32_t *lv = st->pool + st->vf_start[v];
+    for (uint32_t i = 0; i < st->vf_count[v]; i++)
+        if (has_corner(st->tri + 3 * (size_t)lv[i], u))
+            return 1;
     return 0;
 }
 
@@ -351,29 +415,44 @@ static int do_collapse(state *st, uint32_t v, uint32_t u)
     st->vf_count[v] = 0;
     st->valive[v] = 0;
     quadric_add(&st->q[u], &st->q[v]);
+    st->self_err[u] = quadric_eval(&st->q[u], st->s->pos + 3 * (size_t)u);
     st->collapses++;
 
-    /* Everything around u changed: its cost, and its neighbours' costs and
-     * link conditions. */
-    const uint32_t *lu = st->pool + st->vf_start[u];
-    uint32_t stamp = ++st->stamp;
+    /*
+     * What changed: u's quadric (so every cost *from* u, and the cost of every
+     * pair *into* u), and the neighbourhoods in u's ring (validity, checked
+     * lazily at pop). A neighbour w needs a full re-ranking only when its
+     * queued target was u or v, or its entry was a checked fallback (a
+     * cheaper target may be valid now); otherwise only w -> u is priced.
+     */
     st->ver[u]++;
+    int rc = queue_cheapest(st, u);
+    uint32_t stamp = ++st->stamp;
     st->mark[u] = stamp;
-    for (uint32_t i = 0; i < st->vf_count[u]; i++) {
-        const uint32_t *t = st->tri + 3 * (size_t)lu[i];
-        for (int k = 0; k < 3; k++)
-            if (st->mark[t[k]] != stamp) {
-                st->mark[t[k]] = stamp;
-                st->ver[t[k]]++;
-            }
-    }
-    /* Re-queue in a fixed order: u, then u's neighbours as its faces list them. */
-    int rc = queue_best(st, u);
     uint32_t count = st->vf_count[u];
     for (uint32_t i = 0; i < count && rc == 0; i++) {
-        uint32_t x, y;
-        other_corners(st->tri + 3 * (size_t)st->pool[st->vf_start[u] + i], u, &x, &y);
-        rc = queue_best(st, x);
+        const uint32_t *t = st->tri + 3 * (size_t)st->pool[st->vf_start[u] + i];
+        for (int k = 0; k < 3 && rc == 0; k++) {
+            uint32_t w = t[k];
+            if (st->mark[w] == stamp)
+                continue;
+            st->mark[w] = stamp;
+            if (!st->removable[w])
+                continue;
+            if (st->best_u[w] == u || st->best_u[w] == v || st->best_u[w] == UINT32_MAX || st->fallback[w]) {
+                st->ver[w]++;
+                rc = queue_cheapest(st, w);
+                continue;
+            }
+            target cand = { pair_cost(st, w, u), u };
+            target best = { st->best_cost[w], st->best_u[w] };
+            if (target_less(&cand, &best)) {
+                st->best_cost[w] = cand.cost;
+                st->best_u[w] = u;
+                heap_entry e = { cand.cost, w, u, st->ver[w] };
+                rc = heap_push(st, e);
+            }
+        }
     }
     return rc;
 }
@@ -386,6 +465,10 @@ static void state_free(state *st)
     en_free(st->vf_count);
     en_free(st->vf_cap);
     en_free(st->ver);
+    en_free(st->self_err);
+    en_free(st->best_cost);
+    en_free(st->best_u);
+    en_free(st->fallback);
     en_free(st->mark);
     en_free(st->refused);
     en_free(st->heap);
@@ -415,11 +498,15 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q,
     st.vf_count = en_malloc(((size_t)s->nv + 1) * sizeof *st.vf_count);
     st.vf_cap = en_malloc(((size_t)s->nv + 1) * sizeof *st.vf_cap);
     st.ver = en_calloc((size_t)s->nv + 1, sizeof *st.ver);
+    st.self_err = en_malloc(((size_t)s->nv + 1) * sizeof *st.self_err);
+    st.best_cost = en_malloc(((size_t)s->nv + 1) * sizeof *st.best_cost);
+    st.best_u = en_malloc(((size_t)s->nv + 1) * sizeof *st.best_u);
+    st.fallback = en_calloc((size_t)s->nv + 1, 1);
     st.mark = en_calloc((size_t)s->nv + 1, sizeof *st.mark);
     st.refused = en_calloc((size_t)s->nv + 1, 1);
     int rc = 0;
     if (!st.fnormal || !st.pool || !st.vf_start || !st.vf_count || !st.vf_cap || !st.ver || !st.mark ||
-        !st.refused) {
+        !st.refused || !st.self_err || !st.best_cost || !st.best_u || !st.fallback) {
         rc = EPSNET_ENOMEM;
         goto out;
     }
@@ -431,15 +518,35 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q,
     }
     for (uint32_t f = 0; f < s->nt; f++)
         unit_normal(&st, st.tri + 3 * (size_t)f, st.fnormal + 3 * (size_t)f);
+    for (uint32_t v = 0; v < s->nv; v++) {
+        st.self_err[v] = quadric_eval(&q[v], s->pos + 3 * (size_t)v);
+        st.best_u[v] = UINT32_MAX;
+    }
 
     for (uint32_t v = 0; v < s->nv && rc == 0; v++)
-        rc = queue_best(&st, v);
+        rc = queue_cheapest(&st, v);
     while (rc == 0 && st.heap_len) {
         heap_entry e = heap_pop(&st);
         if (!st.valive[e.v] || !st.valive[e.u] || e.ver != st.ver[e.v])
             continue; /* stale: a newer entry was queued when it changed */
+        if (!is_neighbour(&st, e.v, e.u)) {
+            st.ver[e.v]++;
+            rc = queue_cheapest(&st, e.v);
+            continue;
+        }
+        double cost = pair_cost(&st, e.v, e.u);
+        if (cost != e.cost) {
+            /* the target's quadric grew since this was queued: re-price */
+            e.cost = cost;
+            rc = heap_push(&st, e);
+            continue;
+        }
         if (check_collapse(&st, e.v, e.u)) {
-            rc = queue_best(&st, e.v); /* went stale two rings away */
+            /* Replace it by v's cheapest valid target. note: bump the version
+             * so the unchecked entry cannot come back; the valid one carries
+             * the new version. */
+            st.ver[e.v]++;
+            rc = queue_best_valid(&st, e.v);
             continue;
         }
         rc = do_collapse(&st, e.v, e.u);
@@ -447,10 +554,11 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q,
     if (rc == 0) {
         memset(counts, 0, sizeof *counts);
         counts->collapses = st.collapses;
-        for (uint32_t v = 0; v < s->nv; v++) {
+        for (uint32_t v = 0; v < s->nv && rc == 0; v++) {
             if (!removable[v] || !st.valive[v])
                 continue;
             counts->remaining++;
+            rc = queue_best_valid(&st, v); /* fresh reasons; the queue is not used again */
             for (int k = 0; k < EN_REFUSE_KINDS; k++)
                 counts->refused[k] += (st.refused[v] >> k) & 1;
         }
