@@ -4,27 +4,30 @@
 #include <stdlib.h>
 #include <string.h>
 
-#ifdef EN_FAULT_INJECTION
 #include <stdatomic.h>
-#include <stdio.h>
-/* EPSNET_FAIL_ALLOC=N makes the N-th allocation (1-based) and every later
- * one fail; set by tests/fault_injection to walk every failure point. */
+
+/*
+ * Fault injection (STYLE.md: dav1d's alloc_fail): EPSNET_FAIL_ALLOC=N makes
+ * the N-th allocation (1-based) and every later one fail, so a test can walk
+ * every failure point of a whole run (tests/test_fault_injection.py).
+ * note: process-wide on purpose (allocation is); read once; when the
+ * variable is unset the cost is one predictable branch per allocation.
+ */
 static atomic_long en_alloc_count;
-static long en_alloc_fail_at = -2;
+static atomic_long en_alloc_fail_at = -2;
 
 static int en_alloc_should_fail(void)
 {
-    if (en_alloc_fail_at == -2) {
+    long at = atomic_load_explicit(&en_alloc_fail_at, memory_order_relaxed);
+    if (at == -2) {
         const char *e = getenv("EPSNET_FAIL_ALLOC");
-        en_alloc_fail_at = e ? atol(e) : -1;
+        at = e && *e ? atol(e) : -1;
+        atomic_store(&en_alloc_fail_at, at);
     }
-    if (en_alloc_fail_at < 0)
+    if (at < 0)
         return 0;
-    return atomic_fetch_add(&en_alloc_count, 1) + 1 >= en_alloc_fail_at;
+    return atomic_fetch_add(&en_alloc_count, 1) + 1 >= at;
 }
-#else
-static int en_alloc_should_fail(void) { return 0; }
-#endif
 
 void *en_malloc(size_t n)
 {

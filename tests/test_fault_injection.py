@@ -1,0 +1,83 @@
+#!/usr/bin/env python3
+"""Allocation failure at every point of real runs (STYLE.md: dav1d's
+alloc_fail; issue 8): with EPSNET_FAIL_ALLOC=N the N-th allocation and every
+later one fail. For every N until the run no longer notices, the command
+must exit with a clear error (never crash: no signal, no sanitizer report),
+leave nothing at the output path and no temporary files beside it. Under the
+address sanitizer build this also proves every failure path frees what it
+allocated (LeakSanitizer fails the run otherwise)."""
+import os
+import subprocess
+import sys
+import tempfile
+
+EPSNET = sys.argv[1] if len(sys.argv) > 1 else os.environ["EPSNET_BIN"]
+TMP = tempfile.mkdtemp(prefix="epsnet-fault-")
+failures = 0
+
+
+def run(args, fail_at=None):
+    env = dict(os.environ)
+    if fail_at is not None:
+        env["EPSNET_FAIL_ALLOC"] = str(fail_at)
+    return subprocess.run([EPSNET, *args], capture_output=True, text=True, env=env, timeout=120)
+
+
+def leftovers():
+    return [f for f in os.listdir(TMP) if ".epsnet-" in f]
+
+
+def walk(name, make_args, max_points=400, stride=1):
+    """Fail allocation N for N = 1, 1+stride, ... until a run succeeds."""
+    global failures
+    out = os.path.join(TMP, "out_" + name)
+    problems = []
+    n = 1
+    points = 0
+    while points < max_points:
+        if os.path.exists(out):
+            os.remove(out)
+        p = run(make_args(out), n)
+        points += 1
+        if p.returncode == 0:
+            if n == 1:
+                problems.append("succeeded with EPSNET_FAIL_ALLOC=1: injection is not active")
+            break
+        if p.returncode < 0 or p.returncode not in (2, 3, 4, 6):
+            problems.append(f"N={n}: exit {p.returncode}: {p.stderr.strip()[-300:]}")
+        elif "AddressSanitizer" in p.stderr or "LeakSanitizer" in p.stderr or "runtime error" in p.stderr:
+            problems.append(f"N={n}: sanitizer: {p.stderr.strip()[-300:]}")
+        elif not p.stderr.startswith("epsnet"):
+            problems.append(f"N={n}: no clear message: {p.stderr!r}")
+        elif os.path.exists(out):
+            problems.append(f"N={n}: output left at {out}")
+        elif leftovers():
+            problems.append(f"N={n}: temporaries left: {leftovers()}")
+        n += stride
+    else:
+        problems.append(f"still failing after {points} points (raise max_points?)")
+    if problems:
+        failures += 1
+        print("FAIL", name, "-", len(problems), "problems; first:", problems[0])
+    else:
+        print(f"ok   {name} ({points} failure points)")
+
+
+def main():
+    src = os.path.join(TMP, "in.ply")
+    p = run(["gen", "bumpy", "--faces", "3000", "--shuffle", "-o", src, "-q"])
+    assert p.returncode == 0, p.stderr
+    sma = os.path.join(TMP, "in.sma")
+    p = run(["gen", "torus", "--faces", "3000", "-o", sma, "-q"])
+    assert p.returncode == 0, p.stderr
+    walk("convert_ply_to_smb", lambda o: ["convert", src, "-o", o + ".smb", "-q"])
+    walk("convert_sma_to_ply_zst", lambda o: ["convert", sma, "-o", o + ".ply.zst", "-q"])
+    walk("sample", lambda o: ["sample", src, "-o", o + ".ply", "--level", "2", "-q"])
+    walk("simplify_two_passes", lambda o: ["simplify", src, "-o", o + ".ply", "--level", "2", "--passes", "2",
+                                           "-q"], max_points=600)
+    subprocess.run(["rm", "-rf", TMP])
+    print(f"{failures} failed")
+    sys.exit(1 if failures else 0)
+
+
+main()
