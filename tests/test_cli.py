@@ -351,6 +351,35 @@ def sort_of_a_never_finalizing_stream_hits_the_budget():
     assert not leftovers(TMP), leftovers(TMP)
 
 
+@case
+def render_writes_a_png_and_leaves_nothing_on_failure():
+    src = path("render_sphere.ply")
+    assert run("gen", "sphere", "--faces", "2000", "-o", src, "-q")[0] == 0
+    out = path("render.png")
+    rc, _, err = run("render", src, "-o", out, "--size", "96x64", "--view", "10,-20", "--wire", "-q")
+    assert rc == 0 and err == "", (rc, err)
+    with open(out, "rb") as f:
+        data = f.read()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n", data[:8]
+    assert data[12:16] == b"IHDR", data[12:16]
+    assert struct.unpack(">II", data[16:24]) == (96, 64), data[16:24]
+    assert data[24:26] == bytes([8, 2]), data[24:26]          # 8-bit RGB
+    rc, _, err = run("render", src, "-o", path("render2.png"), "--size", "96x64", "--view", "10,-20",
+                     "--wire", "-q")
+    with open(path("render2.png"), "rb") as f:
+        assert f.read() == data, "same command, different bytes"
+    for bad in (["--size", "0x10"], ["--size", "64"], ["--view", "0,91"], ["--view", "x"]):
+        rc, _, err = run("render", src, "-o", path("never.png"), *bad)
+        assert rc == 1 and len(err.strip().splitlines()) == 1, (bad, rc, err)
+    broken = write("render_bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")
+    rc, _, err = run("render", broken, "-o", path("never.png"), "--samples")
+    lines = err.strip().splitlines()
+    assert rc == 2 and len(lines) == 1 and broken in lines[0] and ":4:" in lines[0], (rc, err)
+    rc, _, err = run("render", path("render_missing.ply"), "-o", path("never.png"))
+    assert rc == 3, (rc, err)
+    assert not os.path.exists(path("never.png")), "output left behind"
+    assert not leftovers(TMP), leftovers(TMP)
+
 subprocess.run(["rm", "-rf", TMP])
 print(f"{failures} failed")
 sys.exit(1 if failures else 0)

@@ -37,6 +37,7 @@ int cmd_simplify(int argc, char **argv);
 int cmd_hausdorff(int argc, char **argv);
 int cmd_sort(int argc, char **argv);
 int cmd_check(int argc, char **argv);
+int cmd_render(int argc, char **argv);
 
 extern int cli_quiet;        /* -q: no progress, no summaries */
 

@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "stream_window.h"
 
 static void info_help(void)
 {
@@ -27,52 +28,6 @@ static void info_help(void)
            "\n"
            "  -q, --quiet   no progress bar\n"
            "  -h, --help    this text\n");
-}
-
-/* Vertices that are live (read, not finalized) form a window [base, next);
- * one bit per vertex in that window says "finalized", so memory follows the
- * span, not the mesh. */
-typedef struct live_window {
-    uint64_t base;      /* oldest vertex that may still be live */
-    uint64_t next;      /* vertices read so far */
-    uint64_t live;      /* read and not finalized */
-    uint8_t *fin;       /* bit (v - base) set when v is finalized; ring buffer */
-    uint64_t cap_bits;  /* power of two */
-} live_window;
-
-static int window_reserve(live_window *w, uint64_t need)
-{
-    if (need <= w->cap_bits)
-        return 0;
-    uint64_t cap = w->cap_bits ? w->cap_bits : 4096;
-    while (cap < need)
-        cap *= 2;
-    uint8_t *b = calloc(cap / 8, 1);
-    if (!b)
-        return -1;
-    for (uint64_t v = w->base; v < w->next; v++) {
-        uint64_t o = v % w->cap_bits, n = v % cap;
-        if (w->fin[o / 8] >> (o % 8) & 1)
-            b[n / 8] |= (uint8_t)(1u << (n % 8));
-    }
-    free(w->fin);
-    w->fin = b;
-    w->cap_bits = cap;
-    return 0;
-}
-
-static void window_finalize(live_window *w, uint64_t v)
-{
-    uint64_t o = v % w->cap_bits;
-    w->fin[o / 8] |= (uint8_t)(1u << (o % 8));
-    w->live--;
-    while (w->base < w->next) {
-        uint64_t b = w->base % w->cap_bits;
-        if (!(w->fin[b / 8] >> (b % 8) & 1))
-            break;
-        w->fin[b / 8] &= (uint8_t)~(1u << (b % 8));
-        w->base++;
-    }
 }
 
 int cmd_info(int argc, char **argv)
@@ -104,7 +59,7 @@ int cmd_info(int argc, char **argv)
     double prev[3] = { 0, 0, 0 };
     int sorted[3] = { 1, 1, 1 };
     uint64_t nv = 0, nt = 0, nfin = 0, degenerate = 0, width = 0, span = 0;
-    live_window lw = { 0 };
+    stream_window lw = { 0 };
     cli_progress p;
     cli_progress_begin(&p, "info");
     epsnet_record rec;
@@ -124,20 +79,12 @@ int cmd_info(int argc, char **argv)
                     hi_[k] = rec.xyz[k];
             }
             nv++;
-            if (hi->streaming) {
-                if (window_reserve(&lw, lw.next + 1 - lw.base)) {
-                    rc = EPSNET_ENOMEM;
-                    snprintf(err.reason, sizeof err.reason, "out of memory tracking the stream window");
-                    err.code = rc;
-                    err.file[0] = '\0';
-                    goto done;
-                }
-                lw.next++;
-                lw.live++;
-                if (lw.live > width)
-                    width = lw.live;
-                if (lw.next - lw.base > span)
-                    span = lw.next - lw.base;
+            if (hi->streaming && sw_add_vertex(&lw)) {
+                rc = EPSNET_ENOMEM;
+                snprintf(err.reason, sizeof err.reason, "out of memory tracking the stream window");
+                err.code = rc;
+                err.file[0] = '\0';
+                goto done;
             }
             break;
         case EPSNET_REC_TRIANGLE:
@@ -148,7 +95,7 @@ int cmd_info(int argc, char **argv)
         case EPSNET_REC_FINALIZE:
             nfin++;
             if (hi->streaming)
-                window_finalize(&lw, rec.v[0]);
+                sw_finalize(&lw, rec.v[0]);
             break;
         }
     }
@@ -156,11 +103,11 @@ done:
     cli_progress_end(&p);
     if (rc < 0) {
         epsnet_reader_close(&r);
-        free(lw.fin);
+        sw_free(&lw);
         return cli_fail(&err);
     }
-    if (!hi->streaming)
-        width = span = nv;
+    width = hi->streaming ? lw.width : nv;
+    span = hi->streaming ? lw.span : nv;
 
     printf("file:        %s\n", path);
     printf("format:      %s %s%s\n", hi->format, hi->encoding ? hi->encoding : "",
@@ -194,6 +141,6 @@ done:
     printf("width:       %" PRIu64 " vertices\n", width);
     printf("span:        %" PRIu64 " vertices\n", span);
     epsnet_reader_close(&r);
-    free(lw.fin);
+    sw_free(&lw);
     return EXIT_OK;
 }

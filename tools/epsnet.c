@@ -17,6 +17,7 @@ static const cli_command commands[] = {
     { "hausdorff", "Metro-style distance and normal deviation between two meshes", cmd_hausdorff },
     { "sort", "any mesh into a spatially sorted streaming mesh, out of core", cmd_sort },
     { "check", "validate a streaming mesh: order, references, finalization, checksums", cmd_check },
+    { "render", "draw a mesh, its samples or its simplification into a PNG", cmd_render },
 };
 
 static void usage(FILE *f)

@@ -7,7 +7,7 @@ set -eu
 cd "$(dirname "$0")/.."
 
 mode=${1:-demo}
-packages="gcc libc6-dev meson ninja-build pkg-config libzstd-dev zstd python3"
+packages="gcc libc6-dev meson ninja-build pkg-config libzstd-dev libpng-dev zstd python3"
 missing=""
 for p in $packages; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"

@@ -19,6 +19,8 @@
  *                     meshes (epsnet hausdorff).
  *  11. Sorting      - any mesh, of any size, into a spatially sorted,
  *                     finalized streaming mesh (epsnet sort), out of core.
+ *  12. Rendering    - pictures of a mesh, its samples and its simplification
+ *                     as PNG (epsnet render), streaming, without a GPU.
  *
  * Conventions
  *   - Every function that can fail returns 0 (or a positive count) on success
@@ -579,6 +581,14 @@ EPSNET_API const char *epsnet_version(void);
  *
  * The numbers depend only on the two meshes, samples_per_face and seed:
  * never on the thread count or on the machine's scheduling.
+ *
+ * Example: the error of a simplification, relative to the input's size.
+ *
+ *     epsnet_hausdorff_result r;
+ *     epsnet_error err;
+ *     if (epsnet_hausdorff_files("scan.ply", "small.ply", NULL, &r, &err) == 0)
+ *         printf("max %g mean %g of the diagonal\n", r.hausdorff / r.diagonal,
+ *                r.a_to_b.mean / r.diagonal);
  * ------------------------------------------------------------------------ */
 
 typedef struct epsnet_hausdorff_settings {
@@ -618,14 +628,14 @@ typedef struct epsnet_hausdorff_result {
 
 /*
  * Read the meshes at a and b (any readable format, optionally .zst) and
- * measure them against each other. Both are held in memory (about 100 bytes
- * per face each, plus 24 per vertex).
+ * measure them against each other. Both are held in memory with their
+ * search hierarchies: about 150 bytes per face each, vertices included.
  * @return 0 with *out filled, or a negative code with err filled:
  * EPSNET_EINVAL when exactly one of the meshes has no faces (the distance to
  * an empty surface is undefined; two empty meshes measure 0), the reader's
  * codes for bad files, EPSNET_ELIMIT beyond 2^32-2 vertices or faces,
- * EPSNET_EUNSUPPORTED for coordinates beyond 1e150 in magnitude (their
- * squared distances would overflow), EPSNET_ENOMEM.
+ * EPSNET_EUNSUPPORTED for coordinates beyond 1e75 in magnitude (powers of
+ * their differences would overflow), EPSNET_ENOMEM.
  * Ownership: nothing is kept; s may be NULL for defaults.
  */
 EPSNET_API int epsnet_hausdorff_files(const char *a, const char *b,
@@ -669,7 +679,12 @@ typedef struct epsnet_sort_settings {
     int axis;
     /* Memory budget in bytes for the sort's buffers. Beyond it there is a
      * fixed overhead of a few MB (reader window, compressors), so budgets
-     * below about 16M are honoured only approximately. Default: 512M. */
+     * below about 16M are honoured only approximately. The output's live
+     * vertices (its width, about 64 bytes each) must fit in half of it, or
+     * the sort fails with EPSNET_ELIMIT. When 8 bytes per input vertex fit
+     * in half of it, ranks are looked up in memory instead of joined
+     * externally, which is several times faster; the output is the same.
+     * Default: 512M. */
     uint64_t mem;
     /* Folder for the temporary runs; NULL = the output's folder.
      * Default: NULL. */
@@ -710,6 +725,75 @@ typedef struct epsnet_sort_stats {
 EPSNET_API int epsnet_sort_file(const char *in_path, const char *out_path,
                                 const epsnet_sort_settings *settings,
                                 epsnet_sort_stats *stats, epsnet_error *err);
+
+/* ------------------------------------------------------------------------
+ * 12. Rendering
+ *
+ * A picture of a mesh as a PNG, drawn by a software rasterizer (no GPU, no
+ * display): orthographic camera, z-buffer, two-sided Lambert shading with a
+ * little ambient light, on a white background. Optionally the samples as
+ * dots coloured by the Gaussian vertex they cover (the colours of
+ * `epsnet sample`'s PLY, as in the paper's figures), the edges as a
+ * wireframe, and the simplified mesh beside the input.
+ *
+ * Camera: +y is up. The view direction is given by azimuth (degrees about
+ * +y; 0 looks along -z with +x to the right, 90 looks along -x) and
+ * elevation (degrees, positive looks down from above). The scale fits the
+ * projection of the mesh's bounding box (the header's when the file has
+ * one, else that of every vertex) into its panel with a 5% margin on every
+ * side, centred.
+ *
+ * Memory: the plain picture streams. Triangles are drawn as they are read
+ * (after a first pass for the bounding box when the header has none); only
+ * the image and the vertices still referenced are held: for a streaming mesh
+ * (.smz, .sma, .smb) the live vertices, for other formats every vertex
+ * position (24 bytes each; run `epsnet sort` first for meshes whose vertices
+ * do not fit). settings.mem of the context bounds that table (ELIMIT).
+ * With samples or simplified, the classification and the simplification
+ * still hold the whole mesh in memory, as epsnet_sample_file() and
+ * epsnet_simplify_file() do, until the streaming pipeline exists.
+ *
+ * The output bytes depend only on the input, the render settings and the
+ * context's method settings (level, rotation, passes ...).
+ * ------------------------------------------------------------------------ */
+
+typedef struct epsnet_render_settings {
+    /* Size of the whole image in pixels, each 1 .. 8192. With simplified,
+     * it is split into two panels of width/2 (input on the left, the
+     * simplified mesh on the right). Default: 640 x 480. */
+    uint32_t width, height;
+    /* View direction in degrees (see above). Default: 30, 20. */
+    double azimuth, elevation;
+    /* 1: draw the samples (paper §4) as dots on the input. Default: 0. */
+    int samples;
+    /* 1: two panels, the input and its simplification (paper §4.2, with the
+     * context's passes and max_normal_dev). Default: 0. */
+    int simplified;
+    /* 1: darken the edges of every triangle. Default: 0. */
+    int wire;
+    /* Radius of a sample dot in pixels, 0 = automatic: the panel's smaller
+     * side / 160, at least 2. Default: 0. */
+    double dot_radius;
+    uint8_t reserved[64];
+} epsnet_render_settings;
+
+EPSNET_API void epsnet_render_default_settings(epsnet_render_settings *s);
+
+/*
+ * Render the mesh at in (any readable format, optionally .zst) into the PNG
+ * out_png ("-" = stdout). ctx supplies the method settings for samples and
+ * simplified, and the memory budget; its statistics afterwards hold the
+ * input's vertex and face counts and, when they ran, those of the
+ * classification and simplification.
+ * in must be a file, not "-": it is read twice (bounding box, drawing).
+ * @return 0, or a negative code with err filled: EPSNET_EINVAL for bad
+ * settings, EPSNET_EUNSUPPORTED for in "-", the reader's codes for bad
+ * input, EPSNET_ELIMIT over the memory budget, EPSNET_EIO, EPSNET_ENOMEM.
+ * Nothing is left at out_png on failure.
+ * Ownership: nothing is kept; rs may be NULL for defaults.
+ */
+EPSNET_API int epsnet_render_file(epsnet_context *ctx, const char *in, const char *out_png,
+                                  const epsnet_render_settings *rs, epsnet_error *err);
 
 #ifdef __cplusplus
 }

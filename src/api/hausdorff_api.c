@@ -14,8 +14,9 @@
 #include "io/sink.h"
 #include "metrics/hausdorff.h"
 
-/* Beyond this, squared distances of differences overflow a double. */
-#define MAX_COORDINATE 1e150
+/* Beyond this, the fourth power of an edge length (the zero-area test in
+ * metrics/bvh.c compares |n|^2 with it) would overflow a double. */
+#define MAX_COORDINATE 1e75
 /* uint32 indices, with UINT32_MAX kept free as "no face" in the hierarchy. */
 #define MAX_ELEMENTS (UINT32_MAX - 1u)
 
@@ -42,10 +43,10 @@ static int add_vertex(loaded_mesh *m, const char *path, const double xyz[3], eps
         if (fabs(xyz[k]) > MAX_COORDINATE)
             return en_error_set(err, EPSNET_EUNSUPPORTED, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                                 "vertex %" PRIu32 ": coordinate %g is too large to measure distances "
-                                "(limit 1e150)", m->nv + 1, xyz[k]);
+                                "(limit 1e75)", m->nv + 1, xyz[k]);
     if (en_grow((void **)&m->xyz, &m->cap_xyz, (size_t)m->nv + 1, 3 * sizeof *m->xyz))
         return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "out of memory holding %" PRIu32 " vertices", m->nv);
+                            "out of memory at vertex %" PRIu32, m->nv + 1);
     memcpy(m->xyz + 3 * (size_t)m->nv, xyz, 3 * sizeof *xyz);
     m->nv++;
     return 0;
@@ -60,7 +61,7 @@ static int add_triangle(loaded_mesh *m, const char *path, const uint64_t v[3], e
                             "more than %u faces: too many to measure", MAX_ELEMENTS);
     if (en_grow((void **)&m->tri, &m->cap_tri, (size_t)m->nt + 1, 3 * sizeof *m->tri))
         return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "out of memory holding %" PRIu32 " faces", m->nt);
+                            "out of memory at face %" PRIu32, m->nt + 1);
     for (int k = 0; k < 3; k++)
         m->tri[3 * (size_t)m->nt + k] = (uint32_t)v[k];
     m->nt++;

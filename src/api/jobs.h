@@ -28,6 +28,13 @@ int en_job_load(epsnet_context *ctx, const char *in_path, en_slab *s, epsnet_coo
 int en_job_classify(epsnet_context *ctx, const gauss_sphere *g, const en_slab *s, en_classification *c,
                     const char *path, epsnet_error *err);
 
+/* Load in_path and simplify it in memory: everything epsnet_simplify_file()
+ * does but the writing (used by it and by epsnet_render_file). s must be
+ * initialised; it holds the result, also after a failure, and the caller
+ * frees it. Adds to ctx->stats (passes, collapses, output counts). */
+int en_job_simplify(epsnet_context *ctx, const char *in_path, en_slab *s, epsnet_coord_type *ct,
+                    epsnet_error *err);
+
 /* Copy classification counts into ctx->stats. */
 void en_job_count(epsnet_context *ctx, const en_classify_counts *c);
 

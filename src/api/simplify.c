@@ -117,26 +117,20 @@ out:
     return rc;
 }
 
-int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *out_path, epsnet_error *err)
+int en_job_simplify(epsnet_context *ctx, const char *in_path, en_slab *slab, epsnet_coord_type *ct,
+                    epsnet_error *err)
 {
-    if (!ctx || !in_path || !out_path)
-        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "epsnet_simplify_file: NULL argument");
-    memset(&ctx->stats, 0, sizeof ctx->stats);
-    snprintf(ctx->command, sizeof ctx->command, "simplify");
     epsnet_stats *st = &ctx->stats;
     st->gaussian_vertices = ctx->sphere.nverts;
-    en_slab slab;
-    en_slab_init(&slab);
     en_quadric *q = NULL;
-    epsnet_coord_type ct = EPSNET_COORD_FLOAT32;
-    int rc = en_job_load(ctx, in_path, &slab, &ct, err);
+    *ct = EPSNET_COORD_FLOAT32;
+    int rc = en_job_load(ctx, in_path, slab, ct, err);
     if (rc == 0) {
-        q = en_malloc(((size_t)slab.nv + 1) * sizeof *q);
+        q = en_malloc(((size_t)slab->nv + 1) * sizeof *q);
         if (!q)
             rc = en_error_set(err, EPSNET_ENOMEM, in_path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         else
-            en_quadrics_from_faces(&slab, q);
+            en_quadrics_from_faces(slab, q);
     }
     for (int pass = 1; rc == 0 && pass <= ctx->settings.passes; pass++) {
         gauss_sphere g = ctx->sphere;
@@ -146,20 +140,36 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
             gauss_init(&g, ctx->sphere.n, &r);
         }
         uint64_t removed = 0;
-        rc = simplify_pass(ctx, &g, &slab, &q, in_path, &removed, pass == 1, err);
+        rc = simplify_pass(ctx, &g, slab, &q, in_path, &removed, pass == 1, err);
         st->passes = (uint64_t)pass;
         if (rc == 0 && removed == 0 && pass > 1)
             break; /* converged: this rotation found nothing more to remove */
     }
     if (rc == 0) {
+        st->output_vertices = slab->nv;
+        st->output_faces = slab->nt;
+    }
+    en_free(q);
+    return rc;
+}
+
+int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *out_path, epsnet_error *err)
+{
+    if (!ctx || !in_path || !out_path)
+        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "epsnet_simplify_file: NULL argument");
+    memset(&ctx->stats, 0, sizeof ctx->stats);
+    snprintf(ctx->command, sizeof ctx->command, "simplify");
+    en_slab slab;
+    en_slab_init(&slab);
+    epsnet_coord_type ct = EPSNET_COORD_FLOAT32;
+    int rc = en_job_simplify(ctx, in_path, &slab, &ct, err);
+    if (rc == 0) {
         double t0 = en_now();
         rc = write_slab(&slab, out_path, ct, ctx->settings.ascii, err);
-        st->seconds_write = en_now() - t0;
-        st->output_vertices = slab.nv;
-        st->output_faces = slab.nt;
+        ctx->stats.seconds_write = en_now() - t0;
     }
-    st->peak_rss = en_peak_rss_bytes();
-    en_free(q);
+    ctx->stats.peak_rss = en_peak_rss_bytes();
     en_slab_free(&slab);
     return rc;
 }

@@ -402,6 +402,11 @@ int en_bvh_build(en_bvh *bvh, const double *xyz, const uint32_t *tri, uint32_t n
     pack_triangles(bvh);
     build_nodes(bvh, code);
     en_free(code);
+    /* note: room was made for the worst case, 2n - 1 nodes; leaves of up to
+     * four triangles need far fewer */
+    en_bvh_node *fitted = en_realloc(bvh->nodes, bvh->nnodes * sizeof *bvh->nodes);
+    if (fitted)
+        bvh->nodes = fitted;
     return 0;
 }
 
@@ -471,12 +476,14 @@ static inline double corner_box_dist2(const double *v, const double p[3])
     return d2;
 }
 
-/* Test one triangle: corners v, triangle id t, at `slot` of the hierarchy. */
-static void visit(query *qs, const double *v, int degenerate, uint32_t slot, uint32_t t)
+static void visit_slot(const en_bvh *bvh, query *qs, uint32_t slot)
 {
+    const double *v = bvh->packed + 9 * (size_t)slot;
     if (corner_box_dist2(v, qs->p) > qs->bound)
         return;
+    uint32_t t = bvh->order[slot];
     double q[3], d2;
+    int degenerate = bvh->degenerate[slot];
     double ab[3], ac[3];
     vsub(ab, v + 3, v);
     vsub(ac, v + 6, v);
@@ -504,40 +511,13 @@ static void visit(query *qs, const double *v, int degenerate, uint32_t slot, uin
     }
 }
 
-static void visit_slot(const en_bvh *bvh, query *qs, uint32_t slot)
-{
-    visit(qs, bvh->packed + 9 * (size_t)slot, bvh->degenerate[slot], slot, bvh->order[slot]);
-}
-
-static void query_init(query *qs, const double p[3], const double *prefer, double tie_dist)
-{
-    memset(qs, 0, sizeof *qs);
-    qs->p = p;
-    qs->prefer = prefer;
-    qs->tie_dist = tie_dist;
-    qs->min_d2 = INFINITY;
-    qs->min_face = qs->min_slot = qs->pick_face = UINT32_MAX;
-    qs->bound = INFINITY;
-    qs->pick_dot = -2;
-}
-
-static void query_answer(const query *qs, en_bvh_hit *hit)
-{
-    hit->d2 = qs->min_d2;
-    memcpy(hit->point, qs->min_point, sizeof hit->point);
-    int picked = qs->prefer && qs->pick_face != UINT32_MAX && qs->pick_d2 <= qs->bound;
-    hit->face = picked ? qs->pick_face : qs->min_face;
-    hit->slot = qs->min_slot;
-    hit->face_dot = picked ? qs->pick_dot : -2;
-}
-
 int en_bvh_nearest(const en_bvh *bvh, const double p[3], uint32_t hint, const double *prefer,
                    double tie_dist, en_bvh_hit *hit)
 {
     if (bvh->nt == 0)
         return -1;
-    query qs;
-    query_init(&qs, p, prefer, tie_dist);
+    query qs = { .p = p, .prefer = prefer, .tie_dist = tie_dist, .min_d2 = INFINITY,
+                 .min_face = UINT32_MAX, .min_slot = UINT32_MAX, .bound = INFINITY, .pick_face = UINT32_MAX, .pick_dot = -2 };
     if (hint < bvh->nt)
         visit_slot(bvh, &qs, hint);
     uint32_t stack[BVH_STACK];
@@ -553,7 +533,8 @@ int en_bvh_nearest(const en_bvh *bvh, const double p[3], uint32_t hint, const do
         const en_bvh_node *nd = &bvh->nodes[stack[sp]];
         if (nd->count) {
             for (uint32_t i = nd->first; i < nd->first + nd->count; i++)
-                visit_slot(bvh, &qs, i);
+                if (i != hint)
+                    visit_slot(bvh, &qs, i);
             continue;
         }
         uint32_t near = nd->first, far = nd->first + 1;
@@ -580,61 +561,11 @@ int en_bvh_nearest(const en_bvh *bvh, const double p[3], uint32_t hint, const do
             sp++;
         }
     }
-    query_answer(&qs, hit);
+    hit->d2 = qs.min_d2;
+    memcpy(hit->point, qs.min_point, sizeof hit->point);
+    int picked = qs.prefer && qs.pick_face != UINT32_MAX && qs.pick_d2 <= qs.bound;
+    hit->face = picked ? qs.pick_face : qs.min_face;
+    hit->slot = qs.min_slot;
+    hit->face_dot = picked ? qs.pick_dot : -2;
     return 0;
-}
-
-static inline double box_box_dist2(const en_bvh_node *nd, const double lo[3], const double hi[3])
-{
-    double d2 = 0;
-    for (int k = 0; k < 3; k++) {
-        double below = (double)nd->lo[k] - hi[k], above = lo[k] - (double)nd->hi[k];
-        double d = below > above ? below : above;
-        d = d > 0 ? d : 0;
-        d2 += d * d;
-    }
-    return d2;
-}
-
-int en_bvh_gather(const en_bvh *bvh, const double lo[3], const double hi[3], double radius,
-                  en_bvh_local *local)
-{
-    local->n = 0;
-    if (bvh->nt == 0)
-        return 0;
-    double r2 = radius * radius;
-    uint32_t stack[BVH_STACK];
-    int sp = 0;
-    stack[sp++] = 0;
-    while (sp > 0) {
-        const en_bvh_node *nd = &bvh->nodes[stack[--sp]];
-        if (box_box_dist2(nd, lo, hi) > r2)
-            continue;
-        if (nd->count == 0) {
-            stack[sp++] = nd->first + 1;
-            stack[sp++] = nd->first;
-            continue;
-        }
-        if (local->n + nd->count > EN_BVH_LOCAL_MAX)
-            return -1;
-        for (uint32_t i = nd->first; i < nd->first + nd->count; i++) {
-            uint32_t k = local->n++;
-            local->slot[k] = i;
-            local->degenerate[k] = bvh->degenerate[i];
-            memcpy(local->corners + 9 * k, bvh->packed + 9 * (size_t)i, 9 * sizeof *local->corners);
-        }
-    }
-    return 0;
-}
-
-void en_bvh_nearest_local(const en_bvh *bvh, const en_bvh_local *local, const double p[3], uint32_t hint,
-                          const double *prefer, double tie_dist, en_bvh_hit *hit)
-{
-    query qs;
-    query_init(&qs, p, prefer, tie_dist);
-    if (hint < local->n)
-        visit(&qs, local->corners + 9 * hint, local->degenerate[hint], hint, bvh->order[local->slot[hint]]);
-    for (uint32_t k = 0; k < local->n; k++)
-        visit(&qs, local->corners + 9 * k, local->degenerate[k], k, bvh->order[local->slot[k]]);
-    query_answer(&qs, hit);
 }

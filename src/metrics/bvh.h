@@ -19,7 +19,8 @@
  * A triangle is degenerate (zero area: a segment or a point) when its cross
  * product is negligible against its edge lengths: |n|^2 <= 1e-24 * l^4 with l
  * its longest edge, i.e. its smallest angle is below about 1e-12 radians.
- * Such a triangle is measured as the union of its three edges.
+ * Such a triangle is measured as the union of its three edges. Coordinates
+ * must stay within 1e75 in magnitude so that l^4 does not overflow.
  */
 int en_tri_is_degenerate(const double a[3], const double b[3], const double c[3]);
 
@@ -88,37 +89,5 @@ typedef struct en_bvh_hit {
  */
 int en_bvh_nearest(const en_bvh *bvh, const double p[3], uint32_t hint, const double *prefer,
                    double tie_dist, en_bvh_hit *hit);
-
-/*
- * A local copy of the triangles near one region, for a batch of queries in
- * that region (the points of one sampled face): gathered by one traversal,
- * scanned contiguously by each query instead of walking the tree again.
- */
-enum { EN_BVH_LOCAL_MAX = 128 };
-
-typedef struct en_bvh_local {
-    uint32_t n;
-    uint32_t slot[EN_BVH_LOCAL_MAX];          /* slot in the hierarchy */
-    uint8_t degenerate[EN_BVH_LOCAL_MAX];
-    double corners[9 * EN_BVH_LOCAL_MAX];     /* copied from the hierarchy */
-} en_bvh_local;
-
-/*
- * Gather every triangle whose box comes within radius of the box [lo, hi].
- * When radius bounds the distance from every point of [lo, hi] that will be
- * queried to the mesh (plus the tie distance), the nearest triangles of
- * those points are all in local.
- * @return 0, or -1 when more than EN_BVH_LOCAL_MAX qualify (local is then
- * incomplete: query the hierarchy instead).
- */
-int en_bvh_gather(const en_bvh *bvh, const double lo[3], const double hi[3], double radius,
-                  en_bvh_local *local);
-
-/*
- * en_bvh_nearest() among the gathered triangles. hint and hit->slot are
- * indices into local here, not slots of the hierarchy.
- */
-void en_bvh_nearest_local(const en_bvh *bvh, const en_bvh_local *local, const double p[3], uint32_t hint,
-                          const double *prefer, double tie_dist, en_bvh_hit *hit);
 
 #endif /* EN_METRICS_BVH_H */

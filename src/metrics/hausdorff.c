@@ -262,15 +262,10 @@ typedef struct direction_job {
     side_sums *partials;
 } direction_job;
 
-/* One chunk's view while it runs: the previous answer starts the next query,
- * and the triangles near the current face, when few enough, answer its
- * points without walking the hierarchy again. */
+/* One chunk's view while it runs: the previous answer starts the next query. */
 typedef struct chunk_state {
     const direction_job *job;
-    uint32_t hint;             /* slot in the target hierarchy */
-    int use_local;             /* local holds every candidate for this face */
-    uint32_t local_hint;       /* index into local */
-    en_bvh_local local;
+    uint32_t hint;
     side_sums sums;
 } chunk_state;
 
@@ -296,13 +291,8 @@ static void measure_point(chunk_state *cs, const double p[3], double weight, con
 {
     const direction_job *job = cs->job;
     en_bvh_hit hit;
-    if (cs->use_local) {
-        en_bvh_nearest_local(job->target, &cs->local, p, cs->local_hint, unit_n, job->tie_dist, &hit);
-        cs->local_hint = hit.slot;
-    } else {
-        en_bvh_nearest(job->target, p, cs->hint, unit_n, job->tie_dist, &hit);
-        cs->hint = hit.slot;
-    }
+    en_bvh_nearest(job->target, p, cs->hint, unit_n, job->tie_dist, &hit);
+    cs->hint = hit.slot;
     double d = sqrt(hit.d2);
     side_sums *s = &cs->sums;
     s->count++;
@@ -370,34 +360,6 @@ static void sample_edge(chunk_state *cs, const double *u, const double *v, doubl
     }
 }
 
-/*
- * Every point x of the face is within `reach` of its centroid g, so its
- * nearest distance is at most d(g, T) + reach: the triangles whose boxes come
- * that close to the face's box (plus the tie distance, and a hair for the
- * rounding of points computed inside the face) hold every answer. One
- * traversal for the face instead of one per point.
- */
-static void gather_candidates(chunk_state *cs, const double *const c[3])
-{
-    const direction_job *job = cs->job;
-    double lo[3], hi[3], g[3], reach = 0, scale = 0;
-    for (int k = 0; k < 3; k++) {
-        lo[k] = fmin(c[0][k], fmin(c[1][k], c[2][k]));
-        hi[k] = fmax(c[0][k], fmax(c[1][k], c[2][k]));
-        g[k] = (c[0][k] + c[1][k] + c[2][k]) / 3;
-        scale = fmax(scale, fabs(g[k]));
-    }
-    for (int i = 0; i < 3; i++)
-        reach = fmax(reach, distance(c[i], g));
-    en_bvh_hit hit;
-    en_bvh_nearest(job->target, g, cs->hint, NULL, 0, &hit);
-    cs->hint = hit.slot;
-    double radius = sqrt(hit.d2) + reach + job->tie_dist;
-    radius += 1e-9 * (radius + scale);
-    cs->use_local = en_bvh_gather(job->target, lo, hi, radius, &cs->local) == 0;
-    cs->local_hint = UINT32_MAX;
-}
-
 static void sample_face(chunk_state *cs, uint32_t f)
 {
     const direction_job *job = cs->job;
@@ -405,7 +367,6 @@ static void sample_face(chunk_state *cs, uint32_t f)
     const en_hd_mesh *m = plan->mesh;
     const double *c[3] = { vertex_of(m, f, 0), vertex_of(m, f, 1), vertex_of(m, f, 2) };
     uint64_t rng = face_stream(job->seed, job->direction, f);
-    gather_candidates(cs, c);
     /* note: with area, vertex and edge points count for the max only (the
      * integral is estimated from the face points); without, they are all
      * there is and share the mean equally. */

@@ -9,7 +9,8 @@
 
 #include "epsnet/epsnet.h"
 
-/* An indexed triangle mesh, borrowed: indices must be < nv. */
+/* An indexed triangle mesh, borrowed: indices must be < nv, coordinates
+ * finite and within 1e75 in magnitude (see en_tri_is_degenerate()). */
 typedef struct en_hd_mesh {
     const double *xyz;     /* 3 per vertex */
     uint32_t nv;

@@ -3,8 +3,9 @@
  * radix-sorted and spilled as zstd-compressed runs (en_spill: anonymous
  * files that vanish on any exit), then merged. Items are arrays of uint64_t
  * words; the first key_words of them are the key, compared as unsigned
- * numbers, most significant word first. Items with equal keys come out in
- * an order that depends only on the input order, so output is deterministic.
+ * numbers, most significant word first. The sort is stable: items with
+ * equal keys come out in the order they were added (runs are radix-sorted,
+ * LSD, and merges break ties by run age).
  */
 #ifndef EN_SORT_EXTSORT_H
 #define EN_SORT_EXTSORT_H

@@ -143,6 +143,11 @@ typedef struct sort_job {
     epsnet_writer *w;
     en_spill *vraw;              /* input vertices, input order */
     en_spill *vsorted;           /* vertices in rank order */
+    en_spill *fraw;              /* input faces (old ids), input order */
+    int in_core;                 /* rank_of/last_of arrays fit the budget */
+    uint32_t *rank_of;           /* in core: old id -> rank */
+    uint32_t *last_of;           /* in core: rank -> last use, UINT32_MAX none */
+    uint64_t arrays_bytes;
     en_extsort *corners, *verts, *map, *joined, *faces, *lastuse;
     uint64_t runs, temp_bytes;   /* of the sorters already closed */
     double lo[3], hi[3];
@@ -150,6 +155,7 @@ typedef struct sort_job {
     epsnet_coord_type ct;
     int phase;
     double *vbuf;                /* BATCH xyz triples */
+    uint64_t *fbuf;              /* BATCH faces */
     uint64_t *group;             /* faces of one last corner: 5 words each */
     size_t group_cap;
     live_map live;
@@ -171,6 +177,10 @@ static int nomem(const sort_job *j, epsnet_error *err)
     return en_error_set(err, EPSNET_ENOMEM, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
 }
 
+/* note: every sorter keys on its first word only. The sort is stable and
+ * items arrive in input order (vertex id, face id), so ties keep input
+ * order: the (coordinate, id) and (last corner, face) orders of sort.h
+ * without comparing the second word. */
 static int open_sorter(sort_job *j, en_extsort **es, size_t words, size_t key_words, epsnet_error *err)
 {
     en_extsort_config c = {
@@ -236,7 +246,7 @@ static int pass_read(sort_job *j, epsnet_error *err)
         j->lo[k] = INFINITY;
         j->hi[k] = -INFINITY;
     }
-    size_t nb = 0;
+    size_t nb = 0, nf = 0;
     uint64_t n = 0;
     epsnet_record rec;
     while ((rc = epsnet_reader_next(j->r, &rec, err)) > 0) {
@@ -258,19 +268,34 @@ static int pass_read(sort_job *j, epsnet_error *err)
                 nb = 0;
             }
         } else if (rec.kind == EPSNET_REC_TRIANGLE) {
-            uint64_t f = j->st.faces++;
-            for (uint64_t s = 0; s < 3; s++) {
-                uint64_t item[2] = { rec.v[s], f << 2 | s };
-                if ((rc = en_extsort_add(j->corners, item, err)))
+            j->st.faces++;
+            memcpy(j->fbuf + 3 * nf, rec.v, sizeof rec.v);
+            if (++nf == BATCH) {
+                if ((rc = en_spill_write(j->fraw, j->fbuf, nf * 3 * sizeof *j->fbuf, err)))
                     return rc;
+                nf = 0;
             }
         }
     }
     if (rc < 0)
         return rc;
-    if (nb && (rc = en_spill_write(j->vraw, j->vbuf, nb * 3 * sizeof *j->vbuf, err)))
+    if ((nb && (rc = en_spill_write(j->vraw, j->vbuf, nb * 3 * sizeof *j->vbuf, err))) ||
+        (nf && (rc = en_spill_write(j->fraw, j->fbuf, nf * 3 * sizeof *j->fbuf, err))) ||
+        (rc = en_spill_rewind(j->fraw, err)))
         return rc;
     return en_spill_rewind(j->vraw, err);
+}
+
+/* Read exactly want faces (3 old ids each) from j->fraw into j->fbuf. */
+static int read_faces(sort_job *j, size_t want, epsnet_error *err)
+{
+    int64_t got = en_spill_read(j->fraw, j->fbuf, want * 3 * sizeof *j->fbuf, err);
+    if (got < 0)
+        return (int)got;
+    if ((size_t)got != want * 3 * sizeof *j->fbuf)
+        return en_error_set(err, EPSNET_EINTERNAL, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "temporary face file is short");
+    return 0;
 }
 
 /* Read exactly want vertices' xyz from sp into j->vbuf. */
@@ -324,7 +349,9 @@ static int pass_rank(sort_job *j, epsnet_error *err)
         p[o1] = bitsd(item[2]);
         p[o2] = bitsd(item[3]);
         uint64_t m[2] = { item[1], rank++ };
-        if ((rc = en_extsort_add(j->map, m, err)))
+        if (j->in_core)
+            j->rank_of[item[1]] = (uint32_t)m[1];
+        else if ((rc = en_extsort_add(j->map, m, err)))
             return rc;
         if (++nb == BATCH) {
             if ((rc = en_spill_write(j->vsorted, j->vbuf, nb * 3 * sizeof *j->vbuf, err)) ||
@@ -353,8 +380,21 @@ static int internal(const sort_job *j, const char *what, epsnet_error *err)
 
 static int pass_relabel(sort_job *j, epsnet_error *err)
 {
-    int rc = en_extsort_finish(j->corners, err);
-    if (rc)
+    int rc;
+    uint64_t nfaces = j->st.faces;
+    for (uint64_t f = 0; f < nfaces;) {
+        size_t n = nfaces - f < BATCH ? (size_t)(nfaces - f) : BATCH;
+        if ((rc = read_faces(j, n, err)))
+            return rc;
+        for (size_t i = 0; i < n; i++, f++)
+            for (uint64_t s = 0; s < 3; s++) {
+                uint64_t item[2] = { j->fbuf[3 * i + s], f << 2 | s };
+                if ((rc = en_extsort_add(j->corners, item, err)))
+                    return rc;
+            }
+    }
+    close_spill(j, &j->fraw);
+    if ((rc = en_extsort_finish(j->corners, err)))
         return rc;
     uint64_t c[2], m[2] = { NONE, NONE }, done = 0, total = 3 * j->st.faces;
     int have = 0;
@@ -383,6 +423,54 @@ static int pass_relabel(sort_job *j, epsnet_error *err)
 
 /* ---- pass 5: whole faces, and last uses ---- */
 
+static int add_face(sort_job *j, uint64_t f, const uint64_t r[3], epsnet_error *err)
+{
+    uint64_t last = r[0];
+    for (int s = 1; s < 3; s++)
+        if (r[s] > last)
+            last = r[s];
+    uint64_t face[5] = { last, f, r[0], r[1], r[2] };
+    int rc = en_extsort_add(j->faces, face, err);
+    for (int s = 0; s < 3 && rc == 0; s++) {
+        if (j->in_core) {
+            uint32_t *l = &j->last_of[r[s]];
+            if (*l == UINT32_MAX || *l < last)
+                *l = (uint32_t)last;
+        } else {
+            uint64_t use[2] = { r[s], last };
+            rc = en_extsort_add(j->lastuse, use, err);
+        }
+    }
+    return rc;
+}
+
+/* In core: the faces straight from the input order, relabelled through
+ * rank_of; last uses go to last_of. */
+static int pass_faces_in_core(sort_job *j, epsnet_error *err)
+{
+    int rc;
+    for (uint64_t v = 0; v < j->st.vertices; v++)
+        j->last_of[v] = UINT32_MAX;
+    for (uint64_t f = 0; f < j->st.faces;) {
+        size_t n = j->st.faces - f < BATCH ? (size_t)(j->st.faces - f) : BATCH;
+        if ((rc = read_faces(j, n, err)))
+            return rc;
+        for (size_t i = 0; i < n; i++, f++) {
+            uint64_t r[3];
+            for (int s = 0; s < 3; s++)
+                r[s] = j->rank_of[j->fbuf[3 * i + (size_t)s]];
+            if ((rc = add_face(j, f, r, err)))
+                return rc;
+        }
+        if ((rc = progress(j, f, j->st.faces, err)))
+            return rc;
+    }
+    close_spill(j, &j->fraw);
+    en_free(j->rank_of);
+    j->rank_of = NULL;
+    return en_extsort_finish(j->faces, err);
+}
+
 static int pass_faces(sort_job *j, epsnet_error *err)
 {
     uint64_t c[3][2];
@@ -395,18 +483,9 @@ static int pass_faces(sort_job *j, epsnet_error *err)
             if (rc == 0 || c[s][0] != (f << 2 | (uint64_t)s))
                 return internal(j, "face corners out of step", err);
         }
-        uint64_t last = c[0][1];
-        for (int s = 1; s < 3; s++)
-            if (c[s][1] > last)
-                last = c[s][1];
-        uint64_t face[5] = { last, f, c[0][1], c[1][1], c[2][1] };
-        if ((rc = en_extsort_add(j->faces, face, err)))
+        uint64_t r[3] = { c[0][1], c[1][1], c[2][1] };
+        if ((rc = add_face(j, f, r, err)))
             return rc;
-        for (int s = 0; s < 3; s++) {
-            uint64_t use[2] = { c[s][1], last };
-            if ((rc = en_extsort_add(j->lastuse, use, err)))
-                return rc;
-        }
         if ((f & PROGRESS_EVERY) == 0 && (rc = progress(j, f, j->st.faces, err)))
             return rc;
     }
@@ -436,10 +515,16 @@ static int over_budget(sort_job *j, epsnet_error *err)
 static int last_use_of(sort_job *j, uint64_t rank, uint64_t *last, epsnet_error *err)
 {
     *last = NONE;
+    if (j->in_core) {
+        if (j->last_of[rank] != UINT32_MAX)
+            *last = j->last_of[rank];
+        return 0;
+    }
     int rc;
     const uint64_t *u;
     while ((u = en_extsort_peek(j->lastuse, &rc, err)) && u[0] == rank) {
-        *last = u[1];
+        if (*last == NONE || u[1] > *last)
+            *last = u[1];
         uint64_t skip[2];
         if ((rc = en_extsort_next(j->lastuse, skip, err)) < 0)
             return rc;
@@ -558,7 +643,8 @@ static int open_job(sort_job *j, epsnet_error *err)
 {
     j->tmpdir = j->set.tmpdir ? en_strdup(j->set.tmpdir) : dir_of(j->out_path);
     j->vbuf = en_malloc(BATCH * 3 * sizeof *j->vbuf);
-    if (!j->tmpdir || !j->vbuf)
+    j->fbuf = en_malloc(BATCH * 3 * sizeof *j->fbuf);
+    if (!j->tmpdir || !j->vbuf || !j->fbuf)
         return nomem(j, err);
     epsnet_reader_settings rs;
     epsnet_reader_default_settings(&rs);
@@ -570,10 +656,11 @@ static int open_job(sort_job *j, epsnet_error *err)
         return rc;
     j->ct = epsnet_reader_info(j->r)->coord_type;
     if ((rc = en_spill_open(&j->vraw, j->tmpdir, j->out_path, err)) ||
+        (rc = en_spill_open(&j->fraw, j->tmpdir, j->out_path, err)) ||
         (rc = en_spill_open(&j->vsorted, j->tmpdir, j->out_path, err)) ||
-        (rc = open_sorter(j, &j->corners, 2, 2, err)) || (rc = open_sorter(j, &j->verts, 4, 2, err)) ||
+        (rc = open_sorter(j, &j->corners, 2, 1, err)) || (rc = open_sorter(j, &j->verts, 4, 1, err)) ||
         (rc = open_sorter(j, &j->map, 2, 1, err)) || (rc = open_sorter(j, &j->joined, 2, 1, err)) ||
-        (rc = open_sorter(j, &j->faces, 5, 2, err)) || (rc = open_sorter(j, &j->lastuse, 2, 2, err)))
+        (rc = open_sorter(j, &j->faces, 5, 1, err)) || (rc = open_sorter(j, &j->lastuse, 2, 1, err)))
         return rc;
     return 0;
 }
@@ -600,6 +687,7 @@ static void close_job(sort_job *j)
     epsnet_reader_close(&j->r);
     close_spill(j, &j->vraw);
     close_spill(j, &j->vsorted);
+    close_spill(j, &j->fraw);
     close_sorter(j, &j->corners);
     close_sorter(j, &j->verts);
     close_sorter(j, &j->map);
@@ -609,7 +697,33 @@ static void close_job(sort_job *j)
     en_free(j->live.slots);
     en_free(j->group);
     en_free(j->vbuf);
+    en_free(j->fbuf);
+    en_free(j->rank_of);
+    en_free(j->last_of);
+    en_mem_give(&j->mem, j->arrays_bytes);
     en_free(j->tmpdir);
+}
+
+/*
+ * note: when two 32-bit arrays over the vertices fit in half of the
+ * budget, ranks and last uses are looked up in memory instead of joined
+ * externally (passes 4 and the L sorter of sort.h): the same output, a
+ * third of the temporary traffic. Past that, the external join keeps
+ * memory at O(mem) whatever the mesh.
+ */
+static int choose_relabel(sort_job *j, epsnet_error *err)
+{
+    uint64_t nv = j->st.vertices;
+    j->in_core = nv < UINT32_MAX && 2 * nv * sizeof(uint32_t) <= j->set.mem / 2;
+    if (!j->in_core)
+        return 0;
+    j->rank_of = en_malloc(nv ? nv * sizeof *j->rank_of : 1);
+    j->last_of = en_malloc(nv ? nv * sizeof *j->last_of : 1);
+    if (!j->rank_of || !j->last_of)
+        return nomem(j, err);
+    j->arrays_bytes = 2 * nv * sizeof(uint32_t);
+    en_mem_take(&j->mem, j->arrays_bytes);
+    return 0;
 }
 
 static int run_job(sort_job *j, epsnet_error *err)
@@ -622,6 +736,8 @@ static int run_job(sort_job *j, epsnet_error *err)
     if (j->set.axis < 0)
         j->axis = j->st.vertices ? en_sort_longest_axis(j->lo, j->hi) : 2;
     j->st.axis = j->axis;
+    if ((rc = choose_relabel(j, err)))
+        return rc;
     j->phase = 2;
     if ((rc = pass_order(j, err)))
         return rc;
@@ -629,10 +745,10 @@ static int run_job(sort_job *j, epsnet_error *err)
     if ((rc = pass_rank(j, err)))
         return rc;
     j->phase = 4;
-    if ((rc = pass_relabel(j, err)))
+    if (!j->in_core && (rc = pass_relabel(j, err)))
         return rc;
     j->phase = 5;
-    if ((rc = pass_faces(j, err)))
+    if ((rc = j->in_core ? pass_faces_in_core(j, err) : pass_faces(j, err)))
         return rc;
     j->phase = 6;
     if ((rc = open_output(j, err)) || (rc = pass_emit(j, err)))
