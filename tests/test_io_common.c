@@ -163,6 +163,22 @@ TEST(sink_zstd_output_reads_back)
     en_source_close(&src);
 }
 
+/* -o /dev/null must write into the device, never rename over it. */
+TEST(sink_onto_a_device_writes_in_place)
+{
+    struct stat before, after;
+    CHECK_EQ_INT(stat("/dev/null", &before), 0);
+    epsnet_error err;
+    en_sink *s = NULL;
+    CHECK_EQ_INT(en_sink_open(&s, "/dev/null", 0, &err), 0);
+    CHECK(!en_sink_can_patch(s));
+    CHECK_EQ_INT(en_sink_write(s, "discard me", 10, &err), 0);
+    CHECK_EQ_INT(en_sink_commit(&s, &err), 0);
+    CHECK_EQ_INT(stat("/dev/null", &after), 0);
+    CHECK(S_ISCHR(after.st_mode));
+    CHECK(after.st_rdev == before.st_rdev);
+}
+
 TEST(sink_into_missing_directory_fails_cleanly)
 {
     epsnet_error err;
@@ -270,6 +286,7 @@ int main(void)
     RUN(source_reports_corrupt_zstd);
     RUN(sink_commit_renames_and_abort_leaves_nothing);
     RUN(sink_zstd_output_reads_back);
+    RUN(sink_onto_a_device_writes_in_place);
     RUN(sink_into_missing_directory_fails_cleanly);
     RUN(spill_round_trips_and_leaves_no_file);
     RUN(u64set_add_remove_many);

@@ -4,6 +4,7 @@
  * single pass, topology is kept, no face flips, non-manifold parts pass
  * through, and the non-samples left are counted exactly.
  */
+#include "core/collapse.h"
 #include "sample_util.h"
 
 typedef struct topo {
@@ -385,9 +386,66 @@ TEST(shared_data_meshes)
     }
 }
 
+/* The normal bound is against each face's *input* normal, so however many
+ * collapses re-corner a face, it never ends up turned further than the
+ * bound (a per-collapse bound lets turns add up into folds). */
+TEST(no_face_turns_past_the_bound_from_its_input_normal)
+{
+    const double bounds[] = { 30.0, 60.0 };
+    en_slab s;
+    if (gen_slab("bumpy", 60000, NAN, 9, 0, &s)) {
+        CHECK(!"generation failed");
+        return;
+    }
+    gauss_rotation r;
+    gauss_rotation_default(&r);
+    gauss_sphere g;
+    gauss_init_level(&g, 3, &r);
+    classified c;
+    classify_all(&g, &s, &c);
+    uint8_t *removable = malloc(s.nv + 1), *fa = malloc(s.nt + 1), *va = malloc(s.nv + 1);
+    uint32_t *tri = malloc(3 * sizeof *tri * (s.nt + 1));
+    en_quadric *q = malloc(sizeof *q * (s.nv + 1));
+    double *ref = malloc(3 * sizeof *ref * (s.nt + 1));
+    for (uint32_t v = 0; v < s.nv; v++)
+        removable[v] = !(c.vclass[v] & EN_C_SAMPLE) && !(s.vflags[v] & (EN_V_BOUNDARY | EN_V_NONMANIFOLD));
+    for (size_t b = 0; b < 2; b++) {
+        en_quadrics_from_faces(&s, q);
+        en_face_unit_normals(&s, ref);
+        en_collapse_settings cs = { bounds[b] };
+        en_collapse_counts cc;
+        CHECK_EQ_INT(en_collapse_slab(&s, removable, q, ref, &cs, fa, va, tri, &cc), 0);
+        CHECK(cc.collapses > s.nv / 2);
+        double worst = 0;
+        for (uint32_t f = 0; f < s.nt; f++) {
+            if (!fa[f])
+                continue;
+            double n[3];
+            en_triangle_normal(s.pos, tri + 3 * f, n);
+            double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            const double *m = ref + 3 * f;
+            double ang = acos(fmin(1.0, (n[0] * m[0] + n[1] * m[1] + n[2] * m[2]) / len)) * 180 / M_PI;
+            if (ang > worst)
+                worst = ang;
+        }
+        printf("  bound %.0f: %llu collapses, worst face turn %.2f degrees\n", bounds[b],
+               (unsigned long long)cc.collapses, worst);
+        CHECK(worst <= bounds[b] + 1e-9);
+    }
+    free(removable);
+    free(fa);
+    free(va);
+    free(tri);
+    free(q);
+    free(ref);
+    classified_free(&c);
+    en_slab_free(&s);
+}
+
 int main(void)
 {
     RUN(generated_closed_shapes_keep_topology_samples_and_orientation);
+    RUN(no_face_turns_past_the_bound_from_its_input_normal);
     RUN(open_terrain_keeps_its_boundary);
     RUN(more_passes_remove_more_and_keep_topology);
     RUN(same_input_gives_same_bytes);

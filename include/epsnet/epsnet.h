@@ -403,8 +403,9 @@ typedef struct epsnet_settings {
      * seed and removes what became a non-sample. 1 = one sampling, no
      * re-sampling. Default: 1. */
     int passes;
-    /* Simplification: a collapse is refused when it would turn any face's
-     * normal by more than this many degrees (this also forbids flips).
+    /* Simplification: a collapse is refused when it would leave any face
+     * turned by more than this many degrees from its normal in the input
+     * (so no face can fold over, however many collapses touch it).
      * Default: 60 (measured: see bench/RESULTS.md). */
     double max_normal_dev;
     /* Write ASCII instead of binary where the output format offers both.

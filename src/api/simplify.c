@@ -54,7 +54,7 @@ static int write_slab(const en_slab *s, const char *path, epsnet_coord_type ct, 
 
 /* One pass: classify s under g, collapse its removable vertices, and replace
  * s (and q) by what remains. *removed = vertices collapsed away. */
-static int simplify_pass(epsnet_context *ctx, const gauss_sphere *g, en_slab *s, en_quadric **q,
+static int simplify_pass(epsnet_context *ctx, const gauss_sphere *g, en_slab *s, en_quadric **q, double **ref,
                          const char *path, uint64_t *removed, int first, epsnet_error *err)
 {
     en_classification c;
@@ -86,7 +86,7 @@ static int simplify_pass(epsnet_context *ctx, const gauss_sphere *g, en_slab *s,
     en_collapse_settings cs = { ctx->settings.max_normal_dev };
     en_collapse_counts cc;
     double t0 = en_now();
-    if (en_collapse_slab(s, removable, *q, &cs, falive, valive, tri, &cc)) {
+    if (en_collapse_slab(s, removable, *q, *ref, &cs, falive, valive, tri, &cc)) {
         rc = en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory simplifying");
         goto out;
     }
@@ -99,7 +99,8 @@ static int simplify_pass(epsnet_context *ctx, const gauss_sphere *g, en_slab *s,
     *removed = cc.collapses;
     en_slab next;
     en_quadric *nq = NULL;
-    if (en_slab_compact(s, tri, falive, *q, &next, &nq)) {
+    double *nref = NULL;
+    if (en_slab_compact(s, tri, falive, *q, *ref, &next, &nq, &nref)) {
         rc = en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory simplifying");
         goto out;
     }
@@ -107,6 +108,8 @@ static int simplify_pass(epsnet_context *ctx, const gauss_sphere *g, en_slab *s,
     *s = next;
     en_free(*q);
     *q = nq;
+    en_free(*ref);
+    *ref = nref;
     ctx->stats.seconds_simplify += en_now() - t0;
 out:
     en_free(removable);
@@ -123,14 +126,18 @@ int en_job_simplify(epsnet_context *ctx, const char *in_path, en_slab *slab, eps
     epsnet_stats *st = &ctx->stats;
     st->gaussian_vertices = ctx->sphere.nverts;
     en_quadric *q = NULL;
+    double *ref = NULL;
     *ct = EPSNET_COORD_FLOAT32;
     int rc = en_job_load(ctx, in_path, slab, ct, err);
     if (rc == 0) {
         q = en_malloc(((size_t)slab->nv + 1) * sizeof *q);
-        if (!q)
+        ref = en_malloc(3 * sizeof *ref * ((size_t)slab->nt + 1));
+        if (!q || !ref) {
             rc = en_error_set(err, EPSNET_ENOMEM, in_path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
-        else
+        } else {
             en_quadrics_from_faces(slab, q);
+            en_face_unit_normals(slab, ref);
+        }
     }
     for (int pass = 1; rc == 0 && pass <= ctx->settings.passes; pass++) {
         gauss_sphere g = ctx->sphere;
@@ -140,7 +147,7 @@ int en_job_simplify(epsnet_context *ctx, const char *in_path, en_slab *slab, eps
             gauss_init(&g, ctx->sphere.n, &r);
         }
         uint64_t removed = 0;
-        rc = simplify_pass(ctx, &g, slab, &q, in_path, &removed, pass == 1, err);
+        rc = simplify_pass(ctx, &g, slab, &q, &ref, in_path, &removed, pass == 1, err);
         st->passes = (uint64_t)pass;
         if (rc == 0 && removed == 0 && pass > 1)
             break; /* converged: this rotation found nothing more to remove */
@@ -150,6 +157,7 @@ int en_job_simplify(epsnet_context *ctx, const char *in_path, en_slab *slab, eps
         st->output_faces = slab->nt;
     }
     en_free(q);
+    en_free(ref);
     return rc;
 }
 

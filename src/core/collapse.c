@@ -47,6 +47,17 @@ static double quadric_eval(const en_quadric *q, const double p[3])
            2 * q->bc * y * z + 2 * q->bd * y + q->c2 * z * z + 2 * q->cd * z + q->d2;
 }
 
+void en_face_unit_normals(const en_slab *s, double *n)
+{
+    for (uint32_t f = 0; f < s->nt; f++) {
+        double *m = n + 3 * (size_t)f;
+        en_triangle_normal(s->pos, s->tri + 3 * (size_t)f, m);
+        double len = sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
+        if (len > 0)
+            m[0] /= len, m[1] /= len, m[2] /= len;
+    }
+}
+
 void en_quadrics_from_faces(const en_slab *s, en_quadric *q)
 {
     memset(q, 0, (size_t)s->nv * sizeof *q);
@@ -91,7 +102,7 @@ typedef struct state {
     double cos_bound;
     uint32_t *tri;
     uint8_t *falive, *valive;
-    double *fnormal;          /* current unit normal per face */
+    const double *ref_normal; /* unit normal each face had in the input (0 if none) */
 
     /* vertex -> alive faces: list of v is pool[vf_start[v] .. + vf_count[v]) */
     uint32_t *pool;
@@ -168,13 +179,6 @@ static heap_entry heap_pop(state *st)
     return top;
 }
 
-static void unit_normal(const state *st, const uint32_t t[3], double n[3])
-{
-    en_triangle_normal(st->s->pos, t, n);
-    double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    if (len > 0)
-        n[0] /= len, n[1] /= len, n[2] /= len;
-}
 
 static int has_corner(const uint32_t *t, uint32_t v)
 {
@@ -277,8 +281,11 @@ static int check_collapse(state *st, uint32_t v, uint32_t u)
         double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
         if (len == 0)
             return EN_REFUSE_ZERO_AREA;
-        const double *c = st->fnormal + 3 * (size_t)f;
-        if ((n[0] * c[0] + n[1] * c[1] + n[2] * c[2]) / len < st->cos_bound)
+        /* note: measured against the face's *input* normal, not its current
+         * one, so that turns cannot add up over many collapses into a fold. */
+        const double *c = st->ref_normal + 3 * (size_t)f;
+        if ((c[0] != 0 || c[1] != 0 || c[2] != 0) &&
+            (n[0] * c[0] + n[1] * c[1] + n[2] * c[2]) / len < st->cos_bound)
             return EN_REFUSE_NORMAL;
         uint32_t x, y;
         other_corners(t, v, &x, &y);
@@ -407,7 +414,6 @@ static int do_collapse(state *st, uint32_t v, uint32_t u)
             for (int k = 0; k < 3; k++)
                 if (t[k] == v)
                     t[k] = u;
-            unit_normal(st, t, st->fnormal + 3 * (size_t)f);
             if (list_append(st, u, f))
                 return EPSNET_ENOMEM;
         }
@@ -459,7 +465,6 @@ static int do_collapse(state *st, uint32_t v, uint32_t u)
 
 static void state_free(state *st)
 {
-    en_free(st->fnormal);
     en_free(st->pool);
     en_free(st->vf_start);
     en_free(st->vf_count);
@@ -476,7 +481,7 @@ static void state_free(state *st)
     en_free(st->faces);
 }
 
-int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q,
+int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, const double *ref_normal,
                      const en_collapse_settings *cs, uint8_t *face_alive, uint8_t *vertex_alive,
                      uint32_t *tri_out, en_collapse_counts *counts)
 {
@@ -491,7 +496,7 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q,
     memcpy(st.tri, s->tri, 3 * sizeof *st.tri * (size_t)s->nt);
     memset(st.falive, 1, s->nt);
     memset(st.valive, 1, s->nv);
-    st.fnormal = en_malloc(3 * sizeof *st.fnormal * (size_t)s->nt + 8);
+    st.ref_normal = ref_normal;
     st.pool_cap = 3 * (size_t)s->nt + 8;
     st.pool = en_malloc(st.pool_cap * sizeof *st.pool);
     st.vf_start = en_malloc(((size_t)s->nv + 1) * sizeof *st.vf_start);
@@ -505,7 +510,7 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q,
     st.mark = en_calloc((size_t)s->nv + 1, sizeof *st.mark);
     st.refused = en_calloc((size_t)s->nv + 1, 1);
     int rc = 0;
-    if (!st.fnormal || !st.pool || !st.vf_start || !st.vf_count || !st.vf_cap || !st.ver || !st.mark ||
+    if (!st.pool || !st.vf_start || !st.vf_count || !st.vf_cap || !st.ver || !st.mark ||
         !st.refused || !st.self_err || !st.best_cost || !st.best_u || !st.fallback) {
         rc = EPSNET_ENOMEM;
         goto out;
@@ -516,8 +521,6 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q,
         st.vf_start[v] = s->star_start[v];
         st.vf_count[v] = st.vf_cap[v] = en_slab_degree(s, v);
     }
-    for (uint32_t f = 0; f < s->nt; f++)
-        unit_normal(&st, st.tri + 3 * (size_t)f, st.fnormal + 3 * (size_t)f);
     for (uint32_t v = 0; v < s->nv; v++) {
         st.self_err[v] = quadric_eval(&q[v], s->pos + 3 * (size_t)v);
         st.best_u[v] = UINT32_MAX;
@@ -568,11 +571,12 @@ out:
     return rc;
 }
 
-int en_slab_compact(const en_slab *s, const uint32_t *tri, const uint8_t *face_alive,
-                    const en_quadric *q, en_slab *out, en_quadric **q_out)
+int en_slab_compact(const en_slab *s, const uint32_t *tri, const uint8_t *face_alive, const en_quadric *q,
+                    const double *ref_normal, en_slab *out, en_quadric **q_out, double **ref_out)
 {
     en_slab_init(out);
     *q_out = NULL;
+    *ref_out = NULL;
     int64_t *map = en_malloc(((size_t)s->nv + 1) * sizeof *map);
     if (!map)
         return -1;
@@ -594,18 +598,25 @@ int en_slab_compact(const en_slab *s, const uint32_t *tri, const uint8_t *face_a
         else
             nq[map[v]] = q[v];
     }
+    double *nr = en_malloc(3 * sizeof *nr * ((size_t)s->nt + 1));
+    if (!nr)
+        rc = -1;
     for (uint32_t f = 0; f < s->nt && rc == 0; f++)
-        if (face_alive[f])
+        if (face_alive[f]) {
+            memcpy(nr + 3 * (size_t)out->nt, ref_normal + 3 * (size_t)f, 3 * sizeof *nr);
             rc = en_slab_add_face(out, (uint32_t)map[tri[3 * (size_t)f]], (uint32_t)map[tri[3 * (size_t)f + 1]],
                                   (uint32_t)map[tri[3 * (size_t)f + 2]]);
+        }
     if (rc == 0)
         rc = en_slab_build_stars(out);
     en_free(map);
     if (rc) {
         en_free(nq);
+        en_free(nr);
         en_slab_free(out);
         return -1;
     }
     *q_out = nq;
+    *ref_out = nr;
     return 0;
 }

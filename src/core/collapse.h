@@ -29,7 +29,7 @@ enum {
 #define EN_REFUSE_KINDS 5
 
 typedef struct en_collapse_settings {
-    double max_normal_dev_deg;   /* face normal may turn at most this much per collapse */
+    double max_normal_dev_deg;   /* no face may end up turned further than this from its input normal */
 } en_collapse_settings;
 
 typedef struct en_collapse_counts {
@@ -38,6 +38,10 @@ typedef struct en_collapse_counts {
     uint64_t refused[EN_REFUSE_KINDS]; /* remaining vertices refused for each reason */
 } en_collapse_counts;
 
+/* Unit normal of every face (0 for a zero-area face), 3 doubles per face:
+ * the reference the normal bound is measured against. */
+void en_face_unit_normals(const en_slab *s, double *n);
+
 /* Per-vertex quadrics of the slab's faces (area-weighted planes). q has one
  * entry per slab vertex and is overwritten. */
 void en_quadrics_from_faces(const en_slab *s, en_quadric *q);
@@ -45,20 +49,23 @@ void en_quadrics_from_faces(const en_slab *s, en_quadric *q);
 /*
  * Collapse every vertex v with removable[v] != 0 that can go, cheapest first.
  * Needs the slab's stars. q (per vertex) accumulates through the collapses.
+ * ref_normal (per face, from en_face_unit_normals() of the input) bounds
+ * how far any face may turn.
  * On return face_alive[f] says which faces remain (nt entries) and
  * vertex_alive[v] which vertices were not collapsed away (nv entries).
  * @return 0 or EPSNET_ENOMEM.
  */
-int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q,
+int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, const double *ref_normal,
                      const en_collapse_settings *cs, uint8_t *face_alive, uint8_t *vertex_alive,
                      uint32_t *tri_out, en_collapse_counts *counts);
 
 /*
  * Build the slab of what remains: alive faces (with corners from tri) and
- * the vertices they reference, in the old order, with their quadrics. The
- * new slab's stars are built. @return 0 or -1 (out of memory).
+ * the vertices they reference, in the old order, with their quadrics and
+ * their faces' reference normals. The new slab's stars are built.
+ * @return 0 or -1 (out of memory).
  */
-int en_slab_compact(const en_slab *s, const uint32_t *tri, const uint8_t *face_alive,
-                    const en_quadric *q, en_slab *out, en_quadric **q_out);
+int en_slab_compact(const en_slab *s, const uint32_t *tri, const uint8_t *face_alive, const en_quadric *q,
+                    const double *ref_normal, en_slab *out, en_quadric **q_out, double **ref_out);
 
 #endif

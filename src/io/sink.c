@@ -62,6 +62,7 @@ struct en_sink {
     int fd;
     int is_stdout;
     int anonymous;           /* O_TMPFILE: linked into place at commit */
+    int in_place;            /* an existing device or pipe, written directly */
     int temp_slot;           /* registry slot of a named temporary, or -1 */
     char *path;              /* destination */
     char *dir;               /* destination directory */
@@ -188,6 +189,20 @@ int en_sink_open(en_sink **out, const char *path, int zstd_level, epsnet_error *
         return en_error_set(err, EPSNET_EIO, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "output path is a directory");
     }
+    if (stat(path, &st) == 0 && !S_ISREG(st.st_mode)) {
+        /* note: a device or pipe (-o /dev/null, a FIFO) is written in place;
+         * renaming a temporary over it would replace the device itself. */
+        s->fd = open(path, O_WRONLY | O_CLOEXEC);
+        if (s->fd < 0) {
+            int e = errno;
+            en_sink_abort(&s);
+            return en_error_set(err, en_error_from_errno(e), path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "cannot open output: %s", strerror(e));
+        }
+        s->in_place = 1;
+        *out = s;
+        return 0;
+    }
 #ifdef O_TMPFILE
     /* Anonymous until commit, so a crash or SIGKILL leaves nothing behind;
      * linking it later needs /proc. */
@@ -257,7 +272,7 @@ uint64_t en_sink_offset(const en_sink *s)
 
 int en_sink_can_patch(const en_sink *s)
 {
-    return !s->zc && !s->is_stdout;
+    return !s->zc && !s->is_stdout && !s->in_place;
 }
 
 int en_sink_patch(en_sink *s, uint64_t offset, const void *data, size_t n, epsnet_error *err)
@@ -322,6 +337,18 @@ int en_sink_commit(en_sink **ps, epsnet_error *err)
     if ((rc = flush_buf(s, s->zc ? ZSTD_e_end : ZSTD_e_continue, err)))
         goto fail;
     if (s->is_stdout) {
+        sink_free(s);
+        *ps = NULL;
+        return 0;
+    }
+    if (s->in_place) {
+        int bad = close(s->fd) != 0;
+        int e = errno;
+        s->fd = -1;
+        if (bad) {
+            rc = sink_fail_errno(s, e, "close failed", err);
+            goto fail;
+        }
         sink_free(s);
         *ps = NULL;
         return 0;
