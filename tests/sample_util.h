@@ -42,27 +42,11 @@ static inline int classify_all(const gauss_sphere *g, const en_slab *s, classifi
 static inline int gen_slab(const char *shape, uint64_t faces, double param, uint64_t seed, int shuffle,
                            en_slab *s)
 {
-    epsnet_gen_settings gs;
-    epsnet_gen_default_settings(&gs);
-    gs.shape = shape;
-    gs.faces = faces;
-    gs.param = param;
-    gs.seed = seed;
-    gs.shuffle = shuffle;
     epsnet_error err;
-    epsnet_mesh_info info;
-    epsnet_writer *w = NULL;
     char name[128];
     snprintf(name, sizeof name, "gen_%s_%llu_%d.smb", shape, (unsigned long long)faces, shuffle);
     const char *path = tl_path(name);
-    int rc = epsnet_gen_info(&gs, &info, &err);
-    if (rc == 0)
-        rc = epsnet_writer_open(&w, path, NULL, &info, &err);
-    if (rc == 0)
-        rc = epsnet_gen(&gs, w, &err);
-    if (rc == 0)
-        rc = epsnet_writer_commit(&w, &err);
-    epsnet_writer_abort(&w);
+    int rc = tl_gen_file(path, shape, faces, param, seed, shuffle, &err);
     epsnet_reader *r = NULL;
     if (rc == 0)
         rc = epsnet_reader_open(&r, path, NULL, &err);

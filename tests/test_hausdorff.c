@@ -105,24 +105,9 @@ static en_hd_mesh om_view(const owned_mesh *m)
 /* Generate a shape into a PLY file, read it back; returns the path. */
 static const char *gen_file(const char *name, const char *shape, uint64_t faces, uint64_t seed)
 {
-    epsnet_gen_settings gs;
-    epsnet_gen_default_settings(&gs);
-    gs.shape = shape;
-    gs.faces = faces;
-    gs.seed = seed;
-    epsnet_mesh_info info;
     epsnet_error err;
-    epsnet_writer *w = NULL;
     const char *path = tl_path(name);
-    int rc = epsnet_gen_info(&gs, &info, &err);
-    if (rc == 0)
-        rc = epsnet_writer_open(&w, path, NULL, &info, &err);
-    if (rc == 0)
-        rc = epsnet_gen(&gs, w, &err);
-    if (rc == 0)
-        rc = epsnet_writer_commit(&w, &err);
-    epsnet_writer_abort(&w);
-    if (rc) {
+    if (tl_gen_file(path, shape, faces, NAN, seed, 0, &err)) {
         fprintf(stderr, "gen %s: %s\n", shape, epsnet_error_message(&err));
         exit(2);
     }

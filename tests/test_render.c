@@ -73,16 +73,9 @@ static int same_file_bytes(const char *a, const char *b)
 
 static const char *gen_file(const char *shape, uint64_t faces, const char *name)
 {
-    epsnet_gen_settings gs;
-    epsnet_gen_default_settings(&gs);
-    gs.shape = shape;
-    gs.faces = faces;
-    epsnet_mesh_info info;
     epsnet_error err;
-    epsnet_writer *w = NULL;
     const char *path = tl_path(name);
-    if (epsnet_gen_info(&gs, &info, &err) || epsnet_writer_open(&w, path, NULL, &info, &err) ||
-        epsnet_gen(&gs, w, &err) || epsnet_writer_commit(&w, &err)) {
+    if (tl_gen_file(path, shape, faces, NAN, 1, 0, &err)) {
         fprintf(stderr, "gen %s: %s\n", name, epsnet_error_message(&err));
         exit(2);
     }

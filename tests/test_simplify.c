@@ -142,26 +142,11 @@ static int simplify(const char *in_path, const char *name, int level, int passes
 
 static const char *generate(const char *shape, uint64_t faces, uint64_t seed)
 {
-    epsnet_gen_settings gs;
-    epsnet_gen_default_settings(&gs);
-    gs.shape = shape;
-    gs.faces = faces;
-    gs.seed = seed;
     char name[128];
     snprintf(name, sizeof name, "%s_%llu.ply", shape, (unsigned long long)faces);
     const char *path = tl_path(name);
-    epsnet_mesh_info info;
-    epsnet_writer *w = NULL;
     epsnet_error err;
-    int rc = epsnet_gen_info(&gs, &info, &err);
-    if (rc == 0)
-        rc = epsnet_writer_open(&w, path, NULL, &info, &err);
-    if (rc == 0)
-        rc = epsnet_gen(&gs, w, &err);
-    if (rc == 0)
-        rc = epsnet_writer_commit(&w, &err);
-    epsnet_writer_abort(&w);
-    return rc ? NULL : path;
+    return tl_gen_file(path, shape, faces, NAN, seed, 0, &err) ? NULL : path;
 }
 
 /* The guarantees common to every input. */

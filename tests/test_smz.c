@@ -91,25 +91,6 @@ static int same_record(const epsnet_record *a, const epsnet_record *b)
     return a->v[0] == b->v[0];
 }
 
-static int gen_to(const char *path, const char *shape, uint64_t faces, int shuffle, epsnet_error *err)
-{
-    epsnet_gen_settings gs;
-    epsnet_gen_default_settings(&gs);
-    gs.shape = shape;
-    gs.faces = faces;
-    gs.shuffle = shuffle;
-    epsnet_mesh_info info;
-    epsnet_writer *w = NULL;
-    int rc = epsnet_gen_info(&gs, &info, err);
-    if (rc == 0)
-        rc = epsnet_writer_open(&w, path, NULL, &info, err);
-    if (rc == 0)
-        rc = epsnet_gen(&gs, w, err);
-    if (rc == 0)
-        return epsnet_writer_commit(&w, err);
-    epsnet_writer_abort(&w);
-    return rc;
-}
 
 static uint64_t file_size(const char *path)
 {
@@ -187,7 +168,7 @@ TEST(round_trips_with_every_other_format)
     static const char *const exts[] = { "ply", "obj", "sma", "smb", "ply.zst", "obj.zst", "smz.zst" };
     epsnet_error err;
     const char *src = tl_path("rt.ply");
-    CHECK_EQ_INT(gen_to(src, "torus", 3000, 1, &err), 0);
+    CHECK_EQ_INT(tl_gen_file(src, "torus", 3000, NAN, 1, 1, &err), 0);
     tl_mesh orig, via_smz;
     CHECK_EQ_INT(tl_read_mesh(src, &orig, &err), 0);
     CHECK_EQ_INT(tl_write_mesh(tl_path("rt.smz"), &orig, NULL, &err), 0);
@@ -276,7 +257,7 @@ TEST(blocks_decode_independently_through_the_index)
 {
     epsnet_error err;
     const char *p = tl_path("blocks.smz");
-    CHECK_EQ_INT(gen_to(p, "bumpy", 400000, 0, &err), 0);
+    CHECK_EQ_INT(tl_gen_file(p, "bumpy", 400000, NAN, 1, 0, &err), 0);
     epsnet_record *seq;
     size_t nseq;
     CHECK_EQ_INT(read_records(p, &seq, &nseq, NULL, &err), 0);
@@ -329,7 +310,7 @@ TEST(corrupt_block_is_reported_with_block_and_offset)
 {
     epsnet_error err;
     const char *p = tl_path("good.smz");
-    CHECK_EQ_INT(gen_to(p, "sphere", 300000, 0, &err), 0);
+    CHECK_EQ_INT(tl_gen_file(p, "sphere", 300000, NAN, 1, 0, &err), 0);
     FILE *f = fopen(p, "rb");
     en_smz_index idx;
     CHECK_EQ_INT(en_smz_read_index(fileno(f), p, file_size(p), &idx, &err), 0);
@@ -452,8 +433,8 @@ TEST(smz_is_under_forty_percent_of_binary_ply_for_sorted_streams)
     for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
         epsnet_error err;
         const char *ply = tl_path("size.ply"), *smz = tl_path("size.smz");
-        CHECK_EQ_INT(gen_to(ply, cases[i].shape, 200000, cases[i].shuffle, &err), 0);
-        CHECK_EQ_INT(gen_to(smz, cases[i].shape, 200000, cases[i].shuffle, &err), 0);
+        CHECK_EQ_INT(tl_gen_file(ply, cases[i].shape, 200000, NAN, 1, cases[i].shuffle, &err), 0);
+        CHECK_EQ_INT(tl_gen_file(smz, cases[i].shape, 200000, NAN, 1, cases[i].shuffle, &err), 0);
         double ratio = (double)file_size(smz) / (double)file_size(ply);
         printf("  %-8s shuffle=%d  smz/ply = %.3f (limit %.2f)\n", cases[i].shape, cases[i].shuffle, ratio,
                cases[i].limit);

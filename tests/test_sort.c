@@ -10,25 +10,6 @@
 
 /* ---- helpers ---- */
 
-static int gen_to(const char *path, const char *shape, uint64_t faces, epsnet_error *err)
-{
-    epsnet_gen_settings gs;
-    epsnet_gen_default_settings(&gs);
-    gs.shape = shape;
-    gs.faces = faces;
-    gs.shuffle = 1;
-    epsnet_mesh_info info;
-    epsnet_writer *w = NULL;
-    int rc = epsnet_gen_info(&gs, &info, err);
-    if (rc == 0)
-        rc = epsnet_writer_open(&w, path, NULL, &info, err);
-    if (rc == 0)
-        rc = epsnet_gen(&gs, w, err);
-    if (rc == 0)
-        return epsnet_writer_commit(&w, err);
-    epsnet_writer_abort(&w);
-    return rc;
-}
 
 static int sort_with(const char *in, const char *out, uint64_t mem, int axis, epsnet_sort_stats *st,
                      epsnet_error *err)
@@ -326,7 +307,7 @@ TEST(generated_shapes_keep_every_triangle_with_many_runs)
         char name[64];
         snprintf(name, sizeof name, "shuffled_%s.ply", shapes[i]);
         epsnet_error err;
-        CHECK_EQ_INT(gen_to(tl_path(name), shapes[i], 80000, &err), 0);
+        CHECK_EQ_INT(tl_gen_file(tl_path(name), shapes[i], 80000, NAN, 1, 1, &err), 0);
         check_sort_of(tl_path(name), name, 0);
         remove(tl_path(name));
     }
@@ -364,7 +345,7 @@ TEST(output_bytes_do_not_depend_on_the_budget)
 {
     epsnet_error err;
     const char *in = tl_path("det.ply");
-    CHECK_EQ_INT(gen_to(in, "bumpy", 50000, &err), 0);
+    CHECK_EQ_INT(tl_gen_file(in, "bumpy", 50000, NAN, 1, 1, &err), 0);
     epsnet_sort_stats a, b, c;
     /* 256K: external join (25K vertices is over the in-core threshold) */
     CHECK_EQ_INT(sort_with(in, tl_path("det1.smz"), 256 << 10, -1, &a, &err), 0);
@@ -403,7 +384,7 @@ TEST(an_output_wider_than_the_budget_is_a_clear_error)
 {
     epsnet_error err;
     const char *in = tl_path("wide.ply");
-    CHECK_EQ_INT(gen_to(in, "cad", 60000, &err), 0);
+    CHECK_EQ_INT(tl_gen_file(in, "cad", 60000, NAN, 1, 1, &err), 0);
     epsnet_sort_stats st;
     CHECK_EQ_INT(sort_with(in, tl_path("wide.smz"), 256 << 10, -1, &st, &err), EPSNET_ELIMIT);
     CHECK_STR_CONTAINS(epsnet_error_message(&err), "vertices live at once");
@@ -452,7 +433,7 @@ TEST(no_temporary_files_are_left)
 {
     epsnet_error err;
     const char *in = tl_path("tmpcheck.ply");
-    CHECK_EQ_INT(gen_to(in, "sphere", 20000, &err), 0);
+    CHECK_EQ_INT(tl_gen_file(in, "sphere", 20000, NAN, 1, 1, &err), 0);
     char dir[512];
     snprintf(dir, sizeof dir, "%s/runs", tl_tmpdir());
     mkdir(dir, 0700);
