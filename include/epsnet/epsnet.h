@@ -14,13 +14,13 @@
  *   6. Settings     - the job context and its settings, statistics.
  *   7. Sampling     - classify every vertex as sample or not (paper §4).
  *   8. Simplifying  - keep only the samples: the shape approximation.
- *   9. Utilities    - size parsing, version, signal-time cleanup.
- *  10. Measuring    - Metro-style distance and normal deviation between two
+ *   9. Measuring    - Metro-style distance and normal deviation between two
  *                     meshes (epsnet hausdorff).
- *  11. Sorting      - any mesh, of any size, into a spatially sorted,
+ *  10. Sorting      - any mesh, of any size, into a spatially sorted,
  *                     finalized streaming mesh (epsnet sort), out of core.
- *  12. Rendering    - pictures of a mesh, its samples and its simplification
+ *  11. Rendering    - pictures of a mesh, its samples and its simplification
  *                     as PNG (epsnet render), streaming, without a GPU.
+ *  12. Utilities    - size parsing, version, signal-time cleanup.
  *
  * Conventions
  *   - Every function that can fail returns 0 (or a positive count) on success
@@ -525,29 +525,7 @@ EPSNET_API int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, co
                                     epsnet_error *err);
 
 /* ------------------------------------------------------------------------
- * 9. Utilities
- * ------------------------------------------------------------------------ */
-
-/*
- * Parse a size such as "64M", "1.5G", "4096" (K, M, G, T are powers of 1024;
- * a trailing "B"/"iB" is accepted).
- * @return 0 with *out set, or EPSNET_EINVAL.
- */
-EPSNET_API int epsnet_parse_size(const char *text, uint64_t *out);
-
-/*
- * Remove the named temporary files this process still has open. Output files
- * are anonymous (O_TMPFILE) where the system allows, and those vanish by
- * themselves; this covers the fallback. Async-signal-safe: call it from a
- * SIGINT/SIGTERM handler, then _exit().
- */
-EPSNET_API void epsnet_remove_temporaries(void);
-
-/* "MAJOR.MINOR.PATCH" of the linked library. */
-EPSNET_API const char *epsnet_version(void);
-
-/* ------------------------------------------------------------------------
- * 10. Measuring
+ * 9. Measuring
  *
  * A Metro-style comparison of two meshes A and B (the measure behind the
  * paper's Tables 1 and 2). Each mesh is sampled: every vertex used by a
@@ -654,7 +632,7 @@ EPSNET_API int epsnet_hausdorff_write_json(const epsnet_hausdorff_result *r, con
                                            epsnet_error *err);
 
 /* ------------------------------------------------------------------------
- * 11. Sorting (SPEC §2 "Input")
+ * 10. Sorting (SPEC §2 "Input")
  *
  * The pipeline needs a spatially sorted streaming mesh: vertices in
  * non-decreasing order along one axis, each triangle right after its last
@@ -728,7 +706,7 @@ EPSNET_API int epsnet_sort_file(const char *in_path, const char *out_path,
                                 epsnet_sort_stats *stats, epsnet_error *err);
 
 /* ------------------------------------------------------------------------
- * 12. Rendering
+ * 11. Rendering
  *
  * A picture of a mesh as a PNG, drawn by a software rasterizer (no GPU, no
  * display): orthographic camera, z-buffer, two-sided Lambert shading with a
@@ -795,6 +773,28 @@ EPSNET_API void epsnet_render_default_settings(epsnet_render_settings *s);
  */
 EPSNET_API int epsnet_render_file(epsnet_context *ctx, const char *in, const char *out_png,
                                   const epsnet_render_settings *rs, epsnet_error *err);
+
+/* ------------------------------------------------------------------------
+ * 12. Utilities
+ * ------------------------------------------------------------------------ */
+
+/*
+ * Parse a size such as "64M", "1.5G", "4096" (K, M, G, T are powers of 1024;
+ * a trailing "B"/"iB" is accepted).
+ * @return 0 with *out set, or EPSNET_EINVAL.
+ */
+EPSNET_API int epsnet_parse_size(const char *text, uint64_t *out);
+
+/*
+ * Remove the named temporary files this process still has open. Output files
+ * are anonymous (O_TMPFILE) where the system allows, and those vanish by
+ * themselves; this covers the fallback. Async-signal-safe: call it from a
+ * SIGINT/SIGTERM handler, then _exit().
+ */
+EPSNET_API void epsnet_remove_temporaries(void);
+
+/* "MAJOR.MINOR.PATCH" of the linked library. */
+EPSNET_API const char *epsnet_version(void);
 
 #ifdef __cplusplus
 }
