@@ -1,0 +1,6 @@
+# nverts 4
+# nfaces 2
+v 0 0 0
+v 1 0 0
+v 0 1 0
+f 1 2
