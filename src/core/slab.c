@@ -114,6 +114,18 @@ static uint32_t find_key(const uint64_t *packed, uint32_t n, uint32_t want)
     return lo < n && (uint32_t)(packed[lo] >> 32) == want ? (uint32_t)packed[lo] : UINT32_MAX;
 }
 
+/* Index i with key[i] == want: binary search when the star was sorted, a
+ * scan otherwise. UINT32_MAX when absent. */
+static uint32_t find_corner(int sorted, const uint32_t *key, const uint64_t *packed, uint32_t n, uint32_t want)
+{
+    if (sorted)
+        return find_key(packed, n, want);
+    for (uint32_t i = 0; i < n; i++)
+        if (key[i] == want)
+            return i;
+    return UINT32_MAX;
+}
+
 /*
  * Order the faces around v counter-clockwise. Face (v, b, c) spans the angle
  * from edge v-b to edge v-c, so its counter-clockwise successor shares edge
@@ -135,15 +147,28 @@ static uint8_t order_star(const en_slab *s, uint32_t v, uint32_t *faces, uint32_
         if (nxt[i] == v || prv[i] == v)
             return EN_V_NONMANIFOLD;
     }
-    sort_packed(w->by_nxt, nxt, deg);
-    sort_packed(w->by_prv, prv, deg);
+    /* note: stars are small (degree 6 on average), and for those a linear
+     * scan beats sorting; only large fans are sorted for O(log deg) lookups. */
+    int sorted = deg > 16;
+    if (sorted) {
+        sort_packed(w->by_nxt, nxt, deg);
+        sort_packed(w->by_prv, prv, deg);
+    }
     /* An edge (v, x) may be used at most once as "next" and once as "prev". */
-    for (uint32_t i = 1; i < deg; i++)
-        if ((w->by_nxt[i] >> 32) == (w->by_nxt[i - 1] >> 32) || (w->by_prv[i] >> 32) == (w->by_prv[i - 1] >> 32))
-            return EN_V_NONMANIFOLD;
+    if (sorted) {
+        for (uint32_t i = 1; i < deg; i++)
+            if ((w->by_nxt[i] >> 32) == (w->by_nxt[i - 1] >> 32) ||
+                (w->by_prv[i] >> 32) == (w->by_prv[i - 1] >> 32))
+                return EN_V_NONMANIFOLD;
+    } else {
+        for (uint32_t i = 0; i < deg; i++)
+            for (uint32_t j = i + 1; j < deg; j++)
+                if (nxt[i] == nxt[j] || prv[i] == prv[j])
+                    return EN_V_NONMANIFOLD;
+    }
     uint32_t start = 0, open = 0;
     for (uint32_t i = 0; i < deg; i++)
-        if (find_key(w->by_prv, deg, nxt[i]) == UINT32_MAX) {
+        if (find_corner(sorted, prv, w->by_prv, deg, nxt[i]) == UINT32_MAX) {
             open++;
             start = i;
         }
@@ -152,7 +177,7 @@ static uint8_t order_star(const en_slab *s, uint32_t v, uint32_t *faces, uint32_
     uint32_t cur = start;
     for (uint32_t n = 0; n < deg; n++) {
         w->ordered[n] = faces[cur];
-        uint32_t j = find_key(w->by_nxt, deg, prv[cur]);
+        uint32_t j = find_corner(sorted, nxt, w->by_nxt, deg, prv[cur]);
         if (j == UINT32_MAX) {
             if (n + 1 != deg)
                 return EN_V_NONMANIFOLD | (open ? EN_V_BOUNDARY : 0);
