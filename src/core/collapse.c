@@ -11,9 +11,10 @@
  * a priority queue of (cost, v, u) -> pop, re-check, collapse -> refresh the
  * ring around u -> repeat until the queue is empty.
  *
- * note: entries are never removed from the queue; each vertex carries a
- * version that every change around it bumps, and a popped entry whose version
- * is old is dropped.
+ * note: the queue is an indexed heap with exactly one entry per removable
+ * vertex (its best target), updated in place; a stale-entry heap grew to
+ * several entries per vertex and its sift-downs missed the cache at every
+ * level, which made large meshes superlinear.
  *
  * note: a vertex is queued with its cheapest target *unchecked*; the checks
  * (link condition, normals, duplicates: O(deg v * deg u)) run only when the
@@ -83,11 +84,10 @@ void en_quadrics_from_faces(const en_slab *s, en_quadric *q)
 /* ---- the dynamic mesh ---- */
 
 /* note: ties break on local ids, which a slab assigns in global-id order,
- * so the order is the same on every run and for every slab split; keeping
- * global ids out of the entry keeps it at 24 bytes. */
+ * so the order is the same on every run and for every slab split. */
 typedef struct heap_entry {
     double cost;
-    uint32_t v, u, ver;
+    uint32_t v, u;
 } heap_entry;
 
 typedef struct target {
@@ -109,7 +109,7 @@ typedef struct state {
     size_t pool_len, pool_cap;
     uint32_t *vf_start, *vf_count, *vf_cap;
 
-    uint32_t *ver;            /* bumped by every change around a vertex */
+    uint32_t *heap_pos;       /* v's index in heap, or UINT32_MAX */
     double *self_err;         /* q[v] evaluated at v's own position */
     double *best_cost;        /* cost of v's cheapest queued entry */
     uint32_t *best_u;         /* its target, UINT32_MAX when none */
@@ -138,29 +138,29 @@ static int entry_less(const heap_entry *a, const heap_entry *b)
     return a->u < b->u;
 }
 
-/* A 4-ary heap: half the levels of a binary one, and the four children of
- * a node share a cache line or two, which matters with millions of entries. */
-static int heap_push(state *st, heap_entry e)
+/* A 4-ary indexed heap: half the levels of a binary one, and the four
+ * children of a node share a cache line or two. */
+static void heap_place(state *st, size_t i, heap_entry e)
 {
-    if (st->heap_len == st->heap_cap &&
-        en_grow((void **)&st->heap, &st->heap_cap, st->heap_len + 1, sizeof *st->heap))
-        return EPSNET_ENOMEM;
-    size_t i = st->heap_len++;
+    st->heap[i] = e;
+    st->heap_pos[e.v] = (uint32_t)i;
+}
+
+static void sift_up(state *st, size_t i, heap_entry e)
+{
     while (i > 0) {
         size_t parent = (i - 1) / 4;
         if (!entry_less(&e, &st->heap[parent]))
             break;
-        st->heap[i] = st->heap[parent];
+        heap_place(st, i, st->heap[parent]);
         i = parent;
     }
-    st->heap[i] = e;
-    return 0;
+    heap_place(st, i, e);
 }
 
-static heap_entry heap_pop(state *st)
+static void sift_down(state *st, size_t i, heap_entry e)
 {
-    heap_entry top = st->heap[0], last = st->heap[--st->heap_len];
-    size_t i = 0, n = st->heap_len;
+    size_t n = st->heap_len;
     for (;;) {
         size_t first = 4 * i + 1;
         if (first >= n)
@@ -169,16 +169,53 @@ static heap_entry heap_pop(state *st)
         for (size_t k = first + 1; k < end; k++)
             if (entry_less(&st->heap[k], &st->heap[c]))
                 c = k;
-        if (!entry_less(&st->heap[c], &last))
+        if (!entry_less(&st->heap[c], &e))
             break;
-        st->heap[i] = st->heap[c];
+        heap_place(st, i, st->heap[c]);
         i = c;
     }
-    if (n)
-        st->heap[i] = last;
-    return top;
+    heap_place(st, i, e);
 }
 
+/* Insert v's entry, or move it to its new cost. */
+static int heap_set(state *st, uint32_t v, double cost, uint32_t u)
+{
+    heap_entry e = { cost, v, u };
+    uint32_t i = st->heap_pos[v];
+    if (i == UINT32_MAX) {
+        if (st->heap_len == st->heap_cap &&
+            en_grow((void **)&st->heap, &st->heap_cap, st->heap_len + 1, sizeof *st->heap))
+            return EPSNET_ENOMEM;
+        sift_up(st, st->heap_len++, e);
+    } else if (entry_less(&e, &st->heap[i])) {
+        sift_up(st, i, e);
+    } else {
+        sift_down(st, i, e);
+    }
+    return 0;
+}
+
+static void heap_remove(state *st, uint32_t v)
+{
+    uint32_t i = st->heap_pos[v];
+    if (i == UINT32_MAX)
+        return;
+    st->heap_pos[v] = UINT32_MAX;
+    heap_entry last = st->heap[--st->heap_len];
+    if (i == st->heap_len)
+        return;
+    if (entry_less(&last, &st->heap[i]))
+        sift_up(st, i, last);
+    else
+        sift_down(st, i, last);
+}
+
+static heap_entry heap_pop(state *st)
+{
+    heap_entry top = st->heap[0];
+    heap_remove(st, top.v);
+    return top;
+}
 
 static int has_corner(const uint32_t *t, uint32_t v)
 {
@@ -350,8 +387,7 @@ static int queue_cheapest(state *st, uint32_t v)
     st->best_cost[v] = best.cost;
     st->best_u[v] = best.u;
     st->fallback[v] = 0;
-    heap_entry e = { best.cost, v, best.u, st->ver[v] };
-    return heap_push(st, e);
+    return heap_set(st, v, best.cost, best.u);
 }
 
 /* Queue v's cheapest valid target (checked), or record why there is none. */
@@ -369,14 +405,14 @@ static int queue_best_valid(state *st, uint32_t v)
             st->best_cost[v] = t.cost;
             st->best_u[v] = t.u;
             st->fallback[v] = 1;
-            heap_entry e = { t.cost, v, t.u, st->ver[v] };
-            return heap_push(st, e);
+            return heap_set(st, v, t.cost, t.u);
         }
         reasons |= (uint8_t)why;
     }
     st->refused[v] = reasons;
     st->best_u[v] = UINT32_MAX;
     st->fallback[v] = 1;
+    heap_remove(st, v);
     return 0;
 }
 
@@ -431,7 +467,6 @@ static int do_collapse(state *st, uint32_t v, uint32_t u)
      * queued target was u or v, or its entry was a checked fallback (a
      * cheaper target may be valid now); otherwise only w -> u is priced.
      */
-    st->ver[u]++;
     int rc = queue_cheapest(st, u);
     uint32_t stamp = ++st->stamp;
     st->mark[u] = stamp;
@@ -446,7 +481,6 @@ static int do_collapse(state *st, uint32_t v, uint32_t u)
             if (!st->removable[w])
                 continue;
             if (st->best_u[w] == u || st->best_u[w] == v || st->best_u[w] == UINT32_MAX || st->fallback[w]) {
-                st->ver[w]++;
                 rc = queue_cheapest(st, w);
                 continue;
             }
@@ -455,8 +489,7 @@ static int do_collapse(state *st, uint32_t v, uint32_t u)
             if (target_less(&cand, &best)) {
                 st->best_cost[w] = cand.cost;
                 st->best_u[w] = u;
-                heap_entry e = { cand.cost, w, u, st->ver[w] };
-                rc = heap_push(st, e);
+                rc = heap_set(st, w, cand.cost, u);
             }
         }
     }
@@ -469,7 +502,7 @@ static void state_free(state *st)
     en_free(st->vf_start);
     en_free(st->vf_count);
     en_free(st->vf_cap);
-    en_free(st->ver);
+    en_free(st->heap_pos);
     en_free(st->self_err);
     en_free(st->best_cost);
     en_free(st->best_u);
@@ -502,7 +535,7 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
     st.vf_start = en_malloc(((size_t)s->nv + 1) * sizeof *st.vf_start);
     st.vf_count = en_malloc(((size_t)s->nv + 1) * sizeof *st.vf_count);
     st.vf_cap = en_malloc(((size_t)s->nv + 1) * sizeof *st.vf_cap);
-    st.ver = en_calloc((size_t)s->nv + 1, sizeof *st.ver);
+    st.heap_pos = en_malloc(((size_t)s->nv + 1) * sizeof *st.heap_pos);
     st.self_err = en_malloc(((size_t)s->nv + 1) * sizeof *st.self_err);
     st.best_cost = en_malloc(((size_t)s->nv + 1) * sizeof *st.best_cost);
     st.best_u = en_malloc(((size_t)s->nv + 1) * sizeof *st.best_u);
@@ -510,7 +543,7 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
     st.mark = en_calloc((size_t)s->nv + 1, sizeof *st.mark);
     st.refused = en_calloc((size_t)s->nv + 1, 1);
     int rc = 0;
-    if (!st.pool || !st.vf_start || !st.vf_count || !st.vf_cap || !st.ver || !st.mark ||
+    if (!st.pool || !st.vf_start || !st.vf_count || !st.vf_cap || !st.heap_pos || !st.mark ||
         !st.refused || !st.self_err || !st.best_cost || !st.best_u || !st.fallback) {
         rc = EPSNET_ENOMEM;
         goto out;
@@ -524,32 +557,20 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
     for (uint32_t v = 0; v < s->nv; v++) {
         st.self_err[v] = quadric_eval(&q[v], s->pos + 3 * (size_t)v);
         st.best_u[v] = UINT32_MAX;
+        st.heap_pos[v] = UINT32_MAX;
     }
 
     for (uint32_t v = 0; v < s->nv && rc == 0; v++)
         rc = queue_cheapest(&st, v);
     while (rc == 0 && st.heap_len) {
         heap_entry e = heap_pop(&st);
-        if (!st.valive[e.v] || !st.valive[e.u] || e.ver != st.ver[e.v])
-            continue; /* stale: a newer entry was queued when it changed */
-        if (!is_neighbour(&st, e.v, e.u)) {
-            st.ver[e.v]++;
+        if (!st.valive[e.u] || !is_neighbour(&st, e.v, e.u) || pair_cost(&st, e.v, e.u) != e.cost) {
+            /* its target went away or got dearer: rank v's targets again */
             rc = queue_cheapest(&st, e.v);
             continue;
         }
-        double cost = pair_cost(&st, e.v, e.u);
-        if (cost != e.cost) {
-            /* the target's quadric grew since this was queued: re-price */
-            e.cost = cost;
-            rc = heap_push(&st, e);
-            continue;
-        }
         if (check_collapse(&st, e.v, e.u)) {
-            /* Replace it by v's cheapest valid target. note: bump the version
-             * so the unchecked entry cannot come back; the valid one carries
-             * the new version. */
-            st.ver[e.v]++;
-            rc = queue_best_valid(&st, e.v);
+            rc = queue_best_valid(&st, e.v); /* replace it by v's cheapest valid target */
             continue;
         }
         rc = do_collapse(&st, e.v, e.u);
