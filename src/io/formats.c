@@ -1,5 +1,6 @@
 /* The format table (STYLE.md habit 8). Order matters only for content
  * probing ties. */
+#include <pthread.h>
 #include <string.h>
 #include <strings.h>
 
@@ -56,11 +57,15 @@ const en_format *en_format_by_path(const char *path)
     return NULL;
 }
 
-static const char *list(int writable)
+/* The two name lists are built once from the table; pthread_once makes the
+ * first call safe from any thread (the public API may be called from many). */
+static char format_lists[2][128];
+static pthread_once_t format_lists_once = PTHREAD_ONCE_INIT;
+
+static void build_format_lists(void)
 {
-    static char buf[2][128];
-    char *b = buf[writable];
-    if (!b[0]) {
+    for (int writable = 0; writable < 2; writable++) {
+        char *b = format_lists[writable];
         for (size_t i = 0; en_formats[i]; i++) {
             if (writable && !en_formats[i]->open_writer)
                 continue;
@@ -69,15 +74,16 @@ static const char *list(int writable)
             strcat(b, en_formats[i]->name);
         }
     }
-    return b;
 }
 
 const char *epsnet_formats_readable(void)
 {
-    return list(0);
+    pthread_once(&format_lists_once, build_format_lists);
+    return format_lists[0];
 }
 
 const char *epsnet_formats_writable(void)
 {
-    return list(1);
+    pthread_once(&format_lists_once, build_format_lists);
+    return format_lists[1];
 }
