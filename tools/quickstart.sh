@@ -46,6 +46,12 @@ test)
         -Db_lundef=false --buildtype=debug -Dslow_tests=false >/dev/null
     ninja -C build-asan >/dev/null
     meson test -C build-asan --suite fast --num-processes "$jobs" --print-errorlogs || status=1
+    # Thread sanitizer over the tests that run threads.
+    [ -d build-tsan ] || meson setup build-tsan -Dwerror=true -Db_sanitize=thread -Db_lundef=false \
+        --buildtype=debug -Dslow_tests=false >/dev/null
+    ninja -C build-tsan tests/test_pool tests/test_hausdorff >/dev/null
+    TSAN_OPTIONS=halt_on_error=1 meson test -C build-tsan --no-rebuild pool hausdorff \
+        --num-processes "$jobs" --print-errorlogs || status=1
     exit $status
     ;;
 *)

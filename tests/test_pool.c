@@ -1,0 +1,151 @@
+/*
+ * The worker pool (SPEC §2): jobs run on any worker in any order, but come
+ * back in submission order with their own results, for any thread count;
+ * in-flight jobs never exceed the capacity; an error rides in its job and
+ * surfaces in order; freeing a pool with queued work finishes it cleanly.
+ * Also run under the thread sanitizer in CI (build-tsan).
+ */
+#include <stdatomic.h>
+
+#include "pipeline/pool.h"
+#include "testlib.h"
+
+typedef struct work {
+    uint64_t id;
+    uint64_t input;
+    uint64_t output;
+    int fail;
+} work;
+
+static atomic_int running, max_running;
+
+/* Unequal amounts of work so that jobs finish out of order. */
+static int crunch(void *arg)
+{
+    work *w = arg;
+    int now = atomic_fetch_add(&running, 1) + 1;
+    int seen = atomic_load(&max_running);
+    while (now > seen && !atomic_compare_exchange_weak(&max_running, &seen, now))
+        ;
+    uint64_t x = w->input;
+    for (uint64_t i = 0; i < (w->id % 7) * 20000 + 1000; i++)
+        x = x * 6364136223846793005ull + 1442695040888963407ull;
+    w->output = x;
+    atomic_fetch_sub(&running, 1);
+    return w->fail ? EPSNET_EFORMAT : 0;
+}
+
+static uint64_t expected(const work *w)
+{
+    uint64_t x = w->input;
+    for (uint64_t i = 0; i < (w->id % 7) * 20000 + 1000; i++)
+        x = x * 6364136223846793005ull + 1442695040888963407ull;
+    return x;
+}
+
+/* Run n jobs through a pool of t threads and capacity c; every retired job
+ * must be the next in order with the right output. Returns a digest. */
+static uint64_t run_jobs(int threads, size_t cap, uint64_t n, uint64_t fail_at, int *first_error_id)
+{
+    en_pool *p = NULL;
+    CHECK_EQ_INT(en_pool_new(&p, threads, cap), 0);
+    work *jobs = calloc(n, sizeof *jobs);
+    uint64_t next_retire = 0, digest = 0;
+    *first_error_id = -1;
+    atomic_store(&max_running, 0);
+    for (uint64_t i = 0; i <= n; i++) {
+        /* back-pressure: retire the oldest while the ring is full (and drain at the end) */
+        while (en_pool_full(p) || (i == n && en_pool_in_flight(p))) {
+            void *job;
+            int result;
+            CHECK_EQ_INT(en_pool_retire(p, &job, &result), 1);
+            work *w = job;
+            CHECK_EQ_U64(w->id, next_retire);
+            CHECK_EQ_U64(w->output, expected(w));
+            if (result && *first_error_id < 0)
+                *first_error_id = (int)w->id;
+            CHECK_EQ_INT(result, w->fail ? EPSNET_EFORMAT : 0);
+            digest = digest * 31 + w->output;
+            next_retire++;
+        }
+        if (i == n)
+            break;
+        CHECK(en_pool_in_flight(p) < cap + (cap == 0));
+        jobs[i] = (work){ i, i * 977 + 1, 0, i == fail_at };
+        CHECK_EQ_INT(en_pool_submit(p, crunch, &jobs[i]), 0);
+    }
+    CHECK_EQ_U64(next_retire, n);
+    void *job;
+    int result;
+    CHECK_EQ_INT(en_pool_retire(p, &job, &result), 0);
+    en_pool_free(&p);
+    CHECK(p == NULL);
+    free(jobs);
+    return digest;
+}
+
+TEST(jobs_retire_in_submission_order_for_any_thread_count)
+{
+    int err;
+    uint64_t ref = run_jobs(0, 4, 300, UINT64_MAX, &err);
+    CHECK_EQ_INT(err, -1);
+    const int threads[] = { 1, 2, 3, 8 };
+    for (int k = 0; k < 4; k++) {
+        uint64_t d = run_jobs(threads[k], 8, 300, UINT64_MAX, &err);
+        CHECK_EQ_U64(d, ref);
+    }
+}
+
+TEST(jobs_in_flight_never_exceed_the_capacity)
+{
+    int err;
+    run_jobs(8, 4, 200, UINT64_MAX, &err);
+    CHECK(atomic_load(&max_running) <= 4);
+    CHECK(atomic_load(&max_running) >= 1);
+}
+
+TEST(an_error_rides_in_its_job_and_surfaces_in_order)
+{
+    int err;
+    run_jobs(3, 8, 100, 37, &err);
+    CHECK_EQ_INT(err, 37);
+    run_jobs(0, 8, 100, 0, &err);
+    CHECK_EQ_INT(err, 0);
+}
+
+TEST(submitting_to_a_full_ring_is_refused_not_blocked)
+{
+    en_pool *p = NULL;
+    CHECK_EQ_INT(en_pool_new(&p, 2, 2), 0);
+    work w[3] = { { 0, 1, 0, 0 }, { 1, 2, 0, 0 }, { 2, 3, 0, 0 } };
+    CHECK_EQ_INT(en_pool_submit(p, crunch, &w[0]), 0);
+    CHECK_EQ_INT(en_pool_submit(p, crunch, &w[1]), 0);
+    CHECK(en_pool_full(p));
+    CHECK_EQ_INT(en_pool_submit(p, crunch, &w[2]), EPSNET_EINTERNAL);
+    en_pool_free(&p); /* finishes both queued jobs, joins the workers */
+    CHECK_EQ_U64(w[0].output, expected(&w[0]));
+    CHECK_EQ_U64(w[1].output, expected(&w[1]));
+}
+
+TEST(capacity_rounds_up_to_a_power_of_two)
+{
+    en_pool *p = NULL;
+    CHECK_EQ_INT(en_pool_new(&p, 0, 3), 0);
+    work w[5];
+    for (int i = 0; i < 4; i++) {
+        w[i] = (work){ (uint64_t)i, (uint64_t)i, 0, 0 };
+        CHECK_EQ_INT(en_pool_submit(p, crunch, &w[i]), 0);
+    }
+    CHECK(en_pool_full(p));
+    en_pool_free(&p);
+}
+
+int main(void)
+{
+    RUN(jobs_retire_in_submission_order_for_any_thread_count);
+    RUN(jobs_in_flight_never_exceed_the_capacity);
+    RUN(an_error_rides_in_its_job_and_surfaces_in_order);
+    RUN(submitting_to_a_full_ring_is_refused_not_blocked);
+    RUN(capacity_rounds_up_to_a_power_of_two);
+    return tl_finish();
+}
