@@ -135,8 +135,7 @@ int en_job_simplify(epsnet_context *ctx, const char *in_path, en_slab *slab, eps
         if (!q || !ref) {
             rc = en_error_set(err, EPSNET_ENOMEM, in_path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         } else {
-            en_quadrics_from_faces(slab, q);
-            en_face_unit_normals(slab, ref);
+            en_quadrics_from_faces(slab, q, ref);
         }
     }
     for (int pass = 1; rc == 0 && pass <= ctx->settings.passes; pass++) {

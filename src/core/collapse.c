@@ -48,30 +48,22 @@ static double quadric_eval(const en_quadric *q, const double p[3])
            2 * q->bc * y * z + 2 * q->bd * y + q->c2 * z * z + 2 * q->cd * z + q->d2;
 }
 
-void en_face_unit_normals(const en_slab *s, double *n)
-{
-    for (uint32_t f = 0; f < s->nt; f++) {
-        double *m = n + 3 * (size_t)f;
-        en_triangle_normal(s->pos, s->tri + 3 * (size_t)f, m);
-        double len = sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
-        if (len > 0)
-            m[0] /= len, m[1] /= len, m[2] /= len;
-    }
-}
-
-void en_quadrics_from_faces(const en_slab *s, en_quadric *q)
+void en_quadrics_from_faces(const en_slab *s, en_quadric *q, double *unit_normal)
 {
     memset(q, 0, (size_t)s->nv * sizeof *q);
     for (uint32_t f = 0; f < s->nt; f++) {
         const uint32_t *t = s->tri + 3 * (size_t)f;
-        double n[3];
+        double n[3], *un = unit_normal + 3 * (size_t)f;
         en_triangle_normal(s->pos, t, n);
         double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-        if (len == 0)
+        if (len == 0) {
+            un[0] = un[1] = un[2] = 0;
             continue;
+        }
         /* note: weight = area, so a plane counts by how much surface it
          * carries and sliver triangles do not dominate. */
         double area = 0.5 * len, a = n[0] / len, b = n[1] / len, c = n[2] / len;
+        un[0] = a, un[1] = b, un[2] = c;
         const double *p = s->pos + 3 * (size_t)t[0];
         double d = -(a * p[0] + b * p[1] + c * p[2]);
         en_quadric k = { area * a * a, area * a * b, area * a * c, area * a * d, area * b * b,

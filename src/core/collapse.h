@@ -38,18 +38,16 @@ typedef struct en_collapse_counts {
     uint64_t refused[EN_REFUSE_KINDS]; /* remaining vertices refused for each reason */
 } en_collapse_counts;
 
-/* Unit normal of every face (0 for a zero-area face), 3 doubles per face:
- * the reference the normal bound is measured against. */
-void en_face_unit_normals(const en_slab *s, double *n);
-
-/* Per-vertex quadrics of the slab's faces (area-weighted planes). q has one
- * entry per slab vertex and is overwritten. */
-void en_quadrics_from_faces(const en_slab *s, en_quadric *q);
+/* Per-vertex quadrics of the slab's faces (area-weighted planes; q has one
+ * entry per vertex, overwritten) and the unit normal of every face (3
+ * doubles per face, 0 for a zero-area face): the reference the normal bound
+ * is measured against. One pass, since both need the same normal. */
+void en_quadrics_from_faces(const en_slab *s, en_quadric *q, double *unit_normal);
 
 /*
  * Collapse every vertex v with removable[v] != 0 that can go, cheapest first.
  * Needs the slab's stars. q (per vertex) accumulates through the collapses.
- * ref_normal (per face, from en_face_unit_normals() of the input) bounds
+ * ref_normal (per face, from en_quadrics_from_faces() on the input) bounds
  * how far any face may turn.
  * On return face_alive[f] says which faces remain (nt entries) and
  * vertex_alive[v] which vertices were not collapsed away (nv entries).
