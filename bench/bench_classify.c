@@ -29,7 +29,7 @@ int main(int argc, char **argv)
     en_slab s;
     en_slab_init(&s);
     double t0 = en_now();
-    if (epsnet_reader_open(&r, argv[1], NULL, &err) || en_slab_read_all(&s, r, &err)) {
+    if (epsnet_reader_open(&r, argv[1], NULL, &err) || en_slab_read_all(&s, r, argv[1], &err)) {
         fprintf(stderr, "bench_classify: %s\n", epsnet_error_message(&err));
         return 1;
     }

@@ -52,7 +52,7 @@ static inline int gen_slab(const char *shape, uint64_t faces, double param, uint
         rc = epsnet_reader_open(&r, path, NULL, &err);
     en_slab_init(s);
     if (rc == 0)
-        rc = en_slab_read_all(s, r, &err);
+        rc = en_slab_read_all(s, r, path, &err);
     epsnet_reader_close(&r);
     remove(path);
     if (rc)

@@ -185,7 +185,7 @@ static void check_samples_survive(const char *in_path, const run *r, int level, 
     epsnet_error err;
     en_slab_init(&s);
     CHECK_EQ_INT(epsnet_reader_open(&rd, in_path, NULL, &err), 0);
-    CHECK_EQ_INT(en_slab_read_all(&s, rd, &err), 0);
+    CHECK_EQ_INT(en_slab_read_all(&s, rd, in_path, &err), 0);
     epsnet_reader_close(&rd);
     gauss_rotation rot;
     gauss_rotation_default(&rot);

@@ -9,80 +9,35 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "common/alloc.h"
 #include "common/error.h"
+#include "core/slab.h"
 #include "io/sink.h"
 #include "metrics/hausdorff.h"
 
 /* Beyond this, the fourth power of an edge length (the zero-area test in
  * metrics/bvh.c compares |n|^2 with it) would overflow a double. */
 #define MAX_COORDINATE 1e75
-/* uint32 indices, with UINT32_MAX kept free as "no face" in the hierarchy. */
-#define MAX_ELEMENTS (UINT32_MAX - 1u)
 
-typedef struct loaded_mesh {
-    double *xyz;
-    uint32_t *tri;
-    size_t cap_xyz, cap_tri;     /* in elements of 3 */
-    uint32_t nv, nt;
-} loaded_mesh;
-
-static void loaded_free(loaded_mesh *m)
-{
-    en_free(m->xyz);
-    en_free(m->tri);
-    memset(m, 0, sizeof *m);
-}
-
-static int add_vertex(loaded_mesh *m, const char *path, const double xyz[3], epsnet_error *err)
-{
-    if (m->nv >= MAX_ELEMENTS)
-        return en_error_set(err, EPSNET_ELIMIT, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "more than %u vertices: too many to measure", MAX_ELEMENTS);
-    for (int k = 0; k < 3; k++)
-        if (fabs(xyz[k]) > MAX_COORDINATE)
-            return en_error_set(err, EPSNET_EUNSUPPORTED, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                                "vertex %" PRIu32 ": coordinate %g is too large to measure distances "
-                                "(limit 1e75)", m->nv + 1, xyz[k]);
-    if (en_grow((void **)&m->xyz, &m->cap_xyz, (size_t)m->nv + 1, 3 * sizeof *m->xyz))
-        return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "out of memory at vertex %" PRIu32, m->nv + 1);
-    memcpy(m->xyz + 3 * (size_t)m->nv, xyz, 3 * sizeof *xyz);
-    m->nv++;
-    return 0;
-}
-
-/* Indices were checked by the reader against the vertices read so far, so
- * they fit in 32 bits once the vertex count does. */
-static int add_triangle(loaded_mesh *m, const char *path, const uint64_t v[3], epsnet_error *err)
-{
-    if (m->nt >= MAX_ELEMENTS)
-        return en_error_set(err, EPSNET_ELIMIT, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "more than %u faces: too many to measure", MAX_ELEMENTS);
-    if (en_grow((void **)&m->tri, &m->cap_tri, (size_t)m->nt + 1, 3 * sizeof *m->tri))
-        return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "out of memory at face %" PRIu32, m->nt + 1);
-    for (int k = 0; k < 3; k++)
-        m->tri[3 * (size_t)m->nt + k] = (uint32_t)v[k];
-    m->nt++;
-    return 0;
-}
-
-static int load_mesh(const char *path, loaded_mesh *m, epsnet_error *err)
+/* Read path into a slab (no stars: distances need none) and refuse
+ * coordinates whose squared lengths would overflow the zero-area test.
+ * note: the slab's own limits keep every id below UINT32_MAX, which the
+ * hierarchy keeps free as "no face". */
+static int load_mesh(const char *path, en_slab *m, epsnet_error *err)
 {
     epsnet_reader *r = NULL;
     int rc = epsnet_reader_open(&r, path, NULL, err);
-    epsnet_record rec;
-    while (rc == 0 && (rc = epsnet_reader_next(r, &rec, err)) > 0) {
-        if (rec.kind == EPSNET_REC_VERTEX)
-            rc = add_vertex(m, path, rec.xyz, err);
-        else if (rec.kind == EPSNET_REC_TRIANGLE)
-            rc = add_triangle(m, path, rec.v, err);
-        else
-            rc = 0;
-    }
+    if (rc == 0)
+        rc = en_slab_read(m, r, path, err);
     epsnet_reader_close(&r);
-    return rc < 0 ? rc : 0;
+    for (uint32_t v = 0; rc == 0 && v < m->nv; v++)
+        for (int k = 0; k < 3; k++)
+            if (fabs(m->pos[3 * (size_t)v + k]) > MAX_COORDINATE) {
+                rc = en_error_set(err, EPSNET_EUNSUPPORTED, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                  "vertex %" PRIu32 ": coordinate %g is too large to measure distances "
+                                  "(limit 1e75)", v + 1, m->pos[3 * (size_t)v + k]);
+                break;
+            }
+    return rc;
 }
 
 int epsnet_hausdorff_files(const char *a, const char *b, const epsnet_hausdorff_settings *s,
@@ -100,7 +55,9 @@ int epsnet_hausdorff_files(const char *a, const char *b, const epsnet_hausdorff_
     if (s->samples_per_face < 1 || s->samples_per_face > 100000 || s->threads < 0)
         return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "samples per face must be 1..100000 and threads 0 or more");
-    loaded_mesh ma = { 0 }, mb = { 0 };
+    en_slab ma, mb;
+    en_slab_init(&ma);
+    en_slab_init(&mb);
     int rc = load_mesh(a, &ma, err);
     if (rc == 0)
         rc = load_mesh(b, &mb, err);
@@ -108,7 +65,7 @@ int epsnet_hausdorff_files(const char *a, const char *b, const epsnet_hausdorff_
         rc = en_error_set(err, EPSNET_EINVAL, ma.nt == 0 ? a : b, EPSNET_POS_NONE, EPSNET_POS_NONE,
                           "no faces: the distance to an empty surface is undefined");
     if (rc == 0) {
-        en_hd_mesh ha = { ma.xyz, ma.nv, ma.tri, ma.nt }, hb = { mb.xyz, mb.nv, mb.tri, mb.nt };
+        en_hd_mesh ha = { ma.pos, ma.nv, ma.tri, ma.nt }, hb = { mb.pos, mb.nv, mb.tri, mb.nt };
         rc = en_hausdorff(&ha, &hb, s, out);
         if (rc == EPSNET_ENOMEM)
             en_error_set(err, rc, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
@@ -117,8 +74,8 @@ int epsnet_hausdorff_files(const char *a, const char *b, const epsnet_hausdorff_
             en_error_set(err, rc, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
                          "measuring %s against %s failed", a, b);
     }
-    loaded_free(&ma);
-    loaded_free(&mb);
+    en_slab_free(&ma);
+    en_slab_free(&mb);
     return rc;
 }
 

@@ -26,7 +26,7 @@ int en_job_load(epsnet_context *ctx, const char *in_path, en_slab *s, epsnet_coo
     int rc = epsnet_reader_open(&r, in_path, &rs, err);
     if (rc == 0) {
         *ct = epsnet_reader_info(r)->coord_type;
-        rc = en_slab_read_all(s, r, err);
+        rc = en_slab_read_all(s, r, in_path, err);
     }
     epsnet_reader_close(&r);
     ctx->stats.seconds_read += en_now() - t0;

@@ -242,27 +242,39 @@ int en_slab_build_stars(en_slab *s)
     return 0;
 }
 
-int en_slab_read_all(en_slab *s, epsnet_reader *r, epsnet_error *err)
+int en_slab_read(en_slab *s, epsnet_reader *r, const char *path, epsnet_error *err)
 {
     epsnet_record rec;
     int rc;
     while ((rc = epsnet_reader_next(r, &rec, err)) > 0) {
         if (rec.kind == EPSNET_REC_VERTEX) {
             if (en_slab_add_vertex(s, s->nv, rec.xyz, EN_V_OWNED | EN_V_COMPLETE) < 0)
-                return en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                                    "out of memory holding the mesh (%u vertices)", s->nv);
+                return s->nv >= UINT32_MAX - 2
+                           ? en_error_set(err, EPSNET_ELIMIT, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                          "more than %u vertices in one slab", s->nv)
+                           : en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                          "out of memory holding the mesh (%u vertices)", s->nv);
         } else if (rec.kind == EPSNET_REC_TRIANGLE) {
+            /* note: the reader checked every corner against the vertices read
+             * so far, which fit in 32 bits. */
             if (en_slab_add_face(s, (uint32_t)rec.v[0], (uint32_t)rec.v[1], (uint32_t)rec.v[2]))
-                return en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                                    "out of memory holding the mesh (%u faces)", s->nt);
+                return s->nt >= UINT32_MAX / 3 - 1
+                           ? en_error_set(err, EPSNET_ELIMIT, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                          "more than %u faces in one slab", s->nt)
+                           : en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                          "out of memory holding the mesh (%u faces)", s->nt);
         }
     }
-    if (rc < 0)
-        return rc;
-    if (en_slab_build_stars(s))
-        return en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "out of memory building vertex stars");
-    return 0;
+    return rc < 0 ? rc : 0;
+}
+
+int en_slab_read_all(en_slab *s, epsnet_reader *r, const char *path, epsnet_error *err)
+{
+    int rc = en_slab_read(s, r, path, err);
+    if (rc == 0 && en_slab_build_stars(s))
+        rc = en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                          "out of memory building vertex stars");
+    return rc;
 }
 
 /* Corner order a file happens to use must not change a normal's rounding,

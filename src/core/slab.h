@@ -72,10 +72,14 @@ static inline uint32_t en_slab_degree(const en_slab *s, uint32_t v)
 }
 
 /*
- * Read a whole mesh into a one-slab slab (every vertex owned). Unreferenced
- * vertices are kept (flagged isolated) so local ids equal global ids.
- * @return 0 or a negative code with err filled.
+ * Read a whole mesh into a one-slab slab (every vertex owned and complete).
+ * Unreferenced vertices are kept (local ids equal global ids). path names
+ * the input in messages. @return 0 or a negative code with err filled
+ * (ELIMIT past 2^32-2 vertices, ENOMEM).
  */
-int en_slab_read_all(en_slab *s, epsnet_reader *r, epsnet_error *err);
+int en_slab_read(en_slab *s, epsnet_reader *r, const char *path, epsnet_error *err);
+
+/* en_slab_read() and then en_slab_build_stars(). */
+int en_slab_read_all(en_slab *s, epsnet_reader *r, const char *path, epsnet_error *err);
 
 #endif /* EN_CORE_SLAB_H */
