@@ -263,6 +263,34 @@ TEST(error_messages_name_file_and_position)
     CHECK(strcmp(epsnet_strerror(EPSNET_ELIMIT), "limit exceeded") == 0);
 }
 
+/* The front end delivers every record a driver pushed before it failed, and
+ * only then the error (format.h's driver contract), for any format. */
+TEST(records_before_a_bad_line_arrive_before_the_error)
+{
+    const char *cases[][2] = {
+        { "before.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nv 1 x 0\n" },
+        { "before.sma", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nv 1 x 0\n" },
+    };
+    for (int i = 0; i < 2; i++) {
+        const char *p = tl_write_str(cases[i][0], cases[i][1]);
+        epsnet_reader *r = NULL;
+        epsnet_error err;
+        CHECK_EQ_INT(epsnet_reader_open(&r, p, NULL, &err), 0);
+        epsnet_record rec;
+        int rc, n = 0, tris = 0;
+        while ((rc = epsnet_reader_next(r, &rec, &err)) > 0) {
+            n++;
+            tris += rec.kind == EPSNET_REC_TRIANGLE;
+        }
+        CHECK_EQ_INT(n, 4);
+        CHECK_EQ_INT(tris, 1);
+        CHECK_EQ_INT(rc, EPSNET_EFORMAT);
+        CHECK_STR_CONTAINS(epsnet_error_message(&err), ":5:");
+        CHECK_EQ_INT(epsnet_reader_next(r, &rec, &err), EPSNET_EFORMAT); /* sticky */
+        epsnet_reader_close(&r);
+    }
+}
+
 TEST(format_coord_is_shortest_exact)
 {
     char buf[32];
@@ -292,6 +320,7 @@ int main(void)
     RUN(u64set_add_remove_many);
     RUN(parse_size_accepts_binary_suffixes);
     RUN(error_messages_name_file_and_position);
+    RUN(records_before_a_bad_line_arrive_before_the_error);
     RUN(format_coord_is_shortest_exact);
     tl_cleanup();
     return tl_finish();

@@ -219,10 +219,8 @@ static int obj_fill(epsnet_reader *r)
             return r->qlen > 0;
         if (rc > 0)
             rc = parse_statement(r, stmt);
-        /* note: records queued before a bad line are still delivered; the
-         * front end reports r->err once the queue is empty. */
         if (rc < 0)
-            return r->qlen > 0 ? 1 : rc;
+            return rc;
     }
     return 1;
 }

@@ -275,10 +275,8 @@ static int sma_fill(epsnet_reader *r)
             return r->qlen > 0;
         else if (rc > 0)
             rc = parse_statement(r, line);
-        /* note: records before a bad line are delivered first; the front
-         * end reports r->err once the queue is empty. */
         if (rc < 0)
-            return r->qlen > 0 ? 1 : rc;
+            return rc;
     }
     return 1;
 }

@@ -440,10 +440,8 @@ static int smb_fill(epsnet_reader *r)
             if (rc > 0)
                 continue;
         }
-        /* note: records before a bad one are delivered first; the front end
-         * reports r->err once the queue is empty. */
         if (rc < 0)
-            return r->qlen > 0 ? 1 : rc;
+            return rc;
         return r->qlen > 0;
     }
     return 1;

@@ -289,14 +289,14 @@ static int smz_fill(epsnet_reader *r)
                 break;
             int rc = next_block(r, st);
             if (rc < 0)
-                return r->qlen > 0 ? 1 : rc;
+                return rc;
             if (rc == 0)
                 break;
             continue;
         }
         int rc = push_one(r, st, &st->recs[st->pos]);
         if (rc)
-            return r->qlen > 0 ? 1 : rc;
+            return rc;
         st->pos++;
     }
     return r->qlen > 0;

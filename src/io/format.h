@@ -8,6 +8,8 @@
  *   reader: open() parses the header and fills r->info; fill() pushes at
  *   least one record, or returns 0 at the end of the mesh; both return a
  *   negative code with r->err filled on failure (use en_reader_fail()).
+ *   Records a fill() pushed before it failed are still delivered, and the
+ *   error follows them, so a driver just returns the code.
  *   writer: open() may write a header; put() gets validated records; finish()
  *   completes the file (it does not commit the sink). Drivers keep their
  *   private state in r->state / w->state and free it in close().
