@@ -69,7 +69,7 @@ double cli_now(void);
 /*
  * Options shared by the commands that run the method (sample, simplify):
  * --level, --frequency, --seed, --rotation, -j/--threads, --mem, --tmpdir,
- * --stats. CLI_METHOD_OPTIONS goes into a getopt_long table; the codes are
+ * --stats, --slab. CLI_METHOD_OPTIONS goes into a getopt_long table; the codes are
  * >= 1000 except -j. cli_method_option() handles one; it returns 1 when it
  * took the option, 0 when the code is not a method option, or -1 after
  * printing a usage error.
@@ -82,7 +82,8 @@ double cli_now(void);
     { "threads", required_argument, NULL, 'j' },                    \
     { "mem", required_argument, NULL, 1004 },                       \
     { "tmpdir", required_argument, NULL, 1005 },                    \
-    { "stats", required_argument, NULL, 1006 }
+    { "stats", required_argument, NULL, 1006 },                     \
+    { "slab", required_argument, NULL, 1007 }
 
 typedef struct cli_method {
     epsnet_settings settings;

@@ -138,7 +138,11 @@ const char cli_method_help[] =
     "                      AX,AY,AZ,DEG (axis, angle) or q:W,X,Y,Z (quaternion)\n"
     "      --seed S        a random orientation from seed S (instead of --rotation)\n"
     "  -j, --threads N     worker threads (default: all cores)\n"
-    "      --mem SIZE      memory budget, e.g. 512M, 4G (default: none)\n"
+    "      --mem SIZE      memory budget, e.g. 512M, 4G (default: none); sets the\n"
+    "                      slab size when --slab is not given\n"
+    "      --slab N        vertices per slab of the streaming pipeline (default:\n"
+    "                      from --mem, else 65536); the output depends on it, never\n"
+    "                      on --threads\n"
     "      --tmpdir DIR    folder for temporary files\n"
     "      --stats FILE    write statistics as JSON (- for stdout)\n";
 
@@ -212,6 +216,13 @@ int cli_method_option(const char *cmd, int code, const char *arg, cli_method *m)
         return 1;
     case 1006:
         m->stats_path = arg;
+        return 1;
+    case 1007:
+        if (cli_parse_u64(cmd, "--slab", arg, &v))
+            return -1;
+        if (v < 1 || v > (1u << 30))
+            return method_usage(cmd, "--slab must be between 1 and 2^30 vertices");
+        m->settings.slab_vertices = (uint32_t)v;
         return 1;
     default:
         return 0;

@@ -411,7 +411,13 @@ typedef struct epsnet_settings {
     /* Write ASCII instead of binary where the output format offers both.
      * Default: 0. */
     int ascii;
-    uint8_t reserved[112];
+    /* Streaming pipeline (SPEC §2): vertices owned by each slab. 0 = derive
+     * it from mem (mem / 4800, at least 1024), or 65536 without a budget.
+     * Slabs depend only on the input and this number, never on threads, so
+     * the output does not either. Smaller slabs use less memory; the
+     * samples are the same for every slab size. Default: 0. */
+    uint32_t slab_vertices;
+    uint8_t reserved[108];
 } epsnet_settings;
 
 EPSNET_API void epsnet_default_settings(epsnet_settings *s);
@@ -449,6 +455,15 @@ typedef struct epsnet_stats {
     uint64_t refused_zero_area;   /* ... a face would lose its area */
     uint64_t refused_duplicate;   /* ... a face would duplicate an existing one */
     uint64_t max_active;          /* largest active set: vertices + faces in memory */
+    uint64_t slabs;               /* streaming pipeline: slabs cut, all passes */
+    uint64_t seam_faces;          /* ... faces that went through the stitcher's seams */
+    uint64_t seam_collapses;      /* ... collapses done there (included in collapses) */
+    /* Seam quality (pass 1..passes summed): input non-samples within one ring
+     * of a slab border ("band") and elsewhere ("inner"), and how many of each
+     * are still in the output. Equal rates mean seams are simplified like
+     * the rest. */
+    uint64_t band_nonsamples, band_nonsamples_left;
+    uint64_t inner_nonsamples, inner_nonsamples_left;
     uint64_t peak_rss;            /* bytes, 0 if unknown */
     double seconds_read;          /* per stage, wall clock */
     double seconds_normals;
@@ -523,6 +538,76 @@ EPSNET_API int epsnet_stats_write_json(const epsnet_context *ctx, const char *co
  */
 EPSNET_API int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *out_path,
                                     epsnet_error *err);
+
+/* ------------------------------------------------------------------------
+ * 8b. Streaming: push records in, pull records out (SPEC §2)
+ *
+ * The pipeline behind epsnet_simplify_file(), for callers who produce or
+ * consume records themselves. A *chunker* cuts the input into slabs of
+ * settings.slab_vertices finalized vertices, a pool of settings.threads
+ * workers classifies and simplifies each slab on its own, and a *stitcher*
+ * finishes the seams between slabs and emits one ordered stream. Chained
+ * ε-net passes run in the same pipeline, one after the other, without
+ * temporary files.
+ *
+ * Input is a streaming mesh (section 2): vertices get ids 0, 1, 2, ... in
+ * push order, triangles name live vertices, FINALIZE says a vertex is used
+ * by no later triangle. Finalization is what lets slabs be cut and memory
+ * stay bounded (by the stream's width, not its length); vertices never
+ * finalized are held until epsnet_stream_end() and go into one last slab.
+ *
+ * Output is the simplified mesh, itself a finalized streaming mesh: its
+ * vertices in input id order (a sorted input stays sorted), each triangle
+ * right after its last vertex, each vertex finalized right after its last
+ * triangle; output ids are 0, 1, 2, ... in the order of VERTEX records.
+ * The same input and settings give the same records for every thread
+ * count. The samples (which vertices are kept as samples) are the same for
+ * every slab size; the collapses around them may differ slightly.
+ *
+ * Records come out as slabs are finished, so pull after every push (and
+ * after end) until pull returns 0; what is not pulled accumulates.
+ *
+ *     epsnet_stream *s = NULL;
+ *     epsnet_record in, out;
+ *     int rc = epsnet_stream_open(&s, ctx, &err);
+ *     while (rc == 0 && produce(&in)) {
+ *         rc = epsnet_stream_push(s, &in, &err);
+ *         while (rc == 0 && (rc = epsnet_stream_pull(s, &out, &err)) == 1)
+ *             rc = consume(&out);
+ *     }
+ *     if (rc == 0)
+ *         rc = epsnet_stream_end(s, &err);
+ *     while (rc == 0 && (rc = epsnet_stream_pull(s, &out, &err)) == 1)
+ *         rc = consume(&out);
+ *     epsnet_stream_close(&s);
+ *
+ * tests/example_stream.c is a complete program built on it.
+ * ------------------------------------------------------------------------ */
+
+typedef struct epsnet_stream epsnet_stream;
+
+/*
+ * Start a simplification with ctx's settings. Worker threads start here.
+ * @return 0, or a negative code with err filled (EPSNET_EIO when threads
+ * cannot be started). ctx must outlive the stream; its statistics are
+ * those of this run after epsnet_stream_end().
+ */
+EPSNET_API int epsnet_stream_open(epsnet_stream **s, epsnet_context *ctx, epsnet_error *err);
+
+/* Give the next input record. @return 0, or a negative code with err filled
+ * (bad record: EPSNET_EFORMAT; an error from a worker, in slab order);
+ * after an error every call returns it again. */
+EPSNET_API int epsnet_stream_push(epsnet_stream *s, const epsnet_record *rec, epsnet_error *err);
+
+/* End of input: finish every slab and seam. @return 0 or a negative code. */
+EPSNET_API int epsnet_stream_end(epsnet_stream *s, epsnet_error *err);
+
+/* @return 1 with *rec filled, 0 when no output record is waiting, or a
+ * negative code. */
+EPSNET_API int epsnet_stream_pull(epsnet_stream *s, epsnet_record *rec, epsnet_error *err);
+
+/* Stop the workers and free everything; sets *s to NULL. Accepts NULL. */
+EPSNET_API void epsnet_stream_close(epsnet_stream **s);
 
 /* ------------------------------------------------------------------------
  * 9. Measuring

@@ -143,6 +143,10 @@ int epsnet_stats_write_json(const epsnet_context *c, const char *command, const 
         "  \"refused\": {\"link\": %" PRIu64 ", \"normal\": %" PRIu64 ", \"zero_area\": %" PRIu64
         ", \"duplicate\": %" PRIu64 "},\n"
         "  \"max_active\": %" PRIu64 ",\n"
+        "  \"slabs\": %" PRIu64 ",\n"
+        "  \"seams\": {\"faces\": %" PRIu64 ", \"collapses\": %" PRIu64 "},\n"
+        "  \"nonsamples\": {\"band\": %" PRIu64 ", \"band_left\": %" PRIu64 ", \"inner\": %" PRIu64
+        ", \"inner_left\": %" PRIu64 "},\n"
         "  \"peak_rss\": %" PRIu64 ",\n"
         "  \"seconds\": {\"read\": %.6f, \"normals\": %.6f, \"classify\": %.6f, \"simplify\": %.6f, "
         "\"write\": %.6f}\n"
@@ -153,7 +157,8 @@ int epsnet_stats_write_json(const epsnet_context *c, const char *command, const 
         s->samples, s->locked, s->boundary_vertices, s->nonmanifold_vertices, s->needle_vertices,
         s->multi_cover_samples, s->output_vertices, s->output_faces, s->collapses, s->passes,
         s->remaining_nonsamples, s->refused_link, s->refused_normal, s->refused_zero_area, s->refused_duplicate,
-        s->max_active, s->peak_rss, s->seconds_read, s->seconds_normals, s->seconds_classify,
+        s->max_active, s->slabs, s->seam_faces, s->seam_collapses, s->band_nonsamples,
+        s->band_nonsamples_left, s->inner_nonsamples, s->inner_nonsamples_left, s->peak_rss, s->seconds_read, s->seconds_normals, s->seconds_classify,
         s->seconds_simplify, s->seconds_write);
     if (n < 0 || (size_t)n >= sizeof buf)
         return en_error_set(err, EPSNET_EINTERNAL, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "stats too long");

@@ -1,12 +1,14 @@
 /*
- * epsnet_sample_file(): the whole-mesh run of the classification. The mesh is
- * read into one slab that owns every vertex — the one-slab case of the
- * per-slab core (SPEC §2) — classified, and written as samples.
+ * epsnet_sample_file(): the classification. Sample points stream through
+ * the pipeline (src/api/stream_files.c); the whole-mesh view is read into
+ * one slab that owns every vertex — the one-slab case of the per-slab core
+ * (SPEC §2) — classified, and written with a flag per vertex.
  */
 #include <stdio.h>
 #include <string.h>
 
 #include "api/jobs.h"
+#include "api/stream_files.h"
 #include "common/alloc.h"
 #include "common/error.h"
 #include "common/util.h"
@@ -20,6 +22,9 @@ int epsnet_sample_file(epsnet_context *ctx, const char *in_path, const char *out
                             "epsnet_sample_file: NULL argument");
     memset(&ctx->stats, 0, sizeof ctx->stats);
     snprintf(ctx->command, sizeof ctx->command, "sample");
+    if (what == EPSNET_SAMPLES_POINTS)
+        return en_sample_points_streamed(ctx, in_path, out_path, ascii, err);
+    /* The whole mesh with a flag per vertex: in memory, as one slab. */
     ctx->stats.gaussian_vertices = ctx->sphere.nverts;
     en_slab slab;
     en_slab_init(&slab);

@@ -1,7 +1,8 @@
 /*
- * epsnet_simplify_file(): sampling followed by the removal of non-samples
- * (paper §4.2, §5), repeated under new rotations for the ε-net passes. The
- * whole mesh is one slab here (SPEC §2: the one-slab case of the same core).
+ * In-core simplification: sampling followed by the removal of non-samples
+ * (paper §4.2, §5), repeated under new rotations for the ε-net passes, on
+ * the whole mesh as one slab. epsnet_render_file() uses it (it needs the
+ * result in memory); epsnet_simplify_file() streams (src/pipeline/).
  */
 #include <stdio.h>
 #include <string.h>
@@ -11,46 +12,6 @@
 #include "common/error.h"
 #include "common/util.h"
 #include "core/collapse.h"
-
-/* Rotation of pass i >= 2: derived from the seed, so runs are repeatable.
- * note: splitmix64's increment keeps pass rotations unrelated to each other
- * and to the --seed rotation of pass 1. */
-static void pass_rotation(uint64_t seed, int pass, gauss_rotation *r)
-{
-    gauss_rotation_from_seed(seed + 0x9e3779b97f4a7c15ull * (uint64_t)pass, r);
-}
-
-static int write_slab(const en_slab *s, const char *path, epsnet_coord_type ct, int ascii, epsnet_error *err)
-{
-    epsnet_writer_settings ws;
-    epsnet_writer_default_settings(&ws);
-    ws.ascii = ascii;
-    epsnet_mesh_info info;
-    memset(&info, 0, sizeof info);
-    info.nverts = s->nv;
-    info.nfaces = s->nt;
-    info.coord_type = ct;
-    info.sorted_axis = -1;
-    epsnet_writer *w = NULL;
-    int rc = epsnet_writer_open(&w, path, &ws, &info, err);
-    epsnet_record rec;
-    memset(&rec, 0, sizeof rec);
-    for (uint32_t v = 0; v < s->nv && rc == 0; v++) {
-        rec.kind = EPSNET_REC_VERTEX;
-        memcpy(rec.xyz, s->pos + 3 * (size_t)v, sizeof rec.xyz);
-        rc = epsnet_writer_put(w, &rec, err);
-    }
-    for (uint32_t f = 0; f < s->nt && rc == 0; f++) {
-        rec.kind = EPSNET_REC_TRIANGLE;
-        for (int k = 0; k < 3; k++)
-            rec.v[k] = s->tri[3 * (size_t)f + k];
-        rc = epsnet_writer_put(w, &rec, err);
-    }
-    if (rc == 0)
-        return epsnet_writer_commit(&w, err);
-    epsnet_writer_abort(&w);
-    return rc;
-}
 
 /* One pass: classify s under g, collapse its removable vertices, and replace
  * s (and q) by what remains. *removed = vertices collapsed away. */
@@ -142,7 +103,7 @@ int en_job_simplify(epsnet_context *ctx, const char *in_path, en_slab *slab, eps
         gauss_sphere g = ctx->sphere;
         if (pass > 1) {
             gauss_rotation r;
-            pass_rotation(ctx->settings.seed, pass, &r);
+            en_pass_rotation(ctx->settings.seed, pass, &r);
             gauss_init(&g, ctx->sphere.n, &r);
         }
         uint64_t removed = 0;
@@ -157,26 +118,5 @@ int en_job_simplify(epsnet_context *ctx, const char *in_path, en_slab *slab, eps
     }
     en_free(q);
     en_free(ref);
-    return rc;
-}
-
-int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *out_path, epsnet_error *err)
-{
-    if (!ctx || !in_path || !out_path)
-        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "epsnet_simplify_file: NULL argument");
-    memset(&ctx->stats, 0, sizeof ctx->stats);
-    snprintf(ctx->command, sizeof ctx->command, "simplify");
-    en_slab slab;
-    en_slab_init(&slab);
-    epsnet_coord_type ct = EPSNET_COORD_FLOAT32;
-    int rc = en_job_simplify(ctx, in_path, &slab, &ct, err);
-    if (rc == 0) {
-        double t0 = en_now();
-        rc = write_slab(&slab, out_path, ct, ctx->settings.ascii, err);
-        ctx->stats.seconds_write = en_now() - t0;
-    }
-    ctx->stats.peak_rss = en_peak_rss_bytes();
-    en_slab_free(&slab);
     return rc;
 }

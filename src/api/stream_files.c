@@ -1,0 +1,176 @@
+/*
+ * File-to-file runs of the streaming pipeline: epsnet_simplify_file() and
+ * the point output of epsnet_sample_file(). The reader feeds the stream on
+ * this thread; the stitcher's records go straight to the writer.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "api/context.h"
+#include "api/jobs.h"
+#include "api/stream_files.h"
+#include "common/alloc.h"
+#include "common/error.h"
+#include "common/util.h"
+#include "io/samples_ply.h"
+#include "pipeline/stream.h"
+
+/* Records between two progress callbacks. */
+#define PROGRESS_EVERY 65536
+
+static int writer_sink(void *opaque, const epsnet_record *rec, epsnet_error *err)
+{
+    return epsnet_writer_put(opaque, rec, err);
+}
+
+/* Read in_path into s; r is opened here and closed by the caller. */
+static int feed(epsnet_context *ctx, epsnet_stream *s, epsnet_reader *r, const char *path, epsnet_error *err)
+{
+    epsnet_record rec;
+    uint64_t n = 0;
+    int rc;
+    while ((rc = epsnet_reader_next(r, &rec, err)) == 1) {
+        if ((rc = en_stream_put(s, &rec, err)) != 0)
+            return rc;
+        if (ctx->settings.progress && ++n % PROGRESS_EVERY == 0 &&
+            ctx->settings.progress(ctx->settings.progress_opaque, epsnet_reader_bytes_read(r),
+                                   epsnet_reader_file_size(r)))
+            return en_error_set(err, EPSNET_EINTR, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "cancelled");
+    }
+    if (rc < 0)
+        return rc;
+    return en_stream_finish(s, err);
+}
+
+static int open_input(epsnet_context *ctx, const char *in_path, epsnet_reader **r, epsnet_error *err)
+{
+    epsnet_reader_settings rs;
+    epsnet_reader_default_settings(&rs);
+    rs.mem_limit = ctx->settings.mem;
+    return epsnet_reader_open(r, in_path, &rs, err);
+}
+
+int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *out_path, epsnet_error *err)
+{
+    if (!ctx || !in_path || !out_path)
+        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "epsnet_simplify_file: NULL argument");
+    snprintf(ctx->command, sizeof ctx->command, "simplify");
+    double t0 = en_now();
+    epsnet_reader *r = NULL;
+    epsnet_writer *w = NULL;
+    epsnet_stream *s = NULL;
+    int rc = open_input(ctx, in_path, &r, err);
+    if (rc == 0) {
+        const epsnet_mesh_info *in = epsnet_reader_info(r);
+        epsnet_writer_settings ws;
+        epsnet_writer_default_settings(&ws);
+        ws.ascii = ctx->settings.ascii;
+        ws.tmpdir = ctx->tmpdir;
+        epsnet_mesh_info info;
+        memset(&info, 0, sizeof info);
+        info.nverts = EPSNET_COUNT_UNKNOWN;
+        info.nfaces = EPSNET_COUNT_UNKNOWN;
+        info.coord_type = in->coord_type;
+        info.streaming = 1;
+        info.sorted_axis = in->sorted_axis; /* output vertices keep the input's order */
+        rc = epsnet_writer_open(&w, out_path, &ws, &info, err);
+    }
+    if (rc == 0)
+        rc = en_stream_new(&s, ctx, EN_SLAB_SIMPLIFY, in_path, err);
+    if (rc == 0) {
+        en_stream_set_sink(s, writer_sink, w);
+        rc = feed(ctx, s, r, in_path, err);
+    }
+    epsnet_stream_close(&s);
+    epsnet_reader_close(&r);
+    if (rc == 0)
+        rc = epsnet_writer_commit(&w, err);
+    else
+        epsnet_writer_abort(&w);
+    ctx->stats.seconds_simplify = en_now() - t0;
+    ctx->stats.peak_rss = en_peak_rss_bytes();
+    return rc;
+}
+
+typedef struct sample_point {
+    uint64_t gid;
+    double xyz[3];
+    int32_t gvertex;
+} sample_point;
+
+typedef struct sample_list {
+    sample_point *p;
+    size_t n, cap;
+} sample_list;
+
+static int collect(void *opaque, uint64_t gid, const double xyz[3], int32_t gvertex, epsnet_error *err)
+{
+    sample_list *l = opaque;
+    if (en_grow((void **)&l->p, &l->cap, l->n + 1, sizeof *l->p))
+        return en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "out of memory: %zu samples", l->n);
+    l->p[l->n].gid = gid;
+    memcpy(l->p[l->n].xyz, xyz, sizeof l->p[l->n].xyz);
+    l->p[l->n].gvertex = gvertex;
+    l->n++;
+    return 0;
+}
+
+static int by_gid(const void *a, const void *b)
+{
+    uint64_t x = ((const sample_point *)a)->gid, y = ((const sample_point *)b)->gid;
+    return (x > y) - (x < y);
+}
+
+int en_sample_points_streamed(epsnet_context *ctx, const char *in_path, const char *out_path, int ascii,
+                              epsnet_error *err)
+{
+    double t0 = en_now();
+    epsnet_reader *r = NULL;
+    epsnet_stream *s = NULL;
+    sample_list l = { 0 };
+    epsnet_coord_type ct = EPSNET_COORD_FLOAT32;
+    int rc = open_input(ctx, in_path, &r, err);
+    if (rc == 0) {
+        ct = epsnet_reader_info(r)->coord_type;
+        rc = en_stream_new(&s, ctx, EN_SLAB_SAMPLE, in_path, err);
+    }
+    if (rc == 0) {
+        en_stream_set_sample_sink(s, collect, &l);
+        rc = feed(ctx, s, r, in_path, err);
+    }
+    epsnet_stream_close(&s);
+    epsnet_reader_close(&r);
+    ctx->stats.seconds_classify = en_now() - t0;
+    /* Samples are few (about one per Gaussian vertex per feature): written in
+     * input order, as the one-slab run writes them. */
+    double *pos = NULL;
+    int32_t *gv = NULL;
+    uint8_t *one = NULL;
+    if (rc == 0) {
+        qsort(l.p, l.n, sizeof *l.p, by_gid);
+        pos = en_malloc(3 * sizeof *pos * l.n + 8);
+        gv = en_malloc(sizeof *gv * l.n + 8);
+        one = en_malloc(l.n + 1);
+        if (!pos || !gv || !one)
+            rc = en_error_set(err, EPSNET_ENOMEM, in_path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    }
+    if (rc == 0) {
+        for (size_t i = 0; i < l.n; i++) {
+            memcpy(pos + 3 * i, l.p[i].xyz, 3 * sizeof *pos);
+            gv[i] = l.p[i].gvertex;
+            one[i] = 1;
+        }
+        double t1 = en_now();
+        rc = en_write_sample_points(out_path, ascii, ct, l.n, pos, one, gv, err);
+        ctx->stats.seconds_write = en_now() - t1;
+    }
+    en_free(pos);
+    en_free(gv);
+    en_free(one);
+    en_free(l.p);
+    ctx->stats.peak_rss = en_peak_rss_bytes();
+    return rc;
+}

@@ -1,0 +1,250 @@
+#include "pipeline/chunker.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "common/alloc.h"
+#include "common/error.h"
+
+int en_chunker_init(en_chunker *c, uint32_t slab_vertices, const char *path)
+{
+    memset(c, 0, sizeof *c);
+    c->slab_vertices = slab_vertices ? slab_vertices : 1;
+    c->path = path;
+    return en_u64map_init(&c->map) ? EPSNET_ENOMEM : 0;
+}
+
+void en_chunker_free(en_chunker *c)
+{
+    en_free(c->v);
+    en_free(c->free_list);
+    en_u64map_free(&c->map);
+    en_free(c->faces);
+    en_free(c->fin);
+    memset(c, 0, sizeof *c);
+}
+
+static int bad(en_chunker *c, epsnet_error *err, const char *what, uint64_t id)
+{
+    return en_error_set(err, EPSNET_EFORMAT, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "record %llu: %s %llu",
+                        (unsigned long long)c->records, what, (unsigned long long)id);
+}
+
+static int new_vertex(en_chunker *c, const double xyz[3], epsnet_error *err)
+{
+    uint32_t i;
+    if (c->free_len) {
+        i = c->free_list[--c->free_len];
+    } else {
+        if (c->v_len >= UINT32_MAX - 1 || en_grow((void **)&c->v, &c->v_cap, c->v_len + 1, sizeof *c->v))
+            return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "out of memory: %zu live vertices", c->v_len);
+        i = (uint32_t)c->v_len++;
+    }
+    en_chunk_vertex *v = &c->v[i];
+    v->gid = c->next_gid;
+    memcpy(v->xyz, xyz, sizeof v->xyz);
+    v->nref = 0;
+    v->local_slab = -1;
+    v->owner = EN_OWNER_LIVE;
+    if (en_u64map_put(&c->map, c->next_gid, i)) {
+        if (i + 1 == c->v_len)
+            c->v_len--;
+        else
+            c->free_list[c->free_len++] = i; /* it came from there: room is left */
+        return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    }
+    c->next_gid++;
+    return 0;
+}
+
+static int free_vertex(en_chunker *c, uint32_t i)
+{
+    if (en_grow((void **)&c->free_list, &c->free_cap, c->free_len + 1, sizeof *c->free_list))
+        return -1;
+    en_u64map_remove(&c->map, c->v[i].gid);
+    c->free_list[c->free_len++] = i;
+    return 0;
+}
+
+static int live_vertex(en_chunker *c, uint64_t gid, uint32_t *i)
+{
+    return en_u64map_get(&c->map, gid, i) && c->v[*i].owner == EN_OWNER_LIVE;
+}
+
+static int cmp_gid(const void *a, const void *b, void *arg)
+{
+    const en_chunk_vertex *v = arg;
+    uint64_t x = v[*(const uint32_t *)a].gid, y = v[*(const uint32_t *)b].gid;
+    return (x > y) - (x < y);
+}
+
+static int add_local(en_chunker *c, en_slab_work *w, uint32_t i, uint8_t flags)
+{
+    en_chunk_vertex *v = &c->v[i];
+    if (v->local_slab == (int64_t)w->index)
+        return 0;
+    int64_t l = en_slab_add_vertex(&w->s, v->gid, v->xyz, flags);
+    if (l < 0)
+        return -1;
+    v->local = (uint32_t)l;
+    v->local_slab = w->index;
+    return 0;
+}
+
+/* Cut the finalized vertices in c->fin into slab c->next_slab. */
+static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
+{
+    en_slab_work *w = en_malloc(sizeof *w);
+    if (!w)
+        return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    en_slab_work_init(w);
+    uint32_t k = c->next_slab;
+    w->index = k;
+    w->nowned = (uint32_t)c->nfin;
+    w->live_vertices = c->map.count;
+    w->live_faces = c->nfaces;
+    if (w->live_vertices + w->live_faces > c->max_active)
+        c->max_active = w->live_vertices + w->live_faces;
+    qsort_r(c->fin, c->nfin, sizeof *c->fin, cmp_gid, c->v);
+    int rc = 0;
+    for (size_t j = 0; j < c->nfin && rc == 0; j++) {
+        c->v[c->fin[j]].owner = k;
+        rc = add_local(c, w, c->fin[j], EN_V_OWNED);
+    }
+    /* Every face around an owned vertex joins the slab; a face whose corners
+     * are now all owned is done with (this is its home: SPEC §2). */
+    size_t kept = 0, fflags_cap = 0;
+    for (size_t f = 0; f < c->nfaces && rc == 0; f++) {
+        uint32_t *t = c->faces + 3 * f;
+        int touches = 0, interior = 1, home = 1;
+        for (int j = 0; j < 3; j++) {
+            int64_t o = c->v[t[j]].owner;
+            touches |= o == k;
+            interior &= o == k;
+            home &= o >= 0;
+        }
+        if (touches) {
+            for (int j = 0; j < 3 && rc == 0; j++)
+                rc = add_local(c, w, t[j], 0);
+            if (rc == 0)
+                rc = en_slab_add_face(&w->s, c->v[t[0]].local, c->v[t[1]].local, c->v[t[2]].local);
+            if (rc == 0)
+                rc = en_grow((void **)&w->fflags, &fflags_cap, w->s.nt, 1);
+            if (rc == 0)
+                w->fflags[w->s.nt - 1] = (uint8_t)((interior ? EN_F_INTERIOR : 0) | (home ? EN_F_HOME : 0));
+        }
+        if (rc == 0 && home) {
+            for (int j = 0; j < 3; j++)
+                c->v[t[j]].nref--;
+        } else {
+            memmove(c->faces + 3 * kept++, t, 3 * sizeof *t);
+        }
+    }
+    c->nfaces = kept;
+    if (rc == 0) {
+        w->owner = en_malloc(((size_t)w->s.nv + 1) * sizeof *w->owner);
+        rc = w->owner ? 0 : -1;
+    }
+    if (rc == 0) {
+        for (uint32_t l = w->nowned; l < w->s.nv; l++) {
+            uint32_t i;
+            en_u64map_get(&c->map, w->s.gid[l], &i);
+            w->owner[l] = c->v[i].owner >= 0 ? c->v[i].owner : -1;
+        }
+        for (uint32_t l = 0; l < w->nowned; l++)
+            w->owner[l] = k;
+    }
+    for (size_t j = 0; j < c->nfin && rc == 0; j++)
+        if (c->v[c->fin[j]].nref == 0)
+            rc = free_vertex(c, c->fin[j]);
+    /* Ghost corners owned by earlier slabs may have lost their last face too. */
+    for (uint32_t l = w->nowned; l < w->s.nv && rc == 0; l++) {
+        uint32_t i;
+        if (w->owner[l] >= 0 && en_u64map_get(&c->map, w->s.gid[l], &i) && c->v[i].nref == 0)
+            rc = free_vertex(c, i);
+    }
+    c->nfin = 0;
+    if (rc) {
+        en_slab_work_free(w);
+        en_free(w);
+        return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "out of memory cutting slab %u", k);
+    }
+    for (;;) {
+        uint32_t i;
+        if (c->low >= c->next_gid)
+            break;
+        if (en_u64map_get(&c->map, c->low, &i) && c->v[i].owner < 0)
+            break;
+        c->low++;
+    }
+    w->frontier = c->low;
+    c->next_slab++;
+    *out = w;
+    return 0;
+}
+
+int en_chunker_put(en_chunker *c, const epsnet_record *rec, en_slab_work **out, epsnet_error *err)
+{
+    *out = NULL;
+    c->records++;
+    if (c->ended)
+        return en_error_set(err, EPSNET_EINVAL, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "record after the end of the stream");
+    if (rec->kind == EPSNET_REC_VERTEX)
+        return new_vertex(c, rec->xyz, err);
+    if (rec->kind == EPSNET_REC_TRIANGLE) {
+        uint32_t t[3];
+        for (int j = 0; j < 3; j++)
+            if (!live_vertex(c, rec->v[j], &t[j]))
+                return bad(c, err, rec->v[j] < c->next_gid ? "triangle uses finalized vertex"
+                                                           : "triangle uses unknown vertex",
+                           rec->v[j]);
+        if (en_grow((void **)&c->faces, &c->faces_cap, c->nfaces + 1, 3 * sizeof *c->faces))
+            return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "out of memory: %zu live faces", c->nfaces);
+        memcpy(c->faces + 3 * c->nfaces++, t, sizeof t);
+        for (int j = 0; j < 3; j++)
+            c->v[t[j]].nref++;
+        return 0;
+    }
+    if (rec->kind == EPSNET_REC_FINALIZE) {
+        uint32_t i;
+        if (!live_vertex(c, rec->v[0], &i))
+            return bad(c, err, rec->v[0] < c->next_gid ? "vertex finalized twice" : "finalize of unknown vertex",
+                       rec->v[0]);
+        if (en_grow((void **)&c->fin, &c->fin_cap, c->nfin + 1, sizeof *c->fin))
+            return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+        c->v[i].owner = EN_OWNER_FINAL;
+        c->fin[c->nfin++] = i;
+        if (c->nfin >= c->slab_vertices)
+            return cut(c, out, err);
+        return 0;
+    }
+    return en_error_set(err, EPSNET_EINVAL, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "record %llu: unknown kind %d",
+                        (unsigned long long)c->records, (int)rec->kind);
+}
+
+int en_chunker_finish(en_chunker *c, en_slab_work **out, epsnet_error *err)
+{
+    *out = NULL;
+    if (!c->ended) {
+        /* What the stream never finalized is finalized here, in id order,
+         * into one last slab. */
+        c->ended = 1;
+        for (uint64_t g = c->low; g < c->next_gid; g++) {
+            uint32_t i;
+            if (!live_vertex(c, g, &i))
+                continue;
+            if (en_grow((void **)&c->fin, &c->fin_cap, c->nfin + 1, sizeof *c->fin))
+                return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                    "out of memory");
+            c->v[i].owner = EN_OWNER_FINAL;
+            c->fin[c->nfin++] = i;
+        }
+    }
+    if (c->nfin == 0)
+        return 0;
+    return cut(c, out, err);
+}

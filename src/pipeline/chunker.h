@@ -1,0 +1,74 @@
+/*
+ * The chunker (SPEC §2): cuts a finalized streaming mesh into slabs.
+ *
+ * Slab k owns the next `slab_vertices` vertices to be finalized, in stream
+ * order, and gets every face around them (the faces are all read by then,
+ * since a vertex is finalized after its last face), with the faces' other
+ * corners as ghosts. So cuts depend only on the stream and slab_vertices,
+ * never on the thread count, and every owned vertex has its whole star.
+ *
+ * Memory is the active set of the stream (paper Table 3): live vertices and
+ * the faces that still have a corner not owned by a cut slab. Vertices still
+ * live at the end of the stream are finalized there, in id order, into one
+ * last slab: a stream without finalization (an ordinary PLY) is the
+ * one-slab, in-core case of the same code.
+ */
+#ifndef EN_PIPELINE_CHUNKER_H
+#define EN_PIPELINE_CHUNKER_H
+
+#include <stdint.h>
+
+#include "common/u64map.h"
+#include "epsnet/epsnet.h"
+#include "pipeline/slab_work.h"
+
+typedef struct en_chunk_vertex {
+    uint64_t gid;
+    double xyz[3];
+    uint32_t nref;        /* live faces using it */
+    uint32_t local;       /* its local id in the slab being cut ... */
+    int64_t local_slab;   /* ... valid when this equals that slab's index */
+    int64_t owner;        /* owning slab; EN_OWNER_LIVE / EN_OWNER_FINAL before its cut */
+} en_chunk_vertex;
+
+#define EN_OWNER_LIVE (-1)
+#define EN_OWNER_FINAL (-2)
+
+typedef struct en_chunker {
+    uint32_t slab_vertices;
+    const char *path;          /* for messages, may be NULL */
+    en_chunk_vertex *v;        /* pool, reused through free_list */
+    size_t v_len, v_cap;
+    uint32_t *free_list;
+    size_t free_len, free_cap;
+    en_u64map map;             /* gid -> pool index, for vertices in the pool */
+    uint32_t *faces;           /* live faces: 3 pool indices each, in stream order */
+    size_t nfaces, faces_cap;
+    uint32_t *fin;             /* finalized, not yet cut (pool indices) */
+    size_t nfin, fin_cap;
+    uint64_t next_gid;         /* vertices read */
+    uint64_t low;              /* every gid below was owned by a cut slab */
+    uint64_t records;          /* for messages */
+    uint32_t next_slab;
+    int ended;
+    uint64_t max_active;       /* largest live vertices + live faces seen at a cut */
+} en_chunker;
+
+/* @return 0 or EPSNET_ENOMEM. */
+int en_chunker_init(en_chunker *c, uint32_t slab_vertices, const char *path);
+void en_chunker_free(en_chunker *c);
+
+/*
+ * Take one record. When it completes a slab, *out is a new slab work (owned
+ * by the caller, free it with en_slab_work_free() and en_free()), else NULL.
+ * Records are validated like the reader front end does (a triangle names
+ * live vertices, a vertex is finalized once), since callers of the push API
+ * bring their own.
+ * @return 0 or a negative code with err filled.
+ */
+int en_chunker_put(en_chunker *c, const epsnet_record *rec, en_slab_work **out, epsnet_error *err);
+
+/* End of the stream: call until *out is NULL; finalizes what is still live. */
+int en_chunker_finish(en_chunker *c, en_slab_work **out, epsnet_error *err);
+
+#endif

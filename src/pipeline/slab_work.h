@@ -1,0 +1,89 @@
+/*
+ * The worker's half of the streaming pipeline (SPEC §2 "Worker pool"): one
+ * slab, classified and simplified on its own.
+ *
+ * A slab k owns the vertices finalized in its stretch of the stream and holds
+ * every face around them, so each owned vertex has its whole star and its
+ * classification (paper §4) is exactly the one-slab result. Faces whose
+ * corners all belong to slab k are *interior*; the others are shared with
+ * other slabs and never changed here.
+ *
+ * Collapses (paper §4.2, §5) run only where nothing outside the slab can see
+ * them: v and its target u must both be *inner* (every neighbour owned by
+ * this slab), so every face read or written is interior. An owned vertex
+ * with a neighbour in another slab is *frozen*: it is classified here but its
+ * collapses are left to the stitcher, together with the ring of inner
+ * vertices around it (paper §4.3: the ε-net is local, so a band of one ring
+ * decides a seam).
+ */
+#ifndef EN_PIPELINE_SLAB_WORK_H
+#define EN_PIPELINE_SLAB_WORK_H
+
+#include <stdint.h>
+
+#include "core/classify.h"
+#include "core/collapse.h"
+#include "core/gauss.h"
+#include "core/slab.h"
+
+/* Face flags set by the chunker. */
+enum {
+    EN_F_INTERIOR = 1 << 0,  /* every corner owned by this slab */
+    EN_F_HOME = 1 << 1,      /* every corner owned by this slab or an earlier one:
+                              * the last slab that holds the face (its home) */
+};
+
+/* Where an owned vertex stands after the slab's own collapses. */
+enum {
+    EN_K_INNER = 0,          /* decided here: kept or collapsed */
+    EN_K_FROZEN = 1,         /* has a neighbour in another slab */
+    EN_K_RING = 2,           /* inner, next to a frozen vertex */
+    EN_K_OUTER = 3,          /* inner, on a face of a ring or frozen vertex */
+};
+
+typedef enum en_slab_mode { EN_SLAB_SAMPLE, EN_SLAB_SIMPLIFY } en_slab_mode;
+
+typedef struct en_slab_work {
+    /* Input, filled by the chunker. Local vertices: the owned ones first
+     * (s.vflags EN_V_OWNED), in increasing global id, then the ghosts. */
+    uint32_t index;               /* k */
+    en_slab s;
+    uint32_t nowned;
+    int64_t *owner;               /* per local vertex: owning slab, -1 when not yet known (> k) */
+    uint8_t *fflags;              /* EN_F_* per face */
+    uint64_t frontier;            /* every global id below was finalized in a slab <= k */
+    uint64_t live_vertices, live_faces; /* chunker's active set at the cut */
+
+    /* Settings (shared, read only). */
+    const gauss_sphere *g;
+    en_slab_mode mode;
+    double max_normal_dev;
+
+    /* Output. */
+    int rc;
+    epsnet_error err;
+    double seconds;
+    en_classify_counts counts;    /* owned vertices; zero-area faces counted at their home */
+    uint8_t *vclass;              /* EN_C_* per local vertex (owned) */
+    int32_t *vgvertex;
+    en_quadric *q;                /* SIMPLIFY: per local vertex, accumulated */
+    double *ref;                  /* SIMPLIFY: per face, input unit normal */
+    uint32_t *tri;                /* SIMPLIFY: corners after the collapses */
+    uint8_t *falive, *valive;
+    uint8_t *kind;                /* EN_K_* per owned vertex */
+    uint32_t *future;             /* per owned vertex: alive faces whose home is a later slab */
+    uint32_t *degree;             /* per owned vertex: alive faces around it */
+    uint8_t *band;                /* per owned vertex: frozen or next to one in the input */
+    uint64_t band_nonsamples, inner_nonsamples; /* owned non-samples of each kind */
+    uint64_t collapses;
+    uint64_t refused[EN_REFUSE_KINDS]; /* inner non-samples left, by reason */
+} en_slab_work;
+
+void en_slab_work_init(en_slab_work *w);
+/* Free the outputs and forget the input, keeping nothing. */
+void en_slab_work_free(en_slab_work *w);
+
+/* The pool's job function: classify (and simplify) w. Fills w->rc/err. */
+int en_slab_work_run(void *w);
+
+#endif

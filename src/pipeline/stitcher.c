@@ -1,0 +1,507 @@
+#include "pipeline/stitcher.h"
+
+#include <string.h>
+
+#include "common/alloc.h"
+#include "common/error.h"
+
+enum {
+    S_IN_W = 1 << 0,
+    S_COMPLETE = 1 << 1,   /* whole star in W (or decided by its slab) */
+    S_SETTLED = 1 << 2,    /* no more collapses from or onto it */
+    S_FIXED = 1 << 3,      /* a sample (locked included): never removed */
+    S_BAND = 1 << 4,       /* near a slab border in the input (stats) */
+    S_BLOCKED = 1 << 5,    /* scratch: has a neighbour that is not complete */
+};
+
+struct en_stitch_vertex {
+    uint64_t gid;
+    double xyz[3];
+    en_quadric q;
+    uint64_t out;          /* output id, UINT64_MAX until written */
+    uint32_t remaining;    /* faces around it not yet written */
+    uint32_t future;       /* faces still to come from later slabs */
+    uint32_t wlocal;       /* scratch: index in W */
+    uint8_t kind;          /* EN_K_* */
+    uint8_t state;         /* S_* */
+};
+
+struct en_seam_face {
+    uint32_t v[3];         /* pool indices */
+    double ref[3];         /* input unit normal (the bound of §4.2's refusals) */
+};
+
+struct en_out_face {
+    uint64_t key, seq;     /* its last vertex's id, then arrival */
+    uint32_t v[3];
+};
+
+typedef struct vheap_entry {
+    uint64_t gid;
+    uint32_t idx;
+} vheap_entry;
+
+int en_stitcher_init(en_stitcher *st, double max_normal_dev, en_emit_fn emit, void *opaque)
+{
+    memset(st, 0, sizeof *st);
+    st->emit = emit;
+    st->opaque = opaque;
+    st->max_normal_dev = max_normal_dev;
+    en_slab_init(&st->ws);
+    return en_u64map_init(&st->map) ? EPSNET_ENOMEM : 0;
+}
+
+void en_stitcher_free(en_stitcher *st)
+{
+    en_free(st->v);
+    en_free(st->free_list);
+    en_u64map_free(&st->map);
+    en_free(st->wv);
+    en_free(st->wf);
+    en_free(st->vheap);
+    en_free(st->fheap);
+    en_free(st->local);
+    en_slab_free(&st->ws);
+    memset(st, 0, sizeof *st);
+}
+
+static int oom(epsnet_error *err)
+{
+    return en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory stitching slabs");
+}
+
+static int internal(epsnet_error *err, const char *what)
+{
+    return en_error_set(err, EPSNET_EINTERNAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE, "stitcher: %s (a bug)", what);
+}
+
+static int sv_new(en_stitcher *st, uint32_t *idx)
+{
+    if (en_grow((void **)&st->free_list, &st->free_cap, st->v_len + 1, sizeof *st->free_list))
+        return -1; /* room to free every vertex later, so freeing never fails */
+    if (st->free_len) {
+        *idx = st->free_list[--st->free_len];
+        return 0;
+    }
+    if (st->v_len >= UINT32_MAX - 1 || en_grow((void **)&st->v, &st->v_cap, st->v_len + 1, sizeof *st->v))
+        return -1;
+    *idx = (uint32_t)st->v_len++;
+    return 0;
+}
+
+static void sv_free(en_stitcher *st, uint32_t idx)
+{
+    if (st->v[idx].state & S_IN_W)
+        en_u64map_remove(&st->map, st->v[idx].gid);
+    st->v[idx].state = 0;
+    st->free_list[st->free_len++] = idx;
+}
+
+/* Binary min-heaps; ties cannot happen (ids and sequence numbers are unique). */
+static int vheap_less(const vheap_entry *a, const vheap_entry *b)
+{
+    return a->gid < b->gid;
+}
+
+static int fheap_less(const en_out_face *a, const en_out_face *b)
+{
+    return a->key < b->key || (a->key == b->key && a->seq < b->seq);
+}
+
+#define HEAP_FUNCS(name, type, less)                                                                            \
+    static void name##_up(type *h, size_t i)                                                                    \
+    {                                                                                                           \
+        while (i > 0) {                                                                                         \
+            size_t p = (i - 1) / 2;                                                                             \
+            if (!less(&h[i], &h[p]))                                                                            \
+                break;                                                                                          \
+            type t = h[i];                                                                                      \
+            h[i] = h[p];                                                                                        \
+            h[p] = t;                                                                                           \
+            i = p;                                                                                              \
+        }                                                                                                       \
+    }                                                                                                           \
+    static type name##_pop(type *h, size_t *n)                                                                  \
+    {                                                                                                           \
+        type top = h[0];                                                                                        \
+        h[0] = h[--*n];                                                                                         \
+        size_t i = 0;                                                                                           \
+        for (;;) {                                                                                              \
+            size_t l = 2 * i + 1, m = i;                                                                        \
+            if (l < *n && less(&h[l], &h[m]))                                                                   \
+                m = l;                                                                                          \
+            if (l + 1 < *n && less(&h[l + 1], &h[m]))                                                           \
+                m = l + 1;                                                                                      \
+            if (m == i)                                                                                         \
+                break;                                                                                          \
+            type t = h[i];                                                                                      \
+            h[i] = h[m];                                                                                        \
+            h[m] = t;                                                                                           \
+            i = m;                                                                                              \
+        }                                                                                                       \
+        return top;                                                                                             \
+    }
+
+HEAP_FUNCS(vheap, vheap_entry, vheap_less)
+HEAP_FUNCS(fheap, en_out_face, fheap_less)
+
+/* The vertex will not change any more: it waits for its turn in id order. */
+static int decide(en_stitcher *st, uint32_t idx)
+{
+    if (en_grow((void **)&st->vheap, &st->vheap_cap, st->nvheap + 1, sizeof(vheap_entry)))
+        return -1;
+    vheap_entry *h = (vheap_entry *)st->vheap;
+    h[st->nvheap] = (vheap_entry){ st->v[idx].gid, idx };
+    vheap_up(h, st->nvheap++);
+    return 0;
+}
+
+static int final_face(en_stitcher *st, const uint32_t p[3])
+{
+    if (en_grow((void **)&st->fheap, &st->fheap_cap, st->nfheap + 1, sizeof *st->fheap))
+        return -1;
+    uint64_t key = st->v[p[0]].gid;
+    for (int j = 1; j < 3; j++)
+        if (st->v[p[j]].gid > key)
+            key = st->v[p[j]].gid;
+    en_out_face *f = &st->fheap[st->nfheap];
+    f->key = key;
+    f->seq = st->face_seq++;
+    memcpy(f->v, p, sizeof f->v);
+    fheap_up(st->fheap, st->nfheap++);
+    return 0;
+}
+
+static int add_seam_face(en_stitcher *st, const uint32_t p[3], const double ref[3])
+{
+    if (en_grow((void **)&st->wf, &st->wf_cap, st->nwf + 1, sizeof *st->wf))
+        return -1;
+    memcpy(st->wf[st->nwf].v, p, sizeof st->wf[st->nwf].v);
+    memcpy(st->wf[st->nwf].ref, ref, sizeof st->wf[st->nwf].ref);
+    st->nwf++;
+    st->stats.seam_faces++;
+    return 0;
+}
+
+static int removable_in_w(const en_stitch_vertex *x)
+{
+    return (x->state & S_COMPLETE) && !(x->state & (S_SETTLED | S_FIXED)) && x->kind != EN_K_OUTER;
+}
+
+/* One run of the slab core's collapses over W (paper §4.2, §5). */
+static int collapse_seams(en_stitcher *st, epsnet_error *err)
+{
+    int any = 0;
+    for (size_t i = 0; i < st->nwv && !any; i++)
+        any = removable_in_w(&st->v[st->wv[i]]);
+    if (!any)
+        return 0;
+    en_slab *ws = &st->ws;
+    en_slab_reset(ws);
+    for (size_t i = 0; i < st->nwv; i++) {
+        en_stitch_vertex *x = &st->v[st->wv[i]];
+        x->wlocal = (uint32_t)i;
+        uint8_t flags = EN_V_OWNED | ((x->state & S_COMPLETE) && !(x->state & S_SETTLED) ? EN_V_COMPLETE : 0);
+        if (en_slab_add_vertex(ws, x->gid, x->xyz, flags) < 0)
+            return oom(err);
+    }
+    for (size_t f = 0; f < st->nwf; f++) {
+        const uint32_t *p = st->wf[f].v;
+        if (en_slab_add_face(ws, st->v[p[0]].wlocal, st->v[p[1]].wlocal, st->v[p[2]].wlocal))
+            return oom(err);
+    }
+    if (en_slab_build_stars(ws))
+        return oom(err);
+    size_t nv = st->nwv + 1, nt = st->nwf + 1;
+    uint8_t *removable = en_malloc(nv), *valive = en_malloc(nv), *falive = en_malloc(nt);
+    en_quadric *q = en_malloc(nv * sizeof *q);
+    double *ref = en_malloc(3 * nt * sizeof *ref);
+    uint32_t *tri = en_malloc(3 * nt * sizeof *tri);
+    int rc = 0;
+    if (!removable || !valive || !falive || !q || !ref || !tri) {
+        rc = oom(err);
+        goto out;
+    }
+    for (size_t i = 0; i < st->nwv; i++) {
+        const en_stitch_vertex *x = &st->v[st->wv[i]];
+        removable[i] = removable_in_w(x) && !(ws->vflags[i] & (EN_V_BOUNDARY | EN_V_NONMANIFOLD | EN_V_ISOLATED));
+        q[i] = x->q;
+    }
+    for (size_t f = 0; f < st->nwf; f++)
+        memcpy(ref + 3 * f, st->wf[f].ref, 3 * sizeof *ref);
+    en_collapse_settings cs = { st->max_normal_dev };
+    en_collapse_counts cc;
+    if (en_collapse_slab(ws, removable, q, ref, &cs, falive, valive, tri, &cc)) {
+        rc = oom(err);
+        goto out;
+    }
+    st->stats.seam_collapses += cc.collapses;
+    st->stats.seam_steps++;
+    /* Faces: every corner change moves a count of faces still to write. */
+    size_t kept = 0;
+    for (size_t f = 0; f < st->nwf; f++) {
+        en_seam_face sf = st->wf[f];
+        for (int j = 0; j < 3; j++)
+            st->v[sf.v[j]].remaining--;
+        if (!falive[f])
+            continue;
+        for (int j = 0; j < 3; j++) {
+            sf.v[j] = st->wv[tri[3 * f + (size_t)j]];
+            st->v[sf.v[j]].remaining++;
+        }
+        st->wf[kept++] = sf;
+    }
+    st->nwf = kept;
+    kept = 0;
+    for (size_t i = 0; i < st->nwv; i++) {
+        uint32_t idx = st->wv[i];
+        if (!valive[i]) {
+            if (st->v[idx].remaining != 0) {
+                rc = internal(err, "a collapsed vertex still has faces");
+                goto out;
+            }
+            sv_free(st, idx);
+            continue;
+        }
+        st->v[idx].q = q[i];
+        st->wv[kept++] = idx;
+    }
+    st->nwv = kept;
+out:
+    en_free(removable);
+    en_free(valive);
+    en_free(falive);
+    en_free(q);
+    en_free(ref);
+    en_free(tri);
+    return rc;
+}
+
+/* Settle what can no longer change and let its faces go (see the header). */
+static int settle(en_stitcher *st)
+{
+    for (size_t i = 0; i < st->nwv; i++)
+        st->v[st->wv[i]].state &= (uint8_t)~S_BLOCKED;
+    for (size_t f = 0; f < st->nwf; f++) {
+        const uint32_t *p = st->wf[f].v;
+        int open = 0;
+        for (int j = 0; j < 3; j++)
+            open |= !(st->v[p[j]].state & (S_COMPLETE | S_SETTLED));
+        if (open)
+            for (int j = 0; j < 3; j++)
+                st->v[p[j]].state |= S_BLOCKED;
+    }
+    for (size_t i = 0; i < st->nwv; i++) {
+        en_stitch_vertex *x = &st->v[st->wv[i]];
+        if ((x->state & (S_SETTLED | S_BLOCKED)) || !(x->state & S_COMPLETE))
+            continue;
+        x->state |= S_SETTLED;
+        if (decide(st, st->wv[i]))
+            return -1;
+    }
+    size_t kept = 0;
+    for (size_t f = 0; f < st->nwf; f++) {
+        const uint32_t *p = st->wf[f].v;
+        int final = 1;
+        for (int j = 0; j < 3; j++)
+            final &= (st->v[p[j]].state & S_SETTLED) != 0;
+        if (!final) {
+            st->wf[kept++] = st->wf[f];
+            for (int j = 0; j < 3; j++)
+                st->v[p[j]].state |= S_BLOCKED; /* reused: "still in a seam face" */
+        } else if (final_face(st, p)) {
+            return -1;
+        }
+    }
+    st->nwf = kept;
+    kept = 0;
+    for (size_t i = 0; i < st->nwv; i++) {
+        en_stitch_vertex *x = &st->v[st->wv[i]];
+        if ((x->state & S_SETTLED) && !(x->state & S_BLOCKED)) {
+            en_u64map_remove(&st->map, x->gid);
+            x->state &= (uint8_t)~S_IN_W;
+            continue;
+        }
+        st->wv[kept++] = st->wv[i];
+    }
+    st->nwv = kept;
+    return 0;
+}
+
+static int put(en_stitcher *st, epsnet_record_kind kind, uint64_t a, uint64_t b, uint64_t c, const double *xyz,
+               epsnet_error *err)
+{
+    epsnet_record rec;
+    memset(&rec, 0, sizeof rec);
+    rec.kind = kind;
+    rec.v[0] = a, rec.v[1] = b, rec.v[2] = c;
+    if (xyz)
+        memcpy(rec.xyz, xyz, sizeof rec.xyz);
+    return st->emit(st->opaque, &rec, err);
+}
+
+/* Write every decided vertex below frontier, each with the faces it ends. */
+static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
+{
+    vheap_entry *vh = (vheap_entry *)st->vheap;
+    while (st->nvheap && vh[0].gid < frontier) {
+        vheap_entry e = vheap_pop(vh, &st->nvheap);
+        en_stitch_vertex *x = &st->v[e.idx];
+        if (x->remaining == 0) {
+            if (!(x->state & S_IN_W))
+                sv_free(st, e.idx); /* no face left around it: not written (SPEC: unused vertices dropped) */
+            continue;
+        }
+        x->out = st->next_out++;
+        st->stats.out_vertices++;
+        if (!(x->state & S_FIXED)) {
+            st->stats.remaining_nonsamples++;
+            if (x->state & S_BAND)
+                st->stats.band_left++;
+            else
+                st->stats.inner_left++;
+        }
+        int rc = put(st, EPSNET_REC_VERTEX, 0, 0, 0, x->xyz, err);
+        if (rc)
+            return rc;
+        while (st->nfheap && st->fheap[0].key <= e.gid) {
+            en_out_face f = fheap_pop(st->fheap, &st->nfheap);
+            uint64_t o[3];
+            for (int j = 0; j < 3; j++) {
+                o[j] = st->v[f.v[j]].out;
+                if (o[j] == UINT64_MAX || f.key < e.gid)
+                    return internal(err, "a face came before its vertices");
+            }
+            if ((rc = put(st, EPSNET_REC_TRIANGLE, o[0], o[1], o[2], NULL, err)) != 0)
+                return rc;
+            st->stats.out_faces++;
+            for (int j = 0; j < 3; j++) {
+                en_stitch_vertex *y = &st->v[f.v[j]];
+                if (--y->remaining == 0 && !(y->state & S_IN_W)) {
+                    if ((rc = put(st, EPSNET_REC_FINALIZE, y->out, 0, 0, NULL, err)) != 0)
+                        return rc;
+                    sv_free(st, f.v[j]);
+                }
+            }
+        }
+    }
+    return 0;
+}
+
+static int take_vertices(en_stitcher *st, const en_slab_work *w, epsnet_error *err)
+{
+    if (en_grow((void **)&st->local, &st->local_cap, (size_t)w->s.nv + 1, sizeof *st->local))
+        return oom(err);
+    for (uint32_t l = 0; l < w->nowned; l++) {
+        st->local[l] = UINT32_MAX;
+        if (!w->valive[l] || w->degree[l] == 0)
+            continue; /* collapsed in the slab, or used by no face */
+        uint32_t idx;
+        if (sv_new(st, &idx))
+            return oom(err);
+        en_stitch_vertex *x = &st->v[idx];
+        x->gid = w->s.gid[l];
+        memcpy(x->xyz, w->s.pos + 3 * (size_t)l, sizeof x->xyz);
+        x->q = w->q[l];
+        x->out = UINT64_MAX;
+        x->remaining = w->degree[l];
+        x->future = w->future[l];
+        x->kind = w->kind[l];
+        x->state = (uint8_t)(((w->vclass[l] & EN_C_SAMPLE) ? S_FIXED : 0) | (w->band[l] ? S_BAND : 0));
+        st->local[l] = idx;
+        if (x->kind == EN_K_INNER) {
+            x->state |= S_COMPLETE | S_SETTLED;
+            if (decide(st, idx))
+                return oom(err);
+            continue;
+        }
+        if (en_grow((void **)&st->wv, &st->wv_cap, st->nwv + 1, sizeof *st->wv) ||
+            en_u64map_put(&st->map, x->gid, idx)) {
+            st->v[idx].state = 0;
+            st->free_list[st->free_len++] = idx;
+            return oom(err);
+        }
+        st->wv[st->nwv++] = idx;
+        x->state |= S_IN_W;
+        if (x->kind == EN_K_RING || x->future == 0)
+            x->state |= S_COMPLETE;
+        if (x->kind == EN_K_OUTER) {
+            x->state |= S_SETTLED; /* decided by its slab; only a face corner here */
+            if (decide(st, idx))
+                return oom(err);
+        }
+    }
+    for (uint32_t l = w->nowned; l < w->s.nv; l++)
+        if (!en_u64map_get(&st->map, w->s.gid[l], &st->local[l]))
+            st->local[l] = UINT32_MAX;
+    return 0;
+}
+
+static int take_faces(en_stitcher *st, const en_slab_work *w, epsnet_error *err)
+{
+    for (uint32_t f = 0; f < w->s.nt; f++) {
+        if (!w->falive[f] || !(w->fflags[f] & EN_F_HOME))
+            continue; /* collapsed away, or a later slab brings it */
+        const uint32_t *t = w->tri + 3 * (size_t)f;
+        uint32_t p[3];
+        int seam = !(w->fflags[f] & EN_F_INTERIOR);
+        for (int j = 0; j < 3; j++) {
+            p[j] = st->local[t[j]];
+            if (p[j] == UINT32_MAX)
+                return internal(err, "a face names a vertex no slab handed over");
+            seam |= t[j] < w->nowned && (w->kind[t[j]] == EN_K_FROZEN || w->kind[t[j]] == EN_K_RING);
+        }
+        if (!seam) {
+            if (final_face(st, p))
+                return oom(err);
+            continue;
+        }
+        if (add_seam_face(st, p, w->ref + 3 * (size_t)f))
+            return oom(err);
+        if (w->fflags[f] & EN_F_INTERIOR)
+            continue;
+        for (int j = 0; j < 3; j++) {
+            if (t[j] < w->nowned)
+                continue;
+            en_stitch_vertex *x = &st->v[p[j]];
+            if (x->future == 0)
+                return internal(err, "more faces arrived than a vertex expected");
+            if (--x->future == 0)
+                x->state |= S_COMPLETE;
+        }
+    }
+    return 0;
+}
+
+int en_stitcher_take(en_stitcher *st, const en_slab_work *w, epsnet_error *err)
+{
+    st->stats.band_nonsamples += w->band_nonsamples;
+    st->stats.inner_nonsamples += w->inner_nonsamples;
+    int rc = take_vertices(st, w, err);
+    if (rc == 0)
+        rc = take_faces(st, w, err);
+    if (rc == 0)
+        rc = collapse_seams(st, err);
+    if (rc == 0 && settle(st))
+        rc = oom(err);
+    if (rc)
+        return rc;
+    uint64_t active = st->nwv + st->nwf + st->nvheap + st->nfheap;
+    if (active > st->stats.max_active)
+        st->stats.max_active = active;
+    uint64_t frontier = w->frontier;
+    for (size_t i = 0; i < st->nwv; i++) {
+        const en_stitch_vertex *x = &st->v[st->wv[i]];
+        if (!(x->state & S_SETTLED) && x->gid < frontier)
+            frontier = x->gid;
+    }
+    return write_until(st, frontier, err);
+}
+
+int en_stitcher_finish(en_stitcher *st, epsnet_error *err)
+{
+    int rc = write_until(st, UINT64_MAX, err);
+    if (rc == 0 && (st->nwv || st->nwf || st->nvheap || st->nfheap))
+        return internal(err, "seams left open at the end of the stream");
+    return rc;
+}

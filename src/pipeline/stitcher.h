@@ -1,0 +1,86 @@
+/*
+ * The stitcher (SPEC §2): takes the slabs back in stream order, finishes
+ * the seams between them and emits one ordered, finalized stream.
+ *
+ * Seams. Each slab hands over its frozen vertices (owned, with a neighbour
+ * elsewhere), the ring of inner vertices around them and the faces of both,
+ * after its own collapses. These form the seam mesh W. A frozen vertex is
+ * *complete* once every slab holding one of its faces has been taken; then
+ * its whole star is in W, and W's non-samples are collapsed exactly as a
+ * slab does (paper §4.2: cheapest quadric first, same refusals), so no seam
+ * stays unsimplified. A vertex is *settled* once it and its neighbours are
+ * complete: it is not collapsed or collapsed onto any more, and faces whose
+ * corners are all settled leave W for the output.
+ *
+ * Order. Output vertices come in increasing input id, which keeps the
+ * input's sort along its axis; each triangle comes right after its last
+ * vertex and each vertex is finalized right after its last triangle. A
+ * vertex is written once every vertex with a smaller id is decided (kept or
+ * collapsed): the slab's frontier and W's unsettled vertices bound that.
+ * All of it depends on the slabs alone, never on which worker ran them.
+ */
+#ifndef EN_PIPELINE_STITCHER_H
+#define EN_PIPELINE_STITCHER_H
+
+#include <stdint.h>
+
+#include "common/u64map.h"
+#include "core/collapse.h"
+#include "epsnet/epsnet.h"
+#include "pipeline/slab_work.h"
+
+/* Where output records go: 0 or a negative code with err filled. */
+typedef int (*en_emit_fn)(void *opaque, const epsnet_record *rec, epsnet_error *err);
+
+typedef struct en_stitch_vertex en_stitch_vertex;
+typedef struct en_seam_face en_seam_face;
+typedef struct en_out_face en_out_face;
+
+typedef struct en_stitch_stats {
+    uint64_t seam_faces;              /* faces that went through W */
+    uint64_t seam_collapses;          /* collapses done in W */
+    uint64_t seam_steps;              /* W collapse runs */
+    uint64_t band_nonsamples, band_left;   /* input non-samples near a slab border / still in the output */
+    uint64_t inner_nonsamples, inner_left; /* the same elsewhere */
+    uint64_t remaining_nonsamples;
+    uint64_t refused[EN_REFUSE_KINDS];
+    uint64_t max_active;              /* largest W + waiting vertices and faces */
+    uint64_t out_vertices, out_faces;
+} en_stitch_stats;
+
+typedef struct en_stitcher {
+    en_emit_fn emit;
+    void *opaque;
+    double max_normal_dev;
+    en_stitch_vertex *v;              /* pool of vertices not yet finalized in the output */
+    size_t v_len, v_cap;
+    uint32_t *free_list;
+    size_t free_len, free_cap;
+    en_u64map map;                    /* gid -> pool index, for W's vertices */
+    uint32_t *wv;                     /* W's vertices (pool indices), in arrival order */
+    size_t nwv, wv_cap;
+    en_seam_face *wf;                 /* W's faces */
+    size_t nwf, wf_cap;
+    uint64_t *vheap;                  /* decided vertices waiting for output: (gid, pool) pairs */
+    size_t nvheap, vheap_cap;
+    en_out_face *fheap;               /* final faces waiting for their last vertex */
+    size_t nfheap, fheap_cap;
+    uint64_t face_seq, next_out;
+    uint32_t *local;                  /* scratch: slab local id -> pool index */
+    size_t local_cap;
+    en_slab ws;                       /* scratch for W's collapses */
+    en_stitch_stats stats;
+} en_stitcher;
+
+/* @return 0 or EPSNET_ENOMEM. */
+int en_stitcher_init(en_stitcher *st, double max_normal_dev, en_emit_fn emit, void *opaque);
+void en_stitcher_free(en_stitcher *st);
+
+/* Take slab w (simplify mode), in slab order, and emit what became final.
+ * @return 0 or a negative code with err filled. */
+int en_stitcher_take(en_stitcher *st, const en_slab_work *w, epsnet_error *err);
+
+/* After the last slab: everything must have been emitted (EINTERNAL if not). */
+int en_stitcher_finish(en_stitcher *st, epsnet_error *err);
+
+#endif
