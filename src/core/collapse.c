@@ -329,12 +329,20 @@ static int target_less(const target *a, const target *b)
     return a->cost != b->cost ? a->cost < b->cost : a->u < b->u;
 }
 
+static double pair_cost(const state *st, uint32_t w, uint32_t x)
+{
+    double c = quadric_eval(&st->q[w], st->s->pos + 3 * (size_t)x) + st->self_err[x];
+    /* Huge coordinates (1e200) overflow quadrics to inf - inf = NaN. NaN is
+     * unequal to itself, so the queue's staleness test would requeue such a
+     * pair forever: such pairs go last, at +inf, where the test holds. */
+    return c == c ? c : INFINITY;
+}
+
 /* Targets of v with their costs, cheapest first, in st->cand; @return count
  * or -1 when out of memory. Each neighbour is the corner after v in exactly
  * one face of v's (manifold, closed) star, so it is listed once. */
 static int64_t rank_targets(state *st, uint32_t v)
 {
-    const en_slab *s = st->s;
     if (en_grow((void **)&st->cand, &st->cand_cap, st->vf_count[v], sizeof *st->cand))
         return -1;
     target *cand = st->cand;
@@ -343,7 +351,7 @@ static int64_t rank_targets(state *st, uint32_t v)
     for (uint32_t i = 0; i < st->vf_count[v]; i++) {
         uint32_t x, y;
         other_corners(st->tri + 3 * (size_t)lv[i], v, &x, &y);
-        cand[n].cost = quadric_eval(&st->q[v], s->pos + 3 * (size_t)x) + st->self_err[x];
+        cand[n].cost = pair_cost(st, v, x);
         cand[n].u = x;
         n++;
     }
@@ -366,13 +374,12 @@ static int queue_cheapest(state *st, uint32_t v)
 {
     if (!st->removable[v] || !st->valive[v] || st->vf_count[v] == 0)
         return 0;
-    const en_slab *s = st->s;
     const uint32_t *lv = st->pool + st->vf_start[v];
     target best = { 0, UINT32_MAX };
     for (uint32_t i = 0; i < st->vf_count[v]; i++) {
         uint32_t x, y;
         other_corners(st->tri + 3 * (size_t)lv[i], v, &x, &y);
-        target t = { quadric_eval(&st->q[v], s->pos + 3 * (size_t)x) + st->self_err[x], x };
+        target t = { pair_cost(st, v, x), x };
         if (best.u == UINT32_MAX || target_less(&t, &best))
             best = t;
     }
@@ -406,11 +413,6 @@ static int queue_best_valid(state *st, uint32_t v)
     st->fallback[v] = 1;
     heap_remove(st, v);
     return 0;
-}
-
-static double pair_cost(const state *st, uint32_t w, uint32_t x)
-{
-    return quadric_eval(&st->q[w], st->s->pos + 3 * (size_t)x) + st->self_err[x];
 }
 
 static int is_neighbour(const state *st, uint32_t v, uint32_t u)

@@ -1,0 +1,546 @@
+/*
+ * The streaming pipeline's guarantees (SPEC §2, issue 6): the samples equal
+ * the one-slab in-core classification for any slab size; the output is the
+ * same bytes for any thread count; it is a valid, sorted, finalized stream
+ * with every sample kept; seams are simplified like the rest; the active set
+ * grows with the stream's width, not its length; a worker's error surfaces
+ * in slab order; the push/pull API gives what the file API gives.
+ */
+#include "api/context.h"
+#include "pipeline/stream.h"
+#include "sample_util.h"
+
+static uint64_t *sorted_sample_gids(const char *shape, uint64_t faces, uint64_t *n)
+{
+    en_slab s;
+    gauss_sphere g;
+    gauss_rotation rot;
+    gauss_rotation_identity(&rot);
+    gauss_init(&g, 8, &rot);
+    *n = 0;
+    if (gen_slab(shape, faces, NAN, 7, 0, &s))
+        return NULL;
+    classified c;
+    uint64_t *gids = malloc(sizeof *gids * (s.nv + 1));
+    if (classify_all(&g, &s, &c) == 0)
+        for (uint32_t v = 0; v < s.nv; v++)
+            if (c.vclass[v] & EN_C_SAMPLE)
+                gids[(*n)++] = s.gid[v];
+    classified_free(&c);
+    en_slab_free(&s);
+    return gids; /* slab order is id order */
+}
+
+typedef struct gid_list {
+    uint64_t *g;
+    uint64_t n, cap;
+} gid_list;
+
+static int collect_gid(void *opaque, uint64_t gid, const double xyz[3], int32_t gvertex, epsnet_error *err)
+{
+    (void)xyz, (void)gvertex, (void)err;
+    gid_list *l = opaque;
+    if (l->n == l->cap) {
+        l->cap = l->cap ? 2 * l->cap : 256;
+        l->g = realloc(l->g, l->cap * sizeof *l->g);
+    }
+    l->g[l->n++] = gid;
+    return 0;
+}
+
+static int cmp_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+static epsnet_context *make_ctx(uint32_t slab, int threads, int passes)
+{
+    epsnet_settings set;
+    epsnet_default_settings(&set);
+    set.rotation_mode = EPSNET_ROTATION_IDENTITY;
+    set.frequency = 8;
+    set.slab_vertices = slab;
+    set.threads = threads;
+    set.passes = passes;
+    epsnet_context *ctx = NULL;
+    epsnet_error err;
+    if (epsnet_context_new(&ctx, &set, &err))
+        fprintf(stderr, "context: %s\n", epsnet_error_message(&err));
+    return ctx;
+}
+
+/* Stream path through a SAMPLE-mode pipeline and return the sample ids. */
+static int stream_samples(const char *path, uint32_t slab, int threads, gid_list *out)
+{
+    epsnet_context *ctx = make_ctx(slab, threads, 1);
+    epsnet_stream *s = NULL;
+    epsnet_reader *r = NULL;
+    epsnet_error err;
+    epsnet_record rec;
+    memset(out, 0, sizeof *out);
+    int rc = en_stream_new(&s, ctx, EN_SLAB_SAMPLE, path, &err);
+    if (rc == 0) {
+        en_stream_set_sample_sink(s, collect_gid, out);
+        rc = epsnet_reader_open(&r, path, NULL, &err);
+    }
+    while (rc == 0 && (rc = epsnet_reader_next(r, &rec, &err)) == 1)
+        rc = en_stream_put(s, &rec, &err);
+    if (rc == 0)
+        rc = en_stream_finish(s, &err);
+    if (rc)
+        fprintf(stderr, "stream_samples: %s\n", epsnet_error_message(&err));
+    epsnet_reader_close(&r);
+    epsnet_stream_close(&s);
+    epsnet_context_free(&ctx);
+    qsort(out->g, out->n, sizeof *out->g, cmp_u64);
+    return rc;
+}
+
+/* Paper §4: a vertex's class depends on its star alone, and every slab owns
+ * whole stars, so no slab size may change a single sample. */
+TEST(samples_equal_one_slab_for_any_slab_size)
+{
+    static const struct {
+        const char *shape;
+        uint64_t faces;
+    } cases[] = { { "bumpy", 20000 }, { "torus", 6000 }, { "terrain", 8000 }, { "cad", 8000 }, { "dimple", 6000 } };
+    static const uint32_t slabs[] = { 1, 7, 100, 1000, UINT32_MAX };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        uint64_t nref;
+        uint64_t *ref = sorted_sample_gids(cases[i].shape, cases[i].faces, &nref);
+        CHECK(ref != NULL && nref > 20);
+        const char *path = tl_path("samples.smz");
+        epsnet_error err;
+        CHECK_EQ_INT(tl_gen_file(path, cases[i].shape, cases[i].faces, NAN, 7, 0, &err), 0);
+        for (size_t k = 0; k < sizeof slabs / sizeof *slabs; k++) {
+            gid_list got;
+            CHECK_EQ_INT(stream_samples(path, slabs[k], k % 2 ? 3 : 1, &got), 0);
+            CHECK_EQ_U64(got.n, nref);
+            int same = got.n == nref && memcmp(got.g, ref, nref * sizeof *ref) == 0;
+            if (!same)
+                fprintf(stderr, "  %s, slab %u: samples differ\n", cases[i].shape, slabs[k]);
+            CHECK(same);
+            free(got.g);
+        }
+        free(ref);
+    }
+}
+
+static char *slurp(const char *path, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    fseek(f, 0, SEEK_END);
+    long len = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *b = malloc((size_t)len + 1);
+    *n = fread(b, 1, (size_t)len, f);
+    fclose(f);
+    return b;
+}
+
+static int simplify_file(const char *in, const char *out, uint32_t slab, int threads, int passes, epsnet_stats *st,
+                         epsnet_error *err)
+{
+    epsnet_context *ctx = make_ctx(slab, threads, passes);
+    int rc = epsnet_simplify_file(ctx, in, out, err);
+    if (st)
+        *st = *epsnet_context_stats(ctx);
+    epsnet_context_free(&ctx);
+    return rc;
+}
+
+/* SPEC §2: "same input and options give the same output bytes, for any
+ * thread count" — slabs finish in any order on the workers. */
+TEST(same_bytes_for_threads_1_2_3_8)
+{
+    char in[512], out[512]; /* tl_path's buffers rotate: keep copies */
+    snprintf(in, sizeof in, "%s", tl_path("det.smz"));
+    snprintf(out, sizeof out, "%s", tl_path("det_out.smz"));
+    epsnet_error err;
+    CHECK_EQ_INT(tl_gen_file(in, "bumpy", 30000, NAN, 3, 0, &err), 0);
+    static const uint32_t slabs[] = { 50, 700 };
+    static const int passes[] = { 1, 3 };
+    for (int p = 0; p < 2; p++)
+        for (int k = 0; k < 2; k++) {
+            char *first = NULL;
+            size_t nfirst = 0;
+            static const int threads[] = { 1, 2, 3, 8 };
+            for (int t = 0; t < 4; t++) {
+                CHECK_EQ_INT(simplify_file(in, out, slabs[k], threads[t], passes[p], NULL, &err), 0);
+                size_t n;
+                char *b = slurp(out, &n);
+                CHECK(b != NULL && n > 100);
+                if (!first) {
+                    first = b;
+                    nfirst = n;
+                    continue;
+                }
+                int same = n == nfirst && memcmp(b, first, n) == 0;
+                if (!same)
+                    fprintf(stderr, "  slab %u, passes %d, %d threads: bytes differ (%zu vs %zu)\n", slabs[k],
+                            passes[p], threads[t], n, nfirst);
+                CHECK(same);
+                free(b);
+            }
+            free(first);
+        }
+}
+
+typedef struct stream_check {
+    uint64_t nv, nt, nfin, late, unsorted;
+    int closed_manifold;
+    int64_t euler;
+} stream_check;
+
+static int cmp_edge(const void *a, const void *b)
+{
+    const uint64_t *x = a, *y = b;
+    return x[0] != y[0] ? (x[0] > y[0]) - (x[0] < y[0]) : (x[1] > y[1]) - (x[1] < y[1]);
+}
+
+/* Read path record by record: vertices non-decreasing along z, every vertex
+ * finalized right after its last triangle (no triangle in between), and
+ * the surface's Euler characteristic and edge-manifoldness. */
+static int check_stream(const char *path, stream_check *c, double **xyz_out)
+{
+    memset(c, 0, sizeof *c);
+    epsnet_reader *r = NULL;
+    epsnet_error err;
+    if (epsnet_reader_open(&r, path, NULL, &err))
+        return -1;
+    size_t cap = 1024, tcap = 1024;
+    double *xyz = malloc(cap * 3 * sizeof *xyz);
+    uint64_t *tri = malloc(tcap * 3 * sizeof *tri);
+    uint64_t *last_face = malloc(cap * sizeof *last_face);
+    epsnet_record rec;
+    int rc;
+    while ((rc = epsnet_reader_next(r, &rec, &err)) == 1) {
+        if (rec.kind == EPSNET_REC_VERTEX) {
+            if (c->nv == cap) {
+                cap *= 2;
+                xyz = realloc(xyz, cap * 3 * sizeof *xyz);
+                last_face = realloc(last_face, cap * sizeof *last_face);
+            }
+            if (c->nv && rec.xyz[2] < xyz[3 * (c->nv - 1) + 2])
+                c->unsorted++;
+            memcpy(xyz + 3 * c->nv, rec.xyz, sizeof rec.xyz);
+            last_face[c->nv++] = UINT64_MAX;
+        } else if (rec.kind == EPSNET_REC_TRIANGLE) {
+            if (c->nt == tcap) {
+                tcap *= 2;
+                tri = realloc(tri, tcap * 3 * sizeof *tri);
+            }
+            memcpy(tri + 3 * c->nt, rec.v, sizeof rec.v);
+            for (int k = 0; k < 3; k++)
+                last_face[rec.v[k]] = c->nt;
+            c->nt++;
+        } else {
+            c->nfin++;
+            /* right after its last triangle: no triangle since that one */
+            c->late += last_face[rec.v[0]] != c->nt - 1 && last_face[rec.v[0]] != UINT64_MAX ? 1 : 0;
+        }
+    }
+    epsnet_reader_close(&r);
+    uint64_t ne = 3 * c->nt;
+    uint64_t *e = malloc(2 * sizeof *e * (ne + 1));
+    for (uint64_t f = 0; f < c->nt; f++)
+        for (int k = 0; k < 3; k++) {
+            uint64_t a = tri[3 * f + k], b = tri[3 * f + (k + 1) % 3];
+            e[2 * (3 * f + k)] = a < b ? a : b;
+            e[2 * (3 * f + k) + 1] = a < b ? b : a;
+        }
+    qsort(e, ne, 2 * sizeof *e, cmp_edge);
+    uint64_t edges = 0;
+    c->closed_manifold = 1;
+    for (uint64_t i = 0; i < ne;) {
+        uint64_t j = i;
+        while (j < ne && e[2 * j] == e[2 * i] && e[2 * j + 1] == e[2 * i + 1])
+            j++;
+        c->closed_manifold &= j - i == 2;
+        edges++;
+        i = j;
+    }
+    c->euler = (int64_t)c->nv - (int64_t)edges + (int64_t)c->nt;
+    free(e);
+    free(tri);
+    free(last_face);
+    if (xyz_out)
+        *xyz_out = xyz;
+    else
+        free(xyz);
+    return rc;
+}
+
+static int cmp_xyz(const void *a, const void *b)
+{
+    return memcmp(a, b, 3 * sizeof(double));
+}
+
+/* SPEC §2 "Output": a valid sorted stream; SPEC §1: samples survive, a
+ * closed surface keeps its genus. Many small slabs put seams everywhere. */
+TEST(output_is_a_valid_sorted_stream_keeping_samples_and_genus)
+{
+    static const struct {
+        const char *shape;
+        uint64_t faces;
+        int64_t euler;
+    } cases[] = { { "bumpy", 20000, 2 }, { "torus", 8000, 0 }, { "cad", 8000, 0 }, { "dimple", 8000, 2 } };
+    for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+        const char *in = tl_path("valid_in.smz"), *out = tl_path("valid_out.smz");
+        epsnet_error err;
+        CHECK_EQ_INT(tl_gen_file(in, cases[i].shape, cases[i].faces, NAN, 7, 0, &err), 0);
+        epsnet_stats st;
+        CHECK_EQ_INT(simplify_file(in, out, 300, 2, 1, &st, &err), 0);
+        stream_check c;
+        double *xyz = NULL;
+        CHECK_EQ_INT(check_stream(out, &c, &xyz), 0);
+        CHECK(st.slabs > 3);
+        CHECK(c.nt < cases[i].faces / 2);
+        CHECK_EQ_U64(c.nv, st.output_vertices);
+        CHECK_EQ_U64(c.nt, st.output_faces);
+        CHECK_EQ_U64(c.nfin, c.nv);
+        CHECK_EQ_U64(c.late, 0);
+        CHECK_EQ_U64(c.unsorted, 0);
+        CHECK(c.closed_manifold);
+        CHECK_EQ_INT((int)c.euler, (int)cases[i].euler);
+        /* every sample's coordinates are among the output's */
+        en_slab s;
+        gauss_sphere g;
+        gauss_rotation rot;
+        gauss_rotation_identity(&rot);
+        gauss_init(&g, 8, &rot);
+        CHECK_EQ_INT(gen_slab(cases[i].shape, cases[i].faces, NAN, 7, 0, &s), 0);
+        classified cl;
+        CHECK_EQ_INT(classify_all(&g, &s, &cl), 0);
+        qsort(xyz, c.nv, 3 * sizeof *xyz, cmp_xyz);
+        uint64_t missing = 0, samples = 0;
+        for (uint32_t v = 0; v < s.nv; v++)
+            if (cl.vclass[v] & EN_C_SAMPLE) {
+                samples++;
+                missing += !bsearch(s.pos + 3 * (size_t)v, xyz, c.nv, 3 * sizeof *xyz, cmp_xyz);
+            }
+        CHECK(samples > 0);
+        CHECK_EQ_U64(missing, 0);
+        classified_free(&cl);
+        en_slab_free(&s);
+        free(xyz);
+    }
+}
+
+/* Issue 6: "no seam may stay unsimplified". The input non-samples within a
+ * ring of a slab border must be left over no more often than the others,
+ * and the result must match the one-slab run's size. */
+TEST(seams_are_simplified_like_the_rest)
+{
+    const char *in = tl_path("seam_in.smz"), *out = tl_path("seam_out.smz");
+    epsnet_error err;
+    CHECK_EQ_INT(tl_gen_file(in, "bumpy", 60000, NAN, 5, 0, &err), 0);
+    epsnet_stats one, many;
+    CHECK_EQ_INT(simplify_file(in, out, UINT32_MAX, 1, 1, &one, &err), 0);
+    CHECK_EQ_INT(simplify_file(in, out, 1500, 2, 1, &many, &err), 0);
+    CHECK_EQ_U64(one.slabs, 1);
+    CHECK_EQ_U64(one.band_nonsamples, 0);
+    CHECK(many.slabs >= 15);
+    CHECK(many.band_nonsamples > 5000);
+    CHECK(many.inner_nonsamples > 5000);
+    CHECK(many.seam_collapses > 1000);
+    double band = (double)many.band_nonsamples_left / (double)many.band_nonsamples;
+    double inner = (double)many.inner_nonsamples_left / (double)many.inner_nonsamples;
+    double whole = (double)one.inner_nonsamples_left / (double)one.inner_nonsamples;
+    fprintf(stderr, "  left over: band %.5f, inner %.5f, one slab %.5f; faces %llu vs %llu\n", band, inner, whole,
+            (unsigned long long)many.output_faces, (unsigned long long)one.output_faces);
+    CHECK(band <= inner + 0.002);
+    CHECK(band <= whole + 0.002);
+    CHECK_EQ_U64(many.samples, one.samples);
+    CHECK(many.output_faces <= one.output_faces + one.output_faces / 100);
+    CHECK(one.output_faces <= many.output_faces + many.output_faces / 100);
+}
+
+/* Paper Table 3: the active set follows the stream's width (about the
+ * square root of the size for these sorted spheres), not its length. */
+TEST(active_set_grows_with_width_not_length)
+{
+    const char *in = tl_path("active.smz"), *out = tl_path("active_out.smz");
+    epsnet_error err;
+    uint64_t active[2], faces[2] = { 20000, 160000 };
+    for (int i = 0; i < 2; i++) {
+        CHECK_EQ_INT(tl_gen_file(in, "bumpy", faces[i], NAN, 1, 0, &err), 0);
+        epsnet_stats st;
+        CHECK_EQ_INT(simplify_file(in, out, 1000, 2, 1, &st, &err), 0);
+        active[i] = st.max_active;
+        CHECK(active[i] > 0 && active[i] < st.faces);
+    }
+    fprintf(stderr, "  max active: %llu at 20k faces, %llu at 160k\n", (unsigned long long)active[0],
+            (unsigned long long)active[1]);
+    CHECK(active[1] < 4 * active[0]); /* 8x the faces; sqrt(8) = 2.8 */
+}
+
+/* A face whose normal overflows fails its slab's worker; whichever worker
+ * finishes first, the first bad slab in stream order is reported, the run
+ * stops cleanly and leaves no output. */
+TEST(worker_error_surfaces_in_order)
+{
+    const char *good = tl_path("err_good.smz"), *bad = tl_path("err_bad.sma"), *out = tl_path("err_out.smz");
+    epsnet_error err;
+    CHECK_EQ_INT(tl_gen_file(good, "bumpy", 20000, NAN, 1, 0, &err), 0);
+    /* the same stream, finalization kept, with two far apart pairs of
+     * vertices pushed out to 1e200: their faces' normals overflow */
+    epsnet_reader *r = NULL;
+    epsnet_writer *w = NULL;
+    CHECK_EQ_INT(epsnet_reader_open(&r, good, NULL, &err), 0);
+    epsnet_mesh_info info = *epsnet_reader_info(r);
+    info.coord_type = EPSNET_COORD_FLOAT64;
+    info.sorted_axis = -1;
+    CHECK_EQ_INT(epsnet_writer_open(&w, bad, NULL, &info, &err), 0);
+    epsnet_record rec;
+    uint64_t nv = 0;
+    while (epsnet_reader_next(r, &rec, &err) == 1) {
+        uint64_t third = info.nverts / 3;
+        /* two vertices in a row share faces: x and y at 1e200 make the
+         * cross product 1e400 */
+        if (rec.kind == EPSNET_REC_VERTEX && (nv == third || nv == 2 * third))
+            rec.xyz[0] = 1e200;
+        if (rec.kind == EPSNET_REC_VERTEX && (nv == third + 1 || nv == 2 * third + 1))
+            rec.xyz[1] = 1e200;
+        nv += rec.kind == EPSNET_REC_VERTEX;
+        CHECK_EQ_INT(epsnet_writer_put(w, &rec, &err), 0);
+    }
+    CHECK_EQ_INT(epsnet_writer_commit(&w, &err), 0);
+    epsnet_reader_close(&r);
+    char first[1024] = "";
+    static const int threads[] = { 1, 2, 8 };
+    for (int t = 0; t < 3; t++) {
+        epsnet_error e;
+        int rc = simplify_file(bad, out, 64, threads[t], 1, NULL, &e);
+        CHECK_EQ_INT(rc, EPSNET_EFORMAT);
+        const char *msg = epsnet_error_message(&e);
+        CHECK_STR_CONTAINS(msg, "err_bad.sma");
+        CHECK_STR_CONTAINS(msg, "normal overflows");
+        if (t == 0)
+            snprintf(first, sizeof first, "%s", msg);
+        else
+            CHECK(strcmp(first, msg) == 0);
+        CHECK(!tl_exists(out));
+    }
+}
+
+/* One vertex at 1e200 keeps its faces' normals finite but overflows the
+ * quadrics to NaN; the collapse queue once looped forever on NaN costs. */
+TEST(huge_coordinates_end)
+{
+    char good[512], bad[512], out[512];
+    snprintf(good, sizeof good, "%s", tl_path("huge_good.smz"));
+    snprintf(bad, sizeof bad, "%s", tl_path("huge_bad.smz"));
+    snprintf(out, sizeof out, "%s", tl_path("huge_out.smz"));
+    epsnet_error err;
+    CHECK_EQ_INT(tl_gen_file(good, "sphere", 4000, NAN, 1, 0, &err), 0);
+    epsnet_reader *r = NULL;
+    epsnet_writer *w = NULL;
+    CHECK_EQ_INT(epsnet_reader_open(&r, good, NULL, &err), 0);
+    epsnet_mesh_info info = *epsnet_reader_info(r);
+    info.coord_type = EPSNET_COORD_FLOAT64;
+    info.sorted_axis = -1;
+    CHECK_EQ_INT(epsnet_writer_open(&w, bad, NULL, &info, &err), 0);
+    epsnet_record rec;
+    uint64_t nv = 0;
+    while (epsnet_reader_next(r, &rec, &err) == 1) {
+        if (rec.kind == EPSNET_REC_VERTEX && nv++ == info.nverts / 2)
+            rec.xyz[0] = 1e200;
+        CHECK_EQ_INT(epsnet_writer_put(w, &rec, &err), 0);
+    }
+    CHECK_EQ_INT(epsnet_writer_commit(&w, &err), 0);
+    epsnet_reader_close(&r);
+    epsnet_stats st;
+    CHECK_EQ_INT(simplify_file(bad, out, 200, 2, 1, &st, &err), 0);
+    if (err.code)
+        fprintf(stderr, "  %s\n", epsnet_error_message(&err));
+    CHECK(st.output_faces > 0 && st.output_faces < st.faces);
+}
+
+/* The push/pull API (epsnet.h §8b) gives the records epsnet_simplify_file
+ * writes, and rejects bad records with a clear error. */
+TEST(push_pull_matches_file_api)
+{
+    const char *in = tl_path("pp_in.smz"), *out = tl_path("pp_out.sma"), *mine = tl_path("pp_mine.sma");
+    epsnet_error err;
+    CHECK_EQ_INT(tl_gen_file(in, "torus", 12000, NAN, 1, 0, &err), 0);
+    CHECK_EQ_INT(simplify_file(in, out, 500, 2, 2, NULL, &err), 0);
+
+    epsnet_context *ctx = make_ctx(500, 2, 2);
+    epsnet_stream *s = NULL;
+    epsnet_reader *r = NULL;
+    epsnet_writer *w = NULL;
+    epsnet_mesh_info info;
+    memset(&info, 0, sizeof info);
+    info.nverts = info.nfaces = EPSNET_COUNT_UNKNOWN;
+    info.streaming = 1;
+    info.sorted_axis = 2;
+    CHECK_EQ_INT(epsnet_stream_open(&s, ctx, &err), 0);
+    CHECK_EQ_INT(epsnet_reader_open(&r, in, NULL, &err), 0);
+    CHECK_EQ_INT(epsnet_writer_open(&w, mine, NULL, &info, &err), 0);
+    epsnet_record rec, o;
+    int rc;
+    uint64_t pulled = 0;
+    while ((rc = epsnet_reader_next(r, &rec, &err)) == 1) {
+        CHECK_EQ_INT(epsnet_stream_push(s, &rec, &err), 0);
+        while ((rc = epsnet_stream_pull(s, &o, &err)) == 1) {
+            pulled++;
+            CHECK_EQ_INT(epsnet_writer_put(w, &o, &err), 0);
+        }
+        CHECK_EQ_INT(rc, 0);
+    }
+    CHECK_EQ_INT(epsnet_stream_end(s, &err), 0);
+    while ((rc = epsnet_stream_pull(s, &o, &err)) == 1) {
+        pulled++;
+        CHECK_EQ_INT(epsnet_writer_put(w, &o, &err), 0);
+    }
+    CHECK(pulled > 1000);
+    CHECK_EQ_INT(epsnet_writer_commit(&w, &err), 0);
+    epsnet_reader_close(&r);
+    epsnet_stream_close(&s);
+    size_t n1, n2;
+    char *a = slurp(out, &n1), *b = slurp(mine, &n2);
+    CHECK(a && b && n1 == n2 && memcmp(a, b, n1) == 0);
+    free(a);
+    free(b);
+
+    /* bad records: unknown vertex, then the error sticks */
+    CHECK_EQ_INT(epsnet_stream_open(&s, ctx, &err), 0);
+    memset(&rec, 0, sizeof rec);
+    rec.kind = EPSNET_REC_VERTEX;
+    CHECK_EQ_INT(epsnet_stream_push(s, &rec, &err), 0);
+    rec.kind = EPSNET_REC_TRIANGLE;
+    rec.v[0] = 0, rec.v[1] = 0, rec.v[2] = 5;
+    CHECK_EQ_INT(epsnet_stream_push(s, &rec, &err), EPSNET_EFORMAT);
+    CHECK_STR_CONTAINS(epsnet_error_message(&err), "unknown vertex 5");
+    rec.kind = EPSNET_REC_VERTEX;
+    CHECK_EQ_INT(epsnet_stream_push(s, &rec, &err), EPSNET_EFORMAT);
+    epsnet_stream_close(&s);
+    CHECK_EQ_INT(epsnet_stream_open(&s, ctx, &err), 0);
+    rec.kind = EPSNET_REC_VERTEX;
+    CHECK_EQ_INT(epsnet_stream_push(s, &rec, &err), 0);
+    rec.kind = EPSNET_REC_FINALIZE;
+    rec.v[0] = 0;
+    CHECK_EQ_INT(epsnet_stream_push(s, &rec, &err), 0);
+    CHECK_EQ_INT(epsnet_stream_push(s, &rec, &err), EPSNET_EFORMAT);
+    CHECK_STR_CONTAINS(epsnet_error_message(&err), "finalized twice");
+    epsnet_stream_close(&s);
+    epsnet_context_free(&ctx);
+}
+
+int main(void)
+{
+    RUN(samples_equal_one_slab_for_any_slab_size);
+    RUN(same_bytes_for_threads_1_2_3_8);
+    RUN(output_is_a_valid_sorted_stream_keeping_samples_and_genus);
+    RUN(seams_are_simplified_like_the_rest);
+    RUN(active_set_grows_with_width_not_length);
+    RUN(worker_error_surfaces_in_order);
+    RUN(huge_coordinates_end);
+    RUN(push_pull_matches_file_api);
+    tl_cleanup();
+    return tl_finish();
+}
