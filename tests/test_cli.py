@@ -276,6 +276,24 @@ def simplify_keeps_samples_and_reports():
 
 
 @case
+def example_stream_matches_simplify():
+    """tests/example_stream.c (the push/pull API) writes the same bytes as
+    `epsnet simplify` with the same slab size, threads and passes."""
+    example = os.environ.get("EPSNET_EXAMPLE_STREAM")
+    assert example and os.path.exists(example), example
+    src = path("ex_in.smz")
+    rc, _, err = run("gen", "bumpy", "--faces", "40000", "-o", src, "-q")
+    assert rc == 0, err
+    for slab, threads, passes in (("300", "2", "1"), ("5000", "1", "2")):
+        mine, ref = path("ex_mine.smz"), path("ex_ref.smz")
+        p = subprocess.run([example, src, mine, slab, threads, passes], capture_output=True, text=True, timeout=120)
+        assert p.returncode == 0 and "slabs" in p.stdout, (p.returncode, p.stderr)
+        rc, _, err = run("simplify", src, "-o", ref, "--slab", slab, "-j", threads, "--passes", passes, "-q")
+        assert rc == 0, err
+        assert open(mine, "rb").read() == open(ref, "rb").read(), (slab, threads, passes)
+
+
+@case
 def simplify_bad_input_leaves_nothing():
     expect_bad_input("bad_simp.obj", "v 0 0 0\nv 1 0 0\nf 1 2 3\n", ":3:")
     src = path("bad_simp.obj")

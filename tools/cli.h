@@ -64,6 +64,17 @@ void cli_progress_begin(cli_progress *p, const char *label);
 void cli_progress_update(cli_progress *p, uint64_t done, uint64_t total, uint64_t items);
 void cli_progress_end(cli_progress *p);
 
+/* Progress of a method run (sample, simplify): bytes read for the bar and
+ * ETA, faces read so far (from the context's live stats) for the count and
+ * rate. Set ctx once the context exists. */
+typedef struct cli_run_progress {
+    cli_progress bar;
+    const epsnet_context *ctx;
+} cli_run_progress;
+
+/* An epsnet_settings.progress callback; opaque is a cli_run_progress. */
+int cli_run_progress_cb(void *opaque, uint64_t done, uint64_t total);
+
 double cli_now(void);
 
 /*

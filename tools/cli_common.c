@@ -124,6 +124,14 @@ void cli_progress_update(cli_progress *p, uint64_t done, uint64_t total, uint64_
     }
 }
 
+int cli_run_progress_cb(void *opaque, uint64_t done, uint64_t total)
+{
+    cli_run_progress *rp = opaque;
+    uint64_t faces = rp->ctx ? epsnet_context_stats(rp->ctx)->faces : 0;
+    cli_progress_update(&rp->bar, done, total, faces);
+    return 0;
+}
+
 void cli_progress_end(cli_progress *p)
 {
     if (p->enabled)

@@ -57,10 +57,16 @@ int cmd_sample(int argc, char **argv)
 
     epsnet_error err;
     epsnet_context *ctx = NULL;
+    cli_run_progress prog = { 0 };
+    cli_progress_begin(&prog.bar, "sample faces");
+    m.settings.progress = cli_run_progress_cb;
+    m.settings.progress_opaque = &prog;
     rc = epsnet_context_new(&ctx, &m.settings, &err);
+    prog.ctx = ctx;
     if (rc == 0)
         rc = epsnet_sample_file(ctx, argv[optind], out, mesh ? EPSNET_SAMPLES_MESH : EPSNET_SAMPLES_POINTS,
                                 ascii, &err);
+    cli_progress_end(&prog.bar);
     if (rc == 0 && m.stats_path)
         rc = epsnet_stats_write_json(ctx, "sample", m.stats_path, &err);
     if (rc == 0 && !cli_quiet) {

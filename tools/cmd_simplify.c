@@ -75,9 +75,15 @@ int cmd_simplify(int argc, char **argv)
 
     epsnet_error err;
     epsnet_context *ctx = NULL;
+    cli_run_progress prog = { 0 };
+    cli_progress_begin(&prog.bar, "simplify faces");
+    m.settings.progress = cli_run_progress_cb;
+    m.settings.progress_opaque = &prog;
     rc = epsnet_context_new(&ctx, &m.settings, &err);
+    prog.ctx = ctx;
     if (rc == 0)
         rc = epsnet_simplify_file(ctx, argv[optind], out, &err);
+    cli_progress_end(&prog.bar);
     if (rc == 0 && m.stats_path)
         rc = epsnet_stats_write_json(ctx, "simplify", m.stats_path, &err);
     if (rc == 0 && !cli_quiet) {
@@ -88,6 +94,7 @@ int cmd_simplify(int argc, char **argv)
                 "epsnet simplify: %llu vertices, %llu faces -> %llu vertices, %llu faces (%.1f%%)\n"
                 "  samples %llu of %llu Gaussian vertices (%llu locked), %llu collapses in %llu pass%s\n"
                 "  non-samples left: %llu (refused: link %llu, normal %llu, zero-area %llu, duplicate %llu)\n"
+                "  %llu slabs, seams: %llu faces, %llu collapses; largest active set %llu\n"
                 "  %.2f s, %.2f M faces/s, peak RSS %.1f MB\n",
                 (unsigned long long)s->vertices, (unsigned long long)s->faces,
                 (unsigned long long)s->output_vertices, (unsigned long long)s->output_faces,
@@ -96,7 +103,9 @@ int cmd_simplify(int argc, char **argv)
                 (unsigned long long)s->locked, (unsigned long long)s->collapses, (unsigned long long)s->passes,
                 s->passes == 1 ? "" : "es", (unsigned long long)s->remaining_nonsamples,
                 (unsigned long long)s->refused_link, (unsigned long long)s->refused_normal,
-                (unsigned long long)s->refused_zero_area, (unsigned long long)s->refused_duplicate, secs,
+                (unsigned long long)s->refused_zero_area, (unsigned long long)s->refused_duplicate,
+                (unsigned long long)s->slabs, (unsigned long long)s->seam_faces,
+                (unsigned long long)s->seam_collapses, (unsigned long long)s->max_active, secs,
                 secs > 0 ? (double)s->faces / secs / 1e6 : 0.0, (double)s->peak_rss / (1 << 20));
     }
     epsnet_context_free(&ctx);

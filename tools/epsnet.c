@@ -1,6 +1,7 @@
 /*
  * epsnet command line: `epsnet <command> [options]`.
  */
+#include <malloc.h>
 #include <signal.h>
 #include <stdio.h>
 #include <string.h>
@@ -62,6 +63,12 @@ int main(int argc, char **argv)
     signal(SIGHUP, on_signal);
     signal(SIGPIPE, SIG_IGN); /* a closed pipe becomes an ordinary EIO/EPIPE error */
     signal(SIGXFSZ, SIG_IGN); /* over `ulimit -f`: a clear EFBIG error, not a core dump */
+    /* Slabs are allocated on one thread and freed on another; with glibc's
+     * default sliding mmap threshold, their freed arrays stay in the heap
+     * arenas and peak RSS creeps up with the slab count (measured: 357 MB
+     * instead of 279 MB on 20M faces at -j2 --mem 1G). Large arrays always
+     * mmapped go back to the system when freed. */
+    mallopt(M_MMAP_THRESHOLD, 1 << 20);
 
     if (argc < 2) {
         usage(stderr);

@@ -433,7 +433,8 @@ EPSNET_API int epsnet_parse_rotation(const char *text, epsnet_settings *s);
 /* Statistics of the last run of a context (paper Table 3 and SPEC §2). */
 typedef struct epsnet_stats {
     uint64_t vertices;            /* input vertices */
-    uint64_t faces;               /* input triangles */
+    uint64_t faces;               /* input triangles; counts up during a streamed run
+                                   * (progress callbacks may read it) */
     uint64_t zero_area_faces;     /* faces without a normal (skipped) */
     uint64_t gaussian_vertices;   /* vertices of G */
     uint64_t feature_edges;       /* edges whose faces lie in different G triangles */

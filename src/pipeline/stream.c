@@ -295,6 +295,7 @@ int en_stream_put(epsnet_stream *s, const epsnet_record *rec, epsnet_error *err)
     }
     s->vertices_in += rec->kind == EPSNET_REC_VERTEX;
     s->faces_in += rec->kind == EPSNET_REC_TRIANGLE;
+    s->ctx->stats.faces = s->faces_in; /* live, for progress reports */
     int rc = pass_put(&s->pass[0], rec, err);
     return rc ? fail(s, rc, err) : 0;
 }
