@@ -471,6 +471,7 @@ typedef struct epsnet_stats {
     double seconds_classify;
     double seconds_write;
     double seconds_simplify;
+    double seconds_sort;          /* sorting an input that was not a stream first (0: none) */
     uint8_t reserved[48];
 } epsnet_stats;
 

@@ -17,14 +17,15 @@
 #define EN_SINK_BUF (1u << 20)
 
 /* ---- registry of named temporaries, for signal-time cleanup ----
- * note: only used when O_TMPFILE is unavailable; anonymous files need no
- * cleanup at all, which is why they are tried first. Slots are claimed with
+ * note: used when O_TMPFILE is unavailable (anonymous files need no cleanup
+ * at all, which is why they are tried first) and for the sorted copy that
+ * sample and simplify read back. Slots are claimed with
  * atomics so a handler never sees a half-written path. */
 #define EN_TEMP_SLOTS 64
 static char en_temp_paths[EN_TEMP_SLOTS][PATH_MAX];
 static volatile sig_atomic_t en_temp_used[EN_TEMP_SLOTS];
 
-static int temp_register(const char *path)
+int en_temp_register(const char *path)
 {
     for (int i = 0; i < EN_TEMP_SLOTS; i++) {
         sig_atomic_t expected = 0;
@@ -38,7 +39,7 @@ static int temp_register(const char *path)
     return -1;
 }
 
-static void temp_unregister(int slot)
+void en_temp_unregister(int slot)
 {
     if (slot >= 0)
         __atomic_store_n(&en_temp_used[slot], 0, __ATOMIC_RELEASE);
@@ -234,7 +235,7 @@ int en_sink_open(en_sink **out, const char *path, int zstd_level, epsnet_error *
             return en_error_set(err, en_error_from_errno(e), path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                                 "cannot create output: %s", strerror(e));
         }
-        s->temp_slot = temp_register(s->tmp_path);
+        s->temp_slot = en_temp_register(s->tmp_path);
     }
     *out = s;
     return 0;
@@ -318,7 +319,7 @@ void en_sink_abort(en_sink **ps)
         close(s->fd);
     if (s->tmp_path) {
         unlink(s->tmp_path);
-        temp_unregister(s->temp_slot);
+        en_temp_unregister(s->temp_slot);
     }
     sink_free(s);
     *ps = NULL;
@@ -369,11 +370,11 @@ int en_sink_commit(en_sink **ps, epsnet_error *err)
         }
         for (unsigned attempt = 0;; attempt++) {
             snprintf(s->tmp_path, n, "%s/.%s.epsnet-%ld-%u", s->dir, base, (long)getpid(), attempt);
-            s->temp_slot = temp_register(s->tmp_path);
+            s->temp_slot = en_temp_register(s->tmp_path);
             if (linkat(AT_FDCWD, fdpath, AT_FDCWD, s->tmp_path, AT_SYMLINK_FOLLOW) == 0)
                 break;
             int e = errno;
-            temp_unregister(s->temp_slot);
+            en_temp_unregister(s->temp_slot);
             s->temp_slot = -1;
             if (e != EEXIST || attempt > 100) {
                 en_free(s->tmp_path);
@@ -395,7 +396,7 @@ int en_sink_commit(en_sink **ps, epsnet_error *err)
             rc = sink_fail_errno(s, errno, "cannot move output into place", err);
             goto fail;
         }
-        temp_unregister(s->temp_slot);
+        en_temp_unregister(s->temp_slot);
         en_free(s->tmp_path);
         s->tmp_path = NULL;
     }

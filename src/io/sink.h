@@ -73,4 +73,10 @@ void en_spill_close(en_spill **sp);
  */
 void en_tempfiles_cleanup_signal_safe(void);
 
+/* Have path removed by en_tempfiles_cleanup_signal_safe() until
+ * unregistered. @return a slot for en_temp_unregister(), or -1 when all
+ * slots are taken (then nothing removes it on a signal). */
+int en_temp_register(const char *path);
+void en_temp_unregister(int slot);
+
 #endif /* EN_IO_SINK_H */
