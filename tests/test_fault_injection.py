@@ -16,10 +16,10 @@ TMP = tempfile.mkdtemp(prefix="epsnet-fault-")
 failures = 0
 
 
-def run(args, fail_at=None):
+def run(args, fail_at=None, what="EPSNET_FAIL_ALLOC"):
     env = dict(os.environ)
     if fail_at is not None:
-        env["EPSNET_FAIL_ALLOC"] = str(fail_at)
+        env[what] = str(fail_at)
     return subprocess.run([EPSNET, *args], capture_output=True, text=True, env=env, timeout=120)
 
 
@@ -27,21 +27,23 @@ def leftovers():
     return [f for f in os.listdir(TMP) if ".epsnet-" in f]
 
 
-def walk(name, make_args, max_points=400, stride=1):
-    """Fail allocation N for N = 1, 1+stride, ... until a run succeeds."""
+def walk(name, make_args, max_points=400, stride=1, what="EPSNET_FAIL_ALLOC"):
+    """Fail allocation (or thread creation) N for N = 1, 1+stride, ... until
+    a run succeeds."""
     global failures
-    out = os.path.join(TMP, "out_" + name)
+    args = make_args(os.path.join(TMP, "out_" + name))
+    out = args[args.index("-o") + 1] if "-o" in args else args[args.index("--json") + 1]
     problems = []
     n = 1
     points = 0
     while points < max_points:
         if os.path.exists(out):
             os.remove(out)
-        p = run(make_args(out), n)
+        p = run(args, n, what)
         points += 1
         if p.returncode == 0:
             if n == 1:
-                problems.append("succeeded with EPSNET_FAIL_ALLOC=1: injection is not active")
+                problems.append(f"succeeded with {what}=1: injection is not active")
             break
         if p.returncode < 0 or p.returncode not in (2, 3, 4, 6):
             problems.append(f"N={n}: exit {p.returncode}: {p.stderr.strip()[-300:]}")
@@ -63,6 +65,20 @@ def walk(name, make_args, max_points=400, stride=1):
         print(f"ok   {name} ({points} failure points)")
 
 
+def hausdorff_without_threads(a, b):
+    """hausdorff shares its work among the threads that did start (the
+    caller is one of them): same numbers when none can be created."""
+    global failures
+    ref, got = os.path.join(TMP, "h_ref.json"), os.path.join(TMP, "h_got.json")
+    p = run(["hausdorff", a, b, "-j", "3", "-q", "--json", ref])
+    q = run(["hausdorff", a, b, "-j", "3", "-q", "--json", got], 1, "EPSNET_FAIL_THREAD")
+    if p.returncode or q.returncode or open(ref).read().replace(ref, "") != open(got).read().replace(got, ""):
+        failures += 1
+        print("FAIL hausdorff_without_threads", p.returncode, q.returncode, q.stderr[-300:])
+    else:
+        print("ok   hausdorff_without_threads")
+
+
 def main():
     src = os.path.join(TMP, "in.ply")
     p = run(["gen", "bumpy", "--faces", "3000", "--shuffle", "-o", src, "-q"])
@@ -75,6 +91,16 @@ def main():
     walk("sample", lambda o: ["sample", src, "-o", o + ".ply", "--level", "2", "-q"])
     walk("simplify_two_passes", lambda o: ["simplify", src, "-o", o + ".ply", "--level", "2", "--passes", "2",
                                            "-q"], max_points=600)
+    # The streaming pipeline with many slabs, seams and worker threads.
+    smz = os.path.join(TMP, "in.smz")
+    p = run(["gen", "bumpy", "--faces", "6000", "-o", smz, "-q"])
+    assert p.returncode == 0, p.stderr
+    walk("simplify_pipeline_threads", lambda o: ["simplify", smz, "-o", o + ".smz", "--slab", "200", "-j", "3",
+                                                 "--passes", "2", "-q"], max_points=600, stride=7)
+    # Threads that cannot start: every one of the 3 x 2 pool threads in turn.
+    walk("simplify_thread_creation", lambda o: ["simplify", smz, "-o", o + ".smz", "--slab", "200", "-j", "3",
+                                                "--passes", "2", "-q"], what="EPSNET_FAIL_THREAD")
+    hausdorff_without_threads(smz, sma)
     subprocess.run(["rm", "-rf", TMP])
     print(f"{failures} failed")
     sys.exit(1 if failures else 0)

@@ -23,6 +23,7 @@
 #include <unistd.h>
 
 #include "common/alloc.h"
+#include "common/thread.h"
 #include "common/u64set.h"
 #include "metrics/bvh.h"
 
@@ -453,7 +454,7 @@ static void run_parallel(direction_job *job, int threads)
     pthread_t tid[MAX_THREADS];
     int started = 0;
     for (int i = 1; i < threads; i++) {
-        if (pthread_create(&tid[started], NULL, worker, job) != 0)
+        if (en_thread_create(&tid[started], worker, job) != 0)
             break;
         started++;
     }

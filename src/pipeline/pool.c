@@ -3,6 +3,7 @@
 #include <pthread.h>
 
 #include "common/alloc.h"
+#include "common/thread.h"
 #include "epsnet/epsnet.h"
 
 typedef enum { SLOT_FREE, SLOT_QUEUED, SLOT_RUNNING, SLOT_DONE } slot_state;
@@ -82,7 +83,7 @@ int en_pool_new(en_pool **out, int threads, size_t capacity)
     pthread_cond_init(&p->work, NULL);
     pthread_cond_init(&p->done, NULL);
     for (int i = 0; i < threads; i++) {
-        if (pthread_create(&p->threads[i], NULL, worker, p) != 0) {
+        if (en_thread_create(&p->threads[i], worker, p) != 0) {
             p->nthreads = i;
             en_pool_free(&p);
             return EPSNET_EIO;
