@@ -380,6 +380,36 @@ TEST(active_set_grows_with_width_not_length)
     CHECK(active[1] < 4 * active[0]); /* 8x the faces; sqrt(8) = 2.8 */
 }
 
+/* Copy the stream at from to to (float64, finalization kept), with
+ * coordinate axis[i] of vertex at[i] set to 1e200. */
+static int copy_stream_with_huge(const char *from, const char *to, const uint64_t *at, const int *axis, int n)
+{
+    epsnet_error err;
+    epsnet_reader *r = NULL;
+    epsnet_writer *w = NULL;
+    int rc = epsnet_reader_open(&r, from, NULL, &err);
+    if (rc)
+        return rc;
+    epsnet_mesh_info info = *epsnet_reader_info(r);
+    info.coord_type = EPSNET_COORD_FLOAT64;
+    info.sorted_axis = -1;
+    rc = epsnet_writer_open(&w, to, NULL, &info, &err);
+    epsnet_record rec;
+    uint64_t nv = 0;
+    while (rc == 0 && (rc = epsnet_reader_next(r, &rec, &err)) == 1) {
+        for (int i = 0; i < n && rec.kind == EPSNET_REC_VERTEX; i++)
+            if (nv == at[i])
+                rec.xyz[axis[i]] = 1e200;
+        nv += rec.kind == EPSNET_REC_VERTEX;
+        rc = epsnet_writer_put(w, &rec, &err);
+    }
+    if (rc == 0)
+        rc = epsnet_writer_commit(&w, &err);
+    epsnet_writer_abort(&w);
+    epsnet_reader_close(&r);
+    return rc;
+}
+
 /* A face whose normal overflows fails its slab's worker; whichever worker
  * finishes first, the first bad slab in stream order is reported, the run
  * stops cleanly and leaves no output. */
@@ -388,30 +418,18 @@ TEST(worker_error_surfaces_in_order)
     const char *good = tl_path("err_good.smz"), *bad = tl_path("err_bad.sma"), *out = tl_path("err_out.smz");
     epsnet_error err;
     CHECK_EQ_INT(tl_gen_file(good, "bumpy", 20000, NAN, 1, 0, &err), 0);
-    /* the same stream, finalization kept, with two far apart pairs of
-     * vertices pushed out to 1e200: their faces' normals overflow */
-    epsnet_reader *r = NULL;
-    epsnet_writer *w = NULL;
-    CHECK_EQ_INT(epsnet_reader_open(&r, good, NULL, &err), 0);
-    epsnet_mesh_info info = *epsnet_reader_info(r);
-    info.coord_type = EPSNET_COORD_FLOAT64;
-    info.sorted_axis = -1;
-    CHECK_EQ_INT(epsnet_writer_open(&w, bad, NULL, &info, &err), 0);
-    epsnet_record rec;
-    uint64_t nv = 0;
-    while (epsnet_reader_next(r, &rec, &err) == 1) {
-        uint64_t third = info.nverts / 3;
-        /* two vertices in a row share faces: x and y at 1e200 make the
-         * cross product 1e400 */
-        if (rec.kind == EPSNET_REC_VERTEX && (nv == third || nv == 2 * third))
-            rec.xyz[0] = 1e200;
-        if (rec.kind == EPSNET_REC_VERTEX && (nv == third + 1 || nv == 2 * third + 1))
-            rec.xyz[1] = 1e200;
-        nv += rec.kind == EPSNET_REC_VERTEX;
-        CHECK_EQ_INT(epsnet_writer_put(w, &rec, &err), 0);
+    /* two far apart pairs of vertices in a row (they share faces): x and y
+     * at 1e200 make those faces' cross products 1e400 */
+    uint64_t third = 0;
+    {
+        tl_mesh m;
+        CHECK_EQ_INT(tl_read_mesh(good, &m, &err), 0);
+        third = m.nv / 3;
+        tl_mesh_free(&m);
     }
-    CHECK_EQ_INT(epsnet_writer_commit(&w, &err), 0);
-    epsnet_reader_close(&r);
+    const uint64_t at[4] = { third, third + 1, 2 * third, 2 * third + 1 };
+    const int axis[4] = { 0, 1, 0, 1 };
+    CHECK_EQ_INT(copy_stream_with_huge(good, bad, at, axis, 4), 0);
     char first[1024] = "";
     static const int threads[] = { 1, 2, 8 };
     for (int t = 0; t < 3; t++) {
@@ -482,22 +500,9 @@ TEST(huge_coordinates_end)
     snprintf(out, sizeof out, "%s", tl_path("huge_out.smz"));
     epsnet_error err;
     CHECK_EQ_INT(tl_gen_file(good, "sphere", 4000, NAN, 1, 0, &err), 0);
-    epsnet_reader *r = NULL;
-    epsnet_writer *w = NULL;
-    CHECK_EQ_INT(epsnet_reader_open(&r, good, NULL, &err), 0);
-    epsnet_mesh_info info = *epsnet_reader_info(r);
-    info.coord_type = EPSNET_COORD_FLOAT64;
-    info.sorted_axis = -1;
-    CHECK_EQ_INT(epsnet_writer_open(&w, bad, NULL, &info, &err), 0);
-    epsnet_record rec;
-    uint64_t nv = 0;
-    while (epsnet_reader_next(r, &rec, &err) == 1) {
-        if (rec.kind == EPSNET_REC_VERTEX && nv++ == info.nverts / 2)
-            rec.xyz[0] = 1e200;
-        CHECK_EQ_INT(epsnet_writer_put(w, &rec, &err), 0);
-    }
-    CHECK_EQ_INT(epsnet_writer_commit(&w, &err), 0);
-    epsnet_reader_close(&r);
+    const uint64_t at[1] = { 2000 }; /* about the middle of ~4000 faces' 2000 vertices */
+    const int axis[1] = { 0 };
+    CHECK_EQ_INT(copy_stream_with_huge(good, bad, at, axis, 1), 0);
     epsnet_stats st;
     CHECK_EQ_INT(simplify_file(bad, out, 200, 2, 1, &st, &err), 0);
     CHECK(st.output_faces > 0 && st.output_faces < st.faces);

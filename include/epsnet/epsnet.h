@@ -387,9 +387,13 @@ typedef struct epsnet_settings {
     epsnet_rotation_mode rotation_mode;
     double rotation[4];           /* quaternion (w, x, y, z) for QUATERNION */
     uint64_t seed;                /* for SEED, and for the rotations of ε-net passes. Default: 1 */
-    /* Worker threads; 0 = all cores. Default: 0. */
+    /* Threads; 0 = all cores. 1 runs everything on the calling thread; N > 1
+     * starts N workers for the slabs while the calling thread reads, cuts,
+     * stitches and writes. The output never depends on it. Default: 0. */
     int threads;
-    /* Memory budget in bytes; 0 = no budget. Default: 0. */
+    /* Memory budget in bytes; 0 = no budget. It sets the slab size (see
+     * slab_vertices), the reader's budget for live vertices, and the sort's
+     * budget when an input has to be sorted first. Default: 0. */
     uint64_t mem;
     /* Folder for temporary files; NULL = beside the output. Default: NULL. */
     const char *tmpdir;

@@ -4,29 +4,16 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include <stdatomic.h>
+#include "common/fault.h"
 
-/*
- * Fault injection (STYLE.md: dav1d's alloc_fail): EPSNET_FAIL_ALLOC=N makes
- * the N-th allocation (1-based) and every later one fail, so a test can walk
- * every failure point of a whole run (tests/test_fault_injection.py).
- * note: process-wide on purpose (allocation is); read once; when the
- * variable is unset the cost is one predictable branch per allocation.
- */
-static atomic_long en_alloc_count;
-static atomic_long en_alloc_fail_at = -2;
+/* EPSNET_FAIL_ALLOC=N makes the N-th allocation (1-based) and every later
+ * one fail, so a test can walk every failure point of a whole run
+ * (tests/test_fault_injection.py). */
+static en_fault en_alloc_fault = EN_FAULT_INIT("EPSNET_FAIL_ALLOC");
 
 static int en_alloc_should_fail(void)
 {
-    long at = atomic_load_explicit(&en_alloc_fail_at, memory_order_relaxed);
-    if (at == -2) {
-        const char *e = getenv("EPSNET_FAIL_ALLOC");
-        at = e && *e ? atol(e) : -1;
-        atomic_store(&en_alloc_fail_at, at);
-    }
-    if (at < 0)
-        return 0;
-    return atomic_fetch_add(&en_alloc_count, 1) + 1 >= at;
+    return en_fault_hit(&en_alloc_fault);
 }
 
 void *en_malloc(size_t n)

@@ -1,29 +1,14 @@
 #include "common/thread.h"
 
 #include <errno.h>
-#include <stdatomic.h>
-#include <stdlib.h>
 
-/* note: process-wide and read once, like EPSNET_FAIL_ALLOC (alloc.c). */
-static atomic_long en_thread_count;
-static atomic_long en_thread_fail_at = -2;
+#include "common/fault.h"
 
-static int should_fail(void)
-{
-    long at = atomic_load_explicit(&en_thread_fail_at, memory_order_relaxed);
-    if (at == -2) {
-        const char *e = getenv("EPSNET_FAIL_THREAD");
-        at = e && *e ? atol(e) : -1;
-        atomic_store(&en_thread_fail_at, at);
-    }
-    if (at < 0)
-        return 0;
-    return atomic_fetch_add(&en_thread_count, 1) + 1 >= at;
-}
+static en_fault en_thread_fault = EN_FAULT_INIT("EPSNET_FAIL_THREAD");
 
 int en_thread_create(pthread_t *t, void *(*fn)(void *), void *arg)
 {
-    if (should_fail())
+    if (en_fault_hit(&en_thread_fault))
         return EAGAIN; /* what pthread_create says when threads run out */
     return pthread_create(t, NULL, fn, arg);
 }
