@@ -402,14 +402,17 @@ typedef struct epsnet_settings {
      * non-zero to cancel (the run then fails with EPSNET_EINTR). Default: NULL. */
     int (*progress)(void *opaque, uint64_t done, uint64_t total);
     void *progress_opaque;
-    /* Simplification: at most this many ε-net passes (paper §4.2, §5); pass
-     * i > 1 re-samples the previous result under a rotation derived from
-     * seed and removes what became a non-sample. 1 = one sampling, no
-     * re-sampling. Default: 1. */
+    /* Simplification: this many ε-net passes (paper §4.2, §5); pass i > 1
+     * re-samples the previous result under a rotation derived from seed and
+     * removes what became a non-sample. The streamed run chains all of them
+     * (the in-core one behind epsnet_render_file() stops early when a pass
+     * removes nothing). 1 = one sampling, no re-sampling. Default: 1. */
     int passes;
     /* Simplification: a collapse is refused when it would leave any face
      * turned by more than this many degrees from its normal in the input
-     * (so no face can fold over, however many collapses touch it).
+     * (so no face can fold over, however many collapses touch it). With
+     * several passes, each pass measures against its own input (the pass
+     * before's output): records carry no normals from pass to pass.
      * Default: 60 (measured: see bench/RESULTS.md). */
     double max_normal_dev;
     /* Write ASCII instead of binary where the output format offers both.
