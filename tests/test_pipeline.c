@@ -129,20 +129,6 @@ TEST(samples_equal_one_slab_for_any_slab_size)
     }
 }
 
-static char *slurp(const char *path, size_t *n)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    long len = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *b = malloc((size_t)len + 1);
-    *n = fread(b, 1, (size_t)len, f);
-    fclose(f);
-    return b;
-}
-
 static int simplify_file(const char *in, const char *out, uint32_t slab, int threads, int passes, epsnet_stats *st,
                          epsnet_error *err)
 {
@@ -167,13 +153,13 @@ TEST(same_bytes_for_threads_1_2_3_8)
     static const int passes[] = { 1, 3 };
     for (int p = 0; p < 2; p++)
         for (int k = 0; k < 2; k++) {
-            char *first = NULL;
+            unsigned char *first = NULL;
             size_t nfirst = 0;
             static const int threads[] = { 1, 2, 3, 8 };
             for (int t = 0; t < 4; t++) {
                 CHECK_EQ_INT(simplify_file(in, out, slabs[k], threads[t], passes[p], NULL, &err), 0);
                 size_t n;
-                char *b = slurp(out, &n);
+                unsigned char *b = tl_read_file(out, &n);
                 CHECK(b != NULL && n > 100);
                 if (!first) {
                     first = b;
@@ -482,11 +468,7 @@ TEST(unsorted_input_is_sorted_first)
     CHECK(sa.seconds_sort > 0);
     CHECK(sb.seconds_sort == 0);
     CHECK(sa.slabs > 10);
-    size_t na, nb;
-    char *x = slurp(a, &na), *y = slurp(b, &nb);
-    CHECK(x && y && na == nb && memcmp(x, y, na) == 0);
-    free(x);
-    free(y);
+    CHECK(tl_same_file(a, b));
     CHECK_EQ_INT(count_entries(dir), 4); /* in.ply, in.smz, a.smz, b.smz */
 }
 
@@ -549,11 +531,7 @@ TEST(push_pull_matches_file_api)
     CHECK_EQ_INT(epsnet_writer_commit(&w, &err), 0);
     epsnet_reader_close(&r);
     epsnet_stream_close(&s);
-    size_t n1, n2;
-    char *a = slurp(out, &n1), *b = slurp(mine, &n2);
-    CHECK(a && b && n1 == n2 && memcmp(a, b, n1) == 0);
-    free(a);
-    free(b);
+    CHECK(tl_same_file(out, mine));
 
     /* bad records: unknown vertex, then the error sticks */
     CHECK_EQ_INT(epsnet_stream_open(&s, ctx, &err), 0);

@@ -47,30 +47,6 @@ static uint8_t *read_png(const char *path, uint32_t *w, uint32_t *h)
     return px;
 }
 
-static uint8_t *read_file(const char *path, size_t *n)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    long len = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    uint8_t *data = malloc((size_t)len + 1);
-    *n = data ? fread(data, 1, (size_t)len, f) : 0;
-    fclose(f);
-    return data;
-}
-
-static int same_file_bytes(const char *a, const char *b)
-{
-    size_t na = 0, nb = 0;
-    uint8_t *da = read_file(a, &na), *db = read_file(b, &nb);
-    int same = da && db && na == nb && na > 0 && memcmp(da, db, na) == 0;
-    free(da);
-    free(db);
-    return same;
-}
-
 static const char *gen_file(const char *shape, uint64_t faces, const char *name)
 {
     epsnet_error err;
@@ -382,8 +358,8 @@ TEST(same_call_gives_the_same_bytes)
         }
         epsnet_context_free(&ctx);
     }
-    CHECK(same_file_bytes(outs[0], outs[1]));
-    CHECK(!same_file_bytes(outs[0], outs[2]));
+    CHECK(tl_same_file(outs[0], outs[1]));
+    CHECK(!tl_same_file(outs[0], outs[2]));
 }
 
 static uint64_t differing_pixels(const char *a, const char *b)
@@ -428,7 +404,7 @@ TEST(streaming_and_ordinary_inputs_give_the_same_picture)
     CHECK(epsnet_render_file(ctx, ply, tl_path("t_mem.png"), &rs, &err) == 0);
     uint64_t samples = epsnet_context_stats(ctx)->samples;
     epsnet_context_free(&ctx);
-    CHECK(same_file_bytes(tl_path("t_ply.png"), tl_path("t_sma.png")));
+    CHECK(tl_same_file(tl_path("t_ply.png"), tl_path("t_sma.png")));
     uint64_t diff = differing_pixels(tl_path("t_ply.png"), tl_path("t_mem.png"));
     CHECK(samples > 0 && diff <= samples);
 }

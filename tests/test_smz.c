@@ -98,21 +98,6 @@ static uint64_t file_size(const char *path)
     return stat(path, &st) == 0 ? (uint64_t)st.st_size : 0;
 }
 
-static unsigned char *slurp(const char *path, size_t *n)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    *n = (size_t)ftell(f);
-    fseek(f, 0, SEEK_SET);
-    unsigned char *b = malloc(*n ? *n : 1);
-    if (fread(b, 1, *n, f) != *n)
-        *n = 0;
-    fclose(f);
-    return b;
-}
-
 /* ---- tests ---- */
 
 TEST(streaming_records_come_back_one_for_one)
@@ -266,7 +251,7 @@ TEST(blocks_decode_independently_through_the_index)
     CHECK_EQ_INT(en_smz_read_index(fileno(f), p, file_size(p), &idx, &err), 0);
     CHECK(idx.trailer.blocks > 4);
     size_t n;
-    unsigned char *bytes = slurp(p, &n);
+    unsigned char *bytes = tl_read_file(p, &n);
     ZSTD_DCtx *dctx = ZSTD_createDCtx();
     size_t at = 0;
     int ok = 1;
@@ -317,7 +302,7 @@ TEST(corrupt_block_is_reported_with_block_and_offset)
     fclose(f);
     CHECK(idx.trailer.blocks >= 3);
     size_t n;
-    unsigned char *bytes = slurp(p, &n);
+    unsigned char *bytes = tl_read_file(p, &n);
     uint64_t off = idx.entries[2].offset;
     char want[64];
     snprintf(want, sizeof want, "byte %llu", (unsigned long long)off);

@@ -147,6 +147,34 @@ static inline void tl_cleanup(void)
     }
 }
 
+/* The whole file, malloc'ed (free it), *n bytes; NULL when unreadable. */
+static inline unsigned char *tl_read_file(const char *path, size_t *n)
+{
+    *n = 0;
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    fseek(f, 0, SEEK_END);
+    long len = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    unsigned char *b = len >= 0 ? malloc((size_t)len + 1) : NULL;
+    if (b && fread(b, 1, (size_t)len, f) == (size_t)len)
+        *n = (size_t)len;
+    fclose(f);
+    return b;
+}
+
+/* 1 when both files exist, are not empty and hold the same bytes. */
+static inline int tl_same_file(const char *a, const char *b)
+{
+    size_t na, nb;
+    unsigned char *da = tl_read_file(a, &na), *db = tl_read_file(b, &nb);
+    int same = da && db && na == nb && na > 0 && memcmp(da, db, na) == 0;
+    free(da);
+    free(db);
+    return same;
+}
+
 /* ---- whole meshes ---- */
 
 typedef struct tl_mesh {
