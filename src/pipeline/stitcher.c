@@ -36,10 +36,10 @@ struct en_out_face {
     uint32_t v[3];
 };
 
-typedef struct vheap_entry {
+struct en_vheap_entry {
     uint64_t gid;
-    uint32_t idx;
-} vheap_entry;
+    uint32_t idx;          /* pool index */
+};
 
 int en_stitcher_init(en_stitcher *st, double max_normal_dev, en_emit_fn emit, void *opaque)
 {
@@ -98,7 +98,7 @@ static void sv_free(en_stitcher *st, uint32_t idx)
 }
 
 /* Binary min-heaps; ties cannot happen (ids and sequence numbers are unique). */
-static int vheap_less(const vheap_entry *a, const vheap_entry *b)
+static int vheap_less(const en_vheap_entry *a, const en_vheap_entry *b)
 {
     return a->gid < b->gid;
 }
@@ -142,17 +142,16 @@ static int fheap_less(const en_out_face *a, const en_out_face *b)
         return top;                                                                                             \
     }
 
-HEAP_FUNCS(vheap, vheap_entry, vheap_less)
+HEAP_FUNCS(vheap, en_vheap_entry, vheap_less)
 HEAP_FUNCS(fheap, en_out_face, fheap_less)
 
 /* The vertex will not change any more: it waits for its turn in id order. */
 static int decide(en_stitcher *st, uint32_t idx)
 {
-    if (en_grow((void **)&st->vheap, &st->vheap_cap, st->nvheap + 1, sizeof(vheap_entry)))
+    if (en_grow((void **)&st->vheap, &st->vheap_cap, st->nvheap + 1, sizeof *st->vheap))
         return -1;
-    vheap_entry *h = (vheap_entry *)st->vheap;
-    h[st->nvheap] = (vheap_entry){ st->v[idx].gid, idx };
-    vheap_up(h, st->nvheap++);
+    st->vheap[st->nvheap] = (en_vheap_entry){ st->v[idx].gid, idx };
+    vheap_up(st->vheap, st->nvheap++);
     return 0;
 }
 
@@ -343,9 +342,8 @@ static int put(en_stitcher *st, epsnet_record_kind kind, uint64_t a, uint64_t b,
 /* Write every decided vertex below frontier, each with the faces it ends. */
 static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
 {
-    vheap_entry *vh = (vheap_entry *)st->vheap;
-    while (st->nvheap && vh[0].gid < frontier) {
-        vheap_entry e = vheap_pop(vh, &st->nvheap);
+    while (st->nvheap && st->vheap[0].gid < frontier) {
+        en_vheap_entry e = vheap_pop(st->vheap, &st->nvheap);
         en_stitch_vertex *x = &st->v[e.idx];
         if (x->remaining == 0) {
             if (!(x->state & S_IN_W))

@@ -35,6 +35,7 @@ typedef int (*en_emit_fn)(void *opaque, const epsnet_record *rec, epsnet_error *
 typedef struct en_stitch_vertex en_stitch_vertex;
 typedef struct en_seam_face en_seam_face;
 typedef struct en_out_face en_out_face;
+typedef struct en_vheap_entry en_vheap_entry;
 
 typedef struct en_stitch_stats {
     uint64_t seam_faces;              /* faces that went through W */
@@ -43,7 +44,6 @@ typedef struct en_stitch_stats {
     uint64_t band_nonsamples, band_left;   /* input non-samples near a slab border / still in the output */
     uint64_t inner_nonsamples, inner_left; /* the same elsewhere */
     uint64_t remaining_nonsamples;
-    uint64_t refused[EN_REFUSE_KINDS];
     uint64_t max_active;              /* largest W + waiting vertices and faces */
     uint64_t out_vertices, out_faces;
 } en_stitch_stats;
@@ -61,7 +61,7 @@ typedef struct en_stitcher {
     size_t nwv, wv_cap;
     en_seam_face *wf;                 /* W's faces */
     size_t nwf, wf_cap;
-    uint64_t *vheap;                  /* decided vertices waiting for output: (gid, pool) pairs */
+    en_vheap_entry *vheap;            /* decided vertices waiting for output, by id */
     size_t nvheap, vheap_cap;
     en_out_face *fheap;               /* final faces waiting for their last vertex */
     size_t nfheap, fheap_cap;
