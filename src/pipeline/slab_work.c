@@ -76,7 +76,7 @@ out:
     return rc;
 }
 
-static int touches_owned(const en_slab_work *w, uint32_t v)
+static int owned_here(const en_slab_work *w, uint32_t v)
 {
     return v < w->nowned;
 }
@@ -88,7 +88,7 @@ static void mark_frozen(en_slab_work *w)
     en_slab *s = &w->s;
     for (uint32_t v = 0; v < s->nv; v++) {
         s->vflags[v] &= (uint8_t)~EN_V_COMPLETE;
-        if (!touches_owned(w, v))
+        if (!owned_here(w, v))
             continue;
         w->kind[v] = EN_K_INNER;
         for (uint32_t i = s->star_start[v]; i < s->star_start[v + 1]; i++)
@@ -105,7 +105,7 @@ static void mark_frozen(en_slab_work *w)
         for (uint32_t i = s->star_start[v]; i < s->star_start[v + 1]; i++) {
             const uint32_t *t = s->tri + 3 * (size_t)s->star[i];
             for (int k = 0; k < 3; k++)
-                if (touches_owned(w, t[k]))
+                if (owned_here(w, t[k]))
                     w->band[t[k]] = 1;
         }
     }
@@ -125,12 +125,12 @@ static void mark_bands(en_slab_work *w)
             const uint32_t *t = w->tri + 3 * (size_t)f;
             int hit = 0;
             for (int k = 0; k < 3; k++)
-                hit |= touches_owned(w, t[k]) &&
+                hit |= owned_here(w, t[k]) &&
                        (w->kind[t[k]] == from || (pass == 1 && w->kind[t[k]] == EN_K_FROZEN));
             if (!hit)
                 continue;
             for (int k = 0; k < 3; k++)
-                if (touches_owned(w, t[k]) && w->kind[t[k]] == EN_K_INNER)
+                if (owned_here(w, t[k]) && w->kind[t[k]] == EN_K_INNER)
                     w->kind[t[k]] = to;
         }
     }
@@ -139,7 +139,7 @@ static void mark_bands(en_slab_work *w)
             continue;
         const uint32_t *t = w->tri + 3 * (size_t)f;
         for (int k = 0; k < 3; k++) {
-            if (!touches_owned(w, t[k]))
+            if (!owned_here(w, t[k]))
                 continue;
             w->degree[t[k]]++;
             w->future[t[k]] += !(w->fflags[f] & EN_F_HOME);
