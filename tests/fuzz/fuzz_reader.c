@@ -11,10 +11,10 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
-#include <sys/mman.h>
 #include <unistd.h>
 
 #include "epsnet/epsnet.h"
+#include "fuzz_memfd.h"
 
 #ifndef FUZZ_FORMAT
 #error "FUZZ_FORMAT must name the reader under test"
@@ -24,20 +24,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    int fd = memfd_create("epsnet-fuzz", MFD_CLOEXEC);
+    char path[64];
+    int fd = fuzz_memfd(data, size, path);
     if (fd < 0)
         return 0;
-    size_t done = 0;
-    while (done < size) {
-        ssize_t k = write(fd, data + done, size - done);
-        if (k <= 0) {
-            close(fd);
-            return 0;
-        }
-        done += (size_t)k;
-    }
-    char path[64];
-    snprintf(path, sizeof path, "/proc/self/fd/%d", fd);
     epsnet_reader_settings rs;
     epsnet_reader_default_settings(&rs);
     rs.format = FUZZ_FORMAT;

@@ -25,10 +25,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
 #include <unistd.h>
 
 #include "epsnet/epsnet.h"
+#include "fuzz_memfd.h"
 #include "stream_window.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
@@ -143,20 +143,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (size == 0)
         return 0;
     const char *format = formats[data[0] & 3];
-    int fd = memfd_create("epsnet-fuzz-stream", MFD_CLOEXEC);
+    char path[64];
+    int fd = fuzz_memfd(data + 1, size - 1, path); /* byte 0 chose the reader */
     if (fd < 0)
         return 0;
-    size_t done = 1;
-    while (done < size) {
-        ssize_t k = write(fd, data + done, size - done);
-        if (k <= 0) {
-            close(fd);
-            return 0;
-        }
-        done += (size_t)k;
-    }
-    char path[64];
-    snprintf(path, sizeof path, "/proc/self/fd/%d", fd);
     run_check(path, format);
     close(fd);
     return 0;
