@@ -226,6 +226,158 @@ def sigint_leaves_nothing():
 
 
 @case
+def file_size_limit_in_every_writing_command():
+    """`ulimit -f` hit by the output, by the sorted copy simplify makes of an
+    unsorted mesh and by sort's spilled runs: exit 3 naming the output,
+    nothing left beside it."""
+    src = path("fsz.ply")
+    assert run("gen", "bumpy", "--faces", "100000", "--shuffle", "-o", src, "-q")[0] == 0
+    smz = path("fsz.smz")
+    assert run("sort", src, "-o", smz, "-q")[0] == 0
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (30_000, 30_000))
+
+    for cmd, inp, out, extra in (("simplify", src, "fsz_a.smz", []),     # the sorted copy
+                                 ("simplify", smz, "fsz_b.ply", []),     # the output
+                                 ("sample", smz, "fsz_c.ply", []),
+                                 ("sort", src, "fsz_d.smz", ["--mem", "1M", "--tmpdir", TMP]),  # spilled runs
+                                 ("convert", smz, "fsz_e.obj", [])):
+        rc, _, err = run(cmd, inp, "-o", path(out), "-q", *extra, preexec=limit)
+        lines = err.strip().splitlines()
+        assert rc == 3 and len(lines) == 1 and path(out) in lines[0], (cmd, out, rc, err)
+        assert "too large" in lines[0], lines[0]
+        assert not os.path.exists(path(out)), out
+        assert not leftovers(TMP), (cmd, leftovers(TMP))
+
+
+@case
+def sigterm_during_sorting_leaves_nothing():
+    """SIGTERM while simplify sorts an unsorted mesh into its temporary copy,
+    and while sort spills runs into --tmpdir: exit 130, no output, no
+    temporary file in either folder."""
+    src = path("term.ply")
+    assert run("gen", "bumpy", "--faces", "2000000", "--shuffle", "-o", src, "-q")[0] == 0
+    spill = path("term_spill")
+    os.mkdir(spill)
+    for args, out in ((["simplify", src], "term_s.smz"),
+                      (["sort", src, "--mem", "4M", "--tmpdir", spill], "term_sorted.smz")):
+        p = subprocess.Popen([EPSNET, *args, "-o", path(out), "-q"], stderr=subprocess.PIPE)
+        deadline = time.time() + 60
+        if args[0] == "simplify":
+            # wait until the temporary sorted copy exists: the signal must
+            # land while there is something to clean up
+            while not leftovers(TMP) and p.poll() is None and time.time() < deadline:
+                time.sleep(0.01)
+            assert leftovers(TMP), "the sorted copy never appeared"
+        else:
+            # the runs are anonymous files: wait until the process has some open in spill
+            def spilled():
+                try:
+                    return any(os.readlink(f"/proc/{p.pid}/fd/{fd}").startswith(spill)
+                               for fd in os.listdir(f"/proc/{p.pid}/fd"))
+                except OSError:
+                    return False
+            while not spilled() and p.poll() is None and time.time() < deadline:
+                time.sleep(0.01)
+        assert p.poll() is None, (args, "finished before the signal")
+        p.send_signal(signal.SIGTERM)
+        p.wait(timeout=60)
+        assert p.returncode == 130, (args, p.returncode, p.stderr.read())
+        assert not os.path.exists(path(out)), out
+        assert not leftovers(TMP) and not os.listdir(spill), (leftovers(TMP), os.listdir(spill))
+    os.remove(src)
+
+
+@case
+def a_stream_that_never_finalizes_hits_the_budget_in_every_command():
+    """SPEC §5: a streaming input whose active set outgrows --mem (here: it
+    never finalizes) is a clear budget error in sample and simplify too,
+    not unbounded memory."""
+    lines = ["v %d %d 0" % (i % 700, i // 700) for i in range(150000)]
+    lines += ["f %d %d %d" % (i, i + 1, i + 2) for i in range(1, 149998, 3)]
+    src = write("nofin2.sma", "\n".join(lines) + "\n")
+    for cmd in ("simplify", "sample"):
+        out = path("nofin2_" + cmd + ".ply")
+        rc, _, err = run(cmd, src, "-o", out, "--mem", "1M", "-q")
+        lines_ = err.strip().splitlines()
+        assert rc == 4 and len(lines_) == 1, (cmd, rc, err)
+        assert src in lines_[0] and "memory budget" in lines_[0] and "live at once" in lines_[0], lines_[0]
+        assert not os.path.exists(out), out
+        assert not leftovers(TMP), leftovers(TMP)
+
+
+def obj_faces(p):
+    """Triangles of an OBJ file as coordinate triples (rounded: a float32
+    stream prints 1.1 as 1.10000002)."""
+    vs, fs = [], []
+    with open(p) as f:
+        for line in f:
+            t = line.split()
+            if t and t[0] == "v":
+                vs.append(tuple(round(float(x), 5) for x in t[1:4]))
+            elif t and t[0] == "f":
+                fs.append([int(x.split("/")[0]) for x in t[1:]])
+    return vs, [tuple(vs[i - 1] for i in f) for f in fs]
+
+
+def edges_with_three_or_more_faces(vs, faces):
+    count = {}
+    for f in faces:
+        for a, b in ((f[0], f[1]), (f[1], f[2]), (f[2], f[0])):
+            e = (min(a, b), max(a, b))
+            count[e] = count.get(e, 0) + 1
+    return sorted(e for e, n in count.items() if n >= 3)
+
+
+@case
+def cad_assembly_with_thousands_of_nonmanifold_edges():
+    """A motorBike-like part: a wavy sheet with fins standing on thousands of
+    its edges (three faces on each, four where two fins share one), run through
+    the slab pipeline with seams across the fins. Every non-manifold edge and
+    every fin must come out untouched, the output must be a valid sorted
+    stream, and the bytes must not depend on the thread count."""
+    import math
+    W, H = 120, 60
+    lines = [f"v {i} {j} {0.3 * math.sin(i * 0.4) * math.cos(j * 0.3):.6f}" for j in range(H) for i in range(W)]
+    faces, nv = [], W * H
+    for j in range(H - 1):
+        for i in range(W - 1):
+            a = j * W + i + 1
+            faces += [(a, a + 1, a + W + 1), (a, a + W + 1, a + W)]
+    fins = 0
+    for j in range(1, H - 1, 3):
+        for i in range(W - 1):
+            a = j * W + i + 1
+            for k in range(2 if i % 5 == 0 else 1):   # two fins: an edge with four faces
+                lines.append(f"v {i + 0.5} {j + 0.1 + 0.2 * k} {1.5 + k}")
+                nv += 1
+                faces.append((a, a + 1, nv))
+                fins += 1
+    lines += [f"f {a} {b} {c}" for a, b, c in faces]
+    src = write("cad.obj", "\n".join(lines) + "\n")
+    vs_in, tri_in = obj_faces(src)
+    nm_in = edges_with_three_or_more_faces(vs_in, tri_in)
+    assert len(nm_in) > 1500, len(nm_in)
+    outs = []
+    for j in ("1", "2"):
+        out = path(f"cad_j{j}.smz")
+        rc, _, err = run("simplify", src, "-o", out, "--slab", "300", "-j", j, "--passes", "2", "-q")
+        assert rc == 0, err
+        outs.append(open(out, "rb").read())
+    assert outs[0] == outs[1], "output depends on the thread count"
+    rc, out_text, err = run("check", path("cad_j2.smz"), "--strict")
+    assert rc == 0, (out_text, err)
+    assert run("convert", path("cad_j2.smz"), "-o", path("cad_out.obj"), "-q")[0] == 0
+    vs_out, tri_out = obj_faces(path("cad_out.obj"))
+    assert len(tri_out) < len(tri_in), (len(tri_out), len(tri_in))
+    assert edges_with_three_or_more_faces(vs_out, tri_out) == nm_in, "non-manifold edges changed"
+    fin_in = {tuple(sorted(t)) for t in tri_in[len(tri_in) - fins:]}
+    fin_out = {tuple(sorted(t)) for t in tri_out}
+    assert fin_in <= fin_out, f"{len(fin_in - fin_out)} fins lost"
+
+
+@case
 def sample_writes_one_point_per_sample_and_stats():
     src = path("smp.ply")
     rc, _, err = run("gen", "sphere", "--faces", "20000", "-o", src, "-q")

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Allocation failure at every point of real runs (STYLE.md: dav1d's
 alloc_fail; issue 8): with EPSNET_FAIL_ALLOC=N the N-th allocation and every
-later one fail. For every N until the run no longer notices, the command
+later one fail; EPSNET_FAIL_THREAD does the same to thread creation and
+EPSNET_FAIL_WRITE to file writes (ENOSPC: a disk that fills up mid-run). For every N until the run no longer notices, the command
 must exit with a clear error (never crash: no signal, no sanitizer report),
 leave nothing at the output path and no temporary files beside it. Under the
 address sanitizer build this also proves every failure path frees what it
@@ -101,6 +102,23 @@ def main():
     walk("simplify_thread_creation", lambda o: ["simplify", smz, "-o", o + ".smz", "--slab", "200", "-j", "3",
                                                 "--passes", "2", "-q"], what="EPSNET_FAIL_THREAD")
     hausdorff_without_threads(smz, sma)
+    # sort with a budget small enough to spill sorted runs to temporary
+    # files (src/sort/extsort.c), then merge them.
+    big = os.path.join(TMP, "big.ply")
+    p = run(["gen", "bumpy", "--faces", "40000", "--shuffle", "-o", big, "-q"])
+    assert p.returncode == 0, p.stderr
+    walk("sort_spilling", lambda o: ["sort", big, "-o", o + ".smz", "--mem", "1M", "--tmpdir", TMP, "-q"],
+         max_points=900, stride=3)
+    # A full disk at every write: the output, the sorted copy simplify makes
+    # of an unsorted PLY, sort's spilled runs and the PLY writer's spill.
+    walk("full_disk_simplify_unsorted", lambda o: ["simplify", src, "-o", o + ".smz", "-q"],
+         what="EPSNET_FAIL_WRITE")
+    walk("full_disk_sort_spilling", lambda o: ["sort", big, "-o", o + ".smz", "--mem", "1M", "--tmpdir", TMP,
+                                               "-q"], what="EPSNET_FAIL_WRITE")
+    walk("full_disk_convert_to_ply", lambda o: ["convert", sma, "-o", o + ".ply", "-q"],
+         what="EPSNET_FAIL_WRITE")
+    walk("full_disk_sample_points", lambda o: ["sample", smz, "-o", o + ".ply", "-q"],
+         what="EPSNET_FAIL_WRITE")
     subprocess.run(["rm", "-rf", TMP])
     print(f"{failures} failed")
     sys.exit(1 if failures else 0)

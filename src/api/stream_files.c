@@ -80,13 +80,12 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
     epsnet_reader_close(r);
     char dir[PATH_MAX], tmp[PATH_MAX + 64];
     temp_folder(ctx, out_path, dir, sizeof dir);
-    snprintf(tmp, sizeof tmp, "%s/.epsnet-sorted-XXXXXX.smz", dir);
-    int fd = mkstemps(tmp, 4);
+    int slot;
+    int fd = en_temp_create(dir, ".epsnet-sorted-", ".smz", 0600, tmp, sizeof tmp, &slot);
     if (fd < 0)
-        return en_error_set(err, EPSNET_EIO, tmp, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "cannot create the sorted copy of %s: %s", in_path, strerror(errno));
+        return en_error_set(err, EPSNET_EIO, out_path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "cannot create the sorted copy of %s in %s: %s", in_path, dir, strerror(errno));
     close(fd);
-    int slot = en_temp_register(tmp);
     epsnet_sort_settings ss;
     epsnet_sort_default_settings(&ss);
     if (ctx->settings.mem)
@@ -96,6 +95,14 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
     double t0 = en_now();
     rc = epsnet_sort_file(in_path, tmp, &ss, NULL, err);
     *sort_seconds = en_now() - t0;
+    if (rc && err && strcmp(err->file, tmp) == 0) {
+        /* The copy's random name means nothing to the user and is gone by
+         * the time they read the message: name the output and the folder. */
+        char reason[sizeof err->reason];
+        snprintf(reason, sizeof reason, "%s", err->reason);
+        en_error_set(err, rc, out_path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                     "writing the sorted copy of the input in %s: %s", dir, reason);
+    }
     if (rc == 0)
         rc = epsnet_reader_open(r, tmp, &rs, err);
     unlink(tmp); /* the reader keeps it open; nothing is left behind */

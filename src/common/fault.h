@@ -1,7 +1,8 @@
 /*
  * Fault injection counters (STYLE.md: dav1d's alloc_fail), shared by
- * allocation (EPSNET_FAIL_ALLOC) and thread creation (EPSNET_FAIL_THREAD):
- * the N-th event (1-based) and every later one fail.
+ * allocation (EPSNET_FAIL_ALLOC), thread creation (EPSNET_FAIL_THREAD) and
+ * file writes (EPSNET_FAIL_WRITE, a full disk): the N-th event (1-based) and
+ * every later one fail.
  * note: process-wide on purpose; the variable is read once; when it is
  * unset the cost is one predictable branch per event.
  */

@@ -13,8 +13,32 @@
 
 #include "common/alloc.h"
 #include "common/error.h"
+#include "common/fault.h"
 
 #define EN_SINK_BUF (1u << 20)
+
+/* Full-disk injection (tests/test_fault_injection.py): with EPSNET_FAIL_WRITE=N
+ * the N-th write to an output or temporary file and every later one fail
+ * with ENOSPC, so each write error path is walked like a full disk. */
+static en_fault en_write_fault = EN_FAULT_INIT("EPSNET_FAIL_WRITE");
+
+static ssize_t disk_write(int fd, const void *p, size_t n)
+{
+    if (en_fault_hit(&en_write_fault)) {
+        errno = ENOSPC;
+        return -1;
+    }
+    return write(fd, p, n);
+}
+
+static ssize_t disk_pwrite(int fd, const void *p, size_t n, off_t offset)
+{
+    if (en_fault_hit(&en_write_fault)) {
+        errno = ENOSPC;
+        return -1;
+    }
+    return pwrite(fd, p, n, offset);
+}
 
 /* ---- registry of named temporaries, for signal-time cleanup ----
  * note: used when O_TMPFILE is unavailable (anonymous files need no cleanup
@@ -43,6 +67,32 @@ void en_temp_unregister(int slot)
 {
     if (slot >= 0)
         __atomic_store_n(&en_temp_used[slot], 0, __ATOMIC_RELEASE);
+}
+
+int en_temp_create(const char *dir, const char *prefix, const char *suffix, mode_t mode,
+                   char *path, size_t cap, int *slot)
+{
+    static unsigned serial;
+    for (unsigned attempt = 0; attempt < 1000; attempt++) {
+        unsigned k = __atomic_fetch_add(&serial, 1, __ATOMIC_RELAXED);
+        int len = snprintf(path, cap, "%s/%s%ld-%u%s", dir, prefix, (long)getpid(), k, suffix);
+        if (len < 0 || (size_t)len >= cap) {
+            errno = ENAMETOOLONG;
+            break;
+        }
+        *slot = en_temp_register(path);
+        int fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, mode);
+        if (fd >= 0)
+            return fd;
+        int e = errno;
+        en_temp_unregister(*slot);
+        *slot = -1;
+        errno = e;
+        if (e != EEXIST)
+            break;
+    }
+    *slot = -1;
+    return -1;
 }
 
 void en_tempfiles_cleanup_signal_safe(void)
@@ -98,7 +148,7 @@ static int sink_fail_errno(en_sink *s, int e, const char *what, epsnet_error *er
 static int write_all(en_sink *s, const uint8_t *p, size_t n, epsnet_error *err)
 {
     while (n) {
-        ssize_t k = write(s->fd, p, n);
+        ssize_t k = disk_write(s->fd, p, n);
         if (k < 0) {
             if (errno == EINTR)
                 continue;
@@ -221,12 +271,13 @@ int en_sink_open(en_sink **out, const char *path, int zstd_level, epsnet_error *
     if (s->fd < 0) {
         const char *base = strrchr(path, '/');
         base = base ? base + 1 : path;
-        size_t n = strlen(s->dir) + strlen(base) + 32;
+        size_t n = strlen(s->dir) + strlen(base) + 48;
         s->tmp_path = en_malloc(n);
         if (!s->tmp_path)
             goto nomem;
-        snprintf(s->tmp_path, n, "%s/.%s.epsnet-XXXXXX", s->dir, base);
-        s->fd = mkostemp(s->tmp_path, O_CLOEXEC);
+        char prefix[PATH_MAX];
+        snprintf(prefix, sizeof prefix, ".%s.epsnet-", base);
+        s->fd = en_temp_create(s->dir, prefix, "", 0666, s->tmp_path, n, &s->temp_slot);
         if (s->fd < 0) {
             int e = errno;
             en_free(s->tmp_path);
@@ -235,7 +286,6 @@ int en_sink_open(en_sink **out, const char *path, int zstd_level, epsnet_error *
             return en_error_set(err, en_error_from_errno(e), path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                                 "cannot create output: %s", strerror(e));
         }
-        s->temp_slot = en_temp_register(s->tmp_path);
     }
     *out = s;
     return 0;
@@ -285,7 +335,7 @@ int en_sink_patch(en_sink *s, uint64_t offset, const void *data, size_t n, epsne
         return s->err.code;
     const uint8_t *p = data;
     while (n) {
-        ssize_t k = pwrite(s->fd, p, n, (off_t)offset);
+        ssize_t k = disk_pwrite(s->fd, p, n, (off_t)offset);
         if (k < 0) {
             if (errno == EINTR)
                 continue;
@@ -480,7 +530,7 @@ static int spill_io_fail(const en_spill *sp, int e, epsnet_error *err)
 static int spill_write_raw(en_spill *sp, const uint8_t *p, size_t n, epsnet_error *err)
 {
     while (n) {
-        ssize_t k = write(sp->fd, p, n);
+        ssize_t k = disk_write(sp->fd, p, n);
         if (k < 0) {
             if (errno == EINTR)
                 continue;

@@ -10,6 +10,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <sys/types.h>
 
 #include "epsnet/epsnet.h"
 
@@ -78,5 +79,15 @@ void en_tempfiles_cleanup_signal_safe(void);
  * slots are taken (then nothing removes it on a signal). */
 int en_temp_register(const char *path);
 void en_temp_unregister(int slot);
+
+/*
+ * Create a new empty file "DIR/PREFIX<pid>-<n>SUFFIX" (O_EXCL) with mode,
+ * registered *before* it exists, so no signal can leave it behind between
+ * creation and registration (mkstemp's random name comes too late for that).
+ * @return the descriptor with the name in path and the slot in *slot
+ * (unregister it when done), or -1 with errno set.
+ */
+int en_temp_create(const char *dir, const char *prefix, const char *suffix, mode_t mode,
+                   char *path, size_t cap, int *slot);
 
 #endif /* EN_IO_SINK_H */
