@@ -32,13 +32,6 @@ static void check_help(void)
            "  -h, --help        this text\n");
 }
 
-typedef struct check_counts {
-    uint64_t nv, nt, nfin, late, unused_finalized;
-    double prev[3];
-    int sorted[3];
-    int vertex_since_triangle;
-} check_counts;
-
 static int invalid(const char *path, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
 static int invalid(const char *path, const char *fmt, ...)
@@ -101,7 +94,7 @@ int cmd_check(int argc, char **argv)
     /* note: a copy, so the report can use it after the reader is closed */
     epsnet_mesh_info info_copy = *epsnet_reader_info(r);
     const epsnet_mesh_info *info = &info_copy;
-    check_counts k = { .sorted = { 1, 1, 1 } };
+    stream_check k = { .sorted = { 1, 1, 1 } };
     stream_window w = { .max_bytes = mem };
     cli_progress p;
     cli_progress_begin(&p, "check");
@@ -111,30 +104,9 @@ int cmd_check(int argc, char **argv)
         uint64_t n = k.nv + k.nt + k.nfin;
         if ((n & 0xffff) == 0)
             cli_progress_update(&p, epsnet_reader_bytes_read(r), epsnet_reader_file_size(r), n);
-        if (rec.kind == EPSNET_REC_VERTEX) {
-            for (int a = 0; a < 3; a++) {
-                if (k.nv && rec.xyz[a] < k.prev[a])
-                    k.sorted[a] = 0;
-                k.prev[a] = rec.xyz[a];
-            }
-            k.nv++;
-            k.vertex_since_triangle = 1;
-            if (info->streaming && sw_add_vertex(&w)) {
-                exit_code = over_window(path, &w);
-                break;
-            }
-        } else if (rec.kind == EPSNET_REC_TRIANGLE) {
-            for (int s = 0; s < 3 && info->streaming; s++)
-                sw_use(&w, rec.v[s], k.nt);
-            k.nt++;
-            k.vertex_since_triangle = 0;
-        } else {
-            uint64_t was = sw_finalize(&w, rec.v[0]);
-            k.nfin++;
-            if (was == 0)
-                k.unused_finalized++;
-            else if (was != k.nt || k.vertex_since_triangle)
-                k.late++;
+        if (sc_record(&k, &w, info->streaming, &rec)) {
+            exit_code = over_window(path, &w);
+            break;
         }
     }
     cli_progress_end(&p);

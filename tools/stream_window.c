@@ -68,3 +68,31 @@ void sw_free(stream_window *w)
     w->slot = NULL;
     w->cap = 0;
 }
+
+int sc_record(stream_check *k, stream_window *w, int streaming, const epsnet_record *rec)
+{
+    if (rec->kind == EPSNET_REC_VERTEX) {
+        for (int a = 0; a < 3; a++) {
+            if (k->nv && rec->xyz[a] < k->prev[a])
+                k->sorted[a] = 0;
+            k->prev[a] = rec->xyz[a];
+        }
+        k->nv++;
+        k->vertex_since_triangle = 1;
+        return streaming ? sw_add_vertex(w) : 0;
+    }
+    if (rec->kind == EPSNET_REC_TRIANGLE) {
+        for (int s = 0; s < 3 && streaming; s++)
+            sw_use(w, rec->v[s], k->nt);
+        k->nt++;
+        k->vertex_since_triangle = 0;
+        return 0;
+    }
+    uint64_t was = sw_finalize(w, rec->v[0]);
+    k->nfin++;
+    if (was == 0)
+        k->unused_finalized++;
+    else if (was != k->nt || k->vertex_since_triangle)
+        k->late++;
+    return 0;
+}

@@ -16,9 +16,8 @@
  * the window's counters agree with the record counts. A violation aborts,
  * so libFuzzer reports it like a crash.
  *
- * note: cmd_check() is one CLI function (options, progress, printing); its
- * per-record loop is mirrored here rather than split out of tools/, so the
- * check loop below must follow cmd_check.c when that changes.
+ * The counting is `epsnet check`'s own (sc_record() in tools/stream_window.c);
+ * the assertions are made before each record reaches it.
  */
 #include <stddef.h>
 #include <stdint.h>
@@ -35,13 +34,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 /* Same budget as the reader targets: absurd counts and windows are refused. */
 #define FUZZ_MEM_LIMIT ((uint64_t)64 << 20)
-
-typedef struct check_state {
-    uint64_t nv, nt, nfin, late, unused_finalized;
-    double prev[3];
-    int sorted[3];
-    int vertex_since_triangle;
-} check_state;
 
 static void violated(const char *what, uint64_t v, const stream_window *w)
 {
@@ -61,42 +53,22 @@ static void require_live(const stream_window *w, uint64_t v, const char *what)
 }
 
 /* @return 1 to go on, 0 when the window is over its budget (check stops). */
-static int check_record(check_state *k, stream_window *w, int streaming, const epsnet_record *rec)
+static int check_record(stream_check *k, stream_window *w, int streaming, const epsnet_record *rec)
 {
-    if (rec->kind == EPSNET_REC_VERTEX) {
-        for (int a = 0; a < 3; a++) {
-            if (k->nv && rec->xyz[a] < k->prev[a])
-                k->sorted[a] = 0;
-            k->prev[a] = rec->xyz[a];
-        }
-        k->nv++;
-        k->vertex_since_triangle = 1;
-        return !streaming || sw_add_vertex(w) == 0;
-    }
     if (rec->kind == EPSNET_REC_TRIANGLE) {
-        for (int s = 0; s < 3 && streaming; s++) {
+        for (int s = 0; s < 3 && streaming; s++)
             require_live(w, rec->v[s], "triangle corner outside the live window");
-            sw_use(w, rec->v[s], k->nt);
-        }
-        k->nt++;
-        k->vertex_since_triangle = 0;
-        return 1;
-    }
-    if (rec->kind != EPSNET_REC_FINALIZE)
+    } else if (rec->kind == EPSNET_REC_FINALIZE) {
+        if (!streaming)
+            violated("finalization from a non-streaming format", rec->v[0], w);
+        require_live(w, rec->v[0], "finalization outside the live window");
+    } else if (rec->kind != EPSNET_REC_VERTEX) {
         violated("record of unknown kind", (uint64_t)rec->kind, w);
-    if (!streaming)
-        violated("finalization from a non-streaming format", rec->v[0], w);
-    require_live(w, rec->v[0], "finalization outside the live window");
-    uint64_t was = sw_finalize(w, rec->v[0]);
-    k->nfin++;
-    if (was == 0)
-        k->unused_finalized++;
-    else if (was != k->nt || k->vertex_since_triangle)
-        k->late++;
-    return 1;
+    }
+    return sc_record(k, w, streaming, rec) == 0;
 }
 
-static void check_totals(const check_state *k, const stream_window *w, int streaming, int read_all)
+static void check_totals(const stream_check *k, const stream_window *w, int streaming, int read_all)
 {
     if (!streaming)
         return;
@@ -121,7 +93,7 @@ static void run_check(const char *path, const char *format)
     if (epsnet_reader_open(&r, path, &rs, &err) != 0)
         return;
     const epsnet_mesh_info info = *epsnet_reader_info(r);
-    check_state k = { .sorted = { 1, 1, 1 } };
+    stream_check k = { .sorted = { 1, 1, 1 } };
     stream_window w = { .max_bytes = FUZZ_MEM_LIMIT };
     epsnet_record rec;
     int rc, within = 1;
