@@ -3,16 +3,9 @@
 #include <string.h>
 
 #include "common/alloc.h"
+#include "common/hash64.h"
 
 #define EMPTY UINT64_MAX
-
-static inline size_t slot_of(uint64_t k, size_t mask)
-{
-    k ^= k >> 33;
-    k *= 0xff51afd7ed558ccdull;
-    k ^= k >> 33;
-    return (size_t)k & mask;
-}
 
 static int rehash(en_u64map *m, size_t cap)
 {
@@ -28,7 +21,7 @@ static int rehash(en_u64map *m, size_t cap)
         for (size_t i = 0; i <= m->mask; i++) {
             if (m->keys[i] == EMPTY)
                 continue;
-            size_t j = slot_of(m->keys[i], cap - 1);
+            size_t j = en_hash_slot(m->keys[i], cap - 1);
             while (keys[j] != EMPTY)
                 j = (j + 1) & (cap - 1);
             keys[j] = m->keys[i];
@@ -67,7 +60,7 @@ int en_u64map_put(en_u64map *m, uint64_t key, uint32_t val)
 {
     if ((m->count + 1) * 4 > (m->mask + 1) * 3 && rehash(m, (m->mask + 1) * 2))
         return -1;
-    size_t j = slot_of(key, m->mask);
+    size_t j = en_hash_slot(key, m->mask);
     while (m->keys[j] != EMPTY) {
         if (m->keys[j] == key) {
             m->vals[j] = val;
@@ -83,7 +76,7 @@ int en_u64map_put(en_u64map *m, uint64_t key, uint32_t val)
 
 int en_u64map_get(const en_u64map *m, uint64_t key, uint32_t *val)
 {
-    size_t j = slot_of(key, m->mask);
+    size_t j = en_hash_slot(key, m->mask);
     while (m->keys[j] != EMPTY) {
         if (m->keys[j] == key) {
             *val = m->vals[j];
@@ -96,7 +89,7 @@ int en_u64map_get(const en_u64map *m, uint64_t key, uint32_t *val)
 
 int en_u64map_remove(en_u64map *m, uint64_t key)
 {
-    size_t j = slot_of(key, m->mask);
+    size_t j = en_hash_slot(key, m->mask);
     while (m->keys[j] != EMPTY && m->keys[j] != key)
         j = (j + 1) & m->mask;
     if (m->keys[j] == EMPTY)
@@ -108,8 +101,8 @@ int en_u64map_remove(en_u64map *m, uint64_t key)
         uint64_t k = m->keys[j];
         if (k == EMPTY)
             break;
-        size_t home = slot_of(k, m->mask);
-        if (((j - home) & m->mask) >= ((j - hole) & m->mask)) {
+        size_t home = en_hash_slot(k, m->mask);
+        if (en_hash_can_fill(home, hole, j, m->mask)) {
             m->keys[hole] = k;
             m->vals[hole] = m->vals[j];
             hole = j;

@@ -1,6 +1,7 @@
 #include "common/u64set.h"
 
 #include "common/alloc.h"
+#include "common/hash64.h"
 
 #define EMPTY UINT64_MAX
 
@@ -9,14 +10,6 @@ struct en_u64set {
     size_t mask;      /* capacity - 1, capacity a power of two */
     size_t count;
 };
-
-static inline size_t slot_of(uint64_t k, size_t mask)
-{
-    k ^= k >> 33;
-    k *= 0xff51afd7ed558ccdull;
-    k ^= k >> 33;
-    return (size_t)k & mask;
-}
 
 static int rehash(en_u64set *s, size_t cap)
 {
@@ -30,7 +23,7 @@ static int rehash(en_u64set *s, size_t cap)
             uint64_t k = s->keys[i];
             if (k == EMPTY)
                 continue;
-            size_t j = slot_of(k, cap - 1);
+            size_t j = en_hash_slot(k, cap - 1);
             while (keys[j] != EMPTY)
                 j = (j + 1) & (cap - 1);
             keys[j] = k;
@@ -65,7 +58,7 @@ int en_u64set_add(en_u64set *s, uint64_t key)
 {
     if ((s->count + 1) * 4 > (s->mask + 1) * 3 && rehash(s, (s->mask + 1) * 2))
         return -1;
-    size_t j = slot_of(key, s->mask);
+    size_t j = en_hash_slot(key, s->mask);
     while (s->keys[j] != EMPTY) {
         if (s->keys[j] == key)
             return 0;
@@ -78,7 +71,7 @@ int en_u64set_add(en_u64set *s, uint64_t key)
 
 int en_u64set_has(const en_u64set *s, uint64_t key)
 {
-    size_t j = slot_of(key, s->mask);
+    size_t j = en_hash_slot(key, s->mask);
     while (s->keys[j] != EMPTY) {
         if (s->keys[j] == key)
             return 1;
@@ -89,7 +82,7 @@ int en_u64set_has(const en_u64set *s, uint64_t key)
 
 int en_u64set_remove(en_u64set *s, uint64_t key)
 {
-    size_t j = slot_of(key, s->mask);
+    size_t j = en_hash_slot(key, s->mask);
     while (s->keys[j] != EMPTY) {
         if (s->keys[j] == key)
             break;
@@ -104,8 +97,8 @@ int en_u64set_remove(en_u64set *s, uint64_t key)
         uint64_t k = s->keys[j];
         if (k == EMPTY)
             break;
-        size_t home = slot_of(k, s->mask);
-        if (((j - home) & s->mask) >= ((j - hole) & s->mask)) {
+        size_t home = en_hash_slot(k, s->mask);
+        if (en_hash_can_fill(home, hole, j, s->mask)) {
             s->keys[hole] = k;
             hole = j;
         }

@@ -10,6 +10,7 @@
 
 #include "common/alloc.h"
 #include "common/error.h"
+#include "common/hash64.h"
 #include "common/util.h"
 #include "io/sink.h"
 #include "sort/extsort.h"
@@ -57,14 +58,6 @@ typedef struct live_map {
     size_t count;
 } live_map;
 
-static size_t live_hash(uint64_t k, size_t mask)
-{
-    k ^= k >> 31;
-    k *= 0x9e3779b97f4a7c15ull;
-    k ^= k >> 29;
-    return (size_t)k & mask;
-}
-
 static int live_resize(live_map *m, size_t cap)
 {
     live_slot *s = en_malloc(cap * sizeof *s);
@@ -75,7 +68,7 @@ static int live_resize(live_map *m, size_t cap)
     for (size_t i = 0; m->slots && i <= m->mask; i++) {
         if (m->slots[i].rank == NONE)
             continue;
-        size_t j = live_hash(m->slots[i].rank, cap - 1);
+        size_t j = en_hash_slot(m->slots[i].rank, cap - 1);
         while (s[j].rank != NONE)
             j = (j + 1) & (cap - 1);
         s[j] = m->slots[i];
@@ -88,7 +81,7 @@ static int live_resize(live_map *m, size_t cap)
 
 static live_slot *live_find(live_map *m, uint64_t rank)
 {
-    for (size_t i = live_hash(rank, m->mask);; i = (i + 1) & m->mask) {
+    for (size_t i = en_hash_slot(rank, m->mask);; i = (i + 1) & m->mask) {
         if (m->slots[i].rank == rank)
             return &m->slots[i];
         if (m->slots[i].rank == NONE)
@@ -102,7 +95,7 @@ static int live_add(live_map *m, uint64_t rank, uint64_t id, uint64_t last)
         return -1;
     if (2 * (m->count + 1) > m->mask + 1 && live_resize(m, 2 * (m->mask + 1)))
         return -1;
-    size_t i = live_hash(rank, m->mask);
+    size_t i = en_hash_slot(rank, m->mask);
     while (m->slots[i].rank != NONE)
         i = (i + 1) & m->mask;
     m->slots[i] = (live_slot){ .rank = rank, .id = id, .last = last, .fin_face = NONE };
@@ -116,9 +109,8 @@ static void live_remove(live_map *m, live_slot *s)
     m->slots[i].rank = NONE;
     m->count--;
     for (size_t j = (i + 1) & m->mask; m->slots[j].rank != NONE; j = (j + 1) & m->mask) {
-        size_t home = live_hash(m->slots[j].rank, m->mask);
-        /* note: move j back into the hole when its home is not in (i, j]. */
-        if (((j - home) & m->mask) >= ((j - i) & m->mask)) {
+        size_t home = en_hash_slot(m->slots[j].rank, m->mask);
+        if (en_hash_can_fill(home, i, j, m->mask)) {
             m->slots[i] = m->slots[j];
             m->slots[j].rank = NONE;
             i = j;

@@ -1,0 +1,29 @@
+/*
+ * The 64-bit mix that spreads vertex ids and ranks (nearly consecutive
+ * numbers) over the slots of the open-addressing tables: u64set, u64map and
+ * sort's live map (MurmurHash3's finalizer steps).
+ */
+#ifndef EN_COMMON_HASH64_H
+#define EN_COMMON_HASH64_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* Slot of key k in a table of mask + 1 slots (a power of two). */
+static inline size_t en_hash_slot(uint64_t k, size_t mask)
+{
+    k ^= k >> 33;
+    k *= 0xff51afd7ed558ccdull;
+    k ^= k >> 33;
+    return (size_t)k & mask;
+}
+
+/* Backward-shift deletion: may the entry at slot j, whose home slot is home,
+ * move back into the hole at slot hole? (Only when its home is not in
+ * (hole, j], cyclically, or probing for it would stop at the hole.) */
+static inline int en_hash_can_fill(size_t home, size_t hole, size_t j, size_t mask)
+{
+    return ((j - home) & mask) >= ((j - hole) & mask);
+}
+
+#endif
