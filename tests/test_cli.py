@@ -307,6 +307,38 @@ def a_stream_that_never_finalizes_hits_the_budget_in_every_command():
         assert not leftovers(TMP), leftovers(TMP)
 
 
+@case
+def one_vertex_used_again_at_the_end_hits_the_budget():
+    """A narrow, finalized strip whose first vertex is used again by the very
+    last triangle: output leaves in id order, so everything waits for it.
+    Over --mem that is a clear budget error, not unbounded memory; within
+    the budget the output is a valid stream."""
+    W, rows = 10, 10000
+    out = ["v 0 0 -1"]
+    for r in range(rows):
+        for c in range(W):
+            out.append(f"v {c} {r} 0")
+            if r > 0 and c > 0:
+                a = 1 + (r - 1) * W + c
+                out += [f"f {a} {a + 1} {a + W + 1}", f"f {a} {a + W + 1} {a + W}"]
+        if r > 0:
+            out += [f"x {1 + (r - 1) * W + c + 1}" for c in range(W)]
+    last = 1 + (rows - 1) * W
+    out.append(f"f 1 {last + 1} {last + 2}")
+    out += [f"x {last + c + 1}" for c in range(W)] + ["x 1"]
+    src = write("longlived.sma", "\n".join(out) + "\n")
+    dst = path("longlived_s.smz")
+    rc, _, err = run("simplify", src, "-o", dst, "--mem", "2M", "-q")
+    lines = err.strip().splitlines()
+    assert rc == 4 and len(lines) == 1, (rc, err)
+    assert src in lines[0] and "waits for vertex 0" in lines[0] and "memory budget" in lines[0], lines[0]
+    assert not os.path.exists(dst) and not leftovers(TMP), leftovers(TMP)
+    rc, _, err = run("simplify", src, "-o", dst, "--mem", "64M", "-q")
+    assert rc == 0, err
+    rc, text, err = run("check", dst)
+    assert rc == 0 and "valid:       yes" in text, (text, err)
+
+
 def obj_faces(p):
     """Triangles of an OBJ file as coordinate triples (rounded: a float32
     stream prints 1.1 as 1.10000002)."""

@@ -391,9 +391,14 @@ typedef struct epsnet_settings {
      * starts N workers for the slabs while the calling thread reads, cuts,
      * stitches and writes. The output never depends on it. Default: 0. */
     int threads;
-    /* Memory budget in bytes; 0 = no budget. It sets the slab size (see
-     * slab_vertices), the reader's budget for live vertices, and the sort's
-     * budget when an input has to be sorted first. Default: 0. */
+    /* Memory budget in bytes. It sets the slab size (see slab_vertices), the
+     * reader's budget for live vertices, the budget for output held back by
+     * a vertex that stays open (output leaves in input id order), and the
+     * sort's budget when an input has to be sorted first. Over it, a run
+     * stops with EPSNET_ELIMIT and a message that says what grew. 0 = none
+     * given: slabs of 65536 vertices, and half the physical memory as the
+     * limit for live vertices and held output (a clear error, never the OOM
+     * killer). Default: 0. */
     uint64_t mem;
     /* Folder for temporary files; NULL = beside the output. Default: NULL. */
     const char *tmpdir;

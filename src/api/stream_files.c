@@ -73,7 +73,7 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
 {
     epsnet_reader_settings rs;
     epsnet_reader_default_settings(&rs);
-    rs.mem_limit = ctx->settings.mem;
+    rs.mem_limit = en_stream_mem_budget(&ctx->settings);
     int rc = epsnet_reader_open(r, in_path, &rs, err);
     if (rc || epsnet_reader_info(*r)->streaming)
         return rc;

@@ -493,7 +493,15 @@ int en_stitcher_take(en_stitcher *st, const en_slab_work *w, epsnet_error *err)
         if (!(x->state & S_SETTLED) && x->gid < frontier)
             frontier = x->gid;
     }
+    st->frontier = frontier;
     return write_until(st, frontier, err);
+}
+
+uint64_t en_stitcher_bytes(const en_stitcher *st)
+{
+    return (uint64_t)st->v_cap * sizeof *st->v + st->free_cap * sizeof *st->free_list + en_u64map_bytes(&st->map) +
+           st->wv_cap * sizeof *st->wv + st->wf_cap * sizeof *st->wf + st->vheap_cap * sizeof *st->vheap +
+           st->fheap_cap * sizeof *st->fheap + st->local_cap * sizeof *st->local;
 }
 
 int en_stitcher_finish(en_stitcher *st, epsnet_error *err)

@@ -66,6 +66,7 @@ typedef struct en_stitcher {
     en_out_face *fheap;               /* final faces waiting for their last vertex */
     size_t nfheap, fheap_cap;
     uint64_t face_seq, next_out;
+    uint64_t frontier;                /* output waits for this input id (UINT64_MAX: for nothing) */
     uint32_t *local;                  /* scratch: slab local id -> pool index */
     size_t local_cap;
     en_slab ws;                       /* scratch for W's collapses */
@@ -82,5 +83,9 @@ int en_stitcher_take(en_stitcher *st, const en_slab_work *w, epsnet_error *err);
 
 /* After the last slab: everything must have been emitted (EINTERNAL if not). */
 int en_stitcher_finish(en_stitcher *st, epsnet_error *err);
+
+/* Bytes held by the seams and the output queues (capacities, not just
+ * what is in use), for the memory budget. */
+uint64_t en_stitcher_bytes(const en_stitcher *st);
 
 #endif

@@ -126,6 +126,23 @@ static int take_samples(epsnet_stream *s, const en_slab_work *w, epsnet_error *e
     return 0;
 }
 
+/* Output leaves in input id order, so one vertex that stays open (used
+ * again far later in the stream) holds back everything after it: bounded
+ * by the budget like the live vertices, with an error that says why. */
+static int check_held(epsnet_stream *s, const en_pass *p, epsnet_error *err)
+{
+    uint64_t budget = en_stream_mem_budget(&s->ctx->settings), held = 0;
+    for (int i = 0; i < s->npasses; i++)
+        held += en_stitcher_bytes(&s->pass[i].st);
+    if (!budget || held <= budget)
+        return 0;
+    return en_error_set(err, EPSNET_ELIMIT, s->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                        "pass %d: the output waits for vertex %llu, still open, and holds %llu bytes, over the "
+                        "memory budget of %llu bytes (is a vertex used again far later in the stream?)",
+                        p->index + 1, (unsigned long long)p->st.frontier, (unsigned long long)held,
+                        (unsigned long long)budget);
+}
+
 /* Hand back the oldest slab of pass p and stitch it. */
 static int retire_one(en_pass *p, epsnet_error *err)
 {
@@ -151,6 +168,8 @@ static int retire_one(en_pass *p, epsnet_error *err)
         rc = s->mode == EN_SLAB_SAMPLE ? take_samples(s, w, err) : en_stitcher_take(&p->st, w, err);
     }
     free_work(w);
+    if (rc == 0 && s->mode == EN_SLAB_SIMPLIFY)
+        rc = check_held(s, p, err);
     return rc;
 }
 
@@ -214,6 +233,16 @@ uint32_t en_stream_slab_vertices(const epsnet_settings *set)
         return n < 1024 ? 1024 : n > (1u << 24) ? (1u << 24) : (uint32_t)n;
     }
     return 65536;
+}
+
+uint64_t en_stream_mem_budget(const epsnet_settings *set)
+{
+    if (set->mem)
+        return set->mem;
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    if (pages <= 0 || page <= 0)
+        return 0;
+    return (uint64_t)pages * (uint64_t)page / 2;
 }
 
 int en_stream_workers(const epsnet_settings *set)

@@ -12,6 +12,10 @@ typedef int (*en_sample_fn)(void *opaque, uint64_t gid, const double xyz[3], int
 
 /* Slab size and worker count the settings ask for (see epsnet_settings). */
 uint32_t en_stream_slab_vertices(const epsnet_settings *set);
+/* The bytes live vertices and held output may take: settings.mem, or half
+ * the physical memory when no budget is given (SPEC §5: a clear error, never
+ * the OOM killer). */
+uint64_t en_stream_mem_budget(const epsnet_settings *set);
 int en_stream_workers(const epsnet_settings *set);
 
 /* A stream in either mode; path names the input in messages (may be NULL).
