@@ -248,3 +248,9 @@ int en_chunker_finish(en_chunker *c, en_slab_work **out, epsnet_error *err)
         return 0;
     return cut(c, out, err);
 }
+
+uint64_t en_chunker_bytes(const en_chunker *c)
+{
+    return (uint64_t)c->v_cap * sizeof *c->v + c->free_cap * sizeof *c->free_list + en_u64map_bytes(&c->map) +
+           3 * c->faces_cap * sizeof *c->faces + c->fin_cap * sizeof *c->fin;
+}

@@ -71,4 +71,8 @@ int en_chunker_put(en_chunker *c, const epsnet_record *rec, en_slab_work **out, 
 /* End of the stream: call until *out is NULL; finalizes what is still live. */
 int en_chunker_finish(en_chunker *c, en_slab_work **out, epsnet_error *err);
 
+/* Bytes held for vertices and faces not yet cut (capacities), for the
+ * memory budget. */
+uint64_t en_chunker_bytes(const en_chunker *c);
+
 #endif

@@ -126,20 +126,33 @@ static int take_samples(epsnet_stream *s, const en_slab_work *w, epsnet_error *e
     return 0;
 }
 
-/* Output leaves in input id order, so one vertex that stays open (used
- * again far later in the stream) holds back everything after it: bounded
- * by the budget like the live vertices, with an error that says why. */
-static int check_held(epsnet_stream *s, const en_pass *p, epsnet_error *err)
+/*
+ * What the budget bounds beyond the reader's live vertices (SPEC §5): faces
+ * the chunker holds on vertices still open (a stream can repeat a face on
+ * three live vertices forever) and output the stitcher holds back (output
+ * leaves in input id order, so one vertex used again far later in the
+ * stream holds everything after it). Over budget, say which one grew.
+ */
+static int check_budget(epsnet_stream *s, const en_pass *p, epsnet_error *err)
 {
-    uint64_t budget = en_stream_mem_budget(&s->ctx->settings), held = 0;
-    for (int i = 0; i < s->npasses; i++)
-        held += en_stitcher_bytes(&s->pass[i].st);
-    if (!budget || held <= budget)
+    uint64_t budget = en_stream_mem_budget(&s->ctx->settings), cut = 0, held = 0;
+    for (int i = 0; i < s->npasses; i++) {
+        cut += en_chunker_bytes(&s->pass[i].ch);
+        if (s->mode == EN_SLAB_SIMPLIFY)
+            held += en_stitcher_bytes(&s->pass[i].st);
+    }
+    if (!budget || cut + held <= budget)
         return 0;
+    if (cut >= held)
+        return en_error_set(err, EPSNET_ELIMIT, s->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "pass %d: %llu vertices and %llu faces wait for vertices to be finalized (%llu bytes "
+                            "in all), over the memory budget of %llu bytes (does the stream finalize its vertices?)",
+                            p->index + 1, (unsigned long long)p->ch.map.count, (unsigned long long)p->ch.nfaces,
+                            (unsigned long long)(cut + held), (unsigned long long)budget);
     return en_error_set(err, EPSNET_ELIMIT, s->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                        "pass %d: the output waits for vertex %llu, still open, and holds %llu bytes, over the "
-                        "memory budget of %llu bytes (is a vertex used again far later in the stream?)",
-                        p->index + 1, (unsigned long long)p->st.frontier, (unsigned long long)held,
+                        "pass %d: the output waits for vertex %llu, still open, and holds %llu bytes in all, "
+                        "over the memory budget of %llu bytes (is a vertex used again far later in the stream?)",
+                        p->index + 1, (unsigned long long)p->st.frontier, (unsigned long long)(cut + held),
                         (unsigned long long)budget);
 }
 
@@ -168,8 +181,8 @@ static int retire_one(en_pass *p, epsnet_error *err)
         rc = s->mode == EN_SLAB_SAMPLE ? take_samples(s, w, err) : en_stitcher_take(&p->st, w, err);
     }
     free_work(w);
-    if (rc == 0 && s->mode == EN_SLAB_SIMPLIFY)
-        rc = check_held(s, p, err);
+    if (rc == 0)
+        rc = check_budget(s, p, err);
     return rc;
 }
 
@@ -202,6 +215,8 @@ static int pass_put(en_pass *p, const epsnet_record *rec, epsnet_error *err)
     int rc = en_chunker_put(&p->ch, rec, &w, err);
     if (rc == 0 && w)
         rc = submit(p, w, err);
+    if (rc == 0 && (p->ch.records & 4095) == 0)
+        rc = check_budget(p->run, p, err);
     return rc;
 }
 
