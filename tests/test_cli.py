@@ -296,25 +296,18 @@ def a_stream_that_never_finalizes_hits_the_budget_in_every_command():
     budget error in sample and simplify too, not unbounded memory."""
     lines = ["v %d %d 0" % (i % 700, i // 700) for i in range(150000)]
     lines += ["f %d %d %d" % (i, i + 1, i + 2) for i in range(1, 149998, 3)]
-    src = write("nofin2.sma", "\n".join(lines) + "\n")
-    for cmd in ("simplify", "sample"):
-        out = path("nofin2_" + cmd + ".ply")
-        rc, _, err = run(cmd, src, "-o", out, "--mem", "1M", "-q")
-        lines_ = err.strip().splitlines()
-        assert rc == 4 and len(lines_) == 1, (cmd, rc, err)
-        assert src in lines_[0] and "memory budget" in lines_[0] and "finalize" in lines_[0], lines_[0]
-        assert not os.path.exists(out), out
-        assert not leftovers(TMP), leftovers(TMP)
+    nofin = write("nofin2.sma", "\n".join(lines) + "\n")
     # Three live vertices and one face repeated forever: the reader's live
     # set stays tiny, the faces waiting on those vertices do not.
     dup = write("dupfaces.sma", "v 0 0 0\nv 1 0 0\nv 0 1 0\n" + "f 1 2 3\n" * 300000)
-    for cmd in ("simplify", "sample"):
-        out = path("dupfaces_" + cmd + ".ply")
-        rc, _, err = run(cmd, dup, "-o", out, "--mem", "2M", "-q")
-        lines_ = err.strip().splitlines()
-        assert rc == 4 and len(lines_) == 1, (cmd, rc, err)
-        assert dup in lines_[0] and "3 vertices and" in lines_[0] and "memory budget" in lines_[0], lines_[0]
-        assert not os.path.exists(out) and not leftovers(TMP), (out, leftovers(TMP))
+    for src, mem, what in ((nofin, "1M", "finalize"), (dup, "2M", "3 vertices and")):
+        for cmd in ("simplify", "sample"):
+            out = path(os.path.basename(src) + "_" + cmd + ".ply")
+            rc, _, err = run(cmd, src, "-o", out, "--mem", mem, "-q")
+            lines_ = err.strip().splitlines()
+            assert rc == 4 and len(lines_) == 1, (cmd, src, rc, err)
+            assert src in lines_[0] and "memory budget" in lines_[0] and what in lines_[0], lines_[0]
+            assert not os.path.exists(out) and not leftovers(TMP), (out, leftovers(TMP))
 
 
 @case
