@@ -182,7 +182,8 @@ static int simplify(en_slab_work *w)
     en_collapse_settings cs = { w->max_normal_dev };
     en_collapse_counts cc;
     if (nremovable == 0) {
-        memcpy(w->tri, s->tri, 3 * sizeof *w->tri * (size_t)s->nt);
+        if (s->nt) /* a slab of isolated vertices has no face array at all */
+            memcpy(w->tri, s->tri, 3 * sizeof *w->tri * (size_t)s->nt);
         memset(w->falive, 1, nt);
         memset(w->valive, 1, nv);
     } else if (en_collapse_slab(s, removable, w->q, w->ref, &cs, w->falive, w->valive, w->tri, &cc)) {
