@@ -53,6 +53,7 @@ struct epsnet_stream {
     uint64_t collapses, slabs, max_active;
     uint64_t refused[EN_REFUSE_KINDS];
     uint64_t vertices_in, faces_in;
+    uint64_t budget;              /* en_stream_mem_budget(), 0 = none */
 };
 
 static int pass_put(en_pass *p, const epsnet_record *rec, epsnet_error *err);
@@ -133,27 +134,34 @@ static int take_samples(epsnet_stream *s, const en_slab_work *w, epsnet_error *e
  * leaves in input id order, so one vertex used again far later in the
  * stream holds everything after it). Over budget, say which one grew.
  */
-static int check_budget(epsnet_stream *s, const en_pass *p, epsnet_error *err)
+static int check_budget(epsnet_stream *s, epsnet_error *err)
 {
-    uint64_t budget = en_stream_mem_budget(&s->ctx->settings), cut = 0, held = 0;
+    uint64_t total = 0, worst = 0;
+    const en_pass *wp = NULL;
+    int waiting = 0; /* the worst is the chunker's (1) or the stitcher's (0) */
     for (int i = 0; i < s->npasses; i++) {
-        cut += en_chunker_bytes(&s->pass[i].ch);
-        if (s->mode == EN_SLAB_SIMPLIFY)
-            held += en_stitcher_bytes(&s->pass[i].st);
+        const en_pass *p = &s->pass[i];
+        uint64_t cut = en_chunker_bytes(&p->ch), held = s->mode == EN_SLAB_SIMPLIFY ? en_stitcher_bytes(&p->st) : 0;
+        total += cut + held;
+        if (!wp || cut > worst || held > worst) {
+            wp = p;
+            waiting = cut >= held;
+            worst = waiting ? cut : held;
+        }
     }
-    if (!budget || cut + held <= budget)
+    if (!s->budget || total <= s->budget)
         return 0;
-    if (cut >= held)
+    if (waiting)
         return en_error_set(err, EPSNET_ELIMIT, s->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "pass %d: %llu vertices and %llu faces wait for vertices to be finalized (%llu bytes "
                             "in all), over the memory budget of %llu bytes (does the stream finalize its vertices?)",
-                            p->index + 1, (unsigned long long)p->ch.map.count, (unsigned long long)p->ch.nfaces,
-                            (unsigned long long)(cut + held), (unsigned long long)budget);
+                            wp->index + 1, (unsigned long long)wp->ch.map.count, (unsigned long long)wp->ch.nfaces,
+                            (unsigned long long)total, (unsigned long long)s->budget);
     return en_error_set(err, EPSNET_ELIMIT, s->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                         "pass %d: the output waits for vertex %llu, still open, and holds %llu bytes in all, "
                         "over the memory budget of %llu bytes (is a vertex used again far later in the stream?)",
-                        p->index + 1, (unsigned long long)p->st.frontier, (unsigned long long)(cut + held),
-                        (unsigned long long)budget);
+                        wp->index + 1, (unsigned long long)wp->st.frontier, (unsigned long long)total,
+                        (unsigned long long)s->budget);
 }
 
 /* Hand back the oldest slab of pass p and stitch it. */
@@ -182,7 +190,7 @@ static int retire_one(en_pass *p, epsnet_error *err)
     }
     free_work(w);
     if (rc == 0)
-        rc = check_budget(s, p, err);
+        rc = check_budget(s, err);
     return rc;
 }
 
@@ -216,7 +224,7 @@ static int pass_put(en_pass *p, const epsnet_record *rec, epsnet_error *err)
     if (rc == 0 && w)
         rc = submit(p, w, err);
     if (rc == 0 && (p->ch.records & 4095) == 0)
-        rc = check_budget(p->run, p, err);
+        rc = check_budget(p->run, err);
     return rc;
 }
 
@@ -279,6 +287,7 @@ int en_stream_new(epsnet_stream **out, epsnet_context *ctx, en_slab_mode mode, c
     s->path = path;
     s->mode = mode;
     s->npasses = mode == EN_SLAB_SAMPLE ? 1 : ctx->settings.passes < 1 ? 1 : ctx->settings.passes;
+    s->budget = en_stream_mem_budget(&ctx->settings);
     s->pass = en_calloc((size_t)s->npasses, sizeof *s->pass);
     if (!s->pass) {
         en_free(s);
