@@ -7,7 +7,7 @@
  */
 #include <stdatomic.h>
 
-#include "pipeline/pool.h"
+#include "common/pool.h"
 #include "testlib.h"
 
 typedef struct work {

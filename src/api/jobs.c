@@ -78,10 +78,3 @@ void en_job_count(epsnet_context *ctx, const en_classify_counts *c)
     st->multi_cover_samples = c->multi_cover;
     st->isolated_vertices = c->isolated;
 }
-
-/* note: splitmix64's increment keeps pass rotations unrelated to each other
- * and to the --seed rotation of pass 1. */
-void en_pass_rotation(uint64_t seed, int pass, gauss_rotation *r)
-{
-    gauss_rotation_from_seed(seed + 0x9e3779b97f4a7c15ull * (uint64_t)pass, r);
-}

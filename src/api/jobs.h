@@ -35,10 +35,6 @@ int en_job_classify(epsnet_context *ctx, const gauss_sphere *g, const en_slab *s
 int en_job_simplify(epsnet_context *ctx, const char *in_path, en_slab *s, epsnet_coord_type *ct,
                     epsnet_error *err);
 
-/* Rotation of ε-net pass `pass` >= 2, derived from the seed so runs are
- * repeatable (the in-core and streaming paths use the same). */
-void en_pass_rotation(uint64_t seed, int pass, gauss_rotation *r);
-
 /* Copy classification counts into ctx->stats. */
 void en_job_count(epsnet_context *ctx, const en_classify_counts *c);
 

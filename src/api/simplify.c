@@ -103,7 +103,7 @@ int en_job_simplify(epsnet_context *ctx, const char *in_path, en_slab *slab, eps
         gauss_sphere g = ctx->sphere;
         if (pass > 1) {
             gauss_rotation r;
-            en_pass_rotation(ctx->settings.seed, pass, &r);
+            gauss_pass_rotation(ctx->settings.seed, pass, &r);
             gauss_init(&g, ctx->sphere.n, &r);
         }
         uint64_t removed = 0;

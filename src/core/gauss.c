@@ -105,6 +105,13 @@ void gauss_rotation_from_seed(uint64_t seed, gauss_rotation *r)
     (void)gauss_rotation_quaternion(b * cos(t3), a * sin(t2), a * cos(t2), b * sin(t3), r);
 }
 
+/* note: splitmix64's increment keeps pass rotations unrelated to each other
+ * and to the --seed rotation of pass 1. */
+void gauss_pass_rotation(uint64_t seed, int pass, gauss_rotation *r)
+{
+    gauss_rotation_from_seed(seed + 0x9e3779b97f4a7c15ull * (uint64_t)pass, r);
+}
+
 /* Parse exactly four comma-separated finite numbers. */
 static int parse_four(const char *s, double v[4])
 {

@@ -87,6 +87,10 @@ int gauss_rotation_quaternion(double w, double x, double y, double z, gauss_rota
  */
 void gauss_rotation_from_seed(uint64_t seed, gauss_rotation *r);
 
+/* Rotation of ε-net pass `pass` >= 2 (paper §5: each pass re-samples under a
+ * new rotation), derived from the seed so that runs are repeatable. */
+void gauss_pass_rotation(uint64_t seed, int pass, gauss_rotation *r);
+
 /*
  * Parse a --rotation value: "identity", "default", "ax,ay,az,deg" (axis and
  * angle in degrees) or "q:w,x,y,z" (quaternion).

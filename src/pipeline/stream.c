@@ -21,7 +21,7 @@
 #include "common/error.h"
 #include "common/util.h"
 #include "pipeline/chunker.h"
-#include "pipeline/pool.h"
+#include "common/pool.h"
 #include "pipeline/stitcher.h"
 
 typedef struct en_pass {
@@ -303,7 +303,7 @@ int en_stream_new(epsnet_stream **out, epsnet_context *ctx, en_slab_mode mode, c
         p->g = ctx->sphere;
         if (i > 0) {
             gauss_rotation r;
-            en_pass_rotation(ctx->settings.seed, i + 1, &r);
+            gauss_pass_rotation(ctx->settings.seed, i + 1, &r);
             gauss_init(&p->g, ctx->sphere.n, &r);
         }
         if (en_chunker_init(&p->ch, slab, path) ||

@@ -1,4 +1,4 @@
-#include "pipeline/pool.h"
+#include "common/pool.h"
 
 #include <pthread.h>
 

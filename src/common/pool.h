@@ -14,8 +14,8 @@
  * Threads: en_pool_submit/en_pool_retire/en_pool_free are called from one
  * thread (the pipeline's); jobs run on the workers.
  */
-#ifndef EN_PIPELINE_POOL_H
-#define EN_PIPELINE_POOL_H
+#ifndef EN_COMMON_POOL_H
+#define EN_COMMON_POOL_H
 
 #include <stddef.h>
 #include <stdint.h>
