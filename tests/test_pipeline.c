@@ -8,8 +8,7 @@
  */
 #include <sys/stat.h>
 
-#include "api/context.h"
-#include "pipeline/stream.h"
+#include "api/run.h"
 #include "sample_util.h"
 
 static uint64_t *sorted_sample_gids(const char *shape, uint64_t faces, uint64_t *n)
@@ -76,24 +75,22 @@ static epsnet_context *make_ctx(uint32_t slab, int threads, int passes)
 static int stream_samples(const char *path, uint32_t slab, int threads, gid_list *out)
 {
     epsnet_context *ctx = make_ctx(slab, threads, 1);
-    epsnet_stream *s = NULL;
+    en_run run;
     epsnet_reader *r = NULL;
     epsnet_error err;
     epsnet_record rec;
     memset(out, 0, sizeof *out);
-    int rc = en_stream_new(&s, ctx, EN_SLAB_SAMPLE, path, &err);
-    if (rc == 0) {
-        en_stream_set_sample_sink(s, collect_gid, out);
-        rc = epsnet_reader_open(&r, path, NULL, &err);
-    }
-    while (rc == 0 && (rc = epsnet_reader_next(r, &rec, &err)) == 1)
-        rc = en_stream_put(s, &rec, &err);
+    int rc = en_run_open(&run, ctx, EN_SLAB_SAMPLE, path, (en_stage){ 0 }, collect_gid, out, &err);
     if (rc == 0)
-        rc = en_stream_finish(s, &err);
+        rc = epsnet_reader_open(&r, path, NULL, &err);
+    while (rc == 0 && (rc = epsnet_reader_next(r, &rec, &err)) == 1)
+        rc = en_run_put(&run, &rec, &err);
+    if (rc == 0)
+        rc = en_run_end(&run, &err);
     if (rc)
         fprintf(stderr, "stream_samples: %s\n", epsnet_error_message(&err));
     epsnet_reader_close(&r);
-    epsnet_stream_close(&s);
+    en_run_close(&run);
     epsnet_context_free(&ctx);
     qsort(out->g, out->n, sizeof *out->g, cmp_u64);
     return rc;
@@ -557,6 +554,83 @@ TEST(push_pull_matches_file_api)
     epsnet_context_free(&ctx);
 }
 
+/* Back-pressure (epsnet.h §8b): while output waits, push refuses with
+ * EPSNET_EAGAIN and does not take the record; pushing it again after the
+ * pull gives exactly the output of the file API. */
+TEST(push_refuses_until_waiting_output_is_pulled)
+{
+    char in[512], out[512], mine[512];
+    snprintf(in, sizeof in, "%s", tl_path("bp_in.smz"));
+    snprintf(out, sizeof out, "%s", tl_path("bp_out.sma"));
+    snprintf(mine, sizeof mine, "%s", tl_path("bp_mine.sma"));
+    epsnet_error err;
+    CHECK_EQ_INT(tl_gen_file(in, "bumpy", 20000, NAN, 1, 0, &err), 0);
+    CHECK_EQ_INT(simplify_file(in, out, 300, 2, 1, NULL, &err), 0);
+    epsnet_context *ctx = make_ctx(300, 2, 1);
+    epsnet_stream *s = NULL;
+    epsnet_reader *r = NULL;
+    epsnet_writer *w = NULL;
+    epsnet_mesh_info info;
+    memset(&info, 0, sizeof info);
+    info.nverts = info.nfaces = EPSNET_COUNT_UNKNOWN;
+    info.streaming = 1;
+    info.sorted_axis = 2;
+    CHECK_EQ_INT(epsnet_stream_open(&s, ctx, &err), 0);
+    CHECK_EQ_INT(epsnet_reader_open(&r, in, NULL, &err), 0);
+    CHECK_EQ_INT(epsnet_writer_open(&w, mine, NULL, &info, &err), 0);
+    epsnet_record rec, o;
+    int rc, refusals = 0;
+    while ((rc = epsnet_reader_next(r, &rec, &err)) == 1) {
+        /* Pull only when refused: the refused record must be pushed again. */
+        while ((rc = epsnet_stream_push(s, &rec, &err)) == EPSNET_EAGAIN) {
+            refusals++;
+            CHECK_STR_CONTAINS(epsnet_error_message(&err), "pull them");
+            while ((rc = epsnet_stream_pull(s, &o, &err)) == 1)
+                CHECK_EQ_INT(epsnet_writer_put(w, &o, &err), 0);
+            CHECK_EQ_INT(rc, 0);
+        }
+        CHECK_EQ_INT(rc, 0);
+    }
+    CHECK_EQ_INT(epsnet_stream_end(s, &err), 0);
+    while ((rc = epsnet_stream_pull(s, &o, &err)) == 1)
+        CHECK_EQ_INT(epsnet_writer_put(w, &o, &err), 0);
+    CHECK_EQ_INT(rc, 0);
+    CHECK(refusals > 1); /* many slabs: output waited many times */
+    CHECK_EQ_INT(epsnet_writer_commit(&w, &err), 0);
+    epsnet_reader_close(&r);
+    epsnet_stream_close(&s);
+    epsnet_context_free(&ctx);
+    CHECK(tl_same_file(out, mine));
+}
+
+/* --stats splits CPU time between the calling thread and the slab jobs
+ * (epsnet_stats.cpu_main, cpu_workers): both are measured, at one thread
+ * (jobs inline) and at two, and the JSON carries them. */
+TEST(stats_split_cpu_between_main_and_workers)
+{
+    char in[512], out[512], json[512];
+    snprintf(in, sizeof in, "%s", tl_path("cpu_in.smz"));
+    snprintf(out, sizeof out, "%s", tl_path("cpu_out.smz"));
+    snprintf(json, sizeof json, "%s", tl_path("cpu.json"));
+    epsnet_error err;
+    CHECK_EQ_INT(tl_gen_file(in, "bumpy", 60000, NAN, 1, 0, &err), 0);
+    for (int threads = 1; threads <= 2; threads++) {
+        epsnet_context *ctx = make_ctx(2000, threads, 1);
+        CHECK_EQ_INT(epsnet_simplify_file(ctx, in, out, &err), 0);
+        const epsnet_stats *st = epsnet_context_stats(ctx);
+        CHECK(st->cpu_workers > 0);
+        CHECK(st->cpu_main > 0);
+        CHECK_EQ_INT(epsnet_stats_write_json(ctx, NULL, json, &err), 0);
+        size_t n;
+        char *text = (char *)tl_read_file(json, &n);
+        CHECK(text != NULL);
+        if (text)
+            CHECK_STR_CONTAINS(text, "\"cpu\": {\"main\": ");
+        free(text);
+        epsnet_context_free(&ctx);
+    }
+}
+
 int main(void)
 {
     RUN(samples_equal_one_slab_for_any_slab_size);
@@ -568,6 +642,8 @@ int main(void)
     RUN(unsorted_input_is_sorted_first);
     RUN(huge_coordinates_end);
     RUN(push_pull_matches_file_api);
+    RUN(push_refuses_until_waiting_output_is_pulled);
+    RUN(stats_split_cpu_between_main_and_workers);
     tl_cleanup();
     return tl_finish();
 }

@@ -1,8 +1,10 @@
 /*
- * The worker pool (SPEC §2): jobs run on any worker in any order, but come
- * back in submission order with their own results, for any thread count;
- * in-flight jobs never exceed the capacity; an error rides in its job and
- * surfaces in order; freeing a pool with queued work finishes it cleanly.
+ * The worker pool and its job rings (docs/architecture.md §4): jobs run on
+ * any worker in any order, but each ring hands them back in its own
+ * submission order with their own results, for any thread count, also when
+ * several rings share one pool; in-flight jobs never exceed a ring's
+ * capacity; an error rides in its job and surfaces in order; freeing a ring
+ * with queued work finishes it cleanly.
  * Also run under the thread sanitizer in CI (build-tsan).
  */
 #include <stdatomic.h>
@@ -47,18 +49,20 @@ static uint64_t expected(const work *w)
  * must be the next in order with the right output. Returns a digest. */
 static uint64_t run_jobs(int threads, size_t cap, uint64_t n, uint64_t fail_at, int *first_error_id)
 {
-    en_pool *p = NULL;
-    CHECK_EQ_INT(en_pool_new(&p, threads, cap), 0);
+    en_pool *pool = NULL;
+    en_jobring *p = NULL;
+    CHECK_EQ_INT(en_pool_new(&pool, threads), 0);
+    CHECK_EQ_INT(en_jobring_new(&p, pool, cap), 0);
     work *jobs = calloc(n, sizeof *jobs);
     uint64_t next_retire = 0, digest = 0;
     *first_error_id = -1;
     atomic_store(&max_running, 0);
     for (uint64_t i = 0; i <= n; i++) {
         /* back-pressure: retire the oldest while the ring is full (and drain at the end) */
-        while (en_pool_full(p) || (i == n && en_pool_in_flight(p))) {
+        while (en_jobring_full(p) || (i == n && en_jobring_in_flight(p))) {
             void *job;
             int result;
-            CHECK_EQ_INT(en_pool_retire(p, &job, &result), 1);
+            CHECK_EQ_INT(en_jobring_retire(p, &job, &result), 1);
             work *w = job;
             CHECK_EQ_U64(w->id, next_retire);
             CHECK_EQ_U64(w->output, expected(w));
@@ -70,16 +74,19 @@ static uint64_t run_jobs(int threads, size_t cap, uint64_t n, uint64_t fail_at, 
         }
         if (i == n)
             break;
-        CHECK(en_pool_in_flight(p) < cap + (cap == 0));
+        CHECK(en_jobring_in_flight(p) < cap + (cap == 0));
         jobs[i] = (work){ i, i * 977 + 1, 0, i == fail_at };
-        CHECK_EQ_INT(en_pool_submit(p, crunch, &jobs[i]), 0);
+        CHECK_EQ_INT(en_jobring_submit(p, crunch, &jobs[i]), 0);
     }
     CHECK_EQ_U64(next_retire, n);
     void *job;
     int result;
-    CHECK_EQ_INT(en_pool_retire(p, &job, &result), 0);
-    en_pool_free(&p);
+    CHECK_EQ_INT(en_jobring_retire(p, &job, &result), 0);
+    CHECK(en_pool_job_cpu_seconds(pool) > 0);
+    en_jobring_free(&p, NULL);
     CHECK(p == NULL);
+    en_pool_free(&pool);
+    CHECK(pool == NULL);
     free(jobs);
     return digest;
 }
@@ -115,29 +122,78 @@ TEST(an_error_rides_in_its_job_and_surfaces_in_order)
 
 TEST(submitting_to_a_full_ring_is_refused_not_blocked)
 {
-    en_pool *p = NULL;
-    CHECK_EQ_INT(en_pool_new(&p, 2, 2), 0);
+    en_pool *pool = NULL;
+    en_jobring *p = NULL;
+    CHECK_EQ_INT(en_pool_new(&pool, 2), 0);
+    CHECK_EQ_INT(en_jobring_new(&p, pool, 2), 0);
     work w[3] = { { 0, 1, 0, 0 }, { 1, 2, 0, 0 }, { 2, 3, 0, 0 } };
-    CHECK_EQ_INT(en_pool_submit(p, crunch, &w[0]), 0);
-    CHECK_EQ_INT(en_pool_submit(p, crunch, &w[1]), 0);
-    CHECK(en_pool_full(p));
-    CHECK_EQ_INT(en_pool_submit(p, crunch, &w[2]), EPSNET_EINTERNAL);
-    en_pool_free(&p); /* finishes both queued jobs, joins the workers */
+    CHECK_EQ_INT(en_jobring_submit(p, crunch, &w[0]), 0);
+    CHECK_EQ_INT(en_jobring_submit(p, crunch, &w[1]), 0);
+    CHECK(en_jobring_full(p));
+    CHECK_EQ_INT(en_jobring_submit(p, crunch, &w[2]), EPSNET_EINTERNAL);
+    en_jobring_free(&p, NULL); /* waits for both queued jobs */
     CHECK_EQ_U64(w[0].output, expected(&w[0]));
     CHECK_EQ_U64(w[1].output, expected(&w[1]));
+    en_pool_free(&pool);
 }
 
 TEST(capacity_rounds_up_to_a_power_of_two)
 {
-    en_pool *p = NULL;
-    CHECK_EQ_INT(en_pool_new(&p, 0, 3), 0);
+    en_pool *pool = NULL;
+    en_jobring *p = NULL;
+    CHECK_EQ_INT(en_pool_new(&pool, 0), 0);
+    CHECK_EQ_INT(en_jobring_new(&p, pool, 3), 0);
     work w[5];
     for (int i = 0; i < 4; i++) {
         w[i] = (work){ (uint64_t)i, (uint64_t)i, 0, 0 };
-        CHECK_EQ_INT(en_pool_submit(p, crunch, &w[i]), 0);
+        CHECK_EQ_INT(en_jobring_submit(p, crunch, &w[i]), 0);
     }
-    CHECK(en_pool_full(p));
-    en_pool_free(&p);
+    CHECK(en_jobring_full(p));
+    en_jobring_free(&p, NULL);
+    en_pool_free(&pool);
+}
+
+/*
+ * Two producers on one pool, as two ε-net passes share the run's workers:
+ * submissions interleave, each ring still retires its own jobs in its own
+ * order with the right outputs.
+ */
+TEST(rings_sharing_a_pool_each_retire_in_their_own_order)
+{
+    const int threads[] = { 0, 1, 2, 5 };
+    for (int k = 0; k < 4; k++) {
+        en_pool *pool = NULL;
+        en_jobring *ring[2] = { NULL, NULL };
+        CHECK_EQ_INT(en_pool_new(&pool, threads[k]), 0);
+        CHECK_EQ_INT(en_jobring_new(&ring[0], pool, 4), 0);
+        CHECK_EQ_INT(en_jobring_new(&ring[1], pool, 2), 0);
+        enum { N = 120 };
+        work jobs[2][N];
+        uint64_t next[2] = { 0, 0 };
+        for (uint64_t i = 0; i <= N; i++) {
+            for (int r = 0; r < 2; r++) {
+                while (en_jobring_full(ring[r]) || (i == N && en_jobring_in_flight(ring[r]))) {
+                    void *job;
+                    int result;
+                    CHECK_EQ_INT(en_jobring_retire(ring[r], &job, &result), 1);
+                    work *w = job;
+                    CHECK(w == &jobs[r][next[r]]);
+                    CHECK_EQ_U64(w->output, expected(w));
+                    CHECK_EQ_INT(result, 0);
+                    next[r]++;
+                }
+                if (i == N)
+                    continue;
+                jobs[r][i] = (work){ i + (uint64_t)r * 3, i * 31 + (uint64_t)r, 0, 0 };
+                CHECK_EQ_INT(en_jobring_submit(ring[r], crunch, &jobs[r][i]), 0);
+            }
+        }
+        CHECK_EQ_U64(next[0], N);
+        CHECK_EQ_U64(next[1], N);
+        en_jobring_free(&ring[0], NULL);
+        en_jobring_free(&ring[1], NULL);
+        en_pool_free(&pool);
+    }
 }
 
 int main(void)
@@ -147,5 +203,6 @@ int main(void)
     RUN(an_error_rides_in_its_job_and_surfaces_in_order);
     RUN(submitting_to_a_full_ring_is_refused_not_blocked);
     RUN(capacity_rounds_up_to_a_power_of_two);
+    RUN(rings_sharing_a_pool_each_retire_in_their_own_order);
     return tl_finish();
 }

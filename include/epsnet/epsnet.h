@@ -87,6 +87,7 @@ enum {
     EPSNET_EUNSUPPORTED = -6,/* valid input we do not handle (e.g. unknown format) */
     EPSNET_EINTR = -7,       /* interrupted by a signal or a progress callback */
     EPSNET_EINTERNAL = -8,   /* a bug: an invariant did not hold */
+    EPSNET_EAGAIN = -9,      /* not now: pull the waiting output first (epsnet_stream_push) */
 };
 
 /* Unknown line or byte offset in an epsnet_error. */
@@ -484,7 +485,14 @@ typedef struct epsnet_stats {
     double seconds_write;
     double seconds_simplify;
     double seconds_sort;          /* sorting an input that was not a stream first (0: none) */
-    uint8_t reserved[48];
+    /* CPU seconds of the run: cpu_workers is spent in slab jobs, on whichever
+     * thread ran them (on the calling thread itself at threads = 1);
+     * cpu_main is the calling thread's other work (reading, cutting slabs,
+     * stitching seams, writing). cpu_main / (cpu_main + cpu_workers) is the
+     * serial fraction that bounds the speed-up from more threads. */
+    double cpu_main;
+    double cpu_workers;
+    uint8_t reserved[32];
 } epsnet_stats;
 
 typedef struct epsnet_context epsnet_context;
@@ -578,8 +586,11 @@ EPSNET_API int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, co
  * count. The samples (which vertices are kept as samples) are the same for
  * every slab size; the collapses around them may differ slightly.
  *
- * Records come out as slabs are finished, so pull after every push (and
- * after end) until pull returns 0; what is not pulled accumulates.
+ * Records come out as slabs are finished. Pull after every push (and after
+ * end) until pull returns 0: while output waits, push refuses with
+ * EPSNET_EAGAIN and does not take the record (push it again after pulling).
+ * That is the back-pressure that keeps the output queue to what one push
+ * finished, whatever the length of the mesh.
  *
  *     epsnet_stream *s = NULL;
  *     epsnet_record in, out;
@@ -608,9 +619,10 @@ typedef struct epsnet_stream epsnet_stream;
  */
 EPSNET_API int epsnet_stream_open(epsnet_stream **s, epsnet_context *ctx, epsnet_error *err);
 
-/* Give the next input record. @return 0, or a negative code with err filled
- * (bad record: EPSNET_EFORMAT; an error from a worker, in slab order);
- * after an error every call returns it again. */
+/* Give the next input record. @return 0; EPSNET_EAGAIN when output waits
+ * to be pulled (the record was not taken; nothing failed); or a negative
+ * code with err filled (bad record: EPSNET_EFORMAT; an error from a worker,
+ * in slab order), after which every call returns it again. */
 EPSNET_API int epsnet_stream_push(epsnet_stream *s, const epsnet_record *rec, epsnet_error *err);
 
 /* End of input: finish every slab and seam. @return 0 or a negative code. */

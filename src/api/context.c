@@ -149,7 +149,8 @@ int epsnet_stats_write_json(const epsnet_context *c, const char *command, const 
         ", \"inner_left\": %" PRIu64 "},\n"
         "  \"peak_rss\": %" PRIu64 ",\n"
         "  \"seconds\": {\"read\": %.6f, \"normals\": %.6f, \"classify\": %.6f, \"simplify\": %.6f, "
-        "\"write\": %.6f, \"sort\": %.6f}\n"
+        "\"write\": %.6f, \"sort\": %.6f},\n"
+        "  \"cpu\": {\"main\": %.6f, \"workers\": %.6f}\n"
         "}\n",
         command ? command : c->command, epsnet_version(), st->frequency ? -1 : st->level,
         c->sphere.n, c->sphere.nverts, c->sphere.ntris, st->passes, st->max_normal_dev, s->vertices, s->faces,
@@ -159,7 +160,7 @@ int epsnet_stats_write_json(const epsnet_context *c, const char *command, const 
         s->remaining_nonsamples, s->refused_link, s->refused_normal, s->refused_zero_area, s->refused_duplicate,
         s->max_active, s->slabs, s->seam_faces, s->seam_collapses, s->band_nonsamples,
         s->band_nonsamples_left, s->inner_nonsamples, s->inner_nonsamples_left, s->peak_rss, s->seconds_read, s->seconds_normals, s->seconds_classify,
-        s->seconds_simplify, s->seconds_write, s->seconds_sort);
+        s->seconds_simplify, s->seconds_write, s->seconds_sort, s->cpu_main, s->cpu_workers);
     if (n < 0 || (size_t)n >= sizeof buf)
         return en_error_set(err, EPSNET_EINTERNAL, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "stats too long");
     en_sink *sink = NULL;

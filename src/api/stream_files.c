@@ -10,32 +10,30 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "api/context.h"
-#include "api/jobs.h"
+#include "api/run.h"
 #include "api/stream_files.h"
 #include "common/alloc.h"
 #include "common/error.h"
 #include "common/util.h"
 #include "io/samples_ply.h"
 #include "io/sink.h"
-#include "pipeline/stream.h"
 
 /* Records between two progress callbacks. */
 #define PROGRESS_EVERY 65536
 
-static int writer_sink(void *opaque, const epsnet_record *rec, epsnet_error *err)
+static int writer_put(void *self, const epsnet_record *rec, epsnet_error *err)
 {
-    return epsnet_writer_put(opaque, rec, err);
+    return epsnet_writer_put(self, rec, err);
 }
 
-/* Read in_path into s; r is opened here and closed by the caller. */
-static int feed(epsnet_context *ctx, epsnet_stream *s, epsnet_reader *r, const char *path, epsnet_error *err)
+/* Read r into the run, then end it; r is opened and closed by the caller. */
+static int feed(epsnet_context *ctx, en_run *run, epsnet_reader *r, const char *path, epsnet_error *err)
 {
     epsnet_record rec;
     uint64_t n = 0;
     int rc;
     while ((rc = epsnet_reader_next(r, &rec, err)) == 1) {
-        if ((rc = en_stream_put(s, &rec, err)) != 0)
+        if ((rc = en_run_put(run, &rec, err)) != 0)
             return rc;
         if (ctx->settings.progress && ++n % PROGRESS_EVERY == 0 &&
             ctx->settings.progress(ctx->settings.progress_opaque, epsnet_reader_bytes_read(r),
@@ -44,7 +42,7 @@ static int feed(epsnet_context *ctx, epsnet_stream *s, epsnet_reader *r, const c
     }
     if (rc < 0)
         return rc;
-    return en_stream_finish(s, err);
+    return en_run_end(run, err);
 }
 
 /* Folder for the sorted copy: --tmpdir, else the output's folder. */
@@ -73,7 +71,7 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
 {
     epsnet_reader_settings rs;
     epsnet_reader_default_settings(&rs);
-    rs.mem_limit = en_stream_mem_budget(&ctx->settings);
+    rs.mem_limit = en_run_mem_budget(&ctx->settings);
     int rc = epsnet_reader_open(r, in_path, &rs, err);
     if (rc || epsnet_reader_info(*r)->streaming)
         return rc;
@@ -119,7 +117,8 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
     double t0 = en_now();
     epsnet_reader *r = NULL;
     epsnet_writer *w = NULL;
-    epsnet_stream *s = NULL;
+    en_run run;
+    memset(&run, 0, sizeof run);
     double sort_seconds = 0;
     int rc = open_input(ctx, in_path, out_path, &r, &sort_seconds, err);
     if (rc == 0) {
@@ -138,13 +137,11 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
         rc = epsnet_writer_open(&w, out_path, &ws, &info, err);
     }
     if (rc == 0)
-        rc = en_stream_new(&s, ctx, EN_SLAB_SIMPLIFY, in_path, err);
+        rc = en_run_open(&run, ctx, EN_SLAB_SIMPLIFY, in_path, (en_stage){ writer_put, NULL, w }, NULL, NULL, err);
+    if (rc == 0)
+        rc = feed(ctx, &run, r, in_path, err);
+    en_run_close(&run);
     ctx->stats.seconds_sort = sort_seconds;
-    if (rc == 0) {
-        en_stream_set_sink(s, writer_sink, w);
-        rc = feed(ctx, s, r, in_path, err);
-    }
-    epsnet_stream_close(&s);
     epsnet_reader_close(&r);
     if (rc == 0)
         rc = epsnet_writer_commit(&w, err);
@@ -190,21 +187,20 @@ int en_sample_points_streamed(epsnet_context *ctx, const char *in_path, const ch
 {
     double t0 = en_now();
     epsnet_reader *r = NULL;
-    epsnet_stream *s = NULL;
+    en_run run;
+    memset(&run, 0, sizeof run);
     sample_list l = { 0 };
     epsnet_coord_type ct = EPSNET_COORD_FLOAT32;
     double sort_seconds = 0;
     int rc = open_input(ctx, in_path, out_path, &r, &sort_seconds, err);
     if (rc == 0) {
         ct = epsnet_reader_info(r)->coord_type;
-        rc = en_stream_new(&s, ctx, EN_SLAB_SAMPLE, in_path, err);
+        rc = en_run_open(&run, ctx, EN_SLAB_SAMPLE, in_path, (en_stage){ 0 }, collect, &l, err);
     }
+    if (rc == 0)
+        rc = feed(ctx, &run, r, in_path, err);
+    en_run_close(&run);
     ctx->stats.seconds_sort = sort_seconds;
-    if (rc == 0) {
-        en_stream_set_sample_sink(s, collect, &l);
-        rc = feed(ctx, s, r, in_path, err);
-    }
-    epsnet_stream_close(&s);
     epsnet_reader_close(&r);
     ctx->stats.seconds_classify = en_now() - t0;
     /* Samples are few (about one per Gaussian vertex per feature): written in

@@ -64,6 +64,7 @@ const char *epsnet_strerror(int code)
     case EPSNET_EUNSUPPORTED: return "unsupported";
     case EPSNET_EINTR: return "interrupted";
     case EPSNET_EINTERNAL: return "internal error";
+    case EPSNET_EAGAIN: return "pull the waiting output first";
     default: return "unknown error";
     }
 }

@@ -4,54 +4,83 @@
 
 #include "common/alloc.h"
 #include "common/thread.h"
+#include "common/util.h"
 #include "epsnet/epsnet.h"
 
 typedef enum { SLOT_FREE, SLOT_QUEUED, SLOT_RUNNING, SLOT_DONE } slot_state;
 
-typedef struct slot {
-    en_job_fn fn;
-    void *job;
-    int result;
-    slot_state state;
-} slot;
+typedef struct slot slot;
+struct slot {
+    en_job_fn fn;          /* written by submit (owner), read by the worker that takes it */
+    void *job;             /* likewise */
+    int result;            /* written by the worker, read by retire (owner) after DONE */
+    slot_state state;      /* written by submit, the worker and retire; under the lock */
+    slot *next;            /* the pool's queue of QUEUED slots; under the lock */
+};
 
 /*
- * Lock: one mutex guards every field below except `threads`/`mask`/`ring`
- * pointers, which are written once before any worker starts.
- *   submitted  written by the caller (submit), read by workers
- *   started    written by workers (next job to take), read by workers
- *   retired    written by the caller (retire), read by the caller (submit)
- *   ring[i]    state/result written by the worker running it, fn/job by submit
- *   stopping   written by free, read by workers
- * Condition variables: `work` (a job was queued or stopping set: workers
- * wait) and `done` (a job finished: retire waits). No "space" condition is
- * needed: only the caller frees slots, by retiring.
+ * Lock: one mutex (pool->lock) guards every field marked "lock" below, in
+ * the pool and in every ring of it; it is the only lock, so there is no
+ * lock order. `threads`, `nthreads` and a ring's `slots`/`mask` are written
+ * once before any job is queued.
+ * Condition variables: `work` (a job was queued or stopping was set:
+ * workers wait) and `done` (a job finished: retire and ring free wait). No
+ * "space" condition is needed: only a ring's owner frees its slots, by
+ * retiring.
  */
 struct en_pool {
     pthread_mutex_t lock;
     pthread_cond_t work;
     pthread_cond_t done;
-    slot *ring;
-    size_t mask;
-    uint64_t submitted, started, retired;
-    int stopping;
+    slot *head, *tail;     /* lock: queued jobs of every ring, oldest first */
+    int stopping;          /* lock: written by free, read by workers */
+    double job_cpu;        /* lock: CPU seconds inside jobs, written by whoever ran one */
     int nthreads;
     pthread_t *threads;
 };
+
+struct en_jobring {
+    en_pool *pool;
+    slot *slots;
+    size_t mask;
+    /* Written only by the owner, under the lock (workers never read them), so
+     * the owner may read them without it. */
+    uint64_t submitted, retired;
+};
+
+/* Run one job and account its CPU time; returns its result. Caller does
+ * not hold the lock. */
+static int run_job(en_pool *p, slot *s)
+{
+    double t0 = en_thread_cpu_seconds();
+    int result = s->fn(s->job);
+    double dt = en_thread_cpu_seconds() - t0;
+    if (p->nthreads == 0) {
+        p->job_cpu += dt; /* inline: the owner's thread is the only one */
+    } else {
+        pthread_mutex_lock(&p->lock);
+        p->job_cpu += dt;
+        pthread_mutex_unlock(&p->lock);
+    }
+    return result;
+}
 
 static void *worker(void *arg)
 {
     en_pool *p = arg;
     pthread_mutex_lock(&p->lock);
     for (;;) {
-        while (p->started == p->submitted && !p->stopping)
+        while (!p->head && !p->stopping)
             pthread_cond_wait(&p->work, &p->lock);
-        if (p->started == p->submitted && p->stopping)
-            break;
-        slot *s = &p->ring[p->started++ & p->mask];
+        if (!p->head)
+            break; /* stopping, and nothing left to run */
+        slot *s = p->head;
+        p->head = s->next;
+        if (!p->head)
+            p->tail = NULL;
         s->state = SLOT_RUNNING;
         pthread_mutex_unlock(&p->lock);
-        int result = s->fn(s->job);
+        int result = run_job(p, s);
         pthread_mutex_lock(&p->lock);
         s->result = result;
         s->state = SLOT_DONE;
@@ -61,30 +90,22 @@ static void *worker(void *arg)
     return NULL;
 }
 
-int en_pool_new(en_pool **out, int threads, size_t capacity)
+int en_pool_new(en_pool **out, int threads)
 {
     *out = NULL;
-    size_t cap = 1;
-    while (cap < capacity)
-        cap *= 2;
     en_pool *p = en_calloc(1, sizeof *p);
     if (!p)
         return EPSNET_ENOMEM;
-    p->ring = en_calloc(cap, sizeof *p->ring);
     p->threads = threads > 0 ? en_calloc((size_t)threads, sizeof *p->threads) : NULL;
-    if (!p->ring || (threads > 0 && !p->threads)) {
-        en_free(p->ring);
-        en_free(p->threads);
+    if (threads > 0 && !p->threads) {
         en_free(p);
         return EPSNET_ENOMEM;
     }
-    p->mask = cap - 1;
     pthread_mutex_init(&p->lock, NULL);
     pthread_cond_init(&p->work, NULL);
     pthread_cond_init(&p->done, NULL);
     for (int i = 0; i < threads; i++) {
         if (en_thread_create(&p->threads[i], worker, p) != 0) {
-            p->nthreads = i;
             en_pool_free(&p);
             return EPSNET_EIO;
         }
@@ -94,78 +115,18 @@ int en_pool_new(en_pool **out, int threads, size_t capacity)
     return 0;
 }
 
-/* Caller holds the lock. */
-static int wait_oldest(en_pool *p)
+int en_pool_threads(const en_pool *p)
 {
-    slot *s = &p->ring[p->retired & p->mask];
-    while (s->state != SLOT_DONE)
-        pthread_cond_wait(&p->done, &p->lock);
-    return s->result;
+    return p->nthreads;
 }
 
-int en_pool_submit(en_pool *p, en_job_fn fn, void *job)
+double en_pool_job_cpu_seconds(const en_pool *p)
 {
-    if (p->nthreads == 0) {
-        /* Inline: run now, keep the result for retire, same order rules. */
-        if (en_pool_full(p))
-            return EPSNET_EINTERNAL; /* the caller must retire first */
-        slot *s = &p->ring[p->submitted & p->mask];
-        s->fn = fn;
-        s->job = job;
-        s->result = fn(job);
-        s->state = SLOT_DONE;
-        p->submitted++;
-        p->started = p->submitted;
-        return 0;
-    }
-    if (en_pool_full(p))
-        return EPSNET_EINTERNAL; /* the caller must retire first */
-    pthread_mutex_lock(&p->lock);
-    slot *s = &p->ring[p->submitted & p->mask];
-    s->fn = fn;
-    s->job = job;
-    s->state = SLOT_QUEUED;
-    p->submitted++;
-    pthread_cond_signal(&p->work);
-    pthread_mutex_unlock(&p->lock);
-    return 0;
-}
-
-int en_pool_retire(en_pool *p, void **job, int *result)
-{
-    if (p->nthreads == 0) {
-        if (p->retired == p->submitted)
-            return 0;
-        slot *s = &p->ring[p->retired++ & p->mask];
-        *job = s->job;
-        *result = s->result;
-        s->state = SLOT_FREE;
-        return 1;
-    }
-    pthread_mutex_lock(&p->lock);
-    if (p->retired == p->submitted) {
-        pthread_mutex_unlock(&p->lock);
-        return 0;
-    }
-    *result = wait_oldest(p);
-    slot *s = &p->ring[p->retired++ & p->mask];
-    *job = s->job;
-    s->state = SLOT_FREE;
-    pthread_mutex_unlock(&p->lock);
-    return 1;
-}
-
-/* note: submitted and retired are written only by the caller's thread
- * (under the lock, since workers read them), so the caller reads them here
- * without it. */
-size_t en_pool_in_flight(const en_pool *p)
-{
-    return (size_t)(p->submitted - p->retired);
-}
-
-int en_pool_full(const en_pool *p)
-{
-    return p->submitted - p->retired > p->mask;
+    en_pool *m = (en_pool *)p; /* the lock is not part of the value */
+    pthread_mutex_lock(&m->lock);
+    double t = p->job_cpu;
+    pthread_mutex_unlock(&m->lock);
+    return t;
 }
 
 void en_pool_free(en_pool **pp)
@@ -183,7 +144,100 @@ void en_pool_free(en_pool **pp)
     pthread_cond_destroy(&p->done);
     pthread_mutex_destroy(&p->lock);
     en_free(p->threads);
-    en_free(p->ring);
     en_free(p);
     *pp = NULL;
+}
+
+int en_jobring_new(en_jobring **out, en_pool *pool, size_t capacity)
+{
+    *out = NULL;
+    size_t cap = 1;
+    while (cap < capacity)
+        cap *= 2;
+    en_jobring *r = en_calloc(1, sizeof *r);
+    if (!r)
+        return EPSNET_ENOMEM;
+    r->slots = en_calloc(cap, sizeof *r->slots);
+    if (!r->slots) {
+        en_free(r);
+        return EPSNET_ENOMEM;
+    }
+    r->pool = pool;
+    r->mask = cap - 1;
+    *out = r;
+    return 0;
+}
+
+int en_jobring_full(const en_jobring *r)
+{
+    return r->submitted - r->retired > r->mask;
+}
+
+size_t en_jobring_in_flight(const en_jobring *r)
+{
+    return (size_t)(r->submitted - r->retired);
+}
+
+int en_jobring_submit(en_jobring *r, en_job_fn fn, void *job)
+{
+    if (en_jobring_full(r))
+        return EPSNET_EINTERNAL; /* the owner must retire first */
+    en_pool *p = r->pool;
+    slot *s = &r->slots[r->submitted & r->mask];
+    s->fn = fn;
+    s->job = job;
+    s->next = NULL;
+    if (p->nthreads == 0) {
+        /* Inline: run now, keep the result for retire, same order rules. */
+        s->result = run_job(p, s);
+        s->state = SLOT_DONE;
+        r->submitted++;
+        return 0;
+    }
+    pthread_mutex_lock(&p->lock);
+    s->state = SLOT_QUEUED;
+    if (p->tail)
+        p->tail->next = s;
+    else
+        p->head = s;
+    p->tail = s;
+    r->submitted++;
+    pthread_cond_signal(&p->work);
+    pthread_mutex_unlock(&p->lock);
+    return 0;
+}
+
+int en_jobring_retire(en_jobring *r, void **job, int *result)
+{
+    if (r->retired == r->submitted)
+        return 0;
+    en_pool *p = r->pool;
+    slot *s = &r->slots[r->retired & r->mask];
+    if (p->nthreads) {
+        pthread_mutex_lock(&p->lock);
+        while (s->state != SLOT_DONE)
+            pthread_cond_wait(&p->done, &p->lock);
+    }
+    *job = s->job;
+    *result = s->result;
+    s->state = SLOT_FREE;
+    r->retired++;
+    if (p->nthreads)
+        pthread_mutex_unlock(&p->lock);
+    return 1;
+}
+
+void en_jobring_free(en_jobring **pr, void (*drop)(void *job))
+{
+    en_jobring *r = pr ? *pr : NULL;
+    if (!r)
+        return;
+    void *job;
+    int result;
+    while (en_jobring_retire(r, &job, &result))
+        if (drop)
+            drop(job);
+    en_free(r->slots);
+    en_free(r);
+    *pr = NULL;
 }

@@ -10,4 +10,7 @@ uint64_t en_peak_rss_bytes(void);
 /* Monotonic clock in seconds. */
 double en_now(void);
 
+/* CPU seconds the calling thread has used (0 when unknown). */
+double en_thread_cpu_seconds(void);
+
 #endif

@@ -41,11 +41,10 @@ struct en_vheap_entry {
     uint32_t idx;          /* pool index */
 };
 
-int en_stitcher_init(en_stitcher *st, double max_normal_dev, en_emit_fn emit, void *opaque)
+int en_stitcher_init(en_stitcher *st, double max_normal_dev, en_stage out)
 {
     memset(st, 0, sizeof *st);
-    st->emit = emit;
-    st->opaque = opaque;
+    st->out = out;
     st->max_normal_dev = max_normal_dev;
     en_slab_init(&st->ws);
     return en_u64map_init(&st->map) ? EPSNET_ENOMEM : 0;
@@ -336,7 +335,7 @@ static int put(en_stitcher *st, epsnet_record_kind kind, uint64_t a, uint64_t b,
     rec.v[0] = a, rec.v[1] = b, rec.v[2] = c;
     if (xyz)
         memcpy(rec.xyz, xyz, sizeof rec.xyz);
-    return st->emit(st->opaque, &rec, err);
+    return en_stage_put(&st->out, &rec, err);
 }
 
 /* Write every decided vertex below frontier, each with the faces it ends. */

@@ -24,13 +24,11 @@
 
 #include <stdint.h>
 
+#include "common/stage.h"
 #include "common/u64map.h"
 #include "core/collapse.h"
 #include "epsnet/epsnet.h"
 #include "pipeline/slab_work.h"
-
-/* Where output records go: 0 or a negative code with err filled. */
-typedef int (*en_emit_fn)(void *opaque, const epsnet_record *rec, epsnet_error *err);
 
 typedef struct en_stitch_vertex en_stitch_vertex;
 typedef struct en_seam_face en_seam_face;
@@ -49,8 +47,7 @@ typedef struct en_stitch_stats {
 } en_stitch_stats;
 
 typedef struct en_stitcher {
-    en_emit_fn emit;
-    void *opaque;
+    en_stage out;                     /* where the finished records go (its end is the caller's) */
     double max_normal_dev;
     en_stitch_vertex *v;              /* pool of vertices not yet finalized in the output */
     size_t v_len, v_cap;
@@ -74,7 +71,7 @@ typedef struct en_stitcher {
 } en_stitcher;
 
 /* @return 0 or EPSNET_ENOMEM. */
-int en_stitcher_init(en_stitcher *st, double max_normal_dev, en_emit_fn emit, void *opaque);
+int en_stitcher_init(en_stitcher *st, double max_normal_dev, en_stage out);
 void en_stitcher_free(en_stitcher *st);
 
 /* Take slab w (simplify mode), in slab order, and emit what became final.

@@ -1,0 +1,51 @@
+/*
+ * One run of the stage chain for the api (docs/architecture.md §2): the
+ * context's settings turned into sizes, one pool of -j workers for the
+ * whole run, the chain of ε-net passes on it, and the only place where
+ * epsnet_stats is filled from what the chain counted.
+ */
+#ifndef EN_API_RUN_H
+#define EN_API_RUN_H
+
+#include "api/context.h"
+#include "common/pool.h"
+#include "pipeline/chain.h"
+
+/* Slab size the settings ask for (see epsnet_settings). */
+uint32_t en_run_slab_vertices(const epsnet_settings *set);
+/* The bytes live vertices and held output may take: settings.mem, or half
+ * the physical memory when no budget is given (a clear error, never the OOM
+ * killer). */
+uint64_t en_run_mem_budget(const epsnet_settings *set);
+/* Worker threads: 0 when one thread is asked for (jobs run inline). */
+int en_run_workers(const epsnet_settings *set);
+
+typedef struct en_run {
+    epsnet_context *ctx;
+    en_pool *pool;
+    en_chain *chain;
+    en_stage input;               /* the chain's input stage */
+    double cpu_start;             /* calling thread's CPU clock at open */
+    double wall_start;
+} en_run;
+
+/*
+ * Start a run in `mode` on ctx's settings: resets ctx->stats, starts the
+ * workers. out: SIMPLIFY's output stage; on_sample: SAMPLE's sample sink.
+ * @return 0, or a negative code with err filled (then nothing is left
+ * running and run_close() is still safe).
+ */
+int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char *path, en_stage out,
+                en_sample_fn on_sample, void *sample_opaque, epsnet_error *err);
+
+/* Push one input record (counts it for progress in ctx->stats.faces). */
+int en_run_put(en_run *run, const epsnet_record *rec, epsnet_error *err);
+
+/* End of input: finish the chain and fill ctx->stats (all but the stage
+ * times and peak_rss, which the caller knows). */
+int en_run_end(en_run *run, epsnet_error *err);
+
+/* Free the chain, stop the workers. Accepts a run that failed to open. */
+void en_run_close(en_run *run);
+
+#endif

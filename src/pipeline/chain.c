@@ -1,0 +1,328 @@
+/*
+ * The ε-net passes of the stage chain (docs/architecture.md §2–§3): for
+ * each pass a chunker cuts slabs, the pool's workers classify and simplify
+ * them through the pass's job ring, and a stitcher takes them back in order,
+ * finishes the seams and hands its records to the next pass (paper §5:
+ * passes re-sample the previous result under a new rotation), or to `out`.
+ *
+ * Threads: everything here runs on the caller's thread; only
+ * en_slab_work_run() runs on the workers, on a slab nobody else touches
+ * until its ring hands it back, in submission order.
+ */
+#include "pipeline/chain.h"
+
+#include <stdio.h>
+#include <string.h>
+
+#include "common/alloc.h"
+#include "common/error.h"
+#include "pipeline/chunker.h"
+#include "pipeline/stitcher.h"
+
+typedef struct en_pass {
+    en_chain *chain;
+    int index;
+    gauss_sphere g;
+    en_chunker ch;
+    en_jobring *ring;
+    en_stitcher st;
+    int ended;
+    uint64_t in_flight_elements;   /* vertices + faces of slabs in the ring */
+} en_pass;
+
+struct en_chain {
+    en_chain_config cfg;
+    en_pass *pass;
+    int failed;
+    epsnet_error failure;
+    en_chain_stats stats;          /* pass-summed counts; seam counts are added at the end */
+};
+
+static int pass_put(void *self, const epsnet_record *rec, epsnet_error *err);
+static int pass_end(void *self, epsnet_error *err);
+
+/* Where pass p's stitcher sends its records: the next pass, or out. */
+static en_stage downstream(en_chain *c, int p)
+{
+    if (p + 1 < c->cfg.passes)
+        return (en_stage){ pass_put, pass_end, &c->pass[p + 1] };
+    return c->cfg.out;
+}
+
+static void free_work(void *job)
+{
+    en_slab_work_free(job);
+    en_free(job);
+}
+
+static void note_active(en_chain *c)
+{
+    uint64_t total = 0;
+    for (int i = 0; i < c->cfg.passes; i++) {
+        const en_pass *p = &c->pass[i];
+        total += p->ch.map.count + p->ch.nfaces + p->in_flight_elements + p->st.nwv + p->st.nwf + p->st.nvheap +
+                 p->st.nfheap;
+    }
+    if (total > c->stats.max_active)
+        c->stats.max_active = total;
+}
+
+static int take_samples(en_chain *c, const en_slab_work *w, epsnet_error *err)
+{
+    for (uint32_t v = 0; v < w->nowned; v++)
+        if (w->vclass[v] & EN_C_SAMPLE) {
+            int rc = c->cfg.on_sample(c->cfg.sample_opaque, w->s.gid[v], w->s.pos + 3 * (size_t)v, w->vgvertex[v],
+                                      err);
+            if (rc)
+                return rc;
+        }
+    return 0;
+}
+
+/*
+ * What the budget bounds beyond the reader's live vertices (docs/
+ * architecture.md §6): faces the chunker holds on vertices still open (a
+ * stream can repeat a face on three live vertices forever) and output the
+ * stitcher holds back (output leaves in input id order, so one vertex used
+ * again far later in the stream holds everything after it). Over budget,
+ * say which one grew.
+ */
+static int check_budget(en_chain *c, epsnet_error *err)
+{
+    uint64_t total = 0, worst = 0;
+    const en_pass *wp = NULL;
+    int waiting = 0; /* the worst is the chunker's (1) or the stitcher's (0) */
+    for (int i = 0; i < c->cfg.passes; i++) {
+        const en_pass *p = &c->pass[i];
+        uint64_t cut = en_chunker_bytes(&p->ch),
+                 held = c->cfg.mode == EN_SLAB_SIMPLIFY ? en_stitcher_bytes(&p->st) : 0;
+        total += cut + held;
+        if (!wp || cut > worst || held > worst) {
+            wp = p;
+            waiting = cut >= held;
+            worst = waiting ? cut : held;
+        }
+    }
+    if (!c->cfg.mem_budget || total <= c->cfg.mem_budget)
+        return 0;
+    if (waiting)
+        return en_error_set(err, EPSNET_ELIMIT, c->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "pass %d: %llu vertices and %llu faces wait for vertices to be finalized (%llu bytes "
+                            "in all), over the memory budget of %llu bytes (does the stream finalize its vertices?)",
+                            wp->index + 1, (unsigned long long)wp->ch.map.count, (unsigned long long)wp->ch.nfaces,
+                            (unsigned long long)total, (unsigned long long)c->cfg.mem_budget);
+    return en_error_set(err, EPSNET_ELIMIT, c->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                        "pass %d: the output waits for vertex %llu, still open, and holds %llu bytes in all, "
+                        "over the memory budget of %llu bytes (is a vertex used again far later in the stream?)",
+                        wp->index + 1, (unsigned long long)wp->st.frontier, (unsigned long long)total,
+                        (unsigned long long)c->cfg.mem_budget);
+}
+
+/* Hand back the oldest slab of pass p and stitch it. */
+static int retire_one(en_pass *p, epsnet_error *err)
+{
+    en_chain *c = p->chain;
+    void *job;
+    int result;
+    if (!en_jobring_retire(p->ring, &job, &result))
+        return 0;
+    en_slab_work *w = job;
+    p->in_flight_elements -= (uint64_t)w->s.nv + w->s.nt;
+    int rc = result;
+    if (rc) {
+        *err = w->err;
+        snprintf(err->file, sizeof err->file, "%s", c->cfg.path ? c->cfg.path : "");
+    }
+    if (rc == 0) {
+        if (p->index == 0)
+            en_classify_counts_add(&c->stats.counts, &w->counts);
+        c->stats.collapses += w->collapses;
+        for (int k = 0; k < EN_REFUSE_KINDS; k++)
+            c->stats.refused[k] += w->refused[k];
+        c->stats.slabs++;
+        rc = c->cfg.mode == EN_SLAB_SAMPLE ? take_samples(c, w, err) : en_stitcher_take(&p->st, w, err);
+    }
+    free_work(w);
+    if (rc == 0)
+        rc = check_budget(c, err);
+    return rc;
+}
+
+static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
+{
+    en_chain *c = p->chain;
+    w->g = &p->g;
+    w->mode = c->cfg.mode;
+    w->max_normal_dev = c->cfg.max_normal_dev;
+    int rc = 0;
+    while (rc == 0 && en_jobring_full(p->ring))
+        rc = retire_one(p, err);
+    if (rc == 0) {
+        p->in_flight_elements += (uint64_t)w->s.nv + w->s.nt;
+        note_active(c);
+        rc = en_jobring_submit(p->ring, en_slab_work_run, w);
+        if (rc) {
+            p->in_flight_elements -= (uint64_t)w->s.nv + w->s.nt;
+            en_error_set(err, rc, c->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE, "worker pool refused a slab");
+        }
+    }
+    if (rc)
+        free_work(w);
+    return rc;
+}
+
+static int pass_put(void *self, const epsnet_record *rec, epsnet_error *err)
+{
+    en_pass *p = self;
+    en_slab_work *w = NULL;
+    int rc = en_chunker_put(&p->ch, rec, &w, err);
+    if (rc == 0 && w)
+        rc = submit(p, w, err);
+    if (rc == 0 && (p->ch.records & 4095) == 0)
+        rc = check_budget(p->chain, err);
+    return rc;
+}
+
+static int pass_end(void *self, epsnet_error *err)
+{
+    en_pass *p = self;
+    if (p->ended)
+        return 0;
+    p->ended = 1;
+    en_slab_work *w = NULL;
+    int rc;
+    do {
+        rc = en_chunker_finish(&p->ch, &w, err);
+        if (rc == 0 && w)
+            rc = submit(p, w, err);
+    } while (rc == 0 && w);
+    while (rc == 0 && en_jobring_in_flight(p->ring))
+        rc = retire_one(p, err);
+    if (rc || p->chain->cfg.mode != EN_SLAB_SIMPLIFY)
+        return rc;
+    rc = en_stitcher_finish(&p->st, err);
+    if (rc == 0) {
+        en_stage next = downstream(p->chain, p->index);
+        rc = en_stage_end(&next, err);
+    }
+    return rc;
+}
+
+static int fail(en_chain *c, int rc, const epsnet_error *err)
+{
+    if (!c->failed) {
+        c->failed = rc;
+        c->failure = *err;
+    }
+    return rc;
+}
+
+static int chain_put(void *self, const epsnet_record *rec, epsnet_error *err)
+{
+    en_chain *c = self;
+    if (c->failed) {
+        *err = c->failure;
+        return c->failed;
+    }
+    c->stats.vertices_in += rec->kind == EPSNET_REC_VERTEX;
+    c->stats.faces_in += rec->kind == EPSNET_REC_TRIANGLE;
+    int rc = pass_put(&c->pass[0], rec, err);
+    return rc ? fail(c, rc, err) : 0;
+}
+
+static int chain_end(void *self, epsnet_error *err)
+{
+    en_chain *c = self;
+    if (c->failed) {
+        *err = c->failure;
+        return c->failed;
+    }
+    /* Each pass's end ends the next one, and the last one ends out. */
+    int rc = pass_end(&c->pass[0], err);
+    return rc ? fail(c, rc, err) : 0;
+}
+
+en_stage en_chain_input(en_chain *c)
+{
+    return (en_stage){ chain_put, chain_end, c };
+}
+
+int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsnet_error *err)
+{
+    *out = NULL;
+    en_chain *c = en_calloc(1, sizeof *c);
+    if (!c)
+        return en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    c->cfg = *cfg;
+    if (c->cfg.mode == EN_SLAB_SAMPLE || c->cfg.passes < 1)
+        c->cfg.passes = 1;
+    c->pass = en_calloc((size_t)c->cfg.passes, sizeof *c->pass);
+    if (!c->pass) {
+        en_free(c);
+        return en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    }
+    int rc = 0;
+    for (int i = 0; i < c->cfg.passes && rc == 0; i++) {
+        en_pass *p = &c->pass[i];
+        p->chain = c;
+        p->index = i;
+        p->g = *cfg->sphere;
+        if (i > 0) {
+            gauss_rotation r;
+            gauss_pass_rotation(cfg->seed, i + 1, &r);
+            gauss_init(&p->g, cfg->sphere->n, &r);
+        }
+        if (en_chunker_init(&p->ch, cfg->slab_vertices, cfg->path) ||
+            en_stitcher_init(&p->st, cfg->max_normal_dev, downstream(c, i)) ||
+            en_jobring_new(&p->ring, pool, cfg->ring_capacity))
+            rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    }
+    if (rc) {
+        en_chain_free(&c);
+        return rc;
+    }
+    c->stats.passes = c->cfg.mode == EN_SLAB_SIMPLIFY ? (uint64_t)c->cfg.passes : 0;
+    *out = c;
+    return 0;
+}
+
+void en_chain_stats_get(const en_chain *c, en_chain_stats *out)
+{
+    *out = c->stats;
+    uint64_t chunk_active = 0;
+    for (int i = 0; i < c->cfg.passes; i++) {
+        const en_stitch_stats *ss = &c->pass[i].st.stats;
+        out->seam_faces += ss->seam_faces;
+        out->seam_collapses += ss->seam_collapses;
+        out->collapses += ss->seam_collapses;
+        out->band_nonsamples += ss->band_nonsamples;
+        out->band_left += ss->band_left;
+        out->inner_nonsamples += ss->inner_nonsamples;
+        out->inner_left += ss->inner_left;
+        chunk_active += c->pass[i].ch.max_active;
+    }
+    if (chunk_active > out->max_active)
+        out->max_active = chunk_active;
+    if (c->cfg.mode == EN_SLAB_SIMPLIFY) {
+        const en_stitch_stats *last = &c->pass[c->cfg.passes - 1].st.stats;
+        out->output_vertices = last->out_vertices;
+        out->output_faces = last->out_faces;
+        out->remaining_nonsamples = last->remaining_nonsamples;
+    }
+}
+
+void en_chain_free(en_chain **pc)
+{
+    en_chain *c = pc ? *pc : NULL;
+    if (!c)
+        return;
+    for (int i = 0; c->pass && i < c->cfg.passes; i++) {
+        en_pass *p = &c->pass[i];
+        en_jobring_free(&p->ring, free_work);
+        en_chunker_free(&p->ch);
+        en_stitcher_free(&p->st);
+    }
+    en_free(c->pass);
+    en_free(c);
+    *pc = NULL;
+}

@@ -1,0 +1,71 @@
+/*
+ * The ε-net passes of the stage chain (docs/architecture.md §2–§3): pass 1
+ * … K, each a chunker → workers → stitcher, each pass's output the next
+ * one's input, the last one's output an en_stage (the writer, a queue, a
+ * collector). Its own input is an en_stage too (en_chain_input), so the
+ * reader or the sort pushes into it like into any other step.
+ *
+ * Threads: the chain is driven by one thread (its caller's); slab jobs run
+ * on the pool the caller lends it, through one job ring per pass.
+ */
+#ifndef EN_PIPELINE_CHAIN_H
+#define EN_PIPELINE_CHAIN_H
+
+#include <stdint.h>
+
+#include "common/pool.h"
+#include "common/stage.h"
+#include "core/collapse.h"
+#include "core/gauss.h"
+#include "pipeline/slab_work.h"
+
+/* A sample found by a SAMPLE-mode chain, in slab order (ids increase
+ * within a slab, not across slabs). */
+typedef int (*en_sample_fn)(void *opaque, uint64_t gid, const double xyz[3], int32_t gvertex, epsnet_error *err);
+
+typedef struct en_chain en_chain;
+
+typedef struct en_chain_config {
+    en_slab_mode mode;
+    const char *path;             /* names the input in messages (may be NULL) */
+    const gauss_sphere *sphere;   /* G of pass 1; later passes rotate it */
+    uint64_t seed;                /* later passes' rotations (gauss_pass_rotation) */
+    int passes;                   /* SIMPLIFY: ε-net passes, >= 1; SAMPLE: 1 */
+    double max_normal_dev;
+    uint32_t slab_vertices;
+    uint64_t mem_budget;          /* bytes the chain may hold beyond the reader's; 0: none */
+    size_t ring_capacity;         /* slabs in flight per pass */
+    en_stage out;                 /* SIMPLIFY: where the last pass's records go */
+    en_sample_fn on_sample;       /* SAMPLE: where samples go */
+    void *sample_opaque;
+} en_chain_config;
+
+/* What a run of the chain did (the api turns it into epsnet_stats). */
+typedef struct en_chain_stats {
+    en_classify_counts counts;    /* pass 1 */
+    uint64_t vertices_in, faces_in;
+    uint64_t passes, slabs, collapses;
+    uint64_t refused[EN_REFUSE_KINDS];
+    uint64_t seam_faces, seam_collapses;
+    uint64_t band_nonsamples, band_left, inner_nonsamples, inner_left;
+    uint64_t max_active;
+    uint64_t output_vertices, output_faces, remaining_nonsamples; /* last pass */
+} en_chain_stats;
+
+/* @return 0, or a negative code with err filled. cfg is copied (path and
+ * sphere must outlive the chain); pool must outlive it. */
+int en_chain_new(en_chain **chain, const en_chain_config *cfg, en_pool *pool, epsnet_error *err);
+
+/* The chain as a stage: its put takes the next input record, its end
+ * finishes every slab and seam of every pass and ends `out`. After an error
+ * every call returns it again. */
+en_stage en_chain_input(en_chain *chain);
+
+/* Counts so far (complete after the end). */
+void en_chain_stats_get(const en_chain *chain, en_chain_stats *stats);
+
+/* Wait for the slabs in flight, free everything; sets *chain to NULL.
+ * Accepts NULL. */
+void en_chain_free(en_chain **chain);
+
+#endif
