@@ -37,7 +37,7 @@ static int simplify_pass(epsnet_context *ctx, const gauss_sphere *g, en_slab *s,
     uint64_t nremovable = 0;
     for (uint32_t v = 0; v < s->nv; v++) {
         uint8_t f = s->vflags[v];
-        removable[v] = (f & EN_V_OWNED) && (f & EN_V_COMPLETE) &&
+        removable[v] = (f & EN_V_OWNED) && (f & EN_V_TARGET) &&
                        !(f & (EN_V_BOUNDARY | EN_V_NONMANIFOLD | EN_V_ISOLATED)) && !(c.vclass[v] & EN_C_SAMPLE);
         nremovable += removable[v];
     }

@@ -270,7 +270,7 @@ static int has_face_on(const state *st, uint32_t u, uint32_t x, uint32_t y)
  */
 static int check_collapse(state *st, uint32_t v, uint32_t u)
 {
-    if (!(st->s->vflags[u] & EN_V_COMPLETE))
+    if (!(st->s->vflags[u] & EN_V_TARGET))
         return EN_REFUSE_INCOMPLETE;
     uint32_t stamp = ++st->stamp;
     const uint32_t *lu = st->pool + st->vf_start[u];
@@ -606,7 +606,7 @@ int en_slab_compact(const en_slab *s, const uint32_t *tri, const uint8_t *face_a
     for (uint32_t v = 0; v < s->nv && rc == 0; v++) {
         if (map[v] < 0)
             continue;
-        uint8_t keep = s->vflags[v] & (EN_V_OWNED | EN_V_COMPLETE);
+        uint8_t keep = s->vflags[v] & (EN_V_OWNED | EN_V_TARGET);
         map[v] = en_slab_add_vertex(out, s->gid[v], s->pos + 3 * (size_t)v, keep);
         if (map[v] < 0)
             rc = -1;

@@ -248,7 +248,7 @@ int en_slab_read(en_slab *s, epsnet_reader *r, const char *path, epsnet_error *e
     int rc;
     while ((rc = epsnet_reader_next(r, &rec, err)) > 0) {
         if (rec.kind == EPSNET_REC_VERTEX) {
-            if (en_slab_add_vertex(s, s->nv, rec.xyz, EN_V_OWNED | EN_V_COMPLETE) < 0)
+            if (en_slab_add_vertex(s, s->nv, rec.xyz, EN_V_OWNED | EN_V_TARGET) < 0)
                 return s->nv >= UINT32_MAX - 2
                            ? en_error_set(err, EPSNET_ELIMIT, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                                           "more than %u vertices in one slab", s->nv)

@@ -18,7 +18,8 @@
 
 enum {
     EN_V_OWNED = 1 << 0,      /* classified (and later simplified) by this slab */
-    EN_V_COMPLETE = 1 << 4,   /* every face around the vertex is in this slab */
+    EN_V_TARGET = 1 << 4,     /* may receive a collapse: its whole star is here and undecided
+                               * (the holder's seam rules decide: pipeline/seam.h) */
     EN_V_BOUNDARY = 1 << 1,   /* on an open boundary: locked (SPEC §1) */
     EN_V_NONMANIFOLD = 1 << 2,/* star is not one fan: locked (SPEC §1) */
     EN_V_ISOLATED = 1 << 3,   /* referenced by no face */

@@ -24,7 +24,7 @@ void en_slab_work_free(en_slab_work *w)
     en_free(w->tri);
     en_free(w->falive);
     en_free(w->valive);
-    en_free(w->kind);
+    en_free(w->border);
     en_free(w->future);
     en_free(w->degree);
     en_free(w->band);
@@ -86,20 +86,15 @@ static int owned_here(const en_slab_work *w, uint32_t v)
 static void mark_frozen(en_slab_work *w)
 {
     en_slab *s = &w->s;
-    for (uint32_t v = 0; v < s->nv; v++) {
-        s->vflags[v] &= (uint8_t)~EN_V_COMPLETE;
-        if (!owned_here(w, v))
-            continue;
-        w->kind[v] = EN_K_INNER;
+    for (uint32_t v = 0; v < w->nowned; v++) {
+        w->border[v] = EN_BORDER_INNER;
         for (uint32_t i = s->star_start[v]; i < s->star_start[v + 1]; i++)
             if (!(w->fflags[s->star[i]] & EN_F_INTERIOR))
-                w->kind[v] = EN_K_FROZEN;
-        if (w->kind[v] == EN_K_INNER)
-            s->vflags[v] |= EN_V_COMPLETE;
+                w->border[v] = EN_BORDER_FROZEN;
     }
     /* The band whose treatment the seam density is measured on (stats). */
     for (uint32_t v = 0; v < w->nowned; v++) {
-        if (w->kind[v] != EN_K_FROZEN)
+        if (w->border[v] != EN_BORDER_FROZEN)
             continue;
         w->band[v] = 1;
         for (uint32_t i = s->star_start[v]; i < s->star_start[v + 1]; i++) {
@@ -117,8 +112,8 @@ static void mark_bands(en_slab_work *w)
 {
     const en_slab *s = &w->s;
     for (int pass = 0; pass < 2; pass++) {
-        uint8_t from = pass == 0 ? EN_K_FROZEN : EN_K_RING;
-        uint8_t to = pass == 0 ? EN_K_RING : EN_K_OUTER;
+        uint8_t from = pass == 0 ? EN_BORDER_FROZEN : EN_BORDER_RING;
+        uint8_t to = pass == 0 ? EN_BORDER_RING : EN_BORDER_OUTER;
         for (uint32_t f = 0; f < s->nt; f++) {
             if (!w->falive[f])
                 continue;
@@ -126,12 +121,12 @@ static void mark_bands(en_slab_work *w)
             int hit = 0;
             for (int k = 0; k < 3; k++)
                 hit |= owned_here(w, t[k]) &&
-                       (w->kind[t[k]] == from || (pass == 1 && w->kind[t[k]] == EN_K_FROZEN));
+                       (w->border[t[k]] == from || (pass == 1 && w->border[t[k]] == EN_BORDER_FROZEN));
             if (!hit)
                 continue;
             for (int k = 0; k < 3; k++)
-                if (owned_here(w, t[k]) && w->kind[t[k]] == EN_K_INNER)
-                    w->kind[t[k]] = to;
+                if (owned_here(w, t[k]) && w->border[t[k]] == EN_BORDER_INNER)
+                    w->border[t[k]] = to;
         }
     }
     for (uint32_t f = 0; f < s->nt; f++) {
@@ -156,25 +151,32 @@ static int simplify(en_slab_work *w)
     w->tri = en_malloc(3 * nt * sizeof *w->tri);
     w->falive = en_malloc(nt);
     w->valive = en_malloc(nv);
-    w->kind = en_calloc(nv, 1);
+    w->border = en_calloc(nv, 1);
     w->future = en_calloc(nv, sizeof *w->future);
     w->degree = en_calloc(nv, sizeof *w->degree);
     w->band = en_calloc(nv, 1);
     uint8_t *removable = en_calloc(nv, 1);
     int rc = 0;
-    if (!w->q || !w->ref || !w->tri || !w->falive || !w->valive || !w->kind || !w->future || !w->degree ||
+    if (!w->q || !w->ref || !w->tri || !w->falive || !w->valive || !w->border || !w->future || !w->degree ||
         !w->band || !removable) {
         rc = oom(w);
         goto out;
     }
     en_quadrics_from_faces(s, w->q, w->ref);
     mark_frozen(w);
+    /* The seam rules (pipeline/seam.h): an owned inner vertex has its whole
+     * star here; a frozen one and the ghosts do not. */
     uint64_t nremovable = 0;
-    for (uint32_t v = 0; v < w->nowned; v++) {
-        removable[v] = w->kind[v] == EN_K_INNER &&
-                       !(s->vflags[v] & (EN_V_BOUNDARY | EN_V_NONMANIFOLD | EN_V_ISOLATED)) &&
-                       !(w->vclass[v] & EN_C_SAMPLE);
+    for (uint32_t v = 0; v < s->nv; v++) {
+        en_vertex_kind k = EN_VK_OPEN;
+        if (owned_here(w, v))
+            k = en_vertex_kind_of(w->border[v] == EN_BORDER_INNER, 0, en_seam_locked(s->vflags[v]),
+                                  (w->vclass[v] & EN_C_SAMPLE) != 0);
+        removable[v] = (uint8_t)en_removable(k);
+        s->vflags[v] = (uint8_t)((s->vflags[v] & ~EN_V_TARGET) | (en_receives(k) ? EN_V_TARGET : 0));
         nremovable += removable[v];
+        if (!owned_here(w, v))
+            continue;
         int nonsample = !(s->vflags[v] & EN_V_ISOLATED) && !(w->vclass[v] & EN_C_SAMPLE);
         w->band_nonsamples += nonsample && w->band[v];
         w->inner_nonsamples += nonsample && !w->band[v];

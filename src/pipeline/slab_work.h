@@ -25,21 +25,7 @@
 #include "core/collapse.h"
 #include "core/gauss.h"
 #include "core/slab.h"
-
-/* Face flags set by the chunker. */
-enum {
-    EN_F_INTERIOR = 1 << 0,  /* every corner owned by this slab */
-    EN_F_HOME = 1 << 1,      /* every corner owned by this slab or an earlier one:
-                              * the last slab that holds the face (its home) */
-};
-
-/* Where an owned vertex stands after the slab's own collapses. */
-enum {
-    EN_K_INNER = 0,          /* decided here: kept or collapsed */
-    EN_K_FROZEN = 1,         /* has a neighbour in another slab */
-    EN_K_RING = 2,           /* inner, next to a frozen vertex */
-    EN_K_OUTER = 3,          /* inner, on a face of a ring or frozen vertex */
-};
+#include "pipeline/seam.h"
 
 typedef enum en_slab_mode { EN_SLAB_SAMPLE, EN_SLAB_SIMPLIFY } en_slab_mode;
 
@@ -70,7 +56,7 @@ typedef struct en_slab_work {
     double *ref;                  /* SIMPLIFY: per face, input unit normal */
     uint32_t *tri;                /* SIMPLIFY: corners after the collapses */
     uint8_t *falive, *valive;
-    uint8_t *kind;                /* EN_K_* per owned vertex */
+    uint8_t *border;              /* EN_BORDER_* per owned vertex */
     uint32_t *future;             /* per owned vertex: alive faces whose home is a later slab */
     uint32_t *degree;             /* per owned vertex: alive faces around it */
     uint8_t *band;                /* per owned vertex: frozen or next to one in the input */

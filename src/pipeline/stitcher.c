@@ -11,7 +11,8 @@ enum {
     S_SETTLED = 1 << 2,    /* no more collapses from or onto it */
     S_FIXED = 1 << 3,      /* a sample (locked included): never removed */
     S_BAND = 1 << 4,       /* near a slab border in the input (stats) */
-    S_BLOCKED = 1 << 5,    /* scratch: has a neighbour that is not complete */
+    S_BLOCKED = 1 << 5,    /* scratch (settle): has a neighbour that is not complete */
+    S_IN_FACE = 1 << 6,    /* scratch (settle): still a corner of a seam face */
 };
 
 struct en_stitch_vertex {
@@ -22,7 +23,7 @@ struct en_stitch_vertex {
     uint32_t remaining;    /* faces around it not yet written */
     uint32_t future;       /* faces still to come from later slabs */
     uint32_t wlocal;       /* scratch: index in W */
-    uint8_t kind;          /* EN_K_* */
+    uint8_t border;        /* EN_BORDER_* */
     uint8_t state;         /* S_* */
 };
 
@@ -181,9 +182,13 @@ static int add_seam_face(en_stitcher *st, const uint32_t p[3], const double ref[
     return 0;
 }
 
-static int removable_in_w(const en_stitch_vertex *x)
+/* A W vertex's kind under the seam rules (pipeline/seam.h). vflags: its
+ * topology in W, or 0 before W's stars are built (then LOCKED reads as
+ * FREE or SAMPLE, which only the removal test below tells apart). */
+static en_vertex_kind kind_in_w(const en_stitch_vertex *x, uint8_t vflags)
 {
-    return (x->state & S_COMPLETE) && !(x->state & (S_SETTLED | S_FIXED)) && x->kind != EN_K_OUTER;
+    return en_vertex_kind_of((x->state & S_COMPLETE) != 0, (x->state & S_SETTLED) != 0, en_seam_locked(vflags),
+                             (x->state & S_FIXED) != 0);
 }
 
 /* One run of the slab core's collapses over W (paper §4.2, §5). */
@@ -191,7 +196,7 @@ static int collapse_seams(en_stitcher *st, epsnet_error *err)
 {
     int any = 0;
     for (size_t i = 0; i < st->nwv && !any; i++)
-        any = removable_in_w(&st->v[st->wv[i]]);
+        any = en_removable(kind_in_w(&st->v[st->wv[i]], 0));
     if (!any)
         return 0;
     en_slab *ws = &st->ws;
@@ -199,7 +204,7 @@ static int collapse_seams(en_stitcher *st, epsnet_error *err)
     for (size_t i = 0; i < st->nwv; i++) {
         en_stitch_vertex *x = &st->v[st->wv[i]];
         x->wlocal = (uint32_t)i;
-        uint8_t flags = EN_V_OWNED | ((x->state & S_COMPLETE) && !(x->state & S_SETTLED) ? EN_V_COMPLETE : 0);
+        uint8_t flags = EN_V_OWNED | (en_receives(kind_in_w(x, 0)) ? EN_V_TARGET : 0);
         if (en_slab_add_vertex(ws, x->gid, x->xyz, flags) < 0)
             return oom(err);
     }
@@ -222,7 +227,7 @@ static int collapse_seams(en_stitcher *st, epsnet_error *err)
     }
     for (size_t i = 0; i < st->nwv; i++) {
         const en_stitch_vertex *x = &st->v[st->wv[i]];
-        removable[i] = removable_in_w(x) && !(ws->vflags[i] & (EN_V_BOUNDARY | EN_V_NONMANIFOLD | EN_V_ISOLATED));
+        removable[i] = (uint8_t)en_removable(kind_in_w(x, ws->vflags[i]));
         q[i] = x->q;
     }
     for (size_t f = 0; f < st->nwf; f++)
@@ -279,7 +284,7 @@ out:
 static int settle(en_stitcher *st)
 {
     for (size_t i = 0; i < st->nwv; i++)
-        st->v[st->wv[i]].state &= (uint8_t)~S_BLOCKED;
+        st->v[st->wv[i]].state &= (uint8_t)~(S_BLOCKED | S_IN_FACE);
     for (size_t f = 0; f < st->nwf; f++) {
         const uint32_t *p = st->wf[f].v;
         int open = 0;
@@ -306,7 +311,7 @@ static int settle(en_stitcher *st)
         if (!final) {
             st->wf[kept++] = st->wf[f];
             for (int j = 0; j < 3; j++)
-                st->v[p[j]].state |= S_BLOCKED; /* reused: "still in a seam face" */
+                st->v[p[j]].state |= S_IN_FACE;
         } else if (final_face(st, p)) {
             return -1;
         }
@@ -315,7 +320,7 @@ static int settle(en_stitcher *st)
     kept = 0;
     for (size_t i = 0; i < st->nwv; i++) {
         en_stitch_vertex *x = &st->v[st->wv[i]];
-        if ((x->state & S_SETTLED) && !(x->state & S_BLOCKED)) {
+        if ((x->state & S_SETTLED) && !(x->state & S_IN_FACE)) {
             en_u64map_remove(&st->map, x->gid);
             x->state &= (uint8_t)~S_IN_W;
             continue;
@@ -403,10 +408,10 @@ static int take_vertices(en_stitcher *st, const en_slab_work *w, epsnet_error *e
         x->out = UINT64_MAX;
         x->remaining = w->degree[l];
         x->future = w->future[l];
-        x->kind = w->kind[l];
+        x->border = w->border[l];
         x->state = (uint8_t)(((w->vclass[l] & EN_C_SAMPLE) ? S_FIXED : 0) | (w->band[l] ? S_BAND : 0));
         st->local[l] = idx;
-        if (x->kind == EN_K_INNER) {
+        if (x->border == EN_BORDER_INNER) {
             x->state |= S_COMPLETE | S_SETTLED;
             if (decide(st, idx))
                 return oom(err);
@@ -420,9 +425,9 @@ static int take_vertices(en_stitcher *st, const en_slab_work *w, epsnet_error *e
         }
         st->wv[st->nwv++] = idx;
         x->state |= S_IN_W;
-        if (x->kind == EN_K_RING || x->future == 0)
+        if (x->border == EN_BORDER_RING || x->future == 0)
             x->state |= S_COMPLETE;
-        if (x->kind == EN_K_OUTER) {
+        if (x->border == EN_BORDER_OUTER) {
             x->state |= S_SETTLED; /* decided by its slab; only a face corner here */
             if (decide(st, idx))
                 return oom(err);
@@ -446,7 +451,7 @@ static int take_faces(en_stitcher *st, const en_slab_work *w, epsnet_error *err)
             p[j] = st->local[t[j]];
             if (p[j] == UINT32_MAX)
                 return internal(err, "a face names a vertex no slab handed over");
-            seam |= t[j] < w->nowned && (w->kind[t[j]] == EN_K_FROZEN || w->kind[t[j]] == EN_K_RING);
+            seam |= t[j] < w->nowned && (w->border[t[j]] == EN_BORDER_FROZEN || w->border[t[j]] == EN_BORDER_RING);
         }
         if (!seam) {
             if (final_face(st, p))
