@@ -337,6 +337,56 @@ TEST(sphere_covers_pi_r_squared_of_the_image)
     check_sphere_fraction(sphere, 200, 300); /* width limits it */
 }
 
+/* Every panel of every kind of picture (plain, samples, input beside its
+ * simplification) holds the whole mesh: the band of one panel margin
+ * (EN_CAMERA_MARGIN less a pixel) around each panel is background, and each
+ * panel shows something. Views from every side of an asymmetric CAD part. */
+TEST(every_picture_frames_the_whole_mesh)
+{
+    char mesh[512], out[512]; /* tl_path's buffers rotate: keep copies */
+    snprintf(mesh, sizeof mesh, "%s", gen_file("cad", 8000, "frame_cad.ply"));
+    snprintf(out, sizeof out, "%s", tl_path("frame.png"));
+    static const double views[][2] = { { 30, 20 }, { 120, 30 }, { 210, 25 }, { 300, -40 }, { 0, 89 } };
+    for (int kind = 0; kind < 3; kind++)
+        for (size_t v = 0; v < sizeof views / sizeof views[0]; v++) {
+            epsnet_render_settings rs;
+            epsnet_render_default_settings(&rs);
+            rs.width = kind == 2 ? 400 : 200;
+            rs.height = 150;
+            rs.azimuth = views[v][0];
+            rs.elevation = views[v][1];
+            rs.samples = kind == 1;
+            rs.simplified = kind == 2;
+            epsnet_context *ctx = new_context();
+            epsnet_error err;
+            CHECK_EQ_INT(epsnet_render_file(ctx, mesh, out, &rs, &err), 0);
+            epsnet_context_free(&ctx);
+            uint32_t w = 0, h = 0;
+            uint8_t *px = read_png(out, &w, &h);
+            CHECK(px != NULL);
+            if (!px)
+                continue;
+            uint32_t panels = kind == 2 ? 2 : 1, pw = w / panels;
+            for (uint32_t p = 0; p < panels; p++) {
+                uint32_t mx = (uint32_t)(EN_CAMERA_MARGIN * pw) - 1, my = (uint32_t)(EN_CAMERA_MARGIN * h) - 1;
+                uint64_t border_hits = 0, inside = 0;
+                for (uint32_t y = 0; y < h; y++)
+                    for (uint32_t x = p * pw; x < (p + 1) * pw; x++) {
+                        int bg = memcmp(px + 3 * ((size_t)y * w + x), white, 3) == 0;
+                        int band = y < my || y >= h - my || x < p * pw + mx || x >= (p + 1) * pw - mx;
+                        border_hits += band && !bg;
+                        inside += !band && !bg;
+                    }
+                if (border_hits)
+                    fprintf(stderr, "kind %d view %g,%g panel %u: %llu pixels in the margin\n", kind, views[v][0],
+                            views[v][1], p, (unsigned long long)border_hits);
+                CHECK_EQ_U64(border_hits, 0);
+                CHECK(inside > 100);
+            }
+            free(px);
+        }
+}
+
 TEST(same_call_gives_the_same_bytes)
 {
     const char *mesh = gen_file("dimple", 6000, "dimple.ply");
@@ -506,6 +556,7 @@ int main(void)
     RUN(streaming_table_keeps_only_live_vertices);
     RUN(dense_table_over_budget_is_a_limit);
     RUN(sphere_covers_pi_r_squared_of_the_image);
+    RUN(every_picture_frames_the_whole_mesh);
     RUN(same_call_gives_the_same_bytes);
     RUN(streaming_and_ordinary_inputs_give_the_same_picture);
     RUN(empty_mesh_gives_a_blank_picture);

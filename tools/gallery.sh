@@ -22,8 +22,11 @@ trap 'rm -rf "$tmp"' EXIT INT TERM
 # Gaussian sphere level : sample dot radius. The Armadillo is finely
 # detailed everywhere, so it gets level 1 (18 Gaussian vertices, 18 dot
 # colours) and small dots to stay readable; the others level 2 (66).
+# note: Fandisk seen from 120,30 shows its flat back face edge-on, which
+# reads as the part cut off; 210,25 shows the fin, the groove and the
+# cylinder whole.
 for spec in bunny:bun_zipper.ply.zst:20,10:2:3 armadillo:armadillo_decim100k.obj.zst:200,10:1:2 \
-            fandisk:fandisk.obj.zst:120,30:2:3; do
+            fandisk:fandisk.obj.zst:210,25:2:3; do
     IFS=: read -r name file view level dot <<SPEC
 $spec
 SPEC

@@ -839,9 +839,10 @@ EPSNET_API int epsnet_sort_file(const char *in_path, const char *out_path,
  * (.smz, .sma, .smb) the live vertices, for other formats every vertex
  * position (24 bytes each; run `epsnet sort` first for meshes whose vertices
  * do not fit). settings.mem of the context bounds that table (ELIMIT).
- * With samples or simplified, the classification and the simplification
- * still hold the whole mesh in memory, as epsnet_sample_file() and
- * epsnet_simplify_file() do, until the streaming pipeline exists.
+ * With samples, the classification holds the whole mesh in memory, as
+ * epsnet_sample_file() with EPSNET_SAMPLES_MESH does. With simplified, the
+ * simplification streams through the same chain as epsnet_simplify_file()
+ * and only its output is held.
  *
  * The output bytes depend only on the input, the render settings and the
  * context's method settings (level, rotation, passes ...).

@@ -1,5 +1,6 @@
-/* Steps shared by the whole-mesh jobs (sample, simplify): the one-slab case
- * of the per-slab core (SPEC §2). */
+/* The whole-mesh classification behind `sample --mesh` and render's
+ * samples panel: the one-slab case of the per-slab core (docs/
+ * architecture.md §3). Simplification always runs through the stage chain. */
 #ifndef EN_API_JOBS_H
 #define EN_API_JOBS_H
 
@@ -27,13 +28,6 @@ int en_job_load(epsnet_context *ctx, const char *in_path, en_slab *s, epsnet_coo
  * ctx->stats. path names the input in messages. */
 int en_job_classify(epsnet_context *ctx, const gauss_sphere *g, const en_slab *s, en_classification *c,
                     const char *path, epsnet_error *err);
-
-/* Load in_path and simplify it in memory: everything epsnet_simplify_file()
- * does but the writing (used by it and by epsnet_render_file). s must be
- * initialised; it holds the result, also after a failure, and the caller
- * frees it. Adds to ctx->stats (passes, collapses, output counts). */
-int en_job_simplify(epsnet_context *ctx, const char *in_path, en_slab *s, epsnet_coord_type *ct,
-                    epsnet_error *err);
 
 /* Copy classification counts into ctx->stats. */
 void en_job_count(epsnet_context *ctx, const en_classify_counts *c);

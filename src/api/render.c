@@ -3,9 +3,9 @@
  * in the paper's figures: dots coloured by Gaussian vertex) and its
  * simplification (§4.2). The plain picture streams: the bounding box comes
  * from the header or a first pass, then triangles are rasterized as they
- * are read. Samples and the simplification use the whole-mesh jobs of
- * sample.c and simplify.c (the one-slab case, SPEC §2) until the streaming
- * pipeline exists.
+ * are read. The samples panel classifies the whole mesh as one slab (the
+ * one-slab case of the per-slab core); the simplification is the stage
+ * chain's own output, collected in memory.
  */
 #include <math.h>
 #include <stdio.h>
@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "api/jobs.h"
+#include "api/stream_files.h"
 #include "common/alloc.h"
 #include "common/error.h"
 #include "common/util.h"
@@ -280,13 +281,35 @@ static int draw_input_with_samples(epsnet_context *ctx, const char *in, en_raste
     return rc;
 }
 
-static int draw_simplified(epsnet_context *ctx, const char *in, en_raster *img, const panel *p,
-                           const en_surface_style *style, epsnet_error *err)
+/* The simplified mesh, collected from the stage chain's output: output
+ * vertex ids are 0, 1, 2, ... in record order, so they index the slab. */
+static int collect_put(void *self, const epsnet_record *rec, epsnet_error *err)
+{
+    en_slab *s = self;
+    int bad = 0;
+    if (rec->kind == EPSNET_REC_VERTEX)
+        bad = en_slab_add_vertex(s, s->nv, rec->xyz, EN_V_OWNED) < 0;
+    else if (rec->kind == EPSNET_REC_TRIANGLE)
+        bad = en_slab_add_face(s, (uint32_t)rec->v[0], (uint32_t)rec->v[1], (uint32_t)rec->v[2]) != 0;
+    return bad ? en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                              "out of memory collecting the simplified mesh")
+               : 0;
+}
+
+static int open_collector(void *opaque, const epsnet_mesh_info *in, en_stage *out, epsnet_error *err)
+{
+    (void)in;
+    (void)err;
+    *out = (en_stage){ collect_put, NULL, opaque };
+    return 0;
+}
+
+static int draw_simplified(epsnet_context *ctx, const char *in, const char *out_png, en_raster *img,
+                           const panel *p, const en_surface_style *style, epsnet_error *err)
 {
     en_slab slab;
     en_slab_init(&slab);
-    epsnet_coord_type ct;
-    int rc = en_job_simplify(ctx, in, &slab, &ct, err);
+    int rc = en_simplify_streamed(ctx, in, out_png, open_collector, &slab, err);
     if (rc == 0)
         draw_slab(&slab, img, p, style);
     en_slab_free(&slab);
@@ -339,7 +362,7 @@ int epsnet_render_file(epsnet_context *ctx, const char *in, const char *out_png,
     else
         rc = draw_stream(ctx, in, &img, &left, &in_style, err);
     if (rc == 0 && rs->simplified)
-        rc = draw_simplified(ctx, in, &img, &right, &simp_style, err);
+        rc = draw_simplified(ctx, in, out_png, &img, &right, &simp_style, err);
     if (rc == 0) {
         double t0 = en_now();
         rc = en_png_write(out_png, img.rgb, img.width, img.height, err);

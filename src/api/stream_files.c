@@ -108,46 +108,66 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
     return rc;
 }
 
+int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *near_path, en_open_out_fn open_out,
+                         void *opaque, epsnet_error *err)
+{
+    double t0 = en_now();
+    epsnet_reader *r = NULL;
+    en_run run;
+    memset(&run, 0, sizeof run);
+    double sort_seconds = 0;
+    en_stage out = { 0 };
+    int rc = open_input(ctx, in_path, near_path, &r, &sort_seconds, err);
+    if (rc == 0)
+        rc = open_out(opaque, epsnet_reader_info(r), &out, err);
+    if (rc == 0)
+        rc = en_run_open(&run, ctx, EN_SLAB_SIMPLIFY, in_path, out, NULL, NULL, err);
+    if (rc == 0)
+        rc = feed(ctx, &run, r, in_path, err);
+    en_run_close(&run);
+    epsnet_reader_close(&r);
+    ctx->stats.seconds_sort = sort_seconds;
+    ctx->stats.seconds_simplify = en_now() - t0;
+    return rc;
+}
+
+typedef struct file_out {
+    epsnet_context *ctx;
+    const char *path;
+    epsnet_writer *w;
+} file_out;
+
+static int open_writer(void *opaque, const epsnet_mesh_info *in, en_stage *out, epsnet_error *err)
+{
+    file_out *f = opaque;
+    epsnet_writer_settings ws;
+    epsnet_writer_default_settings(&ws);
+    ws.ascii = f->ctx->settings.ascii;
+    ws.tmpdir = f->ctx->tmpdir;
+    epsnet_mesh_info info;
+    memset(&info, 0, sizeof info);
+    info.nverts = EPSNET_COUNT_UNKNOWN;
+    info.nfaces = EPSNET_COUNT_UNKNOWN;
+    info.coord_type = in->coord_type;
+    info.streaming = 1;
+    info.sorted_axis = in->sorted_axis; /* output vertices keep the input's order */
+    int rc = epsnet_writer_open(&f->w, f->path, &ws, &info, err);
+    *out = (en_stage){ writer_put, NULL, f->w };
+    return rc;
+}
+
 int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *out_path, epsnet_error *err)
 {
     if (!ctx || !in_path || !out_path)
         return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "epsnet_simplify_file: NULL argument");
     snprintf(ctx->command, sizeof ctx->command, "simplify");
-    double t0 = en_now();
-    epsnet_reader *r = NULL;
-    epsnet_writer *w = NULL;
-    en_run run;
-    memset(&run, 0, sizeof run);
-    double sort_seconds = 0;
-    int rc = open_input(ctx, in_path, out_path, &r, &sort_seconds, err);
-    if (rc == 0) {
-        const epsnet_mesh_info *in = epsnet_reader_info(r);
-        epsnet_writer_settings ws;
-        epsnet_writer_default_settings(&ws);
-        ws.ascii = ctx->settings.ascii;
-        ws.tmpdir = ctx->tmpdir;
-        epsnet_mesh_info info;
-        memset(&info, 0, sizeof info);
-        info.nverts = EPSNET_COUNT_UNKNOWN;
-        info.nfaces = EPSNET_COUNT_UNKNOWN;
-        info.coord_type = in->coord_type;
-        info.streaming = 1;
-        info.sorted_axis = in->sorted_axis; /* output vertices keep the input's order */
-        rc = epsnet_writer_open(&w, out_path, &ws, &info, err);
-    }
+    file_out f = { ctx, out_path, NULL };
+    int rc = en_simplify_streamed(ctx, in_path, out_path, open_writer, &f, err);
     if (rc == 0)
-        rc = en_run_open(&run, ctx, EN_SLAB_SIMPLIFY, in_path, (en_stage){ writer_put, NULL, w }, NULL, NULL, err);
-    if (rc == 0)
-        rc = feed(ctx, &run, r, in_path, err);
-    en_run_close(&run);
-    ctx->stats.seconds_sort = sort_seconds;
-    epsnet_reader_close(&r);
-    if (rc == 0)
-        rc = epsnet_writer_commit(&w, err);
+        rc = epsnet_writer_commit(&f.w, err);
     else
-        epsnet_writer_abort(&w);
-    ctx->stats.seconds_simplify = en_now() - t0;
+        epsnet_writer_abort(&f.w);
     ctx->stats.peak_rss = en_peak_rss_bytes();
     return rc;
 }

@@ -2,11 +2,22 @@
 #ifndef EN_API_STREAM_FILES_H
 #define EN_API_STREAM_FILES_H
 
+#include "common/stage.h"
 #include "epsnet/epsnet.h"
 
 /* epsnet_sample_file() with EPSNET_SAMPLES_POINTS, streamed: the samples
  * are the one-slab run's, written in the same (input) order. */
 int en_sample_points_streamed(epsnet_context *ctx, const char *in_path, const char *out_path, int ascii,
                               epsnet_error *err);
+
+/* Where a streamed simplification goes, opened once the input is known. */
+typedef int (*en_open_out_fn)(void *opaque, const epsnet_mesh_info *in, en_stage *out, epsnet_error *err);
+
+/* Simplify in_path through the stage chain (sorting it first when it is not
+ * a stream; temporaries go beside near_path or in ctx's tmpdir) into the
+ * stage open_out gives. Fills ctx->stats but peak_rss. The output stage is
+ * the caller's to commit or abort, also when this fails. */
+int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *near_path, en_open_out_fn open_out,
+                         void *opaque, epsnet_error *err);
 
 #endif
