@@ -19,6 +19,7 @@ void en_slab_free(en_slab *s)
     en_free(s->tri);
     en_free(s->star_start);
     en_free(s->star);
+    en_free(s->star_fill);
     en_slab_init(s);
 }
 
@@ -193,12 +194,13 @@ static uint8_t order_star(const en_slab *s, uint32_t v, uint32_t *faces, uint32_
 
 int en_slab_build_stars(en_slab *s)
 {
-    en_free(s->star_start);
-    en_free(s->star);
-    s->star_start = en_calloc((size_t)s->nv + 1, sizeof *s->star_start);
-    s->star = en_malloc((size_t)s->nt * 3 * sizeof *s->star + 1);
-    if (!s->star_start || !s->star)
+    /* note: the arrays keep their capacity, so a slab reused for the next
+     * job (docs/architecture.md §8) allocates nothing here. */
+    if (en_grow((void **)&s->star_start, &s->cap_star_start, (size_t)s->nv + 1, sizeof *s->star_start) ||
+        en_grow((void **)&s->star, &s->cap_star, (size_t)s->nt * 3 + 1, sizeof *s->star) ||
+        en_grow((void **)&s->star_fill, &s->cap_star_fill, (size_t)s->nv + 1, sizeof *s->star_fill))
         return -1;
+    memset(s->star_start, 0, ((size_t)s->nv + 1) * sizeof *s->star_start);
     for (uint32_t f = 0; f < s->nt; f++) {
         const uint32_t *t = s->tri + 3 * (size_t)f;
         for (int k = 0; k < 3; k++)
@@ -207,9 +209,7 @@ int en_slab_build_stars(en_slab *s)
     }
     for (uint32_t v = 0; v < s->nv; v++)
         s->star_start[v + 1] += s->star_start[v];
-    uint32_t *fill = en_malloc((size_t)s->nv * sizeof *fill + 1);
-    if (!fill)
-        return -1;
+    uint32_t *fill = s->star_fill;
     memcpy(fill, s->star_start, (size_t)s->nv * sizeof *fill);
     for (uint32_t f = 0; f < s->nt; f++) {
         const uint32_t *t = s->tri + 3 * (size_t)f;
@@ -217,7 +217,6 @@ int en_slab_build_stars(en_slab *s)
             if (corner_of(t, t[k]) == k)
                 s->star[fill[t[k]]++] = f;
     }
-    en_free(fill);
     uint32_t maxdeg = 1;
     for (uint32_t v = 0; v < s->nv; v++)
         if (en_slab_degree(s, v) > maxdeg)

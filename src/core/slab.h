@@ -39,6 +39,8 @@ typedef struct en_slab {
      * vertex, at the face whose edge (v, next) is on the boundary. */
     uint32_t *star_start;     /* nv + 1 */
     uint32_t *star;           /* 3 * nt */
+    uint32_t *star_fill;      /* scratch of en_slab_build_stars, nv */
+    size_t cap_star_start, cap_star, cap_star_fill; /* kept across en_slab_reset */
 } en_slab;
 
 void en_slab_init(en_slab *s);

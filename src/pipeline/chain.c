@@ -142,7 +142,7 @@ static int retire_one(en_pass *p, epsnet_error *err)
         c->stats.slabs++;
         rc = c->cfg.mode == EN_SLAB_SAMPLE ? take_samples(c, w, err) : en_stitcher_take(&p->st, w, err);
     }
-    free_work(w);
+    en_chunker_recycle(&p->ch, w);
     if (rc == 0)
         rc = check_budget(c, err);
     return rc;

@@ -21,7 +21,22 @@ void en_chunker_free(en_chunker *c)
     en_u64map_free(&c->map);
     en_free(c->faces);
     en_free(c->fin);
+    for (size_t i = 0; i < c->nspare; i++) {
+        en_slab_work_free(c->spare[i]);
+        en_free(c->spare[i]);
+    }
+    en_free(c->spare);
     memset(c, 0, sizeof *c);
+}
+
+void en_chunker_recycle(en_chunker *c, en_slab_work *w)
+{
+    if (en_grow((void **)&c->spare, &c->spare_cap, c->nspare + 1, sizeof *c->spare)) {
+        en_slab_work_free(w);
+        en_free(w);
+        return;
+    }
+    c->spare[c->nspare++] = w;
 }
 
 static int bad(en_chunker *c, epsnet_error *err, const char *what, uint64_t id)
@@ -95,10 +110,16 @@ static int add_local(en_chunker *c, en_slab_work *w, uint32_t i, uint8_t flags)
 /* Cut the finalized vertices in c->fin into slab c->next_slab. */
 static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
 {
-    en_slab_work *w = en_malloc(sizeof *w);
-    if (!w)
-        return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
-    en_slab_work_init(w);
+    en_slab_work *w;
+    if (c->nspare) {
+        w = c->spare[--c->nspare];
+        en_slab_work_reset(w);
+    } else {
+        w = en_malloc(sizeof *w);
+        if (!w)
+            return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+        en_slab_work_init(w);
+    }
     uint32_t k = c->next_slab;
     w->index = k;
     w->nowned = (uint32_t)c->nfin;
@@ -114,7 +135,7 @@ static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
     }
     /* Every face around an owned vertex joins the slab; a face whose corners
      * are now all owned is done with (this is its home: SPEC §2). */
-    size_t kept = 0, fflags_cap = 0;
+    size_t kept = 0;
     for (size_t f = 0; f < c->nfaces && rc == 0; f++) {
         uint32_t *t = c->faces + 3 * f;
         int touches = 0, interior = 1, home = 1;
@@ -130,7 +151,7 @@ static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
             if (rc == 0)
                 rc = en_slab_add_face(&w->s, c->v[t[0]].local, c->v[t[1]].local, c->v[t[2]].local);
             if (rc == 0)
-                rc = en_grow((void **)&w->fflags, &fflags_cap, w->s.nt, 1);
+                rc = en_grow((void **)&w->fflags, &w->cap.fflags, w->s.nt, 1);
             if (rc == 0)
                 w->fflags[w->s.nt - 1] = (uint8_t)((interior ? EN_F_INTERIOR : 0) | (home ? EN_F_HOME : 0));
         }
@@ -143,8 +164,7 @@ static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
     }
     c->nfaces = kept;
     if (rc == 0) {
-        w->owner = en_malloc(((size_t)w->s.nv + 1) * sizeof *w->owner);
-        rc = w->owner ? 0 : -1;
+        rc = en_grow((void **)&w->owner, &w->cap.owner, (size_t)w->s.nv + 1, sizeof *w->owner);
     }
     if (rc == 0) {
         for (uint32_t l = w->nowned; l < w->s.nv; l++) {

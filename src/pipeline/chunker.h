@@ -52,6 +52,8 @@ typedef struct en_chunker {
     uint32_t next_slab;
     int ended;
     uint64_t max_active;       /* largest live vertices + live faces seen at a cut */
+    en_slab_work **spare;      /* handed back by en_chunker_recycle, for the next cuts */
+    size_t nspare, spare_cap;
 } en_chunker;
 
 /* @return 0 or EPSNET_ENOMEM. */
@@ -59,14 +61,19 @@ int en_chunker_init(en_chunker *c, uint32_t slab_vertices, const char *path);
 void en_chunker_free(en_chunker *c);
 
 /*
- * Take one record. When it completes a slab, *out is a new slab work (owned
- * by the caller, free it with en_slab_work_free() and en_free()), else NULL.
+ * Take one record. When it completes a slab, *out is a slab work (owned by
+ * the caller: give it back with en_chunker_recycle(), or free it with
+ * en_slab_work_free() and en_free()), else NULL.
  * Records are validated like the reader front end does (a triangle names
  * live vertices, a vertex is finalized once), since callers of the push API
  * bring their own.
  * @return 0 or a negative code with err filled.
  */
 int en_chunker_put(en_chunker *c, const epsnet_record *rec, en_slab_work **out, epsnet_error *err);
+
+/* Keep a slab work the caller is done with for a later cut (its arrays are
+ * reused, not allocated again); frees it when it cannot be kept. */
+void en_chunker_recycle(en_chunker *c, en_slab_work *w);
 
 /* End of the stream: call until *out is NULL; finalizes what is still live. */
 int en_chunker_finish(en_chunker *c, en_slab_work **out, epsnet_error *err);

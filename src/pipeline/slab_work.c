@@ -28,7 +28,38 @@ void en_slab_work_free(en_slab_work *w)
     en_free(w->future);
     en_free(w->degree);
     en_free(w->band);
+    en_free(w->fnormal);
+    en_free(w->ftri);
+    en_free(w->removable);
     en_slab_work_init(w);
+}
+
+void en_slab_work_reset(en_slab_work *w)
+{
+    en_slab_work keep = *w;
+    en_slab_work_init(w);
+    en_slab_reset(&keep.s);
+    w->s = keep.s;
+#define KEEP(field) w->field = keep.field
+    KEEP(owner), KEEP(fflags), KEEP(vclass), KEEP(vgvertex), KEEP(q), KEEP(ref), KEEP(tri), KEEP(falive);
+    KEEP(valive), KEEP(border), KEEP(future), KEEP(degree), KEEP(band), KEEP(fnormal), KEEP(ftri), KEEP(removable);
+    KEEP(cap);
+#undef KEEP
+}
+
+/* Room for n elements in *p, grown only when the last job's was too small. */
+static int room(void *p, size_t *cap, size_t n, size_t size)
+{
+    return en_grow((void **)p, cap, n, size);
+}
+
+/* The same, zeroed. */
+static int zeroed(void *p, size_t *cap, size_t n, size_t size)
+{
+    if (room(p, cap, n, size))
+        return -1;
+    memset(*(void **)p, 0, n * size);
+    return 0;
 }
 
 static int oom(en_slab_work *w)
@@ -40,40 +71,34 @@ static int oom(en_slab_work *w)
 static int classify(en_slab_work *w)
 {
     const en_slab *s = &w->s;
-    double *fnormal = en_malloc(3 * sizeof *fnormal * (size_t)s->nt + 8);
-    int32_t *ftri = en_malloc(sizeof *ftri * (size_t)s->nt + 8);
-    w->vclass = en_calloc((size_t)s->nv + 1, sizeof *w->vclass);
-    w->vgvertex = en_malloc(sizeof *w->vgvertex * (size_t)s->nv + 8);
+    size_t nv = (size_t)s->nv + 1, nt = (size_t)s->nt + 1;
+    if (room(&w->fnormal, &w->cap.fnormal, 3 * nt, sizeof *w->fnormal) ||
+        room(&w->ftri, &w->cap.ftri, nt, sizeof *w->ftri) ||
+        zeroed(&w->vclass, &w->cap.vclass, nv, sizeof *w->vclass) ||
+        room(&w->vgvertex, &w->cap.vgvertex, nv, sizeof *w->vgvertex))
+        return oom(w);
+    double *fnormal = w->fnormal;
+    int32_t *ftri = w->ftri;
     int rc = 0;
-    if (!fnormal || !ftri || !w->vclass || !w->vgvertex) {
-        rc = oom(w);
-        goto out;
-    }
     en_classify_counts faces;
     memset(&faces, 0, sizeof faces);
     uint32_t bad = 0;
     rc = en_classify_faces(w->g, s, 0, s->nt, fnormal, ftri, &faces, &bad);
     if (rc) {
         const uint32_t *t = s->tri + 3 * (size_t)bad;
-        rc = en_error_set(&w->err, rc, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                          rc == EPSNET_EFORMAT
-                              ? "face (%llu %llu %llu): its normal overflows (coordinates too large)"
-                              : "face (%llu %llu %llu): Gaussian point location failed (a bug)",
-                          (unsigned long long)s->gid[t[0]], (unsigned long long)s->gid[t[1]],
-                          (unsigned long long)s->gid[t[2]]);
-        goto out;
+        return en_error_set(&w->err, rc, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            rc == EPSNET_EFORMAT
+                                ? "face (%llu %llu %llu): its normal overflows (coordinates too large)"
+                                : "face (%llu %llu %llu): Gaussian point location failed (a bug)",
+                            (unsigned long long)s->gid[t[0]], (unsigned long long)s->gid[t[1]],
+                            (unsigned long long)s->gid[t[2]]);
     }
-    if (en_classify_vertices(w->g, s, fnormal, ftri, 0, w->nowned, w->vclass, w->vgvertex, &w->counts)) {
-        rc = oom(w);
-        goto out;
-    }
+    if (en_classify_vertices(w->g, s, fnormal, ftri, 0, w->nowned, w->vclass, w->vgvertex, &w->counts))
+        return oom(w);
     /* A face is held by every slab owning one of its corners: count it once, at its home. */
     for (uint32_t f = 0; f < s->nt; f++)
         w->counts.zero_area_faces += ftri[f] < 0 && (w->fflags[f] & EN_F_HOME);
-out:
-    en_free(fnormal);
-    en_free(ftri);
-    return rc;
+    return 0;
 }
 
 static int owned_here(const en_slab_work *w, uint32_t v)
@@ -146,22 +171,14 @@ static int simplify(en_slab_work *w)
 {
     en_slab *s = &w->s;
     size_t nv = (size_t)s->nv + 1, nt = (size_t)s->nt + 1;
-    w->q = en_malloc(nv * sizeof *w->q);
-    w->ref = en_malloc(3 * nt * sizeof *w->ref);
-    w->tri = en_malloc(3 * nt * sizeof *w->tri);
-    w->falive = en_malloc(nt);
-    w->valive = en_malloc(nv);
-    w->border = en_calloc(nv, 1);
-    w->future = en_calloc(nv, sizeof *w->future);
-    w->degree = en_calloc(nv, sizeof *w->degree);
-    w->band = en_calloc(nv, 1);
-    uint8_t *removable = en_calloc(nv, 1);
-    int rc = 0;
-    if (!w->q || !w->ref || !w->tri || !w->falive || !w->valive || !w->border || !w->future || !w->degree ||
-        !w->band || !removable) {
-        rc = oom(w);
-        goto out;
-    }
+    if (room(&w->q, &w->cap.q, nv, sizeof *w->q) || room(&w->ref, &w->cap.ref, 3 * nt, sizeof *w->ref) ||
+        room(&w->tri, &w->cap.tri, 3 * nt, sizeof *w->tri) || room(&w->falive, &w->cap.falive, nt, 1) ||
+        room(&w->valive, &w->cap.valive, nv, 1) || zeroed(&w->border, &w->cap.border, nv, 1) ||
+        zeroed(&w->future, &w->cap.future, nv, sizeof *w->future) ||
+        zeroed(&w->degree, &w->cap.degree, nv, sizeof *w->degree) || zeroed(&w->band, &w->cap.band, nv, 1) ||
+        zeroed(&w->removable, &w->cap.removable, nv, 1))
+        return oom(w);
+    uint8_t *removable = w->removable;
     en_quadrics_from_faces(s, w->q, w->ref);
     mark_frozen(w);
     /* The seam rules (pipeline/seam.h): an owned inner vertex has its whole
@@ -189,16 +206,13 @@ static int simplify(en_slab_work *w)
         memset(w->falive, 1, nt);
         memset(w->valive, 1, nv);
     } else if (en_collapse_slab(s, removable, w->q, w->ref, &cs, w->falive, w->valive, w->tri, &cc)) {
-        rc = oom(w);
-        goto out;
+        return oom(w);
     } else {
         w->collapses = cc.collapses;
         memcpy(w->refused, cc.refused, sizeof w->refused);
     }
     mark_bands(w);
-out:
-    en_free(removable);
-    return rc;
+    return 0;
 }
 
 int en_slab_work_run(void *arg)

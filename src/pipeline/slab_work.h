@@ -63,10 +63,23 @@ typedef struct en_slab_work {
     uint64_t band_nonsamples, inner_nonsamples; /* owned non-samples of each kind */
     uint64_t collapses;
     uint64_t refused[EN_REFUSE_KINDS]; /* inner non-samples left, by reason */
+
+    /* Worker scratch, and the capacity of every array above: a slab work is
+     * reused for a later cut (en_slab_work_reset), so a run in its steady
+     * state allocates nothing per slab. */
+    double *fnormal;
+    int32_t *ftri;
+    uint8_t *removable;
+    struct {
+        size_t owner, fflags, vclass, vgvertex, q, ref, tri, falive, valive, border, future, degree, band, fnormal,
+            ftri, removable;
+    } cap;
 } en_slab_work;
 
 void en_slab_work_init(en_slab_work *w);
-/* Free the outputs and forget the input, keeping nothing. */
+/* Forget the input and the outputs, keep the memory for the next cut. */
+void en_slab_work_reset(en_slab_work *w);
+/* Free everything (w is then as after en_slab_work_init). */
 void en_slab_work_free(en_slab_work *w);
 
 /* The pool's job function: classify (and simplify) w. Fills w->rc/err. */
