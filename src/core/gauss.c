@@ -105,11 +105,14 @@ void gauss_rotation_from_seed(uint64_t seed, gauss_rotation *r)
     (void)gauss_rotation_quaternion(b * cos(t3), a * sin(t2), a * cos(t2), b * sin(t3), r);
 }
 
-/* note: splitmix64's increment keeps pass rotations unrelated to each other
- * and to the --seed rotation of pass 1. */
+/* note: a rotation draws three consecutive splitmix64 outputs, so seeds one
+ * increment apart would share two of them; hashing the pass into the seed
+ * first keeps pass rotations unrelated to each other and to the --seed
+ * rotation of pass 1. */
 void gauss_pass_rotation(uint64_t seed, int pass, gauss_rotation *r)
 {
-    gauss_rotation_from_seed(seed + 0x9e3779b97f4a7c15ull * (uint64_t)pass, r);
+    uint64_t state = seed + 0x9e3779b97f4a7c15ull * (uint64_t)pass;
+    gauss_rotation_from_seed(splitmix64(&state), r);
 }
 
 /* Parse exactly four comma-separated finite numbers. */
