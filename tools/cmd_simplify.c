@@ -96,7 +96,7 @@ int cmd_simplify(int argc, char **argv)
                 "  samples %llu of %llu Gaussian vertices (%llu locked), %llu collapses in %llu pass%s\n"
                 "  non-samples left: %llu (refused: link %llu, normal %llu, zero-area %llu, duplicate %llu)\n"
                 "  %llu slabs, seams: %llu faces, %llu collapses; largest active set %llu\n"
-                "  %.2f s, %.2f M faces/s, peak RSS %.1f MB\n",
+                "  %.2f s, %.2f M faces/s, peak RSS %.1f MB; CPU: main %.2f s, workers %.2f s (%.1f%% serial)\n",
                 (unsigned long long)s->vertices, (unsigned long long)s->faces,
                 (unsigned long long)s->output_vertices, (unsigned long long)s->output_faces,
                 s->faces ? 100.0 * (double)s->output_faces / (double)s->faces : 0.0,
@@ -107,7 +107,9 @@ int cmd_simplify(int argc, char **argv)
                 (unsigned long long)s->refused_zero_area, (unsigned long long)s->refused_duplicate,
                 (unsigned long long)s->slabs, (unsigned long long)s->seam_faces,
                 (unsigned long long)s->seam_collapses, (unsigned long long)s->max_active, secs,
-                secs > 0 ? (double)s->faces / secs / 1e6 : 0.0, (double)s->peak_rss / (1 << 20));
+                secs > 0 ? (double)s->faces / secs / 1e6 : 0.0, (double)s->peak_rss / (1 << 20), s->cpu_main,
+                s->cpu_workers,
+                s->cpu_main + s->cpu_workers > 0 ? 100.0 * s->cpu_main / (s->cpu_main + s->cpu_workers) : 0.0);
     }
     epsnet_context_free(&ctx);
     return rc < 0 ? cli_fail(&err) : EXIT_OK;
