@@ -1,5 +1,5 @@
 /*
- * The worker pool and its job rings (docs/architecture.md §4): jobs run on
+ * The worker pool and its job rings (docs/architecture.md §10): jobs run on
  * any worker in any order, but each ring hands them back in its own
  * submission order with their own results, for any thread count, also when
  * several rings share one pool; in-flight jobs never exceed a ring's

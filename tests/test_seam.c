@@ -1,5 +1,5 @@
 /*
- * The seam rules (pipeline/seam.h, docs/architecture.md §5): which vertex
+ * The seam rules (pipeline/seam.h, docs/architecture.md §8): which vertex
  * may be removed and which may receive a collapse, for every holder of part
  * of the mesh (a slab worker, the stitcher's seam mesh, a later stage).
  */

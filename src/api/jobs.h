@@ -1,6 +1,6 @@
 /* The whole-mesh classification behind `sample --mesh` and render's
  * samples panel: the one-slab case of the per-slab core (docs/
- * architecture.md §3). Simplification always runs through the stage chain. */
+ * architecture.md §14). Simplification always runs through the stage chain. */
 #ifndef EN_API_JOBS_H
 #define EN_API_JOBS_H
 

@@ -1,5 +1,5 @@
 /*
- * One run of the stage chain for the api (docs/architecture.md §2): the
+ * One run of the stage chain for the api (docs/architecture.md §7): the
  * context's settings turned into sizes, one pool of -j workers for the
  * whole run, the chain of ε-net passes on it, and the only place where
  * epsnet_stats is filled from what the chain counted.

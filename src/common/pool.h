@@ -1,6 +1,6 @@
 /*
  * One pool of worker threads for a whole run, and job rings on it
- * (docs/architecture.md §4).
+ * (docs/architecture.md §10).
  *
  * The pool is only threads and one queue. Work reaches it through *job
  * rings*: each producer (the sort, each ε-net pass) owns a ring of

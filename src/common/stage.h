@@ -1,6 +1,6 @@
 /*
  * The one interface every step of the chain speaks (docs/architecture.md
- * §2): take a record; end. Reader → sort → ε-net pass 1 … K → writer, each
+ * §7): take a record; end. Reader → sort → ε-net pass 1 … K → writer, each
  * the next one's producer, none knowing the others' insides (the shape of
  * Isenburg and Lindstrom's streaming-mesh filters, a reader over a reader,
  * here pushed instead of pulled so that workers can run ahead).

@@ -1,5 +1,5 @@
 /*
- * The ε-net passes of the stage chain (docs/architecture.md §2–§3): for
+ * The ε-net passes of the stage chain (docs/architecture.md §7): for
  * each pass a chunker cuts slabs, the pool's workers classify and simplify
  * them through the pass's job ring, and a stitcher takes them back in order,
  * finishes the seams and hands its records to the next pass (paper §5:
@@ -81,7 +81,7 @@ static int take_samples(en_chain *c, const en_slab_work *w, epsnet_error *err)
 
 /*
  * What the budget bounds beyond the reader's live vertices (docs/
- * architecture.md §6): faces the chunker holds on vertices still open (a
+ * architecture.md §12): faces the chunker holds on vertices still open (a
  * stream can repeat a face on three live vertices forever) and output the
  * stitcher holds back (output leaves in input id order, so one vertex used
  * again far later in the stream holds everything after it). Over budget,

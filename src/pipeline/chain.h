@@ -1,5 +1,5 @@
 /*
- * The ε-net passes of the stage chain (docs/architecture.md §2–§3): pass 1
+ * The ε-net passes of the stage chain (docs/architecture.md §7): pass 1
  * … K, each a chunker → workers → stitcher, each pass's output the next
  * one's input, the last one's output an en_stage (the writer, a queue, a
  * collector). Its own input is an en_stage too (en_chain_input), so the

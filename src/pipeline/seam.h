@@ -1,5 +1,5 @@
 /*
- * The seam protocol in one place (docs/architecture.md §5): how the chunker
+ * The seam protocol in one place (docs/architecture.md §8): how the chunker
  * marks faces, how a worker tells the stitcher where each vertex stands, and
  * which collapses any holder of part of the mesh (a slab worker, the
  * stitcher's seam mesh W, a later stage) may do.
