@@ -26,6 +26,8 @@ void en_chunker_free(en_chunker *c)
         en_free(c->spare[i]);
     }
     en_free(c->spare);
+    en_free(c->pool_of);
+    en_free(c->sort_tmp);
     memset(c, 0, sizeof *c);
 }
 
@@ -87,11 +89,41 @@ static int live_vertex(en_chunker *c, uint64_t gid, uint32_t *i)
     return en_u64map_get(&c->map, gid, i) && c->v[*i].owner == EN_OWNER_LIVE;
 }
 
-static int cmp_gid(const void *a, const void *b, void *arg)
+/*
+ * Sort c->fin (pool indices) by global id: a least-significant-digit radix
+ * sort on gid - min, 11 bits a pass, as many passes as the span needs.
+ * note: ids are unique, so any correct sort gives this order; finalization
+ * comes in nearly id order, where a comparison sort still pays n log n.
+ */
+static int sort_fin_by_gid(en_chunker *c)
 {
-    const en_chunk_vertex *v = arg;
-    uint64_t x = v[*(const uint32_t *)a].gid, y = v[*(const uint32_t *)b].gid;
-    return (x > y) - (x < y);
+    size_t n = c->nfin;
+    if (n < 2)
+        return 0;
+    uint64_t lo = UINT64_MAX, hi = 0;
+    for (size_t j = 0; j < n; j++) {
+        uint64_t g = c->v[c->fin[j]].gid;
+        lo = g < lo ? g : lo;
+        hi = g > hi ? g : hi;
+    }
+    if (en_grow((void **)&c->sort_tmp, &c->sort_tmp_cap, n, sizeof *c->sort_tmp))
+        return -1;
+    uint32_t *a = c->fin, *b = c->sort_tmp;
+    for (unsigned shift = 0; shift < 64 && ((hi - lo) >> shift) != 0; shift += 11) {
+        size_t count[2049] = { 0 };
+        for (size_t j = 0; j < n; j++)
+            count[((c->v[a[j]].gid - lo) >> shift & 2047) + 1]++;
+        for (int d = 0; d < 2048; d++)
+            count[d + 1] += count[d];
+        for (size_t j = 0; j < n; j++)
+            b[count[(c->v[a[j]].gid - lo) >> shift & 2047]++] = a[j];
+        uint32_t *t = a;
+        a = b;
+        b = t;
+    }
+    if (a != c->fin)
+        memcpy(c->fin, a, n * sizeof *a);
+    return 0;
 }
 
 static int add_local(en_chunker *c, en_slab_work *w, uint32_t i, uint8_t flags)
@@ -100,8 +132,9 @@ static int add_local(en_chunker *c, en_slab_work *w, uint32_t i, uint8_t flags)
     if (v->local_slab == (int64_t)w->index)
         return 0;
     int64_t l = en_slab_add_vertex(&w->s, v->gid, v->xyz, flags);
-    if (l < 0)
+    if (l < 0 || en_grow((void **)&c->pool_of, &c->pool_of_cap, (size_t)l + 1, sizeof *c->pool_of))
         return -1;
+    c->pool_of[l] = i;
     v->local = (uint32_t)l;
     v->local_slab = w->index;
     return 0;
@@ -127,8 +160,7 @@ static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
     w->live_faces = c->nfaces;
     if (w->live_vertices + w->live_faces > c->max_active)
         c->max_active = w->live_vertices + w->live_faces;
-    qsort_r(c->fin, c->nfin, sizeof *c->fin, cmp_gid, c->v);
-    int rc = 0;
+    int rc = sort_fin_by_gid(c);
     for (size_t j = 0; j < c->nfin && rc == 0; j++) {
         c->v[c->fin[j]].owner = k;
         rc = add_local(c, w, c->fin[j], EN_V_OWNED);
@@ -159,7 +191,8 @@ static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
             for (int j = 0; j < 3; j++)
                 c->v[t[j]].nref--;
         } else {
-            memmove(c->faces + 3 * kept++, t, 3 * sizeof *t);
+            uint32_t *keep = c->faces + 3 * kept++;
+            keep[0] = t[0], keep[1] = t[1], keep[2] = t[2]; /* keep <= t: in place, forwards */
         }
     }
     c->nfaces = kept;
@@ -168,9 +201,8 @@ static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
     }
     if (rc == 0) {
         for (uint32_t l = w->nowned; l < w->s.nv; l++) {
-            uint32_t i;
-            en_u64map_get(&c->map, w->s.gid[l], &i);
-            w->owner[l] = c->v[i].owner >= 0 ? c->v[i].owner : -1;
+            int64_t o = c->v[c->pool_of[l]].owner;
+            w->owner[l] = o >= 0 ? o : -1;
         }
         for (uint32_t l = 0; l < w->nowned; l++)
             w->owner[l] = k;
@@ -179,11 +211,9 @@ static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
         if (c->v[c->fin[j]].nref == 0)
             rc = free_vertex(c, c->fin[j]);
     /* Ghost corners owned by earlier slabs may have lost their last face too. */
-    for (uint32_t l = w->nowned; l < w->s.nv && rc == 0; l++) {
-        uint32_t i;
-        if (w->owner[l] >= 0 && en_u64map_get(&c->map, w->s.gid[l], &i) && c->v[i].nref == 0)
-            rc = free_vertex(c, i);
-    }
+    for (uint32_t l = w->nowned; l < w->s.nv && rc == 0; l++)
+        if (w->owner[l] >= 0 && c->v[c->pool_of[l]].nref == 0)
+            rc = free_vertex(c, c->pool_of[l]);
     c->nfin = 0;
     if (rc) {
         en_slab_work_free(w);

@@ -54,6 +54,10 @@ typedef struct en_chunker {
     uint64_t max_active;       /* largest live vertices + live faces seen at a cut */
     en_slab_work **spare;      /* handed back by en_chunker_recycle, for the next cuts */
     size_t nspare, spare_cap;
+    uint32_t *pool_of;         /* scratch of a cut: pool index per local vertex */
+    size_t pool_of_cap;
+    uint32_t *sort_tmp;        /* scratch of a cut: radix sort of fin by gid */
+    size_t sort_tmp_cap;
 } en_chunker;
 
 /* @return 0 or EPSNET_ENOMEM. */
