@@ -11,14 +11,18 @@ int en_chunker_init(en_chunker *c, uint32_t slab_vertices, const char *path)
     memset(c, 0, sizeof *c);
     c->slab_vertices = slab_vertices ? slab_vertices : 1;
     c->path = path;
-    return en_u64map_init(&c->map) ? EPSNET_ENOMEM : 0;
+    /* note: live ids span about the stream's width, which a slab's worth
+     * of vertices covers twice over in coherent streams; the rest go to the
+     * idmap's hash. */
+    size_t ring = 2 * (size_t)slab_vertices;
+    return en_idmap_init(&c->map, ring < ((size_t)1 << 20) ? ring : ((size_t)1 << 20)) ? EPSNET_ENOMEM : 0;
 }
 
 void en_chunker_free(en_chunker *c)
 {
     en_free(c->v);
     en_free(c->free_list);
-    en_u64map_free(&c->map);
+    en_idmap_free(&c->map);
     en_free(c->faces);
     en_free(c->fin);
     for (size_t i = 0; i < c->nspare; i++) {
@@ -64,7 +68,7 @@ static int new_vertex(en_chunker *c, const double xyz[3], epsnet_error *err)
     v->nref = 0;
     v->local_slab = -1;
     v->owner = EN_OWNER_LIVE;
-    if (en_u64map_put(&c->map, c->next_gid, i)) {
+    if (en_idmap_put(&c->map, c->next_gid, i)) {
         if (i + 1 == c->v_len)
             c->v_len--;
         else
@@ -79,14 +83,14 @@ static int free_vertex(en_chunker *c, uint32_t i)
 {
     if (en_grow((void **)&c->free_list, &c->free_cap, c->free_len + 1, sizeof *c->free_list))
         return -1;
-    en_u64map_remove(&c->map, c->v[i].gid);
+    en_idmap_remove(&c->map, c->v[i].gid);
     c->free_list[c->free_len++] = i;
     return 0;
 }
 
 static int live_vertex(en_chunker *c, uint64_t gid, uint32_t *i)
 {
-    return en_u64map_get(&c->map, gid, i) && c->v[*i].owner == EN_OWNER_LIVE;
+    return en_idmap_get(&c->map, gid, i) && c->v[*i].owner == EN_OWNER_LIVE;
 }
 
 /*
@@ -225,7 +229,7 @@ static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
         uint32_t i;
         if (c->low >= c->next_gid)
             break;
-        if (en_u64map_get(&c->map, c->low, &i) && c->v[i].owner < 0)
+        if (en_idmap_get(&c->map, c->low, &i) && c->v[i].owner < 0)
             break;
         c->low++;
     }
@@ -301,6 +305,6 @@ int en_chunker_finish(en_chunker *c, en_slab_work **out, epsnet_error *err)
 
 uint64_t en_chunker_bytes(const en_chunker *c)
 {
-    return (uint64_t)c->v_cap * sizeof *c->v + c->free_cap * sizeof *c->free_list + en_u64map_bytes(&c->map) +
+    return (uint64_t)c->v_cap * sizeof *c->v + c->free_cap * sizeof *c->free_list + en_idmap_bytes(&c->map) +
            3 * c->faces_cap * sizeof *c->faces + c->fin_cap * sizeof *c->fin;
 }

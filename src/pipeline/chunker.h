@@ -18,7 +18,7 @@
 
 #include <stdint.h>
 
-#include "common/u64map.h"
+#include "common/idmap.h"
 #include "epsnet/epsnet.h"
 #include "pipeline/slab_work.h"
 
@@ -41,7 +41,7 @@ typedef struct en_chunker {
     size_t v_len, v_cap;
     uint32_t *free_list;
     size_t free_len, free_cap;
-    en_u64map map;             /* gid -> pool index, for vertices in the pool */
+    en_idmap map;              /* gid -> pool index, for vertices in the pool */
     uint32_t *faces;           /* live faces: 3 pool indices each, in stream order */
     size_t nfaces, faces_cap;
     uint32_t *fin;             /* finalized, not yet cut (pool indices) */
