@@ -175,7 +175,8 @@ typedef struct ply_property {
     ply_role role;
 } ply_property;
 
-typedef enum ply_kind { ELEM_OTHER, ELEM_VERTEX, ELEM_FACE } ply_kind;
+/* ELEM_STRIPS: the Stanford tools' `tristrips` element (see strip_index()). */
+typedef enum ply_kind { ELEM_OTHER, ELEM_VERTEX, ELEM_FACE, ELEM_STRIPS } ply_kind;
 
 typedef struct ply_element {
     char name[PLY_NAME_MAX];
@@ -188,6 +189,18 @@ typedef struct ply_element {
 } ply_element;
 
 typedef enum ply_encoding { ENC_ASCII, ENC_LE, ENC_BE } ply_encoding;
+
+/* Where a strip list stands: the two indices before the next one, and the
+ * position in the strip since the last restart (its parity gives the
+ * orientation). Binary strip lists can be as long as the mesh (Stanford
+ * files hold every strip in one record), so a list is read in pieces across
+ * fill() calls and this state survives between them. */
+typedef struct ply_strip {
+    uint64_t a, b;
+    uint64_t n;             /* indices since the last restart */
+    int64_t left;           /* items of the current list still to read, -1 outside a list */
+    size_t prop;            /* next property of the current record */
+} ply_strip;
 
 typedef struct ply_reader ply_reader;
 
@@ -203,6 +216,8 @@ struct ply_reader {
     size_t elem;                 /* element being read */
     uint64_t record;             /* records of it read so far */
     uint64_t short_polygons;     /* faces with fewer than 3 corners, skipped */
+    ply_strip strip;             /* tristrips only */
+    uint64_t strip_turns;        /* strip triangles that repeat an index, skipped */
 };
 
 /* ------------------------------------------------------------------------
@@ -345,20 +360,23 @@ static int header_element(epsnet_reader *r, ply_reader *p, char *rest)
     uint64_t n;
     if (parse_u64(count, &n))
         return en_reader_fail(r, EPSNET_EFORMAT, "element '%s' has an invalid count '%s'", name, count);
-    int rc = en_reader_check_count(r, n, strcmp(name, "vertex") == 0 ? "vertex count"
-                                         : strcmp(name, "face") == 0 ? "face count" : "element count");
+    ply_kind kind = strcmp(name, "vertex") == 0 ? ELEM_VERTEX
+                    : strcmp(name, "face") == 0 ? ELEM_FACE
+                    : strcmp(name, "tristrips") == 0 ? ELEM_STRIPS : ELEM_OTHER;
+    int rc = en_reader_check_count(r, n, kind == ELEM_VERTEX ? "vertex count"
+                                         : kind == ELEM_FACE ? "face count"
+                                         : kind == ELEM_STRIPS ? "strip count" : "element count");
     if (rc)
         return rc;
-    ply_kind kind = strcmp(name, "vertex") == 0 ? ELEM_VERTEX
-                    : strcmp(name, "face") == 0 ? ELEM_FACE : ELEM_OTHER;
     for (size_t i = 0; i < p->nelems; i++) {
-        if (kind != ELEM_OTHER && p->elems[i].kind == kind)
+        const ply_element *o = &p->elems[i];
+        if (kind != ELEM_OTHER && o->kind == kind)
             return en_reader_fail(r, EPSNET_EFORMAT, "second '%s' element", name);
-        if (kind == ELEM_VERTEX && p->elems[i].kind == ELEM_FACE && p->elems[i].count > 0)
+        if (kind == ELEM_VERTEX && (o->kind == ELEM_FACE || o->kind == ELEM_STRIPS) && o->count > 0)
             return en_reader_fail(r, EPSNET_EFORMAT,
-                                  "element 'face' comes before element 'vertex' (line %" PRIu64
+                                  "element '%s' comes before element 'vertex' (line %" PRIu64
                                   "): faces need their vertices first",
-                                  p->elems[i].header_line);
+                                  o->name, o->header_line);
     }
     if (p->nelems == p->cap &&
         en_grow((void **)&p->elems, &p->cap, p->nelems + 1, sizeof *p->elems))
@@ -384,7 +402,7 @@ static ply_role role_of(const ply_element *e, const char *name, int is_list)
         if (strcmp(name, "z") == 0)
             return ROLE_Z;
     }
-    if (e->kind == ELEM_FACE && is_list &&
+    if ((e->kind == ELEM_FACE || e->kind == ELEM_STRIPS) && is_list &&
         (strcmp(name, "vertex_indices") == 0 || strcmp(name, "vertex_index") == 0))
         return ROLE_INDICES;
     return ROLE_SKIP;
@@ -424,18 +442,19 @@ static int header_property(epsnet_reader *r, ply_reader *p, char *rest)
     if (e->kind == ELEM_VERTEX && prop.count_type != PLY_NONE &&
         (strcmp(name, "x") == 0 || strcmp(name, "y") == 0 || strcmp(name, "z") == 0))
         return en_reader_fail(r, EPSNET_EFORMAT, "vertex coordinate '%s' is declared as a list", name);
-    if (e->kind == ELEM_FACE && prop.count_type == PLY_NONE &&
+    if ((e->kind == ELEM_FACE || e->kind == ELEM_STRIPS) && prop.count_type == PLY_NONE &&
         (strcmp(name, "vertex_indices") == 0 || strcmp(name, "vertex_index") == 0))
-        return en_reader_fail(r, EPSNET_EFORMAT, "face property '%s' is not a list", name);
+        return en_reader_fail(r, EPSNET_EFORMAT, "%s property '%s' is not a list", e->name, name);
     if (prop.role == ROLE_INDICES && !ply_type_is_int(prop.type))
-        return en_reader_fail(r, EPSNET_EUNSUPPORTED, "face indices of type '%s' are not integers",
+        return en_reader_fail(r, EPSNET_EUNSUPPORTED, "%s indices of type '%s' are not integers", e->name,
                               ply_type_names[prop.type].name);
     for (size_t i = 0; i < e->nprops; i++) {
         if (strcmp(e->props[i].name, prop.name) == 0)
             return en_reader_fail(r, EPSNET_EFORMAT, "element '%s' declares property '%s' twice",
                                   e->name, prop.name);
         if (prop.role == ROLE_INDICES && e->props[i].role == ROLE_INDICES)
-            return en_reader_fail(r, EPSNET_EFORMAT, "face element has both vertex_indices and vertex_index");
+            return en_reader_fail(r, EPSNET_EFORMAT, "%s element has both vertex_indices and vertex_index",
+                                  e->name);
     }
     if (e->nprops == PLY_MAX_PROPERTIES)
         return en_reader_fail(r, EPSNET_ELIMIT, "element '%s' has more than %d properties", e->name,
@@ -472,7 +491,7 @@ static int header_format(epsnet_reader *r, ply_reader *p, char *rest, int *seen)
 /* Checks that need the whole header, then what the body walk precomputes. */
 static int header_finish(epsnet_reader *r, ply_reader *p)
 {
-    const ply_element *vertex = NULL, *face = NULL;
+    const ply_element *vertex = NULL, *faces[2] = { NULL, NULL };
     for (size_t i = 0; i < p->nelems; i++) {
         ply_element *e = &p->elems[i];
         e->fixed_size = 0;
@@ -489,7 +508,9 @@ static int header_finish(epsnet_reader *r, ply_reader *p)
         if (e->kind == ELEM_VERTEX)
             vertex = e;
         if (e->kind == ELEM_FACE)
-            face = e;
+            faces[0] = e;
+        if (e->kind == ELEM_STRIPS)
+            faces[1] = e;
     }
     r->info.coord_type = EPSNET_COORD_FLOAT32;
     if (vertex) {
@@ -508,17 +529,23 @@ static int header_finish(epsnet_reader *r, ply_reader *p)
             return en_reader_fail(r, EPSNET_EFORMAT, "element 'vertex' lacks property '%s'",
                                   !have[0] ? "x" : !have[1] ? "y" : "z");
     }
-    if (face) {
+    r->info.nfaces = 0;
+    for (int f = 0; f < 2; f++) {
+        const ply_element *face = faces[f];
+        if (!face)
+            continue;
         int has_indices = 0;
         for (size_t k = 0; k < face->nprops; k++)
             has_indices |= face->props[k].role == ROLE_INDICES;
         if (!has_indices)
-            return en_reader_fail(r, EPSNET_EFORMAT, "element 'face' has no 'vertex_indices' list");
+            return en_reader_fail(r, EPSNET_EFORMAT, "element '%s' has no 'vertex_indices' list", face->name);
         if (!vertex && face->count > 0)
-            return en_reader_fail(r, EPSNET_EFORMAT, "faces but no 'vertex' element");
+            return en_reader_fail(r, EPSNET_EFORMAT, "%s but no 'vertex' element",
+                                  f ? "triangle strips" : "faces");
+        if (face->count > 0)
+            r->info.nfaces = EPSNET_COUNT_UNKNOWN;
     }
     r->info.nverts = vertex ? vertex->count : 0;
-    r->info.nfaces = face && face->count > 0 ? EPSNET_COUNT_UNKNOWN : 0;
     r->info.encoding = p->encoding == ENC_ASCII ? "ascii" : p->encoding == ENC_LE ? "binary_le" : "binary_be";
     return 0;
 }
@@ -589,6 +616,71 @@ static inline int fan_corner(epsnet_reader *r, ply_fan *f, uint64_t v)
 }
 
 /* ------------------------------------------------------------------------
+ * Triangle strips shared by both encodings
+ * ------------------------------------------------------------------------ */
+
+/* Triangles a binary strip list may push in one fill(): a long list is
+ * read in pieces, so the record queue stays small whatever the strip. */
+#define PLY_STRIP_BATCH 65536
+
+static int is_strip_restart(ply_type t, int64_t v)
+{
+    /* note: -1 ends a strip; a list of an unsigned type can only hold -1 as
+     * its all-ones pattern, which a writer that casts -1 produces. */
+    return v == -1 || (ply_int_min[t] == 0 && v == ply_int_max[t]);
+}
+
+/*
+ * One index of a `tristrips` list, the strips of the Stanford tools: a list
+ * holds strips separated by -1. Counting from a strip's start, triangle i
+ * over its indices v[] is (v[i], v[i+1], v[i+2]) for even i and
+ * (v[i+1], v[i], v[i+2]) for odd i, so every triangle has the orientation
+ * of the first; this is how the Stanford tools unpack strips into faces.
+ * at is the index's byte offset, or EPSNET_POS_NONE in an ascii file.
+ *
+ * note: a strip triangle that repeats an index is how a strip turns or
+ * jumps (a swap) and encodes no surface: it is skipped (strip_turns), but it
+ * still counts for the parity of the triangles after it. A face element's
+ * triangle with a repeated corner is different: the file declares it a face,
+ * so it is passed on like any other (SPEC §5: degenerate faces are legal
+ * input, handled and reported downstream). Triangles with distinct indices
+ * are passed on whatever their area, like faces.
+ */
+static int strip_index(epsnet_reader *r, ply_reader *p, const ply_property *pr, int64_t v, uint64_t at)
+{
+    ply_strip *st = &p->strip;
+    if (is_strip_restart(pr->type, v)) {
+        st->n = 0;
+        return 0;
+    }
+    if (v < 0 || (uint64_t)v >= r->nverts) {
+        static const char neg[] = "tristrips %" PRIu64 ": negative vertex index %" PRId64
+                                  " (only -1, which ends a strip, is allowed)";
+        static const char big[] = "tristrips %" PRIu64 ": vertex index %" PRId64
+                                  " is out of range (%" PRIu64 " vertices)";
+        if (at == EPSNET_POS_NONE)
+            return v < 0 ? en_reader_fail(r, EPSNET_EFORMAT, neg, p->record + 1, v)
+                         : en_reader_fail(r, EPSNET_EFORMAT, big, p->record + 1, v, r->nverts);
+        return v < 0 ? en_reader_fail_at(r, EPSNET_EFORMAT, at, neg, p->record + 1, v)
+                     : en_reader_fail_at(r, EPSNET_EFORMAT, at, big, p->record + 1, v, r->nverts);
+    }
+    const uint64_t a = st->a, b = st->b, c = (uint64_t)v;
+    int rc = 0;
+    if (st->n >= 2) {
+        if (a == b || b == c || a == c)
+            p->strip_turns++;
+        else if (st->n & 1)
+            rc = en_reader_push_triangle(r, b, a, c);
+        else
+            rc = en_reader_push_triangle(r, a, b, c);
+    }
+    st->a = b;
+    st->b = c;
+    st->n++;
+    return rc;
+}
+
+/* ------------------------------------------------------------------------
  * ASCII body: one record per line, as in Turk's original ply.c
  * ------------------------------------------------------------------------ */
 
@@ -637,6 +729,7 @@ static int ascii_list(epsnet_reader *r, ply_reader *p, const ply_element *e, uin
         return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": list count %" PRId64 " is out of range "
                               "(0..%" PRId64 ")", e->name, record + 1, count, PLY_MAX_LIST);
     ply_fan fan = { 0, 0, 0 };
+    p->strip.n = 0;
     for (int64_t i = 0; i < count; i++) {
         tok = next_token(cursor);
         if (pr->role != ROLE_INDICES) {
@@ -648,14 +741,19 @@ static int ascii_list(epsnet_reader *r, ply_reader *p, const ply_element *e, uin
         int64_t v;
         if (!tok || parse_int_as(tok, pr->type, &v))
             return ascii_bad_value(r, e, record, pr, tok);
-        if (v < 0)
-            return en_reader_fail(r, EPSNET_EFORMAT, "face %" PRIu64 ": negative vertex index %" PRId64,
-                                  record + 1, v);
-        int rc = fan_corner(r, &fan, (uint64_t)v);
+        int rc;
+        if (e->kind == ELEM_STRIPS) {
+            rc = strip_index(r, p, pr, v, EPSNET_POS_NONE);
+        } else {
+            if (v < 0)
+                return en_reader_fail(r, EPSNET_EFORMAT, "face %" PRIu64 ": negative vertex index %" PRId64,
+                                      record + 1, v);
+            rc = fan_corner(r, &fan, (uint64_t)v);
+        }
         if (rc)
             return rc;
     }
-    if (pr->role == ROLE_INDICES && count < 3)
+    if (pr->role == ROLE_INDICES && e->kind == ELEM_FACE && count < 3)
         p->short_polygons++;
     return 0;
 }
@@ -902,6 +1000,67 @@ static int binary_simple_faces(epsnet_reader *r, ply_reader *p, ply_element *e, 
     return 0;
 }
 
+/*
+ * Strip records, resumable: a list is read in window-sized pieces and the
+ * walk returns once PLY_STRIP_BATCH triangles are queued, to carry on from
+ * p->strip at the next call. Other properties are skipped.
+ */
+static int binary_strips(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_t n)
+{
+    en_source *s = r->src;
+    ply_strip *st = &p->strip;
+    const uint64_t start = r->ntris;
+    for (; n; n--, p->record++, st->prop = 0) {
+        for (; st->prop < e->nprops; st->prop++) {
+            const ply_property *pr = &e->props[st->prop];
+            const size_t isize = ply_type_size[pr->type];
+            if (pr->count_type == PLY_NONE) {
+                if (!need(s, isize))
+                    return truncated_binary(r, e, p->record);
+                s->cur += isize;
+                continue;
+            }
+            if (st->left < 0) {
+                const size_t csize = ply_type_size[pr->count_type];
+                const uint8_t *q = need(s, csize);
+                if (!q)
+                    return truncated_binary(r, e, p->record);
+                int64_t count = p->codec->get_int[pr->count_type](q);
+                /* note: the index list has no length limit but its type's:
+                 * it streams, and a lying count ends as a truncated file. */
+                if (count < 0 || (pr->role != ROLE_INDICES && count > PLY_MAX_LIST))
+                    return en_reader_fail_at(r, EPSNET_EFORMAT, en_source_offset(s),
+                                             "%s %" PRIu64 ": list count %" PRId64 " is out of range",
+                                             e->name, p->record + 1, count);
+                s->cur += csize;
+                st->left = count;
+                st->n = 0;
+            }
+            int64_t (*get)(const uint8_t *) = p->codec->get_int[pr->type];
+            while (st->left > 0) {
+                size_t k = st->left < (int64_t)(PLY_CHUNK / isize) ? (size_t)st->left : PLY_CHUNK / isize;
+                const uint8_t *q = need(s, k * isize);
+                if (!q)
+                    return truncated_binary(r, e, p->record);
+                if (pr->role == ROLE_INDICES) {
+                    const uint64_t at = en_source_offset(s);
+                    for (size_t i = 0; i < k; i++) {
+                        int rc = strip_index(r, p, pr, get(q + i * isize), at + i * isize);
+                        if (rc)
+                            return rc;
+                    }
+                }
+                s->cur += k * isize;
+                st->left -= (int64_t)k;
+                if (st->left > 0 && r->ntris - start >= PLY_STRIP_BATCH)
+                    return 0;
+            }
+            st->left = -1;
+        }
+    }
+    return 0;
+}
+
 static int has_one_list(const ply_element *e)
 {
     size_t lists = 0;
@@ -916,6 +1075,8 @@ static int binary_records(epsnet_reader *r, ply_reader *p, ply_element *e, uint6
         return binary_fixed_vertices(r, p, e, n);
     if (e->fixed_size && e->kind == ELEM_OTHER)
         return binary_skip_fixed(r, p, e, n);
+    if (e->kind == ELEM_STRIPS)
+        return binary_strips(r, p, e, n);
     if (e->kind == ELEM_FACE && has_one_list(e))
         return binary_simple_faces(r, p, e, n);
     for (uint64_t i = 0; i < n; i++) {
@@ -990,6 +1151,7 @@ static int ply_open_reader(epsnet_reader *r)
         return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
     r->state = p;
     r->text = 1;
+    p->strip.left = -1;
     int rc = read_header(r, p);
     if (rc)
         return rc;
