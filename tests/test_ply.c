@@ -279,6 +279,57 @@ TEST(extra_properties_and_elements_are_skipped)
     }
 }
 
+/* What the reader tells about a file: its dropped text and count, known
+ * from the header (SPEC §5). */
+static const char *dropped_of(const char *path, uint64_t *n, char *buf, size_t cap)
+{
+    epsnet_reader *r = NULL;
+    epsnet_error err;
+    *n = 99;
+    if (epsnet_reader_open(&r, path, NULL, &err))
+        return "(open failed)";
+    const char *what = epsnet_reader_dropped(r, n);
+    snprintf(buf, cap, "%s", what ? what : "(null)");
+    epsnet_reader_close(&r);
+    return buf;
+}
+
+TEST(unused_elements_and_properties_are_named_as_dropped)
+{
+    static const char *want =
+        "element camera (1), vertex property confidence, vertex property red, vertex property green, "
+        "vertex property blue, vertex property nx, vertex property ny, vertex property nz, "
+        "vertex property intensity, element edge (2), face property flags, face property texcoord, "
+        "element material (1)";
+    for (int enc = ASCII; enc <= BE; enc++) {
+        layout l = { 1, "uchar", "int" };
+        bytes b = make_ply(enc, &l);
+        const char *p = write_bytes("dropped.ply", &b);
+        char buf[1024];
+        uint64_t n;
+        const char *what = dropped_of(p, &n, buf, sizeof buf);
+        CHECK(strcmp(what, want) == 0);
+        CHECK_EQ_U64(n, 13);
+        if (strcmp(what, want) != 0)
+            fprintf(stderr, "  got: %s\n", what);
+        l.with_extras = 0;
+        b = make_ply(enc, &l);
+        p = write_bytes("nothing_dropped.ply", &b);
+        CHECK(strcmp(dropped_of(p, &n, buf, sizeof buf), "(null)") == 0);
+        CHECK_EQ_U64(n, 0);
+    }
+    /* an element without records holds nothing to drop */
+    const char *p = tl_write_str("empty_extra.ply",
+                                 "ply\nformat ascii 1.0\nelement camera 0\nproperty float view_px\n"
+                                 "element vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+                                 "element tristrips 1\nproperty int tag\nproperty list int int vertex_indices\n"
+                                 "end_header\n0 0 0\n5 1 0\n");
+    char buf[256];
+    uint64_t n;
+    CHECK(strcmp(dropped_of(p, &n, buf, sizeof buf), "tristrips property tag") == 0);
+    CHECK_EQ_U64(n, 1);
+}
+
 TEST(every_list_type_pair_reads_the_same_faces)
 {
     static const char *pairs[][2] = {
@@ -1022,6 +1073,7 @@ int main(void)
 {
     RUN(ascii_le_and_be_give_the_reference_records);
     RUN(extra_properties_and_elements_are_skipped);
+    RUN(unused_elements_and_properties_are_named_as_dropped);
     RUN(every_list_type_pair_reads_the_same_faces);
     RUN(double_coordinates_set_float64_and_stay_exact);
     RUN(short_polygons_are_skipped_and_pentagons_fanned);

@@ -16,6 +16,7 @@
 #include "common/alloc.h"
 #include "common/error.h"
 #include "common/util.h"
+#include "io/format.h"
 #include "io/samples_ply.h"
 #include "io/sink.h"
 #include "pipeline/stream.h"
@@ -44,6 +45,7 @@ static int feed(epsnet_context *ctx, epsnet_stream *s, epsnet_reader *r, const c
     }
     if (rc < 0)
         return rc;
+    ctx->stats.dropped += en_reader_warn_dropped(r, ctx->settings.warning, ctx->settings.warning_opaque);
     return en_stream_finish(s, err);
 }
 
@@ -66,11 +68,14 @@ static void temp_folder(const epsnet_context *ctx, const char *out_path, char *d
  * no finalization) is first sorted into a temporary .smz (issue 5, SPEC
  * §2), read back and unlinked as soon as it is open; it is registered for
  * removal on SIGINT/SIGTERM meanwhile. Without this the whole mesh would be
- * one slab: correct, but in memory.
+ * one slab: correct, but in memory. *sorted gets the sort's statistics
+ * (axis -1 when the input was a stream and no sort ran).
  */
 static int open_input(epsnet_context *ctx, const char *in_path, const char *out_path, epsnet_reader **r,
-                      double *sort_seconds, epsnet_error *err)
+                      double *sort_seconds, epsnet_sort_stats *sorted, epsnet_error *err)
 {
+    memset(sorted, 0, sizeof *sorted);
+    sorted->axis = -1; /* no sort ran */
     epsnet_reader_settings rs;
     epsnet_reader_default_settings(&rs);
     rs.mem_limit = en_stream_mem_budget(&ctx->settings);
@@ -92,8 +97,10 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
         ss.mem = ctx->settings.mem;
     ss.tmpdir = ctx->tmpdir;
     ss.format = "smz";
+    ss.warning = ctx->settings.warning;
+    ss.warning_opaque = ctx->settings.warning_opaque;
     double t0 = en_now();
-    rc = epsnet_sort_file(in_path, tmp, &ss, NULL, err);
+    rc = epsnet_sort_file(in_path, tmp, &ss, sorted, err);
     *sort_seconds = en_now() - t0;
     if (rc && err && strcmp(err->file, tmp) == 0) {
         /* The copy's random name means nothing to the user and is gone by
@@ -121,7 +128,8 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
     epsnet_writer *w = NULL;
     epsnet_stream *s = NULL;
     double sort_seconds = 0;
-    int rc = open_input(ctx, in_path, out_path, &r, &sort_seconds, err);
+    epsnet_sort_stats sorted;
+    int rc = open_input(ctx, in_path, out_path, &r, &sort_seconds, &sorted, err);
     if (rc == 0) {
         const epsnet_mesh_info *in = epsnet_reader_info(r);
         epsnet_writer_settings ws;
@@ -140,6 +148,7 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
     if (rc == 0)
         rc = en_stream_new(&s, ctx, EN_SLAB_SIMPLIFY, in_path, err);
     ctx->stats.seconds_sort = sort_seconds;
+    ctx->stats.dropped = sorted.dropped; /* after en_stream_new(), which resets the stats */
     if (rc == 0) {
         en_stream_set_sink(s, writer_sink, w);
         rc = feed(ctx, s, r, in_path, err);
@@ -150,6 +159,15 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
         rc = epsnet_writer_commit(&w, err);
     else
         epsnet_writer_abort(&w);
+    /* note: a sorted copy holds only referenced vertices, so a mesh without
+     * faces is told by the sort's count of the input. */
+    uint64_t nv = sorted.axis >= 0 ? sorted.vertices : ctx->stats.vertices;
+    if (rc == 0 && nv > 0 && ctx->stats.faces == 0 && ctx->settings.warning) {
+        char msg[PATH_MAX + 128];
+        snprintf(msg, sizeof msg, "%s: %llu vertices but no faces: nothing to simplify, the output is empty",
+                 in_path, (unsigned long long)nv);
+        ctx->settings.warning(ctx->settings.warning_opaque, msg);
+    }
     ctx->stats.seconds_simplify = en_now() - t0;
     ctx->stats.peak_rss = en_peak_rss_bytes();
     return rc;
@@ -194,12 +212,14 @@ int en_sample_points_streamed(epsnet_context *ctx, const char *in_path, const ch
     sample_list l = { 0 };
     epsnet_coord_type ct = EPSNET_COORD_FLOAT32;
     double sort_seconds = 0;
-    int rc = open_input(ctx, in_path, out_path, &r, &sort_seconds, err);
+    epsnet_sort_stats sorted;
+    int rc = open_input(ctx, in_path, out_path, &r, &sort_seconds, &sorted, err);
     if (rc == 0) {
         ct = epsnet_reader_info(r)->coord_type;
         rc = en_stream_new(&s, ctx, EN_SLAB_SAMPLE, in_path, err);
     }
     ctx->stats.seconds_sort = sort_seconds;
+    ctx->stats.dropped = sorted.dropped;
     if (rc == 0) {
         en_stream_set_sample_sink(s, collect, &l);
         rc = feed(ctx, s, r, in_path, err);

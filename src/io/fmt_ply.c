@@ -1,6 +1,8 @@
 /*
  * PLY reader and writer (SPEC §3 "Ordinary formats": ascii, binary little-
- * and big-endian, extra properties skipped, polygons triangulated).
+ * and big-endian, extra properties skipped, polygons triangulated; and PLY
+ * `tristrips`, read as triangles). What is skipped is named through
+ * epsnet_reader_dropped() (SPEC §5).
  *
  * Reading: the header becomes a list of elements with their properties; the
  * body is then walked element by element. The encoding is chosen once, when
@@ -550,6 +552,29 @@ static int header_finish(epsnet_reader *r, ply_reader *p)
     return 0;
 }
 
+/* SPEC §5: every element and property the records do not carry is named.
+ * note: per-vertex attributes (colours, normals, ...) are among them until
+ * records carry attributes. Elements without records hold nothing. */
+static void note_dropped(epsnet_reader *r, const ply_reader *p)
+{
+    char name[EN_DROP_NAME];
+    for (size_t i = 0; i < p->nelems; i++) {
+        const ply_element *e = &p->elems[i];
+        if (e->count == 0)
+            continue;
+        if (e->kind == ELEM_OTHER) {
+            snprintf(name, sizeof name, "element %s", e->name);
+            en_reader_drop(r, name, e->count, 1);
+            continue;
+        }
+        for (size_t k = 0; k < e->nprops; k++)
+            if (e->props[k].role == ROLE_SKIP) {
+                snprintf(name, sizeof name, "%s property %s", e->name, e->props[k].name);
+                en_reader_drop(r, name, 0, 0);
+            }
+    }
+}
+
 static int read_header(epsnet_reader *r, ply_reader *p)
 {
     char *line;
@@ -590,7 +615,10 @@ static int read_header(epsnet_reader *r, ply_reader *p)
     }
     if (!seen_format)
         return en_reader_fail(r, EPSNET_EFORMAT, "header has no 'format' line");
-    return header_finish(r, p);
+    int rc = header_finish(r, p);
+    if (rc == 0)
+        note_dropped(r, p);
+    return rc;
 }
 
 /* ------------------------------------------------------------------------
