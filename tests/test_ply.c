@@ -397,6 +397,17 @@ TEST(short_polygons_are_skipped_and_pentagons_fanned)
     if (m.nt == 3)
         CHECK(memcmp(m.tri, want, sizeof want) == 0);
     tl_mesh_free(&m);
+    /* skipped, but named (SPEC §5) */
+    epsnet_reader *r = NULL;
+    CHECK_EQ_INT(epsnet_reader_open(&r, p, NULL, &err), 0);
+    epsnet_record rec;
+    while (r && epsnet_reader_next(r, &rec, &err) > 0)
+        ;
+    uint64_t n = 0;
+    const char *what = r ? epsnet_reader_dropped(r, &n) : NULL;
+    CHECK(what && strcmp(what, "faces with fewer than 3 corners (3)") == 0);
+    CHECK_EQ_U64(n, 1);
+    epsnet_reader_close(&r);
 }
 
 /* A polygon of 300000 corners (1.2 MB of indices, more than the reader's

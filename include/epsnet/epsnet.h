@@ -214,9 +214,10 @@ EPSNET_API uint64_t epsnet_reader_file_size(const epsnet_reader *r);
  * dropped without a word"), as one line of text, e.g.
  *   "element camera (1), vertex property confidence, vertex property red"
  * PLY names every element and property it skips (an element with its record
- * count); OBJ every statement kind it skips, with how many it met
- * ("usemtl (3), vt (120)"). PLY knows this from its header; OBJ as it reads,
- * so the text is complete once epsnet_reader_next() has returned 0.
+ * count) and faces of fewer than 3 corners; OBJ every statement kind it
+ * skips, with how many it met ("usemtl (3), vt (120)"). Most of it is known
+ * from the PLY header, the rest as the file is read: the text is complete
+ * once epsnet_reader_next() has returned 0.
  * @return NULL when nothing is dropped, else the text (owned by the reader,
  * valid until the next call on r). *count, when count is not NULL, receives
  * the number of distinct items named (0 with NULL).

@@ -1211,6 +1211,10 @@ static int ply_fill(epsnet_reader *r)
         if (r->nverts + r->ntris != pushed)
             return 1;
     }
+    /* note: a face of 0, 1 or 2 corners has no triangle to carry; it is
+     * legal and skipped, but not without a word (SPEC §5) */
+    if (p->short_polygons)
+        en_reader_drop(r, "faces with fewer than 3 corners", p->short_polygons, 1);
     int rc = check_trailing(r, p);
     return rc ? rc : 0;
 }
