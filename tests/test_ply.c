@@ -820,13 +820,14 @@ TEST(strip_turns_are_skipped_and_keep_the_parity)
 }
 
 /* One strip of 200000 indices zigzagging between two rows of 100000
- * vertices: longer than the read window and than one fill()'s batch of
- * triangles, so the list is read in pieces. Triangle i is (i i+1 i+2) in
- * strip order, swapped for odd i. */
+ * vertices: longer than the read window (in ascii, a 1.3 MB line) and than
+ * one fill()'s batch of triangles, so the list is read in pieces. Triangle
+ * i is (i i+1 i+2) in strip order, swapped for odd i. */
 TEST(strip_longer_than_the_read_window_is_read_in_pieces)
 {
     const int row = 100000, n = 2 * row;
-    for (int enc = LE; enc <= BE; enc++) {
+    static const char *names[] = { "long_strip_ascii.ply", "long_strip_le.ply", "long_strip_be.ply" };
+    for (int enc = ASCII; enc <= BE; enc++) {
         bytes b = { 0 };
         char line[256];
         snprintf(line, sizeof line,
@@ -837,15 +838,30 @@ TEST(strip_longer_than_the_read_window_is_read_in_pieces)
         b_str(&b, line);
         for (int i = 0; i < n; i++) {
             float xyz[3] = { (float)(i % row), (float)(i / row), 0 };
+            if (enc == ASCII) {
+                snprintf(line, sizeof line, "%d %d 0\n", i % row, i / row);
+                b_str(&b, line);
+                continue;
+            }
             for (int k = 0; k < 3; k++)
                 b_num(&b, &xyz[k], 4, enc == BE);
         }
-        b_int(&b, "int", 7, enc == BE);
-        b_int(&b, "int", n, enc == BE);
-        for (int k = 0; k < n; k++)
-            b_int(&b, "int", (k % 2) * row + k / 2, enc == BE);
-        b_int(&b, "uchar", 1, 0);
-        const char *p = write_bytes(enc == LE ? "long_strip_le.ply" : "long_strip_be.ply", &b);
+        if (enc == ASCII) {
+            snprintf(line, sizeof line, "\n  7\t%d", n);
+            b_str(&b, line);
+            for (int k = 0; k < n; k++) {
+                snprintf(line, sizeof line, " %d", (k % 2) * row + k / 2);
+                b_str(&b, line);
+            }
+            b_str(&b, " 1\r\n\n");
+        } else {
+            b_int(&b, "int", 7, enc == BE);
+            b_int(&b, "int", n, enc == BE);
+            for (int k = 0; k < n; k++)
+                b_int(&b, "int", (k % 2) * row + k / 2, enc == BE);
+            b_int(&b, "uchar", 1, 0);
+        }
+        const char *p = write_bytes(names[enc], &b);
         tl_mesh m;
         epsnet_error err;
         int rc = tl_read_mesh(p, &m, &err);
@@ -881,6 +897,14 @@ TEST(bad_strip_indices_are_rejected_with_their_position)
                      "tristrips 1: negative vertex index -2");
     expect_error_str("strip_short.ply", HDR_STRIPS "4 0 1 2\n", EPSNET_EFORMAT, ":13:",
                      "missing value for 'vertex_indices'");
+    expect_error_str("strip_extra.ply", HDR_STRIPS "\n3 0 1 2 9\n", EPSNET_EFORMAT, ":14:",
+                     "tristrips 1: unexpected extra value '9'");
+    expect_error_str("strip_missing.ply", HDR_STRIPS "\n", EPSNET_EFORMAT, ":13:",
+                     "truncated file: tristrips 1 of 1 is missing");
+    expect_error_str("strip_lie.ply", HDR_STRIPS "3 0 1 2\n3 0 1 2\n", EPSNET_EFORMAT, ":14:",
+                     "trailing data");
+    expect_error("strip_nul.ply", HDR_STRIPS "3 0 1 \0002\n", sizeof HDR_STRIPS + 8, EPSNET_EFORMAT, ":13:",
+                 "NUL byte");
     /* binary big-endian: the error names the byte of the bad index */
     bytes b = make_strip_ply(BE, "int", "int", 0);
     size_t header = (size_t)(strstr((char *)b.d, "end_header\n") - (char *)b.d) + 11;

@@ -202,6 +202,7 @@ typedef struct ply_strip {
     uint64_t n;             /* indices since the last restart */
     int64_t left;           /* items of the current list still to read, -1 outside a list */
     size_t prop;            /* next property of the current record */
+    int in_line;            /* ascii: the record's line has begun */
 } ply_strip;
 
 typedef struct ply_reader ply_reader;
@@ -757,7 +758,6 @@ static int ascii_list(epsnet_reader *r, ply_reader *p, const ply_element *e, uin
         return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": list count %" PRId64 " is out of range "
                               "(0..%" PRId64 ")", e->name, record + 1, count, PLY_MAX_LIST);
     ply_fan fan = { 0, 0, 0 };
-    p->strip.n = 0;
     for (int64_t i = 0; i < count; i++) {
         tok = next_token(cursor);
         if (pr->role != ROLE_INDICES) {
@@ -769,25 +769,151 @@ static int ascii_list(epsnet_reader *r, ply_reader *p, const ply_element *e, uin
         int64_t v;
         if (!tok || parse_int_as(tok, pr->type, &v))
             return ascii_bad_value(r, e, record, pr, tok);
-        int rc;
-        if (e->kind == ELEM_STRIPS) {
-            rc = strip_index(r, p, pr, v, EPSNET_POS_NONE);
-        } else {
-            if (v < 0)
-                return en_reader_fail(r, EPSNET_EFORMAT, "face %" PRIu64 ": negative vertex index %" PRId64,
-                                      record + 1, v);
-            rc = fan_corner(r, &fan, (uint64_t)v);
-        }
+        if (v < 0)
+            return en_reader_fail(r, EPSNET_EFORMAT, "face %" PRIu64 ": negative vertex index %" PRId64,
+                                  record + 1, v);
+        int rc = fan_corner(r, &fan, (uint64_t)v);
         if (rc)
             return rc;
     }
-    if (pr->role == ROLE_INDICES && e->kind == ELEM_FACE && count < 3)
+    if (pr->role == ROLE_INDICES && count < 3)
         p->short_polygons++;
+    return 0;
+}
+
+/*
+ * Strip records in ascii, resumable like binary_strips(): a Stanford file
+ * holds every strip in one record, one line that can be far longer than a
+ * line buffer, so its tokens are read straight from the source window and
+ * the line is never held whole. Lines are counted here as en_source_line()
+ * counts them, so errors name the record's line.
+ */
+static int line_blank(int c)
+{
+    return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v';
+}
+
+/* Next byte of the window without taking it; -1 at the end of input, -2
+ * on a read error (recorded in r). */
+static int peek_byte(epsnet_reader *r)
+{
+    en_source *s = r->src;
+    if (s->cur == s->end && en_source_fill(s, 1) == 0)
+        return s->failed ? (source_failure(r), -2) : -1;
+    return *s->cur;
+}
+
+/* Next token of the current line into buf: 1, 0 at the end of the line
+ * (the newline is not taken), or a negative code. */
+static int stream_token(epsnet_reader *r, const ply_element *e, char *buf, size_t cap)
+{
+    en_source *s = r->src;
+    int c;
+    while ((c = peek_byte(r)) >= 0 && line_blank(c))
+        s->cur++;
+    if (c == -2)
+        return r->err.code;
+    if (c < 0 || c == '\n')
+        return 0;
+    size_t n = 0;
+    while ((c = peek_byte(r)) >= 0 && c != '\n' && !line_blank(c)) {
+        if (c == 0)
+            return en_reader_fail(r, EPSNET_EFORMAT, "NUL byte in a text line");
+        if (n == cap - 1)
+            return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": a value longer than %zu bytes", e->name,
+                                  ((const ply_reader *)r->state)->record + 1, cap - 1);
+        buf[n++] = (char)c;
+        s->cur++;
+    }
+    if (c == -2)
+        return r->err.code;
+    buf[n] = '\0';
+    return 1;
+}
+
+static int ascii_strips(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_t n)
+{
+    en_source *s = r->src;
+    ply_strip *st = &p->strip;
+    const uint64_t start = r->ntris;
+    char tok[128];
+    int rc, c;
+    for (; n; n--, p->record++, st->prop = 0, st->in_line = 0) {
+        if (!st->in_line) {
+            /* blank lines between records are skipped, as ascii_record_line() does */
+            for (;;) {
+                while ((c = peek_byte(r)) >= 0 && line_blank(c))
+                    s->cur++;
+                if (c == -2)
+                    return r->err.code;
+                if (c < 0)
+                    return en_reader_fail(r, EPSNET_EFORMAT, "truncated file: %s %" PRIu64 " of %" PRIu64
+                                          " is missing", e->name, p->record + 1, e->count);
+                s->lineno++;
+                if (c != '\n')
+                    break;
+                s->cur++;
+            }
+            st->in_line = 1;
+        }
+        for (; st->prop < e->nprops; st->prop++) {
+            const ply_property *pr = &e->props[st->prop];
+            if (pr->count_type == PLY_NONE || st->left < 0) {
+                if ((rc = stream_token(r, e, tok, sizeof tok)) < 0)
+                    return rc;
+                const char *t = rc ? tok : NULL;
+                if (pr->count_type == PLY_NONE) {
+                    double ignored;
+                    if (!t || parse_real_as(t, pr->type, &ignored))
+                        return ascii_bad_value(r, e, p->record, pr, t);
+                    continue;
+                }
+                int64_t count;
+                if (!t)
+                    return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": missing list count for '%s'",
+                                          e->name, p->record + 1, pr->name);
+                if (parse_int_as(t, pr->count_type, &count) || count < 0 ||
+                    (pr->role != ROLE_INDICES && count > PLY_MAX_LIST))
+                    return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": '%s' is not a valid %s list count",
+                                          e->name, p->record + 1, t, ply_type_names[pr->count_type].name);
+                st->left = count;
+                st->n = 0;
+            }
+            for (; st->left > 0; st->left--) {
+                if (r->ntris - start >= PLY_STRIP_BATCH)
+                    return 0;
+                if ((rc = stream_token(r, e, tok, sizeof tok)) < 0)
+                    return rc;
+                const char *t = rc ? tok : NULL;
+                if (pr->role != ROLE_INDICES) {
+                    double ignored;
+                    if (!t || parse_real_as(t, pr->type, &ignored))
+                        return ascii_bad_value(r, e, p->record, pr, t);
+                    continue;
+                }
+                int64_t v;
+                if (!t || parse_int_as(t, pr->type, &v))
+                    return ascii_bad_value(r, e, p->record, pr, t);
+                if ((rc = strip_index(r, p, pr, v, EPSNET_POS_NONE)))
+                    return rc;
+            }
+            st->left = -1;
+        }
+        if ((rc = stream_token(r, e, tok, sizeof tok)) < 0)
+            return rc;
+        if (rc)
+            return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": unexpected extra value '%s'",
+                                  e->name, p->record + 1, tok);
+        if (peek_byte(r) == '\n')
+            r->src->cur++;
+    }
     return 0;
 }
 
 static int ascii_records(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_t n)
 {
+    if (e->kind == ELEM_STRIPS)
+        return ascii_strips(r, p, e, n);
     for (uint64_t i = 0; i < n; i++, p->record++) {
         char *line;
         int rc = ascii_record_line(r, e, p->record, &line);
