@@ -650,7 +650,7 @@ static inline int fan_corner(epsnet_reader *r, ply_fan *f, uint64_t v)
 
 /* Triangles a binary strip list may push in one fill(): a long list is
  * read in pieces, so the record queue stays small whatever the strip. */
-#define PLY_STRIP_BATCH 65536
+#define PLY_STRIP_BATCH 8192
 
 static int is_strip_restart(ply_type t, int64_t v)
 {
@@ -1202,12 +1202,15 @@ static int binary_strips(epsnet_reader *r, ply_reader *p, ply_element *e, uint64
                         int rc = strip_index(r, p, pr, get(q + i * isize), at + i * isize);
                         if (rc)
                             return rc;
+                        if (r->ntris - start >= PLY_STRIP_BATCH && i + 1 < (size_t)st->left) {
+                            s->cur += (i + 1) * isize;
+                            st->left -= (int64_t)(i + 1);
+                            return 0;
+                        }
                     }
                 }
                 s->cur += k * isize;
                 st->left -= (int64_t)k;
-                if (st->left > 0 && r->ntris - start >= PLY_STRIP_BATCH)
-                    return 0;
             }
             st->left = -1;
         }
