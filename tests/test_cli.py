@@ -656,6 +656,11 @@ def simplify_of_vertices_without_faces_warns_that_the_output_is_empty():
                                 "the output is empty"], err
     rc, text, _ = run("info", out)
     assert "vertices:    0" in text and "triangles:   0" in text, text
+    # a stream is not sorted first: the same word
+    sma = write("points.sma", "v 0 0 0\nv 1 0 0\n")
+    rc, _, err = run("simplify", sma, "-o", path("points_sma.ply"), "-q")
+    assert rc == 0 and err.splitlines() == [f"warning: {sma}: 2 vertices but no faces: nothing to simplify, "
+                                            "the output is empty"], err
     # an empty file is valid and empty: nothing to warn about
     empty = write("nothing.obj", "# empty\n")
     rc, _, err = run("simplify", empty, "-o", path("nothing_s.ply"), "-q")
