@@ -903,6 +903,9 @@ TEST(bad_strip_indices_are_rejected_with_their_position)
                      "truncated file: tristrips 1 of 1 is missing");
     expect_error_str("strip_lie.ply", HDR_STRIPS "3 0 1 2\n3 0 1 2\n", EPSNET_EFORMAT, ":14:",
                      "trailing data");
+    char longval[512];
+    snprintf(longval, sizeof longval, "%s3 0 1 %0200d\n", HDR_STRIPS, 2);
+    expect_error_str("strip_long_value.ply", longval, EPSNET_EFORMAT, ":13:", "a value longer than 127 bytes");
     expect_error("strip_nul.ply", HDR_STRIPS "3 0 1 \0002\n", sizeof HDR_STRIPS + 8, EPSNET_EFORMAT, ":13:",
                  "NUL byte");
     /* binary big-endian: the error names the byte of the bad index */

@@ -805,7 +805,7 @@ static int peek_byte(epsnet_reader *r)
 
 /* Next token of the current line into buf: 1, 0 at the end of the line
  * (the newline is not taken), or a negative code. */
-static int stream_token(epsnet_reader *r, const ply_element *e, char *buf, size_t cap)
+static int stream_token(epsnet_reader *r, const ply_reader *p, const ply_element *e, char *buf, size_t cap)
 {
     en_source *s = r->src;
     int c;
@@ -821,7 +821,7 @@ static int stream_token(epsnet_reader *r, const ply_element *e, char *buf, size_
             return en_reader_fail(r, EPSNET_EFORMAT, "NUL byte in a text line");
         if (n == cap - 1)
             return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": a value longer than %zu bytes", e->name,
-                                  ((const ply_reader *)r->state)->record + 1, cap - 1);
+                                  p->record + 1, cap - 1);
         buf[n++] = (char)c;
         s->cur++;
     }
@@ -859,7 +859,7 @@ static int ascii_strips(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_
         for (; st->prop < e->nprops; st->prop++) {
             const ply_property *pr = &e->props[st->prop];
             if (pr->count_type == PLY_NONE || st->left < 0) {
-                if ((rc = stream_token(r, e, tok, sizeof tok)) < 0)
+                if ((rc = stream_token(r, p, e, tok, sizeof tok)) < 0)
                     return rc;
                 const char *t = rc ? tok : NULL;
                 if (pr->count_type == PLY_NONE) {
@@ -882,7 +882,7 @@ static int ascii_strips(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_
             for (; st->left > 0; st->left--) {
                 if (r->ntris - start >= PLY_STRIP_BATCH)
                     return 0;
-                if ((rc = stream_token(r, e, tok, sizeof tok)) < 0)
+                if ((rc = stream_token(r, p, e, tok, sizeof tok)) < 0)
                     return rc;
                 const char *t = rc ? tok : NULL;
                 if (pr->role != ROLE_INDICES) {
@@ -899,7 +899,7 @@ static int ascii_strips(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_
             }
             st->left = -1;
         }
-        if ((rc = stream_token(r, e, tok, sizeof tok)) < 0)
+        if ((rc = stream_token(r, p, e, tok, sizeof tok)) < 0)
             return rc;
         if (rc)
             return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": unexpected extra value '%s'",
