@@ -611,6 +611,116 @@ def deeply_nonmanifold_and_huge_fans_are_handled():
     assert st["boundary_vertices"] == m and st["collapses"] == 1 and st["output_faces"] == m - 2, st
 
 
+@case
+def what_an_input_holds_beyond_the_mesh_is_named_in_one_warning_line():
+    """SPEC §5: every element, property or statement the output does not carry
+    is named in one warning line per run, and counted in the stats."""
+    import json
+    ply = write("extras.ply",
+                "ply\nformat ascii 1.0\nelement camera 1\nproperty float view_px\n"
+                "element vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+                "property float confidence\nproperty short intensity\n"
+                "element face 2\nproperty list uchar int vertex_indices\nend_header\n"
+                "0.5\n0 0 0 1 7\n1 0 0 1 7\n0 1 0 1 7\n1 1 1 1 7\n3 0 1 2\n3 1 3 2\n")
+    want = f"warning: {ply}: dropped: element camera (1), vertex property confidence, vertex property intensity"
+    for cmd, extra in (("simplify", ["--stats", path("extras.json")]), ("sort", []), ("convert", [])):
+        out = path(f"extras_{cmd}.ply" if cmd != "sort" else "extras_sort.smz")
+        rc, _, err = run(cmd, ply, "-o", out, "-q", *extra)
+        assert rc == 0, (cmd, err)
+        assert err.splitlines() == [want], (cmd, err)
+    st = json.load(open(path("extras.json")))
+    assert st["dropped"] == 3 and st["faces"] == 2, st
+    rc, text, err = run("info", ply)
+    assert rc == 0 and "not read:    element camera (1), vertex property confidence" in text, text
+    obj = write("extras.obj", "mtllib m.mtl\ng a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\n"
+                              "usemtl red\nf 1/1 2/1 3/1\ng b\n")
+    rc, _, err = run("simplify", obj, "-o", path("extras_obj.ply"), "-q", "--stats", path("extras_obj.json"))
+    assert rc == 0, err
+    assert err.splitlines() == [f"warning: {obj}: dropped: mtllib (1), g (2), vt (1), usemtl (1)"], err
+    assert json.load(open(path("extras_obj.json")))["dropped"] == 4
+    # a mesh that carries nothing more says nothing
+    plain = write("plain.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    rc, _, err = run("simplify", plain, "-o", path("plain_s.ply"), "-q", "--stats", path("plain.json"))
+    assert rc == 0 and err == "", err
+    assert json.load(open(path("plain.json")))["dropped"] == 0
+
+
+@case
+def simplify_of_vertices_without_faces_warns_that_the_output_is_empty():
+    src = write("points.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                              "property float y\nproperty float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n")
+    out = path("points_s.ply")
+    rc, _, err = run("simplify", src, "-o", out, "-q")
+    assert rc == 0, err
+    assert err.splitlines() == [f"warning: {src}: 3 vertices but no faces: nothing to simplify, "
+                                "the output is empty"], err
+    rc, text, _ = run("info", out)
+    assert "vertices:    0" in text and "triangles:   0" in text, text
+    # a stream is not sorted first: the same word
+    sma = write("points.sma", "v 0 0 0\nv 1 0 0\n")
+    rc, _, err = run("simplify", sma, "-o", path("points_sma.ply"), "-q")
+    assert rc == 0 and err.splitlines() == [f"warning: {sma}: 2 vertices but no faces: nothing to simplify, "
+                                            "the output is empty"], err
+    # an empty file is valid and empty: nothing to warn about
+    empty = write("nothing.obj", "# empty\n")
+    rc, _, err = run("simplify", empty, "-o", path("nothing_s.ply"), "-q")
+    assert rc == 0 and err == "", err
+
+
+@case
+def tristrips_simplify_like_their_triangle_list():
+    """A PLY whose faces are `tristrips` (here pairs of triangles sharing an
+    edge, as strips of four, and single triangles; -1 between strips) gives
+    the same output as its twin with `element face` listing the strips'
+    triangles: (a b c) and, odd, (c b d) for the strip a b c d."""
+    ply = path("strip_src.ply")
+    assert run("gen", "sphere", "--faces", "2000", "-o", ply, "-q")[0] == 0
+    asc = path("strip_src_ascii.ply")
+    assert run("convert", ply, "-o", asc, "--ascii", "-q")[0] == 0
+    lines = open(asc).read().splitlines()
+    end = lines.index("end_header")
+    nv = int(next(l for l in lines if l.startswith("element vertex")).split()[2])
+    verts = lines[end + 1:end + 1 + nv]
+    faces = [list(map(int, l.split()[1:])) for l in lines[end + 1 + nv:] if l.strip()]
+    strips, tris = [], []
+    i = 0
+    while i < len(faces):
+        a, b, c = faces[i]
+        if i + 1 < len(faces):
+            nxt = faces[i + 1]
+            # the next face shares edge (c, b) as (b', a') with a new corner d:
+            # the strip a b c d gives (a b c), then (c b d) for odd i
+            for r in range(3):
+                x, y, z = nxt[r:] + nxt[:r]
+                if (x, y) == (c, b):
+                    strips += [a, b, c, z, -1]
+                    tris += [(a, b, c), (c, b, z)]
+                    i += 2
+                    break
+            else:
+                strips += [a, b, c, -1]
+                tris.append((a, b, c))
+                i += 1
+        else:
+            strips += [a, b, c, -1]
+            tris.append((a, b, c))
+            i += 1
+    header = ["ply", "format ascii 1.0", f"element vertex {nv}", "property float x", "property float y",
+              "property float z", "element tristrips 1", "property list int int vertex_indices", "end_header"]
+    src = write("strips.ply", "\n".join(header + verts + [" ".join(map(str, [len(strips)] + strips))]) + "\n")
+    header[6:8] = [f"element face {len(tris)}", "property list uchar int vertex_indices"]
+    twin = write("strips_twin.ply", "\n".join(header + verts + [f"3 {a} {b} {c}" for a, b, c in tris]) + "\n")
+    rc, text, err = run("info", src)
+    assert rc == 0 and f"triangles:   {len(faces)}" in text, (text, err)
+    a, b = path("strips_s.ply"), path("faces_s.ply")
+    rc, _, err = run("simplify", src, "-o", a, "-q")
+    assert rc == 0 and err == "", err
+    rc, _, err = run("simplify", twin, "-o", b, "-q")
+    assert rc == 0 and err == "", err
+    assert open(a, "rb").read() == open(b, "rb").read(), "strips and faces simplify differently"
+    assert strips.count(-1) < len(faces), "no strip of two triangles: the test tests nothing"
+
+
 subprocess.run(["rm", "-rf", TMP])
 print(f"{failures} failed")
 sys.exit(1 if failures else 0)

@@ -167,6 +167,46 @@ TEST(other_statements_and_vertex_extras_are_skipped)
     check_tri(&m.rec[3], 0, 1, 2);
 }
 
+/* SPEC §5: every statement kind the records do not carry is named once,
+ * in the order first met, with how many there were; comments and blank
+ * lines are not statements. The text is complete at the end of the mesh. */
+TEST(skipped_statements_are_named_with_their_counts)
+{
+    const char *path = tl_write_str("dropped.obj",
+                                    "# comment\nmtllib scene.mtl\no thing\nusemtl red\nv 0 0 0 1.0\n"
+                                    "v 1 0 0 0.5 0.25 0.125\nv 0 1 0 1 1 1\nvt 0 0\nvt 1 0\nvn 0 0 1\n"
+                                    "f 1/1/1 2/2/1 3/1/1\nusemtl blue\n\n\001bad 1\n");
+    epsnet_reader *r = NULL;
+    epsnet_error err;
+    CHECK_EQ_INT(epsnet_reader_open(&r, path, NULL, &err), 0);
+    if (!r)
+        return;
+    uint64_t n = 99;
+    epsnet_record rec;
+    int rc;
+    while ((rc = epsnet_reader_next(r, &rec, &err)) > 0)
+        ;
+    CHECK_EQ_INT(rc, 0);
+    const char *what = epsnet_reader_dropped(r, &n);
+    CHECK(what && strcmp(what, "mtllib (1), o (1), usemtl (2), vertex w (1), vertex colour (2), vt (2), "
+                               "vn (1), ?bad (1)") == 0);
+    if (what && strcmp(what, "mtllib (1), o (1), usemtl (2), vertex w (1), vertex colour (2), vt (2), "
+                             "vn (1), ?bad (1)") != 0)
+        fprintf(stderr, "  got: %s\n", what);
+    CHECK_EQ_U64(n, 8);
+    epsnet_reader_close(&r);
+
+    path = tl_write_str("plain.obj", "# only geometry\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    CHECK_EQ_INT(epsnet_reader_open(&r, path, NULL, &err), 0);
+    if (!r)
+        return;
+    while ((rc = epsnet_reader_next(r, &rec, &err)) > 0)
+        ;
+    CHECK(epsnet_reader_dropped(r, &n) == NULL);
+    CHECK_EQ_U64(n, 0);
+    epsnet_reader_close(&r);
+}
+
 TEST(backslash_continues_a_statement_and_lines_stay_counted)
 {
     const char *path = tl_write_str("cont.obj",
@@ -469,6 +509,7 @@ int main(void)
     RUN(pentagon_fans_into_three_triangles);
     RUN(faces_may_interleave_with_vertices);
     RUN(other_statements_and_vertex_extras_are_skipped);
+    RUN(skipped_statements_are_named_with_their_counts);
     RUN(backslash_continues_a_statement_and_lines_stay_counted);
     RUN(last_line_without_newline_is_read);
     RUN(empty_file_is_an_empty_mesh);

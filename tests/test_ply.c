@@ -279,6 +279,57 @@ TEST(extra_properties_and_elements_are_skipped)
     }
 }
 
+/* What the reader tells about a file: its dropped text and count, known
+ * from the header (SPEC §5). */
+static const char *dropped_of(const char *path, uint64_t *n, char *buf, size_t cap)
+{
+    epsnet_reader *r = NULL;
+    epsnet_error err;
+    *n = 99;
+    if (epsnet_reader_open(&r, path, NULL, &err))
+        return "(open failed)";
+    const char *what = epsnet_reader_dropped(r, n);
+    snprintf(buf, cap, "%s", what ? what : "(null)");
+    epsnet_reader_close(&r);
+    return buf;
+}
+
+TEST(unused_elements_and_properties_are_named_as_dropped)
+{
+    static const char *want =
+        "element camera (1), vertex property confidence, vertex property red, vertex property green, "
+        "vertex property blue, vertex property nx, vertex property ny, vertex property nz, "
+        "vertex property intensity, element edge (2), face property flags, face property texcoord, "
+        "element material (1)";
+    for (int enc = ASCII; enc <= BE; enc++) {
+        layout l = { 1, "uchar", "int" };
+        bytes b = make_ply(enc, &l);
+        const char *p = write_bytes("dropped.ply", &b);
+        char buf[1024];
+        uint64_t n;
+        const char *what = dropped_of(p, &n, buf, sizeof buf);
+        CHECK(strcmp(what, want) == 0);
+        CHECK_EQ_U64(n, 13);
+        if (strcmp(what, want) != 0)
+            fprintf(stderr, "  got: %s\n", what);
+        l.with_extras = 0;
+        b = make_ply(enc, &l);
+        p = write_bytes("nothing_dropped.ply", &b);
+        CHECK(strcmp(dropped_of(p, &n, buf, sizeof buf), "(null)") == 0);
+        CHECK_EQ_U64(n, 0);
+    }
+    /* an element without records holds nothing to drop */
+    const char *p = tl_write_str("empty_extra.ply",
+                                 "ply\nformat ascii 1.0\nelement camera 0\nproperty float view_px\n"
+                                 "element vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+                                 "element tristrips 1\nproperty int tag\nproperty list int int vertex_indices\n"
+                                 "end_header\n0 0 0\n5 1 0\n");
+    char buf[256];
+    uint64_t n;
+    CHECK(strcmp(dropped_of(p, &n, buf, sizeof buf), "tristrips property tag") == 0);
+    CHECK_EQ_U64(n, 1);
+}
+
 TEST(every_list_type_pair_reads_the_same_faces)
 {
     static const char *pairs[][2] = {
@@ -346,6 +397,17 @@ TEST(short_polygons_are_skipped_and_pentagons_fanned)
     if (m.nt == 3)
         CHECK(memcmp(m.tri, want, sizeof want) == 0);
     tl_mesh_free(&m);
+    /* skipped, but named (SPEC §5) */
+    epsnet_reader *r = NULL;
+    CHECK_EQ_INT(epsnet_reader_open(&r, p, NULL, &err), 0);
+    epsnet_record rec;
+    while (r && epsnet_reader_next(r, &rec, &err) > 0)
+        ;
+    uint64_t n = 0;
+    const char *what = r ? epsnet_reader_dropped(r, &n) : NULL;
+    CHECK(what && strcmp(what, "faces with fewer than 3 corners (3)") == 0);
+    CHECK_EQ_U64(n, 1);
+    epsnet_reader_close(&r);
 }
 
 /* A polygon of 300000 corners (1.2 MB of indices, more than the reader's
@@ -638,6 +700,227 @@ static int write_stream(const char *path, const epsnet_writer_settings *ws, cons
     return rc;
 }
 
+/* ---- triangle strips (element tristrips) ---- */
+
+/*
+ *   1 --- 3 --- 5 --- 7
+ *   | \   | \   | \   |
+ *   |   \ |   \ |   \ |
+ *   0 --- 2 --- 4 --- 6
+ *
+ * Record 1 holds the strip 0 1 2 3 4 5, a -1, then the strip 4 5 6 7 (with
+ * no -1 after it); record 2 the strip 6 7 4 (one triangle). Triangle i of a
+ * strip is (v[i] v[i+1] v[i+2]) for even i and (v[i+1] v[i] v[i+2]) for odd
+ * i, counted from the strip's start, so all face -z like (0 1 2):
+ */
+#define STRIP_NV 8
+static const int64_t strip_rec1[] = { 0, 1, 2, 3, 4, 5, -1, 4, 5, 6, 7 };
+static const int64_t strip_rec2[] = { 6, 7, 4, -1 };
+#define STRIP_NT 7
+static const uint64_t strip_tri[STRIP_NT][3] = {
+    { 0, 1, 2 }, { 2, 1, 3 }, { 2, 3, 4 }, { 4, 3, 5 }, { 4, 5, 6 }, { 6, 5, 7 }, { 6, 7, 4 },
+};
+
+/* The strip mesh as PLY: strips when face is 0, else its triangle list. */
+static bytes make_strip_ply(int enc, const char *count_type, const char *index_type, int face)
+{
+    bytes b = { 0 };
+    char line[256];
+    snprintf(line, sizeof line,
+             "ply\nformat %s 1.0\nelement vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
+             "element %s %d\nproperty list %s %s vertex_indices\nend_header\n",
+             enc_name[enc], STRIP_NV, face ? "face" : "tristrips", face ? STRIP_NT : 2, count_type, index_type);
+    b_str(&b, line);
+    for (int i = 0; i < STRIP_NV; i++) {
+        float xyz[3] = { (float)(i / 2) + 0.1f, (float)(i % 2), 0.5f };
+        if (enc == ASCII) {
+            snprintf(line, sizeof line, "%.9g %.9g %.9g\n", (double)xyz[0], (double)xyz[1], (double)xyz[2]);
+            b_str(&b, line);
+        } else {
+            for (int k = 0; k < 3; k++)
+                b_num(&b, &xyz[k], 4, enc == BE);
+        }
+    }
+    const int64_t *rec[2] = { strip_rec1, strip_rec2 };
+    const size_t len[2] = { sizeof strip_rec1 / sizeof *strip_rec1, sizeof strip_rec2 / sizeof *strip_rec2 };
+    for (int f = 0; f < (face ? STRIP_NT : 2); f++) {
+        size_t n = face ? 3 : len[f];
+        int64_t v[16];
+        for (size_t k = 0; k < n; k++)
+            v[k] = face ? (int64_t)strip_tri[f][k] : rec[f][k];
+        if (enc == ASCII) {
+            int at = snprintf(line, sizeof line, "%zu", n);
+            for (size_t k = 0; k < n; k++)
+                at += snprintf(line + at, sizeof line - (size_t)at, " %lld",
+                               v[k] < 0 && index_type[0] == 'u' ? 4294967295LL : (long long)v[k]);
+            snprintf(line + at, sizeof line - (size_t)at, "\n");
+            b_str(&b, line);
+            continue;
+        }
+        b_int(&b, count_type, (int64_t)n, enc == BE);
+        for (size_t k = 0; k < n; k++)
+            b_int(&b, index_type, v[k], enc == BE);
+    }
+    return b;
+}
+
+TEST(tristrips_give_the_triangles_of_their_triangle_list_twin)
+{
+    static const char *types[][2] = { { "int", "int" }, { "uchar", "int" }, { "uint", "int" }, { "uchar", "uint" } };
+    for (size_t t = 0; t < sizeof types / sizeof types[0]; t++)
+        for (int enc = ASCII; enc <= BE; enc++) {
+            char name[64];
+            snprintf(name, sizeof name, "strips_%zu_%d.ply", t, enc);
+            bytes b = make_strip_ply(enc, types[t][0], types[t][1], 0);
+            const char *strips = write_bytes(name, &b);
+            snprintf(name, sizeof name, "twin_%zu_%d.ply", t, enc);
+            b = make_strip_ply(enc, types[t][0], types[t][1], 1);
+            const char *twin = write_bytes(name, &b);
+            tl_mesh m, w;
+            epsnet_error err;
+            int rc = tl_read_mesh(strips, &m, &err);
+            CHECK_EQ_INT(rc, 0);
+            if (rc)
+                fprintf(stderr, "  %s\n", epsnet_error_message(&err));
+            CHECK_EQ_INT(tl_read_mesh(twin, &w, &err), 0);
+            CHECK_EQ_U64(m.nv, STRIP_NV);
+            CHECK_EQ_U64(m.nt, STRIP_NT);
+            CHECK_EQ_U64(w.nt, STRIP_NT);
+            CHECK_EQ_U64(m.info.nfaces, EPSNET_COUNT_UNKNOWN);
+            if (m.nt == STRIP_NT && w.nt == STRIP_NT) {
+                CHECK(memcmp(m.tri, strip_tri, sizeof strip_tri) == 0);
+                CHECK(memcmp(m.tri, w.tri, sizeof strip_tri) == 0);
+            }
+            if (m.nv == STRIP_NV && w.nv == STRIP_NV)
+                CHECK(memcmp(m.xyz, w.xyz, 3 * STRIP_NV * sizeof *m.xyz) == 0);
+            tl_mesh_free(&m);
+            tl_mesh_free(&w);
+        }
+}
+
+/*   The strip 0 1 2 2 3 4 turns with a repeated index: its triangles are
+ *   (0 1 2), [2 1 2], [2 2 3], (3 2 4) at i = 0..3. The two that repeat an
+ *   index encode no surface and are skipped, but odd i = 3 still swaps. A
+ *   strip shorter than 3 and empty strips (-1 -1) give nothing. */
+TEST(strip_turns_are_skipped_and_keep_the_parity)
+{
+    const char *p = tl_write_str("turns.ply",
+                                 "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+                                 "property float z\nelement tristrips 1\nproperty list int int vertex_indices\n"
+                                 "end_header\n0 0 0\n1 0 0\n1 1 0\n0.5 2 0\n0 1 0\n"
+                                 "12 0 1 2 2 3 4 -1 -1 0 1 -1 -1\n");
+    tl_mesh m;
+    epsnet_error err;
+    CHECK_EQ_INT(tl_read_mesh(p, &m, &err), 0);
+    CHECK_EQ_U64(m.nt, 2);
+    const uint64_t want[6] = { 0, 1, 2, 3, 2, 4 };
+    if (m.nt == 2)
+        CHECK(memcmp(m.tri, want, sizeof want) == 0);
+    tl_mesh_free(&m);
+}
+
+/* One strip of 200000 indices zigzagging between two rows of 100000
+ * vertices: longer than the read window (in ascii, a 1.3 MB line) and than
+ * one fill()'s batch of triangles, so the list is read in pieces. Triangle
+ * i is (i i+1 i+2) in strip order, swapped for odd i. */
+TEST(strip_longer_than_the_read_window_is_read_in_pieces)
+{
+    const int row = 100000, n = 2 * row;
+    static const char *names[] = { "long_strip_ascii.ply", "long_strip_le.ply", "long_strip_be.ply" };
+    for (int enc = ASCII; enc <= BE; enc++) {
+        bytes b = { 0 };
+        char line[256];
+        snprintf(line, sizeof line,
+                 "ply\nformat %s 1.0\nelement vertex %d\nproperty float x\nproperty float y\n"
+                 "property float z\nelement tristrips 1\nproperty int tag\nproperty list int int vertex_indices\n"
+                 "property uchar after\nend_header\n",
+                 enc_name[enc], n);
+        b_str(&b, line);
+        for (int i = 0; i < n; i++) {
+            float xyz[3] = { (float)(i % row), (float)(i / row), 0 };
+            if (enc == ASCII) {
+                snprintf(line, sizeof line, "%d %d 0\n", i % row, i / row);
+                b_str(&b, line);
+                continue;
+            }
+            for (int k = 0; k < 3; k++)
+                b_num(&b, &xyz[k], 4, enc == BE);
+        }
+        if (enc == ASCII) {
+            snprintf(line, sizeof line, "\n  7\t%d", n);
+            b_str(&b, line);
+            for (int k = 0; k < n; k++) {
+                snprintf(line, sizeof line, " %d", (k % 2) * row + k / 2);
+                b_str(&b, line);
+            }
+            b_str(&b, " 1\r\n\n");
+        } else {
+            b_int(&b, "int", 7, enc == BE);
+            b_int(&b, "int", n, enc == BE);
+            for (int k = 0; k < n; k++)
+                b_int(&b, "int", (k % 2) * row + k / 2, enc == BE);
+            b_int(&b, "uchar", 1, 0);
+        }
+        const char *p = write_bytes(names[enc], &b);
+        tl_mesh m;
+        epsnet_error err;
+        int rc = tl_read_mesh(p, &m, &err);
+        CHECK_EQ_INT(rc, 0);
+        if (rc)
+            fprintf(stderr, "  %s\n", epsnet_error_message(&err));
+        CHECK_EQ_U64(m.nt, (uint64_t)n - 2);
+        int bad = 0;
+        for (uint64_t t = 0; t < m.nt; t++) {
+            uint64_t v[3] = { t, t + 1, t + 2 };
+            if (t & 1) {
+                v[0] = t + 1;
+                v[1] = t;
+            }
+            for (int k = 0; k < 3; k++)
+                bad += m.tri[3 * t + k] != (v[k] % 2) * (uint64_t)row + v[k] / 2;
+        }
+        CHECK_EQ_INT(bad, 0);
+        tl_mesh_free(&m);
+    }
+}
+
+#define HDR_STRIPS                                                                                 \
+    "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n" \
+    "element tristrips 1\nproperty list int int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n"
+/* HDR_STRIPS is 12 lines: the strip is on line 13. */
+
+TEST(bad_strip_indices_are_rejected_with_their_position)
+{
+    expect_error_str("strip_range.ply", HDR_STRIPS "5 0 1 2 -1 3\n", EPSNET_EFORMAT, ":13:",
+                     "tristrips 1: vertex index 3 is out of range (3 vertices)");
+    expect_error_str("strip_neg.ply", HDR_STRIPS "3 0 -2 1\n", EPSNET_EFORMAT, ":13:",
+                     "tristrips 1: negative vertex index -2");
+    expect_error_str("strip_short.ply", HDR_STRIPS "4 0 1 2\n", EPSNET_EFORMAT, ":13:",
+                     "missing value for 'vertex_indices'");
+    expect_error_str("strip_extra.ply", HDR_STRIPS "\n3 0 1 2 9\n", EPSNET_EFORMAT, ":14:",
+                     "tristrips 1: unexpected extra value '9'");
+    expect_error_str("strip_missing.ply", HDR_STRIPS "\n", EPSNET_EFORMAT, ":13:",
+                     "truncated file: tristrips 1 of 1 is missing");
+    expect_error_str("strip_lie.ply", HDR_STRIPS "3 0 1 2\n3 0 1 2\n", EPSNET_EFORMAT, ":14:",
+                     "trailing data");
+    char longval[512];
+    snprintf(longval, sizeof longval, "%s3 0 1 %0200d\n", HDR_STRIPS, 2);
+    expect_error_str("strip_long_value.ply", longval, EPSNET_EFORMAT, ":13:", "a value longer than 127 bytes");
+    expect_error("strip_nul.ply", HDR_STRIPS "3 0 1 \0002\n", sizeof HDR_STRIPS + 8, EPSNET_EFORMAT, ":13:",
+                 "NUL byte");
+    /* binary big-endian: the error names the byte of the bad index */
+    bytes b = make_strip_ply(BE, "int", "int", 0);
+    size_t header = (size_t)(strstr((char *)b.d, "end_header\n") - (char *)b.d) + 11;
+    size_t fifth = header + 12 * STRIP_NV + 4 + 4 * 4;
+    b.d[fifth + 3] = 9;  /* 4 -> 9 */
+    char where[64];
+    snprintf(where, sizeof where, ": byte %zu:", fifth);
+    expect_error("strip_range_be.ply", b.d, b.n, EPSNET_EFORMAT, where, "vertex index 9 is out of range");
+    b.d[fifth + 3] = 4;
+    expect_error("strip_trunc_be.ply", b.d, b.n - 5, EPSNET_EFORMAT, "byte", "tristrips 2 of 2 is incomplete");
+    free(b.d);
+}
+
 static void check_stream(const char *path, int coord64)
 {
     tl_mesh m;
@@ -828,6 +1111,7 @@ int main(void)
 {
     RUN(ascii_le_and_be_give_the_reference_records);
     RUN(extra_properties_and_elements_are_skipped);
+    RUN(unused_elements_and_properties_are_named_as_dropped);
     RUN(every_list_type_pair_reads_the_same_faces);
     RUN(double_coordinates_set_float64_and_stay_exact);
     RUN(short_polygons_are_skipped_and_pentagons_fanned);
@@ -841,6 +1125,10 @@ int main(void)
     RUN(non_finite_and_garbage_values_are_rejected);
     RUN(absurd_counts_fail_before_reading_data);
     RUN(header_errors_name_their_line);
+    RUN(tristrips_give_the_triangles_of_their_triangle_list_twin);
+    RUN(strip_turns_are_skipped_and_keep_the_parity);
+    RUN(strip_longer_than_the_read_window_is_read_in_pieces);
+    RUN(bad_strip_indices_are_rejected_with_their_position);
     RUN(streaming_input_round_trips_in_every_writer_mode);
     RUN(reference_mesh_round_trips_through_the_writer);
     RUN(binary_output_is_standard_little_endian_ply);

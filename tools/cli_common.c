@@ -132,6 +132,14 @@ int cli_run_progress_cb(void *opaque, uint64_t done, uint64_t total)
     return 0;
 }
 
+void cli_warning(void *opaque, const char *message)
+{
+    const cli_progress *p = opaque;
+    if (p && p->enabled)
+        fprintf(stderr, "\r%*s\r", 100, "");
+    fprintf(stderr, "warning: %s\n", message);
+}
+
 void cli_progress_end(cli_progress *p)
 {
     if (p->enabled)

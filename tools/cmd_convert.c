@@ -1,4 +1,5 @@
 #include <getopt.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "cli.h"
@@ -71,6 +72,15 @@ int cmd_convert(int argc, char **argv)
     if (rc == 0)
         rc = epsnet_writer_commit(&w, &err);
     cli_progress_end(&p);
+    const char *dropped = rc == 0 ? epsnet_reader_dropped(r, NULL) : NULL;
+    if (dropped) {
+        size_t cap = strlen(in) + strlen(dropped) + 16;
+        char *msg = malloc(cap);
+        if (msg)
+            snprintf(msg, cap, "%s: dropped: %s", in, dropped);
+        cli_warning(NULL, msg ? msg : dropped);
+        free(msg);
+    }
     epsnet_writer_abort(&w);
     epsnet_reader_close(&r);
     return rc < 0 ? cli_fail(&err) : EXIT_OK;

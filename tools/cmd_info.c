@@ -119,6 +119,10 @@ done:
     printf("\ntriangles:   %" PRIu64 "\n", nt);
     if (degenerate)
         printf("degenerate:  %" PRIu64 " triangles repeat a corner\n", degenerate);
+    /* SPEC §5: what the records do not carry, which every other command drops */
+    const char *dropped = epsnet_reader_dropped(r, NULL);
+    if (dropped)
+        printf("not read:    %s\n", dropped);
     if (nv)
         printf("bbox:        [%.9g %.9g %.9g] - [%.9g %.9g %.9g]\n", lo[0], lo[1], lo[2], hi_[0], hi_[1],
                hi_[2]);

@@ -80,6 +80,8 @@ int cmd_simplify(int argc, char **argv)
     cli_progress_begin(&prog.bar, "simplify faces");
     m.settings.progress = cli_run_progress_cb;
     m.settings.progress_opaque = &prog;
+    m.settings.warning = cli_warning;
+    m.settings.warning_opaque = &prog.bar;
     rc = epsnet_context_new(&ctx, &m.settings, &err);
     prog.ctx = ctx;
     if (rc == 0)

@@ -90,6 +90,8 @@ int cmd_sort(int argc, char **argv)
     cli_progress_begin(&p, "sort");
     ss.progress = sort_progress;
     ss.progress_opaque = &p;
+    ss.warning = cli_warning;
+    ss.warning_opaque = &p;
     epsnet_error err;
     epsnet_sort_stats st;
     rc = epsnet_sort_file(argv[optind], out, &ss, &st, &err);

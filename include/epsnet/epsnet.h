@@ -210,6 +210,21 @@ EPSNET_API uint64_t epsnet_reader_bytes_read(const epsnet_reader *r);
 /* Total size of the file, or 0 when unknown (pipes). */
 EPSNET_API uint64_t epsnet_reader_file_size(const epsnet_reader *r);
 
+/*
+ * What the file holds that the records do not carry (SPEC §5 "Nothing is
+ * dropped without a word"), as one line of text, e.g.
+ *   "element camera (1), vertex property confidence, vertex property red"
+ * PLY names every element and property it skips (an element with its record
+ * count) and faces of fewer than 3 corners; OBJ every statement kind it
+ * skips, with how many it met ("usemtl (3), vt (120)"). Most of it is known
+ * from the PLY header, the rest as the file is read: the text is complete
+ * once epsnet_reader_next() has returned 0.
+ * @return NULL when nothing is dropped, else the text (owned by the reader,
+ * valid until the next call on r). *count, when count is not NULL, receives
+ * the number of distinct items named (0 with NULL).
+ */
+EPSNET_API const char *epsnet_reader_dropped(epsnet_reader *r, uint64_t *count);
+
 /* Close the reader and set *r to NULL. Accepts NULL and *r == NULL. */
 EPSNET_API void epsnet_reader_close(epsnet_reader **r);
 
@@ -430,7 +445,14 @@ typedef struct epsnet_settings {
      * the output does not either. Smaller slabs use less memory; the
      * samples are the same for every slab size. Default: 0. */
     uint32_t slab_vertices;
-    uint8_t reserved[108];
+    /* Warnings that do not stop a run (SPEC §5): what the input holds that
+     * the output does not carry ("in.ply: dropped: element camera (1)", see
+     * epsnet_reader_dropped()), an input with vertices but no faces. One
+     * line each, without a newline, from the calling thread. NULL: not
+     * reported (epsnet_stats.dropped still counts). Default: NULL. */
+    void (*warning)(void *opaque, const char *message);
+    void *warning_opaque;
+    uint8_t reserved[92];
 } epsnet_settings;
 
 EPSNET_API void epsnet_default_settings(epsnet_settings *s);
@@ -492,7 +514,9 @@ typedef struct epsnet_stats {
      * serial fraction that bounds the speed-up from more threads. */
     double cpu_main;
     double cpu_workers;
-    uint8_t reserved[32];
+    uint64_t dropped;             /* distinct items of the input the output does not carry
+                                   * (epsnet_reader_dropped()) */
+    uint8_t reserved[24];
 } epsnet_stats;
 
 typedef struct epsnet_context epsnet_context;
@@ -787,7 +811,10 @@ typedef struct epsnet_sort_settings {
      * Default: NULL. */
     int (*progress)(void *opaque, uint64_t done, uint64_t total);
     void *progress_opaque;
-    uint8_t reserved[64];
+    /* Warnings, as in epsnet_settings. Default: NULL. */
+    void (*warning)(void *opaque, const char *message);
+    void *warning_opaque;
+    uint8_t reserved[48];
 } epsnet_sort_settings;
 
 EPSNET_API void epsnet_sort_default_settings(epsnet_sort_settings *s);
@@ -803,7 +830,8 @@ typedef struct epsnet_sort_stats {
     uint64_t peak_rss;            /* process high-water mark, 0 if unknown */
     uint64_t max_width;           /* most vertices live at once in the output */
     double seconds;
-    uint8_t reserved[64];
+    uint64_t dropped;             /* distinct items of the input not carried (epsnet_reader_dropped()) */
+    uint8_t reserved[56];
 } epsnet_sort_stats;
 
 /*

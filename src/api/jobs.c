@@ -5,6 +5,7 @@
 #include "common/alloc.h"
 #include "common/error.h"
 #include "common/util.h"
+#include "io/format.h"
 
 void en_classification_free(en_classification *c)
 {
@@ -28,6 +29,8 @@ int en_job_load(epsnet_context *ctx, const char *in_path, en_slab *s, epsnet_coo
         *ct = epsnet_reader_info(r)->coord_type;
         rc = en_slab_read_all(s, r, in_path, err);
     }
+    if (rc == 0)
+        ctx->stats.dropped = en_reader_warn_dropped(r, ctx->settings.warning, ctx->settings.warning_opaque);
     epsnet_reader_close(&r);
     ctx->stats.seconds_read += en_now() - t0;
     ctx->stats.vertices = s->nv;

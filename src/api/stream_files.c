@@ -15,6 +15,7 @@
 #include "common/alloc.h"
 #include "common/error.h"
 #include "common/util.h"
+#include "io/format.h"
 #include "io/samples_ply.h"
 #include "io/sink.h"
 
@@ -42,6 +43,7 @@ static int feed(epsnet_context *ctx, en_run *run, epsnet_reader *r, const char *
     }
     if (rc < 0)
         return rc;
+    ctx->stats.dropped += en_reader_warn_dropped(r, ctx->settings.warning, ctx->settings.warning_opaque);
     return en_run_end(run, err);
 }
 
@@ -64,11 +66,14 @@ static void temp_folder(const epsnet_context *ctx, const char *out_path, char *d
  * no finalization) is first sorted into a temporary .smz (issue 5, SPEC
  * §2), read back and unlinked as soon as it is open; it is registered for
  * removal on SIGINT/SIGTERM meanwhile. Without this the whole mesh would be
- * one slab: correct, but in memory.
+ * one slab: correct, but in memory. *sorted gets the sort's statistics
+ * (axis -1 when the input was a stream and no sort ran).
  */
 static int open_input(epsnet_context *ctx, const char *in_path, const char *out_path, epsnet_reader **r,
-                      double *sort_seconds, epsnet_error *err)
+                      double *sort_seconds, epsnet_sort_stats *sorted, epsnet_error *err)
 {
+    memset(sorted, 0, sizeof *sorted);
+    sorted->axis = -1; /* no sort ran */
     epsnet_reader_settings rs;
     epsnet_reader_default_settings(&rs);
     rs.mem_limit = en_run_mem_budget(&ctx->settings);
@@ -90,8 +95,10 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
         ss.mem = ctx->settings.mem;
     ss.tmpdir = ctx->tmpdir;
     ss.format = "smz";
+    ss.warning = ctx->settings.warning;
+    ss.warning_opaque = ctx->settings.warning_opaque;
     double t0 = en_now();
-    rc = epsnet_sort_file(in_path, tmp, &ss, NULL, err);
+    rc = epsnet_sort_file(in_path, tmp, &ss, sorted, err);
     *sort_seconds = en_now() - t0;
     if (rc && err && strcmp(err->file, tmp) == 0) {
         /* The copy's random name means nothing to the user and is gone by
@@ -117,16 +124,27 @@ int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *n
     memset(&run, 0, sizeof run);
     double sort_seconds = 0;
     en_stage out = { 0 };
-    int rc = open_input(ctx, in_path, near_path, &r, &sort_seconds, err);
+    epsnet_sort_stats sorted;
+    int rc = open_input(ctx, in_path, near_path, &r, &sort_seconds, &sorted, err);
     if (rc == 0)
         rc = open_out(opaque, epsnet_reader_info(r), &out, err);
     if (rc == 0)
         rc = en_run_open(&run, ctx, EN_SLAB_SIMPLIFY, in_path, out, NULL, NULL, err);
+    ctx->stats.dropped = sorted.dropped; /* after en_run_open(), which resets the stats */
     if (rc == 0)
         rc = feed(ctx, &run, r, in_path, err);
     en_run_close(&run);
     epsnet_reader_close(&r);
     ctx->stats.seconds_sort = sort_seconds;
+    /* note: a sorted copy holds only referenced vertices, so a mesh without
+     * faces is told by the sort's count of the input. */
+    uint64_t nv = sorted.axis >= 0 ? sorted.vertices : ctx->stats.vertices;
+    if (rc == 0 && nv > 0 && ctx->stats.faces == 0 && ctx->settings.warning) {
+        char msg[PATH_MAX + 128];
+        snprintf(msg, sizeof msg, "%s: %llu vertices but no faces: nothing to simplify, the output is empty",
+                 in_path, (unsigned long long)nv);
+        ctx->settings.warning(ctx->settings.warning_opaque, msg);
+    }
     ctx->stats.seconds_simplify = en_now() - t0;
     return rc;
 }
@@ -212,11 +230,13 @@ int en_sample_points_streamed(epsnet_context *ctx, const char *in_path, const ch
     sample_list l = { 0 };
     epsnet_coord_type ct = EPSNET_COORD_FLOAT32;
     double sort_seconds = 0;
-    int rc = open_input(ctx, in_path, out_path, &r, &sort_seconds, err);
+    epsnet_sort_stats sorted;
+    int rc = open_input(ctx, in_path, out_path, &r, &sort_seconds, &sorted, err);
     if (rc == 0) {
         ct = epsnet_reader_info(r)->coord_type;
         rc = en_run_open(&run, ctx, EN_SLAB_SAMPLE, in_path, (en_stage){ 0 }, collect, &l, err);
     }
+    ctx->stats.dropped = sorted.dropped;
     if (rc == 0)
         rc = feed(ctx, &run, r, in_path, err);
     en_run_close(&run);

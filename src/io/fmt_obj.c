@@ -6,7 +6,8 @@
  * vertex (-1 = newest). Polygons are fan-triangulated around their first
  * corner. Faces may come between vertices, as OBJ allows. Every other
  * statement (vt, vn, vp, o, g, s, usemtl, mtllib, l, p, unknown ones) is
- * skipped, but the numbers of a `v` or `f` statement must all parse. A
+ * skipped and named by epsnet_reader_dropped(), as are the w and colours of
+ * `v`; the numbers of a `v` or `f` statement must all parse. A
  * trailing backslash continues a statement on the next line.
  *
  * note: OBJ has no header, so info.coord_type is decided by looking ahead at
@@ -107,6 +108,8 @@ static int parse_vertex(epsnet_reader *r, char *p)
     if (n < 3)
         return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu has %d coordinates, expected 3",
                               (unsigned long long)r->nverts + 1, n);
+    if (n > 3)
+        en_reader_drop(r, n == 4 ? "vertex w" : "vertex colour", 1, 1);
     return en_reader_push_vertex(r, val[0], val[1], val[2]);
 }
 
@@ -185,6 +188,21 @@ static int parse_face(epsnet_reader *r, char *p)
     return 0;
 }
 
+/* SPEC §5: a statement kind the records do not carry is named, by its
+ * keyword, with how many there were. Keywords are printed, so bytes that
+ * are not printable ASCII are shown as '?'. */
+static void drop_statement(epsnet_reader *r, const char *p)
+{
+    char kw[33];
+    size_t n = 0;
+    while (n < sizeof kw - 1 && !en_text_ends_token(p[n])) {
+        unsigned char c = (unsigned char)p[n];
+        kw[n++] = c > 0x20 && c < 0x7f ? (char)c : '?';
+    }
+    kw[n] = '\0';
+    en_reader_drop(r, kw, 1, 1);
+}
+
 static int parse_statement(epsnet_reader *r, char *stmt)
 {
     char *p = en_text_skip_blanks(stmt);
@@ -192,6 +210,8 @@ static int parse_statement(epsnet_reader *r, char *stmt)
         return parse_vertex(r, p + 1);
     if (p[0] == 'f' && en_text_ends_token(p[1]))
         return parse_face(r, p + 1);
+    if (p[0] != '\0' && p[0] != '#')
+        drop_statement(r, p);
     return 0;
 }
 

@@ -1,6 +1,8 @@
 /*
  * PLY reader and writer (SPEC §3 "Ordinary formats": ascii, binary little-
- * and big-endian, extra properties skipped, polygons triangulated).
+ * and big-endian, extra properties skipped, polygons triangulated; and PLY
+ * `tristrips`, read as triangles). What is skipped is named through
+ * epsnet_reader_dropped() (SPEC §5).
  *
  * Reading: the header becomes a list of elements with their properties; the
  * body is then walked element by element. The encoding is chosen once, when
@@ -175,7 +177,8 @@ typedef struct ply_property {
     ply_role role;
 } ply_property;
 
-typedef enum ply_kind { ELEM_OTHER, ELEM_VERTEX, ELEM_FACE } ply_kind;
+/* ELEM_STRIPS: the Stanford tools' `tristrips` element (see strip_index()). */
+typedef enum ply_kind { ELEM_OTHER, ELEM_VERTEX, ELEM_FACE, ELEM_STRIPS } ply_kind;
 
 typedef struct ply_element {
     char name[PLY_NAME_MAX];
@@ -188,6 +191,19 @@ typedef struct ply_element {
 } ply_element;
 
 typedef enum ply_encoding { ENC_ASCII, ENC_LE, ENC_BE } ply_encoding;
+
+/* Where a strip list stands: the two indices before the next one, and the
+ * position in the strip since the last restart (its parity gives the
+ * orientation). Binary strip lists can be as long as the mesh (Stanford
+ * files hold every strip in one record), so a list is read in pieces across
+ * fill() calls and this state survives between them. */
+typedef struct ply_strip {
+    uint64_t a, b;
+    uint64_t n;             /* indices since the last restart */
+    int64_t left;           /* items of the current list still to read, -1 outside a list */
+    size_t prop;            /* next property of the current record */
+    int in_line;            /* ascii: the record's line has begun */
+} ply_strip;
 
 typedef struct ply_reader ply_reader;
 
@@ -203,6 +219,8 @@ struct ply_reader {
     size_t elem;                 /* element being read */
     uint64_t record;             /* records of it read so far */
     uint64_t short_polygons;     /* faces with fewer than 3 corners, skipped */
+    ply_strip strip;             /* tristrips only */
+    uint64_t strip_turns;        /* strip triangles that repeat an index, skipped */
 };
 
 /* ------------------------------------------------------------------------
@@ -345,20 +363,23 @@ static int header_element(epsnet_reader *r, ply_reader *p, char *rest)
     uint64_t n;
     if (parse_u64(count, &n))
         return en_reader_fail(r, EPSNET_EFORMAT, "element '%s' has an invalid count '%s'", name, count);
-    int rc = en_reader_check_count(r, n, strcmp(name, "vertex") == 0 ? "vertex count"
-                                         : strcmp(name, "face") == 0 ? "face count" : "element count");
+    ply_kind kind = strcmp(name, "vertex") == 0 ? ELEM_VERTEX
+                    : strcmp(name, "face") == 0 ? ELEM_FACE
+                    : strcmp(name, "tristrips") == 0 ? ELEM_STRIPS : ELEM_OTHER;
+    int rc = en_reader_check_count(r, n, kind == ELEM_VERTEX ? "vertex count"
+                                         : kind == ELEM_FACE ? "face count"
+                                         : kind == ELEM_STRIPS ? "strip count" : "element count");
     if (rc)
         return rc;
-    ply_kind kind = strcmp(name, "vertex") == 0 ? ELEM_VERTEX
-                    : strcmp(name, "face") == 0 ? ELEM_FACE : ELEM_OTHER;
     for (size_t i = 0; i < p->nelems; i++) {
-        if (kind != ELEM_OTHER && p->elems[i].kind == kind)
+        const ply_element *o = &p->elems[i];
+        if (kind != ELEM_OTHER && o->kind == kind)
             return en_reader_fail(r, EPSNET_EFORMAT, "second '%s' element", name);
-        if (kind == ELEM_VERTEX && p->elems[i].kind == ELEM_FACE && p->elems[i].count > 0)
+        if (kind == ELEM_VERTEX && (o->kind == ELEM_FACE || o->kind == ELEM_STRIPS) && o->count > 0)
             return en_reader_fail(r, EPSNET_EFORMAT,
-                                  "element 'face' comes before element 'vertex' (line %" PRIu64
+                                  "element '%s' comes before element 'vertex' (line %" PRIu64
                                   "): faces need their vertices first",
-                                  p->elems[i].header_line);
+                                  o->name, o->header_line);
     }
     if (p->nelems == p->cap &&
         en_grow((void **)&p->elems, &p->cap, p->nelems + 1, sizeof *p->elems))
@@ -384,7 +405,7 @@ static ply_role role_of(const ply_element *e, const char *name, int is_list)
         if (strcmp(name, "z") == 0)
             return ROLE_Z;
     }
-    if (e->kind == ELEM_FACE && is_list &&
+    if ((e->kind == ELEM_FACE || e->kind == ELEM_STRIPS) && is_list &&
         (strcmp(name, "vertex_indices") == 0 || strcmp(name, "vertex_index") == 0))
         return ROLE_INDICES;
     return ROLE_SKIP;
@@ -424,18 +445,19 @@ static int header_property(epsnet_reader *r, ply_reader *p, char *rest)
     if (e->kind == ELEM_VERTEX && prop.count_type != PLY_NONE &&
         (strcmp(name, "x") == 0 || strcmp(name, "y") == 0 || strcmp(name, "z") == 0))
         return en_reader_fail(r, EPSNET_EFORMAT, "vertex coordinate '%s' is declared as a list", name);
-    if (e->kind == ELEM_FACE && prop.count_type == PLY_NONE &&
+    if ((e->kind == ELEM_FACE || e->kind == ELEM_STRIPS) && prop.count_type == PLY_NONE &&
         (strcmp(name, "vertex_indices") == 0 || strcmp(name, "vertex_index") == 0))
-        return en_reader_fail(r, EPSNET_EFORMAT, "face property '%s' is not a list", name);
+        return en_reader_fail(r, EPSNET_EFORMAT, "%s property '%s' is not a list", e->name, name);
     if (prop.role == ROLE_INDICES && !ply_type_is_int(prop.type))
-        return en_reader_fail(r, EPSNET_EUNSUPPORTED, "face indices of type '%s' are not integers",
+        return en_reader_fail(r, EPSNET_EUNSUPPORTED, "%s indices of type '%s' are not integers", e->name,
                               ply_type_names[prop.type].name);
     for (size_t i = 0; i < e->nprops; i++) {
         if (strcmp(e->props[i].name, prop.name) == 0)
             return en_reader_fail(r, EPSNET_EFORMAT, "element '%s' declares property '%s' twice",
                                   e->name, prop.name);
         if (prop.role == ROLE_INDICES && e->props[i].role == ROLE_INDICES)
-            return en_reader_fail(r, EPSNET_EFORMAT, "face element has both vertex_indices and vertex_index");
+            return en_reader_fail(r, EPSNET_EFORMAT, "%s element has both vertex_indices and vertex_index",
+                                  e->name);
     }
     if (e->nprops == PLY_MAX_PROPERTIES)
         return en_reader_fail(r, EPSNET_ELIMIT, "element '%s' has more than %d properties", e->name,
@@ -472,7 +494,7 @@ static int header_format(epsnet_reader *r, ply_reader *p, char *rest, int *seen)
 /* Checks that need the whole header, then what the body walk precomputes. */
 static int header_finish(epsnet_reader *r, ply_reader *p)
 {
-    const ply_element *vertex = NULL, *face = NULL;
+    const ply_element *vertex = NULL, *faces[2] = { NULL, NULL };
     for (size_t i = 0; i < p->nelems; i++) {
         ply_element *e = &p->elems[i];
         e->fixed_size = 0;
@@ -489,7 +511,9 @@ static int header_finish(epsnet_reader *r, ply_reader *p)
         if (e->kind == ELEM_VERTEX)
             vertex = e;
         if (e->kind == ELEM_FACE)
-            face = e;
+            faces[0] = e;
+        if (e->kind == ELEM_STRIPS)
+            faces[1] = e;
     }
     r->info.coord_type = EPSNET_COORD_FLOAT32;
     if (vertex) {
@@ -508,19 +532,48 @@ static int header_finish(epsnet_reader *r, ply_reader *p)
             return en_reader_fail(r, EPSNET_EFORMAT, "element 'vertex' lacks property '%s'",
                                   !have[0] ? "x" : !have[1] ? "y" : "z");
     }
-    if (face) {
+    r->info.nfaces = 0;
+    for (int f = 0; f < 2; f++) {
+        const ply_element *face = faces[f];
+        if (!face)
+            continue;
         int has_indices = 0;
         for (size_t k = 0; k < face->nprops; k++)
             has_indices |= face->props[k].role == ROLE_INDICES;
         if (!has_indices)
-            return en_reader_fail(r, EPSNET_EFORMAT, "element 'face' has no 'vertex_indices' list");
+            return en_reader_fail(r, EPSNET_EFORMAT, "element '%s' has no 'vertex_indices' list", face->name);
         if (!vertex && face->count > 0)
-            return en_reader_fail(r, EPSNET_EFORMAT, "faces but no 'vertex' element");
+            return en_reader_fail(r, EPSNET_EFORMAT, "%s but no 'vertex' element",
+                                  f ? "triangle strips" : "faces");
+        if (face->count > 0)
+            r->info.nfaces = EPSNET_COUNT_UNKNOWN;
     }
     r->info.nverts = vertex ? vertex->count : 0;
-    r->info.nfaces = face && face->count > 0 ? EPSNET_COUNT_UNKNOWN : 0;
     r->info.encoding = p->encoding == ENC_ASCII ? "ascii" : p->encoding == ENC_LE ? "binary_le" : "binary_be";
     return 0;
+}
+
+/* SPEC §5: every element and property the records do not carry is named.
+ * note: per-vertex attributes (colours, normals, ...) are among them until
+ * records carry attributes. Elements without records hold nothing. */
+static void note_dropped(epsnet_reader *r, const ply_reader *p)
+{
+    char name[EN_DROP_NAME];
+    for (size_t i = 0; i < p->nelems; i++) {
+        const ply_element *e = &p->elems[i];
+        if (e->count == 0)
+            continue;
+        if (e->kind == ELEM_OTHER) {
+            snprintf(name, sizeof name, "element %s", e->name);
+            en_reader_drop(r, name, e->count, 1);
+            continue;
+        }
+        for (size_t k = 0; k < e->nprops; k++)
+            if (e->props[k].role == ROLE_SKIP) {
+                snprintf(name, sizeof name, "%s property %s", e->name, e->props[k].name);
+                en_reader_drop(r, name, 0, 0);
+            }
+    }
 }
 
 static int read_header(epsnet_reader *r, ply_reader *p)
@@ -563,7 +616,10 @@ static int read_header(epsnet_reader *r, ply_reader *p)
     }
     if (!seen_format)
         return en_reader_fail(r, EPSNET_EFORMAT, "header has no 'format' line");
-    return header_finish(r, p);
+    int rc = header_finish(r, p);
+    if (rc == 0)
+        note_dropped(r, p);
+    return rc;
 }
 
 /* ------------------------------------------------------------------------
@@ -585,6 +641,71 @@ static inline int fan_corner(epsnet_reader *r, ply_fan *f, uint64_t v)
         rc = en_reader_push_triangle(r, f->first, f->prev, v);
     f->prev = v;
     f->seen++;
+    return rc;
+}
+
+/* ------------------------------------------------------------------------
+ * Triangle strips shared by both encodings
+ * ------------------------------------------------------------------------ */
+
+/* Triangles a binary strip list may push in one fill(): a long list is
+ * read in pieces, so the record queue stays small whatever the strip. */
+#define PLY_STRIP_BATCH 8192
+
+static int is_strip_restart(ply_type t, int64_t v)
+{
+    /* note: -1 ends a strip; a list of an unsigned type can only hold -1 as
+     * its all-ones pattern, which a writer that casts -1 produces. */
+    return v == -1 || (ply_int_min[t] == 0 && v == ply_int_max[t]);
+}
+
+/*
+ * One index of a `tristrips` list, the strips of the Stanford tools: a list
+ * holds strips separated by -1. Counting from a strip's start, triangle i
+ * over its indices v[] is (v[i], v[i+1], v[i+2]) for even i and
+ * (v[i+1], v[i], v[i+2]) for odd i, so every triangle has the orientation
+ * of the first; this is how the Stanford tools unpack strips into faces.
+ * at is the index's byte offset, or EPSNET_POS_NONE in an ascii file.
+ *
+ * note: a strip triangle that repeats an index is how a strip turns or
+ * jumps (a swap) and encodes no surface: it is skipped (strip_turns), but it
+ * still counts for the parity of the triangles after it. A face element's
+ * triangle with a repeated corner is different: the file declares it a face,
+ * so it is passed on like any other (SPEC §5: degenerate faces are legal
+ * input, handled and reported downstream). Triangles with distinct indices
+ * are passed on whatever their area, like faces.
+ */
+static int strip_index(epsnet_reader *r, ply_reader *p, const ply_property *pr, int64_t v, uint64_t at)
+{
+    ply_strip *st = &p->strip;
+    if (is_strip_restart(pr->type, v)) {
+        st->n = 0;
+        return 0;
+    }
+    if (v < 0 || (uint64_t)v >= r->nverts) {
+        static const char neg[] = "tristrips %" PRIu64 ": negative vertex index %" PRId64
+                                  " (only -1, which ends a strip, is allowed)";
+        static const char big[] = "tristrips %" PRIu64 ": vertex index %" PRId64
+                                  " is out of range (%" PRIu64 " vertices)";
+        if (at == EPSNET_POS_NONE)
+            return v < 0 ? en_reader_fail(r, EPSNET_EFORMAT, neg, p->record + 1, v)
+                         : en_reader_fail(r, EPSNET_EFORMAT, big, p->record + 1, v, r->nverts);
+        return v < 0 ? en_reader_fail_at(r, EPSNET_EFORMAT, at, neg, p->record + 1, v)
+                     : en_reader_fail_at(r, EPSNET_EFORMAT, at, big, p->record + 1, v, r->nverts);
+    }
+    const uint64_t a = st->a, b = st->b, c = (uint64_t)v;
+    int rc = 0;
+    if (st->n >= 2) {
+        if (a == b || b == c || a == c)
+            p->strip_turns++;
+        else if (st->n & 1)
+            rc = en_reader_push_triangle(r, b, a, c);
+        else
+            rc = en_reader_push_triangle(r, a, b, c);
+    }
+    st->a = b;
+    st->b = c;
+    st->n++;
     return rc;
 }
 
@@ -660,8 +781,139 @@ static int ascii_list(epsnet_reader *r, ply_reader *p, const ply_element *e, uin
     return 0;
 }
 
+/*
+ * Strip records in ascii, resumable like binary_strips(): a Stanford file
+ * holds every strip in one record, one line that can be far longer than a
+ * line buffer, so its tokens are read straight from the source window and
+ * the line is never held whole. Lines are counted here as en_source_line()
+ * counts them, so errors name the record's line.
+ */
+static int line_blank(int c)
+{
+    return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v';
+}
+
+/* Next byte of the window without taking it; -1 at the end of input, -2
+ * on a read error (recorded in r). */
+static int peek_byte(epsnet_reader *r)
+{
+    en_source *s = r->src;
+    if (s->cur == s->end && en_source_fill(s, 1) == 0)
+        return s->failed ? (source_failure(r), -2) : -1;
+    return *s->cur;
+}
+
+/* Next token of the current line into buf: 1, 0 at the end of the line
+ * (the newline is not taken), or a negative code. */
+static int stream_token(epsnet_reader *r, const ply_reader *p, const ply_element *e, char *buf, size_t cap)
+{
+    en_source *s = r->src;
+    int c;
+    while ((c = peek_byte(r)) >= 0 && line_blank(c))
+        s->cur++;
+    if (c == -2)
+        return r->err.code;
+    if (c < 0 || c == '\n')
+        return 0;
+    size_t n = 0;
+    while ((c = peek_byte(r)) >= 0 && c != '\n' && !line_blank(c)) {
+        if (c == 0)
+            return en_reader_fail(r, EPSNET_EFORMAT, "NUL byte in a text line");
+        if (n == cap - 1)
+            return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": a value longer than %zu bytes", e->name,
+                                  p->record + 1, cap - 1);
+        buf[n++] = (char)c;
+        s->cur++;
+    }
+    if (c == -2)
+        return r->err.code;
+    buf[n] = '\0';
+    return 1;
+}
+
+static int ascii_strips(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_t n)
+{
+    en_source *s = r->src;
+    ply_strip *st = &p->strip;
+    const uint64_t start = r->ntris;
+    char tok[128];
+    int rc, c;
+    for (; n; n--, p->record++, st->prop = 0, st->in_line = 0) {
+        if (!st->in_line) {
+            /* blank lines between records are skipped, as ascii_record_line() does */
+            for (;;) {
+                while ((c = peek_byte(r)) >= 0 && line_blank(c))
+                    s->cur++;
+                if (c == -2)
+                    return r->err.code;
+                if (c < 0)
+                    return en_reader_fail(r, EPSNET_EFORMAT, "truncated file: %s %" PRIu64 " of %" PRIu64
+                                          " is missing", e->name, p->record + 1, e->count);
+                s->lineno++;
+                if (c != '\n')
+                    break;
+                s->cur++;
+            }
+            st->in_line = 1;
+        }
+        for (; st->prop < e->nprops; st->prop++) {
+            const ply_property *pr = &e->props[st->prop];
+            if (pr->count_type == PLY_NONE || st->left < 0) {
+                if ((rc = stream_token(r, p, e, tok, sizeof tok)) < 0)
+                    return rc;
+                const char *t = rc ? tok : NULL;
+                if (pr->count_type == PLY_NONE) {
+                    double ignored;
+                    if (!t || parse_real_as(t, pr->type, &ignored))
+                        return ascii_bad_value(r, e, p->record, pr, t);
+                    continue;
+                }
+                int64_t count;
+                if (!t)
+                    return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": missing list count for '%s'",
+                                          e->name, p->record + 1, pr->name);
+                if (parse_int_as(t, pr->count_type, &count) || count < 0 ||
+                    (pr->role != ROLE_INDICES && count > PLY_MAX_LIST))
+                    return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": '%s' is not a valid %s list count",
+                                          e->name, p->record + 1, t, ply_type_names[pr->count_type].name);
+                st->left = count;
+                st->n = 0;
+            }
+            for (; st->left > 0; st->left--) {
+                if (r->ntris - start >= PLY_STRIP_BATCH)
+                    return 0;
+                if ((rc = stream_token(r, p, e, tok, sizeof tok)) < 0)
+                    return rc;
+                const char *t = rc ? tok : NULL;
+                if (pr->role != ROLE_INDICES) {
+                    double ignored;
+                    if (!t || parse_real_as(t, pr->type, &ignored))
+                        return ascii_bad_value(r, e, p->record, pr, t);
+                    continue;
+                }
+                int64_t v;
+                if (!t || parse_int_as(t, pr->type, &v))
+                    return ascii_bad_value(r, e, p->record, pr, t);
+                if ((rc = strip_index(r, p, pr, v, EPSNET_POS_NONE)))
+                    return rc;
+            }
+            st->left = -1;
+        }
+        if ((rc = stream_token(r, p, e, tok, sizeof tok)) < 0)
+            return rc;
+        if (rc)
+            return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": unexpected extra value '%s'",
+                                  e->name, p->record + 1, tok);
+        if (peek_byte(r) == '\n')
+            r->src->cur++;
+    }
+    return 0;
+}
+
 static int ascii_records(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_t n)
 {
+    if (e->kind == ELEM_STRIPS)
+        return ascii_strips(r, p, e, n);
     for (uint64_t i = 0; i < n; i++, p->record++) {
         char *line;
         int rc = ascii_record_line(r, e, p->record, &line);
@@ -902,6 +1154,70 @@ static int binary_simple_faces(epsnet_reader *r, ply_reader *p, ply_element *e, 
     return 0;
 }
 
+/*
+ * Strip records, resumable: a list is read in window-sized pieces and the
+ * walk returns once PLY_STRIP_BATCH triangles are queued, to carry on from
+ * p->strip at the next call. Other properties are skipped.
+ */
+static int binary_strips(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_t n)
+{
+    en_source *s = r->src;
+    ply_strip *st = &p->strip;
+    const uint64_t start = r->ntris;
+    for (; n; n--, p->record++, st->prop = 0) {
+        for (; st->prop < e->nprops; st->prop++) {
+            const ply_property *pr = &e->props[st->prop];
+            const size_t isize = ply_type_size[pr->type];
+            if (pr->count_type == PLY_NONE) {
+                if (!need(s, isize))
+                    return truncated_binary(r, e, p->record);
+                s->cur += isize;
+                continue;
+            }
+            if (st->left < 0) {
+                const size_t csize = ply_type_size[pr->count_type];
+                const uint8_t *q = need(s, csize);
+                if (!q)
+                    return truncated_binary(r, e, p->record);
+                int64_t count = p->codec->get_int[pr->count_type](q);
+                /* note: the index list has no length limit but its type's:
+                 * it streams, and a lying count ends as a truncated file. */
+                if (count < 0 || (pr->role != ROLE_INDICES && count > PLY_MAX_LIST))
+                    return en_reader_fail_at(r, EPSNET_EFORMAT, en_source_offset(s),
+                                             "%s %" PRIu64 ": list count %" PRId64 " is out of range",
+                                             e->name, p->record + 1, count);
+                s->cur += csize;
+                st->left = count;
+                st->n = 0;
+            }
+            int64_t (*get)(const uint8_t *) = p->codec->get_int[pr->type];
+            while (st->left > 0) {
+                size_t k = st->left < (int64_t)(PLY_CHUNK / isize) ? (size_t)st->left : PLY_CHUNK / isize;
+                const uint8_t *q = need(s, k * isize);
+                if (!q)
+                    return truncated_binary(r, e, p->record);
+                if (pr->role == ROLE_INDICES) {
+                    const uint64_t at = en_source_offset(s);
+                    for (size_t i = 0; i < k; i++) {
+                        int rc = strip_index(r, p, pr, get(q + i * isize), at + i * isize);
+                        if (rc)
+                            return rc;
+                        if (r->ntris - start >= PLY_STRIP_BATCH && i + 1 < (size_t)st->left) {
+                            s->cur += (i + 1) * isize;
+                            st->left -= (int64_t)(i + 1);
+                            return 0;
+                        }
+                    }
+                }
+                s->cur += k * isize;
+                st->left -= (int64_t)k;
+            }
+            st->left = -1;
+        }
+    }
+    return 0;
+}
+
 static int has_one_list(const ply_element *e)
 {
     size_t lists = 0;
@@ -916,6 +1232,8 @@ static int binary_records(epsnet_reader *r, ply_reader *p, ply_element *e, uint6
         return binary_fixed_vertices(r, p, e, n);
     if (e->fixed_size && e->kind == ELEM_OTHER)
         return binary_skip_fixed(r, p, e, n);
+    if (e->kind == ELEM_STRIPS)
+        return binary_strips(r, p, e, n);
     if (e->kind == ELEM_FACE && has_one_list(e))
         return binary_simple_faces(r, p, e, n);
     for (uint64_t i = 0; i < n; i++) {
@@ -990,6 +1308,7 @@ static int ply_open_reader(epsnet_reader *r)
         return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
     r->state = p;
     r->text = 1;
+    p->strip.left = -1;
     int rc = read_header(r, p);
     if (rc)
         return rc;
@@ -1021,6 +1340,10 @@ static int ply_fill(epsnet_reader *r)
         if (r->nverts + r->ntris != pushed)
             return 1;
     }
+    /* note: a face of 0, 1 or 2 corners has no triangle to carry; it is
+     * legal and skipped, but not without a word (SPEC §5) */
+    if (p->short_polygons)
+        en_reader_drop(r, "faces with fewer than 3 corners", p->short_polygons, 1);
     int rc = check_trailing(r, p);
     return rc ? rc : 0;
 }

@@ -26,6 +26,16 @@
 
 typedef struct en_format en_format;
 
+/* Distinct dropped items a reader names; beyond them it only counts. */
+#define EN_DROP_MAX 64
+#define EN_DROP_NAME 144
+
+typedef struct en_dropped {
+    char name[EN_DROP_NAME];         /* "element camera", "vertex property red", "usemtl" */
+    uint64_t count;                  /* records or statements, shown when counted */
+    int counted;
+} en_dropped;
+
 struct epsnet_reader {
     en_source *src;
     const en_format *fmt;
@@ -47,6 +57,12 @@ struct epsnet_reader {
     int done;
     int failed;
     epsnet_error err;
+
+    /* What the records do not carry (SPEC §5), for epsnet_reader_dropped(). */
+    en_dropped drop[EN_DROP_MAX];
+    size_t ndrop;
+    uint64_t drop_more;              /* distinct items beyond EN_DROP_MAX */
+    char *drop_text;
 };
 
 struct epsnet_writer {
@@ -104,6 +120,20 @@ int en_reader_push_triangle(epsnet_reader *r, uint64_t a, uint64_t b, uint64_t c
 int en_reader_push_finalize(epsnet_reader *r, uint64_t v);
 /* Check a header count against settings.max_count; what = "vertex count". */
 int en_reader_check_count(epsnet_reader *r, uint64_t n, const char *what);
+/* Name an item of the file that the records do not carry. A name seen
+ * before adds n to its count; counted = 0 shows no count ("vertex property
+ * red"), 1 shows it ("element camera (1)"). Never fails: past EN_DROP_MAX
+ * distinct names the rest are only counted. */
+void en_reader_drop(epsnet_reader *r, const char *name, uint64_t n, int counted);
+
+/* ---- for library stages that read a user's file ---- */
+
+/* Pass what r dropped (epsnet_reader_dropped()) to a warning callback as
+ * one line "PATH: dropped: ...": nothing when nothing is dropped or warning
+ * is NULL. Call it once the mesh has been read to its end.
+ * @return the number of distinct items dropped. */
+uint64_t en_reader_warn_dropped(epsnet_reader *r, void (*warning)(void *opaque, const char *message),
+                                void *opaque);
 
 /* ---- for writer drivers ---- */
 

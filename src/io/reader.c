@@ -63,6 +63,70 @@ int en_reader_check_count(epsnet_reader *r, uint64_t n, const char *what)
     return 0;
 }
 
+void en_reader_drop(epsnet_reader *r, const char *name, uint64_t n, int counted)
+{
+    for (size_t i = 0; i < r->ndrop; i++)
+        if (strcmp(r->drop[i].name, name) == 0) {
+            r->drop[i].count += n;
+            return;
+        }
+    if (r->ndrop == EN_DROP_MAX) {
+        /* note: only a name never seen can land here, and a driver names
+         * each item once (PLY) or per statement kind (OBJ); a file with
+         * more kinds than that is counted, not listed. */
+        r->drop_more++;
+        return;
+    }
+    en_dropped *d = &r->drop[r->ndrop++];
+    snprintf(d->name, sizeof d->name, "%s", name);
+    d->count = n;
+    d->counted = counted;
+}
+
+const char *epsnet_reader_dropped(epsnet_reader *r, uint64_t *count)
+{
+    if (count)
+        *count = r ? r->ndrop + r->drop_more : 0;
+    if (!r || r->ndrop == 0)
+        return NULL;
+    size_t cap = r->ndrop * (EN_DROP_NAME + 32) + 64;
+    en_free(r->drop_text);
+    r->drop_text = en_malloc(cap);
+    if (!r->drop_text)
+        return "(out of memory listing what is dropped)";
+    size_t len = 0;
+    for (size_t i = 0; i < r->ndrop; i++) {
+        const en_dropped *d = &r->drop[i];
+        int n = d->counted ? snprintf(r->drop_text + len, cap - len, "%s%s (%llu)", i ? ", " : "", d->name,
+                                      (unsigned long long)d->count)
+                           : snprintf(r->drop_text + len, cap - len, "%s%s", i ? ", " : "", d->name);
+        if (n > 0)
+            len += (size_t)n;
+    }
+    if (r->drop_more)
+        snprintf(r->drop_text + len, cap - len, " and %llu more", (unsigned long long)r->drop_more);
+    return r->drop_text;
+}
+
+uint64_t en_reader_warn_dropped(epsnet_reader *r, void (*warning)(void *opaque, const char *message),
+                                void *opaque)
+{
+    uint64_t n = 0;
+    const char *what = epsnet_reader_dropped(r, &n);
+    if (!what || !warning)
+        return n;
+    size_t cap = strlen(r->path) + strlen(what) + 16;
+    char *msg = en_malloc(cap);
+    if (!msg) {
+        warning(opaque, what);
+        return n;
+    }
+    snprintf(msg, cap, "%s: dropped: %s", r->path, what);
+    warning(opaque, msg);
+    en_free(msg);
+    return n;
+}
+
 static int queue_push(epsnet_reader *r, const epsnet_record *rec)
 {
     if (r->qpos == r->qlen)
@@ -265,6 +329,7 @@ void epsnet_reader_close(epsnet_reader **pr)
     en_u64set_free(&r->live);
     en_source_close(&r->src);
     en_free(r->queue);
+    en_free(r->drop_text);
     en_free(r->path);
     en_free(r);
     *pr = NULL;

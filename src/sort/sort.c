@@ -12,6 +12,7 @@
 #include "common/error.h"
 #include "common/hash64.h"
 #include "common/util.h"
+#include "io/format.h"
 #include "io/sink.h"
 #include "sort/extsort.h"
 
@@ -724,6 +725,7 @@ static int run_job(sort_job *j, epsnet_error *err)
     j->phase = 1;
     if ((rc = open_job(j, err)) || (rc = pass_read(j, err)))
         return rc;
+    j->st.dropped = en_reader_warn_dropped(j->r, j->set.warning, j->set.warning_opaque);
     epsnet_reader_close(&j->r);
     if (j->set.axis < 0)
         j->axis = j->st.vertices ? en_sort_longest_axis(j->lo, j->hi) : 2;

@@ -40,6 +40,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         uint64_t n = 0;
         while (epsnet_reader_next(r, &rec, &err) > 0 && ++n < (1u << 24))
             ;
+        uint64_t dropped;
+        const char *what = epsnet_reader_dropped(r, &dropped);
+        if ((what == NULL) != (dropped == 0))
+            __builtin_trap();
         epsnet_reader_close(&r);
     }
     close(fd);
