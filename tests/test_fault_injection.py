@@ -109,12 +109,17 @@ def main():
     assert p.returncode == 0, p.stderr
     walk("sort_spilling", lambda o: ["sort", big, "-o", o + ".smz", "--mem", "1M", "--tmpdir", TMP, "-q"],
          max_points=900, stride=3)
-    # A full disk at every write: the output, the sorted copy simplify makes
-    # of an unsorted PLY, sort's spilled runs and the PLY writer's spill.
+    # simplify fed straight by that sort (no sorted copy), spilling too.
+    walk("simplify_sort_spilling", lambda o: ["simplify", big, "-o", o + ".smz", "--mem", "2M", "--tmpdir", TMP,
+                                              "-j", "2", "-q"], max_points=900, stride=13)
+    # A full disk at every write: the output of simplify fed by the sort of
+    # an unsorted PLY, the runs both sorts spill and the PLY writer's spill.
     walk("full_disk_simplify_unsorted", lambda o: ["simplify", src, "-o", o + ".smz", "-q"],
          what="EPSNET_FAIL_WRITE")
     walk("full_disk_sort_spilling", lambda o: ["sort", big, "-o", o + ".smz", "--mem", "1M", "--tmpdir", TMP,
                                                "-q"], what="EPSNET_FAIL_WRITE")
+    walk("full_disk_simplify_sort_spilling", lambda o: ["simplify", big, "-o", o + ".smz", "--mem", "2M",
+                                                        "--tmpdir", TMP, "-q"], what="EPSNET_FAIL_WRITE")
     walk("full_disk_convert_to_ply", lambda o: ["convert", sma, "-o", o + ".ply", "-q"],
          what="EPSNET_FAIL_WRITE")
     walk("full_disk_sample_points", lambda o: ["sample", smz, "-o", o + ".ply", "-q"],

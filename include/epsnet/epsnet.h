@@ -393,8 +393,8 @@ typedef struct epsnet_settings {
     int threads;
     /* Memory budget in bytes. It sets the slab size (see slab_vertices), the
      * reader's budget for live vertices, the budget for output held back by
-     * a vertex that stays open (output leaves in input id order), and the
-     * sort's budget when an input has to be sorted first. Over it, a run
+     * a vertex that stays open (output leaves in input id order); when an
+     * input has to be sorted first, half of it is the sort's budget. Over it, a run
      * stops with EPSNET_ELIMIT and a message that says what grew. 0 = none
      * given: slabs of 65536 vertices, and half the physical memory as the
      * limit for live vertices and held output (a clear error, never the OOM

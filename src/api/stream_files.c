@@ -4,11 +4,9 @@
  * this thread; the stitcher's records go straight to the writer.
  */
 #include <stdio.h>
-#include <errno.h>
 #include <limits.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "api/context.h"
 #include "api/jobs.h"
@@ -19,6 +17,7 @@
 #include "io/samples_ply.h"
 #include "io/sink.h"
 #include "pipeline/stream.h"
+#include "sort/sort.h"
 
 /* Records between two progress callbacks. */
 #define PROGRESS_EVERY 65536
@@ -28,12 +27,41 @@ static int writer_sink(void *opaque, const epsnet_record *rec, epsnet_error *err
     return epsnet_writer_put(opaque, rec, err);
 }
 
-/* Read in_path into s; r is opened here and closed by the caller. */
-static int feed(epsnet_context *ctx, epsnet_stream *s, epsnet_reader *r, const char *path, epsnet_error *err)
+/*
+ * The run's input: a stream read as it is (r), or an ordinary mesh that the
+ * sort turns into one on the fly (sort). info is what the writer and the
+ * pipeline need to know of the stream either way.
+ */
+typedef struct en_input {
+    epsnet_reader *r;
+    en_sort *sort;
+    epsnet_mesh_info info;
+} en_input;
+
+static void input_close(en_input *in)
 {
+    epsnet_reader_close(&in->r);
+    en_sort_close(&in->sort, NULL);
+}
+
+static int stream_sink(void *opaque, const epsnet_record *rec, epsnet_error *err)
+{
+    return en_stream_put(opaque, rec, err);
+}
+
+/* Read the input into s. A sorted input's records leave the sort's last
+ * pass straight into the first chunker; the sort reports progress itself. */
+static int feed(epsnet_context *ctx, epsnet_stream *s, en_input *in, const char *path, epsnet_error *err)
+{
+    int rc;
+    if (in->sort) {
+        if ((rc = en_sort_emit(in->sort, stream_sink, s, err)))
+            return rc;
+        return en_stream_finish(s, err);
+    }
+    epsnet_reader *r = in->r;
     epsnet_record rec;
     uint64_t n = 0;
-    int rc;
     while ((rc = epsnet_reader_next(r, &rec, err)) == 1) {
         if ((rc = en_stream_put(s, &rec, err)) != 0)
             return rc;
@@ -47,7 +75,7 @@ static int feed(epsnet_context *ctx, epsnet_stream *s, epsnet_reader *r, const c
     return en_stream_finish(s, err);
 }
 
-/* Folder for the sorted copy: --tmpdir, else the output's folder. */
+/* Folder for the sort's runs: --tmpdir, else the output's folder. */
 static void temp_folder(const epsnet_context *ctx, const char *out_path, char *dir, size_t n)
 {
     const char *slash = strrchr(out_path, '/');
@@ -63,50 +91,45 @@ static void temp_folder(const epsnet_context *ctx, const char *out_path, char *d
 
 /*
  * Open in_path as a finalized stream. An ordinary mesh (PLY, OBJ, OFF, STL:
- * no finalization) is first sorted into a temporary .smz (issue 5, SPEC
- * §2), read back and unlinked as soon as it is open; it is registered for
- * removal on SIGINT/SIGTERM meanwhile. Without this the whole mesh would be
+ * no finalization) is sorted first (issue 5, SPEC §2): passes 1 to 5 of the
+ * sort run here, the last one inside feed(), whose records go to the first
+ * chunker without a temporary copy. Without this the whole mesh would be
  * one slab: correct, but in memory.
+ *
+ * note: the budget split. The sort's buffers get half of --mem and the
+ * pipeline keeps its own sizing from the whole of it: its slabs (and so
+ * the output bytes) must be those of the same run on the sorted file, and
+ * the sort's last pass, which runs beside the pipeline, holds only what
+ * passes 1 to 5 left within that half (the faces' final merge or the
+ * in-core last-use array, and the live vertices, which the sort itself
+ * stops at half of its share). With no --mem the sort keeps its default.
  */
-static int open_input(epsnet_context *ctx, const char *in_path, const char *out_path, epsnet_reader **r,
+static int open_input(epsnet_context *ctx, const char *in_path, const char *out_path, en_input *in,
                       double *sort_seconds, epsnet_error *err)
 {
     epsnet_reader_settings rs;
     epsnet_reader_default_settings(&rs);
     rs.mem_limit = en_stream_mem_budget(&ctx->settings);
-    int rc = epsnet_reader_open(r, in_path, &rs, err);
-    if (rc || epsnet_reader_info(*r)->streaming)
+    int rc = epsnet_reader_open(&in->r, in_path, &rs, err);
+    if (rc == 0)
+        in->info = *epsnet_reader_info(in->r);
+    if (rc || in->info.streaming)
         return rc;
-    epsnet_reader_close(r);
-    char dir[PATH_MAX], tmp[PATH_MAX + 64];
+    epsnet_reader_close(&in->r);
+    char dir[PATH_MAX];
     temp_folder(ctx, out_path, dir, sizeof dir);
-    int slot;
-    int fd = en_temp_create(dir, ".epsnet-sorted-", ".smz", 0600, tmp, sizeof tmp, &slot);
-    if (fd < 0)
-        return en_error_set(err, EPSNET_EIO, out_path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "cannot create the sorted copy of %s in %s: %s", in_path, dir, strerror(errno));
-    close(fd);
     epsnet_sort_settings ss;
     epsnet_sort_default_settings(&ss);
     if (ctx->settings.mem)
-        ss.mem = ctx->settings.mem;
-    ss.tmpdir = ctx->tmpdir;
-    ss.format = "smz";
+        ss.mem = ctx->settings.mem / 2;
+    ss.tmpdir = dir;
+    ss.progress = ctx->settings.progress;
+    ss.progress_opaque = ctx->settings.progress_opaque;
     double t0 = en_now();
-    rc = epsnet_sort_file(in_path, tmp, &ss, NULL, err);
+    rc = en_sort_open(&in->sort, in_path, out_path, &ss, err);
     *sort_seconds = en_now() - t0;
-    if (rc && err && strcmp(err->file, tmp) == 0) {
-        /* The copy's random name means nothing to the user and is gone by
-         * the time they read the message: name the output and the folder. */
-        char reason[sizeof err->reason];
-        snprintf(reason, sizeof reason, "%s", err->reason);
-        en_error_set(err, rc, out_path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                     "writing the sorted copy of the input in %s: %s", dir, reason);
-    }
     if (rc == 0)
-        rc = epsnet_reader_open(r, tmp, &rs, err);
-    unlink(tmp); /* the reader keeps it open; nothing is left behind */
-    en_temp_unregister(slot);
+        en_sort_info(in->sort, &in->info);
     return rc;
 }
 
@@ -117,13 +140,12 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
                             "epsnet_simplify_file: NULL argument");
     snprintf(ctx->command, sizeof ctx->command, "simplify");
     double t0 = en_now();
-    epsnet_reader *r = NULL;
+    en_input in = { 0 };
     epsnet_writer *w = NULL;
     epsnet_stream *s = NULL;
     double sort_seconds = 0;
-    int rc = open_input(ctx, in_path, out_path, &r, &sort_seconds, err);
+    int rc = open_input(ctx, in_path, out_path, &in, &sort_seconds, err);
     if (rc == 0) {
-        const epsnet_mesh_info *in = epsnet_reader_info(r);
         epsnet_writer_settings ws;
         epsnet_writer_default_settings(&ws);
         ws.ascii = ctx->settings.ascii;
@@ -132,9 +154,9 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
         memset(&info, 0, sizeof info);
         info.nverts = EPSNET_COUNT_UNKNOWN;
         info.nfaces = EPSNET_COUNT_UNKNOWN;
-        info.coord_type = in->coord_type;
+        info.coord_type = in.info.coord_type;
         info.streaming = 1;
-        info.sorted_axis = in->sorted_axis; /* output vertices keep the input's order */
+        info.sorted_axis = in.info.sorted_axis; /* output vertices keep the input's order */
         rc = epsnet_writer_open(&w, out_path, &ws, &info, err);
     }
     if (rc == 0)
@@ -142,10 +164,10 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
     ctx->stats.seconds_sort = sort_seconds;
     if (rc == 0) {
         en_stream_set_sink(s, writer_sink, w);
-        rc = feed(ctx, s, r, in_path, err);
+        rc = feed(ctx, s, &in, in_path, err);
     }
     epsnet_stream_close(&s);
-    epsnet_reader_close(&r);
+    input_close(&in);
     if (rc == 0)
         rc = epsnet_writer_commit(&w, err);
     else
@@ -189,23 +211,23 @@ int en_sample_points_streamed(epsnet_context *ctx, const char *in_path, const ch
                               epsnet_error *err)
 {
     double t0 = en_now();
-    epsnet_reader *r = NULL;
+    en_input in = { 0 };
     epsnet_stream *s = NULL;
     sample_list l = { 0 };
     epsnet_coord_type ct = EPSNET_COORD_FLOAT32;
     double sort_seconds = 0;
-    int rc = open_input(ctx, in_path, out_path, &r, &sort_seconds, err);
+    int rc = open_input(ctx, in_path, out_path, &in, &sort_seconds, err);
     if (rc == 0) {
-        ct = epsnet_reader_info(r)->coord_type;
+        ct = in.info.coord_type;
         rc = en_stream_new(&s, ctx, EN_SLAB_SAMPLE, in_path, err);
     }
     ctx->stats.seconds_sort = sort_seconds;
     if (rc == 0) {
         en_stream_set_sample_sink(s, collect, &l);
-        rc = feed(ctx, s, r, in_path, err);
+        rc = feed(ctx, s, &in, in_path, err);
     }
     epsnet_stream_close(&s);
-    epsnet_reader_close(&r);
+    input_close(&in);
     ctx->stats.seconds_classify = en_now() - t0;
     /* Samples are few (about one per Gaussian vertex per feature): written in
      * input order, as the one-slab run writes them. */

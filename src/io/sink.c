@@ -42,8 +42,7 @@ static ssize_t disk_pwrite(int fd, const void *p, size_t n, off_t offset)
 
 /* ---- registry of named temporaries, for signal-time cleanup ----
  * note: used when O_TMPFILE is unavailable (anonymous files need no cleanup
- * at all, which is why they are tried first) and for the sorted copy that
- * sample and simplify read back. Slots are claimed with
+ * at all, which is why they are tried first). Slots are claimed with
  * atomics so a handler never sees a half-written path. */
 #define EN_TEMP_SLOTS 64
 static char en_temp_paths[EN_TEMP_SLOTS][PATH_MAX];

@@ -125,14 +125,16 @@ static uint64_t live_bytes(const live_map *m)
 
 /* ---- the job ---- */
 
-typedef struct sort_job {
-    const char *in_path, *out_path;
+struct en_sort {
+    const char *in_path;
+    const char *owner;           /* the output the sort serves: named in messages */
     epsnet_sort_settings set;
     char *tmpdir;
     en_mem_account mem;
     epsnet_sort_stats st;
     epsnet_reader *r;
-    epsnet_writer *w;
+    en_sort_emit_fn emit;        /* pass 6 hands each record to emit(emit_opaque) */
+    void *emit_opaque;
     en_spill *vraw;              /* input vertices, input order */
     en_spill *vsorted;           /* vertices in rank order */
     en_spill *fraw;              /* input faces (old ids), input order */
@@ -151,7 +153,10 @@ typedef struct sort_job {
     uint64_t *group;             /* faces of one last corner: 5 words each */
     size_t group_cap;
     live_map live;
-} sort_job;
+    double t0;
+};
+
+typedef struct en_sort sort_job;
 
 static int progress(sort_job *j, uint64_t done, uint64_t total, epsnet_error *err)
 {
@@ -160,13 +165,13 @@ static int progress(sort_job *j, uint64_t done, uint64_t total, epsnet_error *er
     uint64_t frac = total ? (done >= total ? PHASE_UNITS : done * PHASE_UNITS / total) : 0;
     if (j->set.progress(j->set.progress_opaque, (uint64_t)(j->phase - 1) * PHASE_UNITS + frac,
                         (uint64_t)PHASES * PHASE_UNITS))
-        return en_error_set(err, EPSNET_EINTR, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE, "interrupted");
+        return en_error_set(err, EPSNET_EINTR, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE, "interrupted");
     return 0;
 }
 
 static int nomem(const sort_job *j, epsnet_error *err)
 {
-    return en_error_set(err, EPSNET_ENOMEM, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    return en_error_set(err, EPSNET_ENOMEM, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
 }
 
 /* note: every sorter keys on its first word only. The sort is stable and
@@ -177,7 +182,7 @@ static int open_sorter(sort_job *j, en_extsort **es, size_t words, size_t key_wo
 {
     en_extsort_config c = {
         .item_words = words, .key_words = key_words, .mem = j->set.mem / 4,
-        .tmpdir = j->tmpdir, .owner = j->out_path, .account = &j->mem,
+        .tmpdir = j->tmpdir, .owner = j->owner, .account = &j->mem,
     };
     return en_extsort_open(es, &c, err);
 }
@@ -285,7 +290,7 @@ static int read_faces(sort_job *j, size_t want, epsnet_error *err)
     if (got < 0)
         return (int)got;
     if ((size_t)got != want * 3 * sizeof *j->fbuf)
-        return en_error_set(err, EPSNET_EINTERNAL, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+        return en_error_set(err, EPSNET_EINTERNAL, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "temporary face file is short");
     return 0;
 }
@@ -297,7 +302,7 @@ static int read_vertices(sort_job *j, en_spill *sp, size_t want, epsnet_error *e
     if (got < 0)
         return (int)got;
     if ((size_t)got != want * 3 * sizeof *j->vbuf)
-        return en_error_set(err, EPSNET_EINTERNAL, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+        return en_error_set(err, EPSNET_EINTERNAL, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "temporary vertex file is short");
     return 0;
 }
@@ -366,7 +371,7 @@ static int pass_rank(sort_job *j, epsnet_error *err)
 
 static int internal(const sort_job *j, const char *what, epsnet_error *err)
 {
-    return en_error_set(err, EPSNET_EINTERNAL, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+    return en_error_set(err, EPSNET_EINTERNAL, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
                         "sort: %s", what);
 }
 
@@ -496,7 +501,7 @@ static int over_budget(sort_job *j, epsnet_error *err)
         j->mem.peak = j->mem.used + bytes;
     if (bytes <= j->set.mem / 2)
         return 0;
-    return en_error_set(err, EPSNET_ELIMIT, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+    return en_error_set(err, EPSNET_ELIMIT, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
                         "the sorted stream keeps %llu vertices live at once (%llu bytes), over half of the "
                         "memory budget of %llu bytes; raise --mem",
                         (unsigned long long)j->live.count, (unsigned long long)bytes,
@@ -532,7 +537,7 @@ static int put_record(sort_job *j, epsnet_record_kind kind, uint64_t a, uint64_t
                       epsnet_error *err)
 {
     epsnet_record rec = { .kind = kind, .v = { a, b, c } };
-    return epsnet_writer_put(j->w, &rec, err);
+    return j->emit(j->emit_opaque, &rec, err);
 }
 
 /* Write the faces whose last corner is rank, finalizing each vertex after
@@ -587,7 +592,7 @@ static int pass_emit(sort_job *j, epsnet_error *err)
             }
             epsnet_record rec = { .kind = EPSNET_REC_VERTEX };
             memcpy(rec.xyz, j->vbuf + 3 * b, sizeof rec.xyz);
-            if ((rc = epsnet_writer_put(j->w, &rec, err)))
+            if ((rc = j->emit(j->emit_opaque, &rec, err)))
                 return rc;
             if (live_add(&j->live, rank, next_id++, last))
                 return nomem(j, err);
@@ -633,7 +638,7 @@ static char *dir_of(const char *path)
 
 static int open_job(sort_job *j, epsnet_error *err)
 {
-    j->tmpdir = j->set.tmpdir ? en_strdup(j->set.tmpdir) : dir_of(j->out_path);
+    j->tmpdir = j->set.tmpdir ? en_strdup(j->set.tmpdir) : dir_of(j->owner);
     j->vbuf = en_malloc(BATCH * 3 * sizeof *j->vbuf);
     j->fbuf = en_malloc(BATCH * 3 * sizeof *j->fbuf);
     if (!j->tmpdir || !j->vbuf || !j->fbuf)
@@ -647,9 +652,9 @@ static int open_job(sort_job *j, epsnet_error *err)
     if (rc)
         return rc;
     j->ct = epsnet_reader_info(j->r)->coord_type;
-    if ((rc = en_spill_open(&j->vraw, j->tmpdir, j->out_path, err)) ||
-        (rc = en_spill_open(&j->fraw, j->tmpdir, j->out_path, err)) ||
-        (rc = en_spill_open(&j->vsorted, j->tmpdir, j->out_path, err)) ||
+    if ((rc = en_spill_open(&j->vraw, j->tmpdir, j->owner, err)) ||
+        (rc = en_spill_open(&j->fraw, j->tmpdir, j->owner, err)) ||
+        (rc = en_spill_open(&j->vsorted, j->tmpdir, j->owner, err)) ||
         (rc = open_sorter(j, &j->corners, 2, 1, err)) || (rc = open_sorter(j, &j->verts, 4, 1, err)) ||
         (rc = open_sorter(j, &j->map, 2, 1, err)) || (rc = open_sorter(j, &j->joined, 2, 1, err)) ||
         (rc = open_sorter(j, &j->faces, 5, 1, err)) || (rc = open_sorter(j, &j->lastuse, 2, 1, err)))
@@ -657,25 +662,8 @@ static int open_job(sort_job *j, epsnet_error *err)
     return 0;
 }
 
-static int open_output(sort_job *j, epsnet_error *err)
-{
-    epsnet_writer_settings ws;
-    epsnet_writer_default_settings(&ws);
-    ws.format = j->set.format;
-    ws.tmpdir = j->tmpdir;
-    epsnet_mesh_info info;
-    memset(&info, 0, sizeof info);
-    info.nverts = EPSNET_COUNT_UNKNOWN;
-    info.nfaces = j->st.faces;
-    info.coord_type = j->ct;
-    info.streaming = 1;
-    info.sorted_axis = j->axis;
-    return epsnet_writer_open(&j->w, j->out_path, &ws, &info, err);
-}
-
 static void close_job(sort_job *j)
 {
-    epsnet_writer_abort(&j->w);
     epsnet_reader_close(&j->r);
     close_spill(j, &j->vraw);
     close_spill(j, &j->vsorted);
@@ -718,7 +706,8 @@ static int choose_relabel(sort_job *j, epsnet_error *err)
     return 0;
 }
 
-static int run_job(sort_job *j, epsnet_error *err)
+/* Passes 1 to 5: everything but the output walk. */
+static int run_passes(sort_job *j, epsnet_error *err)
 {
     int rc;
     j->phase = 1;
@@ -740,12 +729,75 @@ static int run_job(sort_job *j, epsnet_error *err)
     if (!j->in_core && (rc = pass_relabel(j, err)))
         return rc;
     j->phase = 5;
-    if ((rc = j->in_core ? pass_faces_in_core(j, err) : pass_faces(j, err)))
-        return rc;
+    return j->in_core ? pass_faces_in_core(j, err) : pass_faces(j, err);
+}
+
+int en_sort_open(en_sort **out, const char *in_path, const char *owner, const epsnet_sort_settings *settings,
+                 epsnet_error *err)
+{
+    *out = NULL;
+    if (!in_path || !owner)
+        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE, "sort: NULL path");
+    sort_job *j = en_calloc(1, sizeof *j);
+    if (!j)
+        return en_error_set(err, EPSNET_ENOMEM, owner, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    j->t0 = en_now();
+    j->in_path = in_path;
+    j->owner = owner;
+    if (settings)
+        j->set = *settings;
+    else
+        epsnet_sort_default_settings(&j->set);
+    if (j->set.axis < -1 || j->set.axis > 2) {
+        en_free(j);
+        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "sort axis %d is not -1 (auto), 0, 1 or 2", j->set.axis);
+    }
+    if (j->set.mem == 0)
+        j->set.mem = (uint64_t)512 << 20;
+    j->axis = j->set.axis;
+    *out = j;
+    return run_passes(j, err);
+}
+
+void en_sort_info(const en_sort *j, epsnet_mesh_info *info)
+{
+    memset(info, 0, sizeof *info);
+    info->nverts = EPSNET_COUNT_UNKNOWN;
+    info->nfaces = j->st.faces;
+    info->coord_type = j->ct;
+    info->streaming = 1;
+    info->sorted_axis = j->axis;
+}
+
+int en_sort_emit(en_sort *j, en_sort_emit_fn emit, void *opaque, epsnet_error *err)
+{
     j->phase = 6;
-    if ((rc = open_output(j, err)) || (rc = pass_emit(j, err)))
-        return rc;
-    return epsnet_writer_commit(&j->w, err);
+    j->emit = emit;
+    j->emit_opaque = opaque;
+    return pass_emit(j, err);
+}
+
+void en_sort_close(en_sort **pj, epsnet_sort_stats *stats)
+{
+    sort_job *j = *pj;
+    if (!j)
+        return;
+    close_job(j);
+    j->st.runs = j->runs;
+    j->st.temp_bytes = j->temp_bytes;
+    j->st.peak_memory = j->mem.peak;
+    j->st.peak_rss = en_peak_rss_bytes();
+    j->st.seconds = en_now() - j->t0;
+    if (stats)
+        *stats = j->st;
+    en_free(j);
+    *pj = NULL;
+}
+
+static int writer_put(void *w, const epsnet_record *rec, epsnet_error *err)
+{
+    return epsnet_writer_put(w, rec, err);
 }
 
 int epsnet_sort_file(const char *in_path, const char *out_path, const epsnet_sort_settings *settings,
@@ -754,29 +806,24 @@ int epsnet_sort_file(const char *in_path, const char *out_path, const epsnet_sor
     if (!in_path || !out_path)
         return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "epsnet_sort_file: NULL path");
-    sort_job j;
-    memset(&j, 0, sizeof j);
-    j.in_path = in_path;
-    j.out_path = out_path;
-    if (settings)
-        j.set = *settings;
-    else
-        epsnet_sort_default_settings(&j.set);
-    if (j.set.axis < -1 || j.set.axis > 2)
-        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "sort axis %d is not -1 (auto), 0, 1 or 2", j.set.axis);
-    if (j.set.mem == 0)
-        j.set.mem = (uint64_t)512 << 20;
-    j.axis = j.set.axis;
-    double t0 = en_now();
-    int rc = run_job(&j, err);
-    close_job(&j);
-    j.st.runs = j.runs;
-    j.st.temp_bytes = j.temp_bytes;
-    j.st.peak_memory = j.mem.peak;
-    j.st.peak_rss = en_peak_rss_bytes();
-    j.st.seconds = en_now() - t0;
-    if (stats)
-        *stats = j.st;
+    en_sort *j = NULL;
+    epsnet_writer *w = NULL;
+    int rc = en_sort_open(&j, in_path, out_path, settings, err);
+    if (rc == 0) {
+        epsnet_writer_settings ws;
+        epsnet_writer_default_settings(&ws);
+        ws.format = j->set.format;
+        ws.tmpdir = j->tmpdir;
+        epsnet_mesh_info info;
+        en_sort_info(j, &info);
+        rc = epsnet_writer_open(&w, out_path, &ws, &info, err);
+    }
+    if (rc == 0 && (rc = en_sort_emit(j, writer_put, w, err)) == 0)
+        rc = epsnet_writer_commit(&w, err);
+    epsnet_writer_abort(&w);
+    if (j)
+        en_sort_close(&j, stats);
+    else if (stats)
+        memset(stats, 0, sizeof *stats);
     return rc;
 }

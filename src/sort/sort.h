@@ -32,6 +32,32 @@
 
 #include "epsnet/epsnet.h"
 
+/*
+ * The sort as a stage (SPEC §2 "One chain of stages"): en_sort_open() runs
+ * passes 1 to 5, after which the output's axis and coordinate type are
+ * known (en_sort_info); en_sort_emit() runs pass 6 and hands every record of
+ * the sorted, finalized stream to emit instead of writing a file, so a
+ * consumer such as the first chunker takes them straight from the final
+ * merge. Temporary files are only the anonymous spills and runs of the
+ * passes (en_spill), in settings->tmpdir, else owner's folder.
+ */
+typedef struct en_sort en_sort;
+typedef int (*en_sort_emit_fn)(void *opaque, const epsnet_record *rec, epsnet_error *err);
+
+/* owner: the output the sort serves, named in messages (and whose folder
+ * holds the runs when settings->tmpdir is NULL). settings may be NULL.
+ * @return 0 or a negative code; *s is set in both cases (NULL only when
+ * nothing was allocated) and en_sort_close() frees it. */
+int en_sort_open(en_sort **s, const char *in_path, const char *owner, const epsnet_sort_settings *settings,
+                 epsnet_error *err);
+/* What the output stream will be: coord_type, streaming, sorted_axis, nfaces. */
+void en_sort_info(const en_sort *s, epsnet_mesh_info *info);
+/* Pass 6; once per en_sort. emit's non-zero return stops it and is returned. */
+int en_sort_emit(en_sort *s, en_sort_emit_fn emit, void *opaque, epsnet_error *err);
+/* Free everything (also after a failure), removing every temporary, and
+ * give the stats; sets *s to NULL. stats may be NULL. */
+void en_sort_close(en_sort **s, epsnet_sort_stats *stats);
+
 /* The automatic axis: the longest side of [lo, hi], the earlier axis on a
  * tie. */
 int en_sort_longest_axis(const double lo[3], const double hi[3]);
