@@ -357,6 +357,35 @@ TEST(output_bytes_do_not_depend_on_the_budget)
     CHECK(same_bytes(tl_path("det1.smz"), tl_path("det3.smz")));
 }
 
+/* The in-memory path (the mesh and its arrays fit in half of the budget:
+ * no temporary bytes at all) gives the external passes' bytes for any
+ * thread count, and so does a read that outgrows it midway and moves what
+ * it has read to the spills. */
+TEST(in_memory_sort_gives_the_same_bytes_for_any_thread_count)
+{
+    epsnet_error err;
+    const char *in = tl_path("whole.ply");
+    CHECK_EQ_INT(tl_gen_file(in, "bumpy", 40000, NAN, 4, 1, &err), 0);
+    /* 20K vertices and 40K faces need about 2.8M in memory: 4M is midway
+     * short of that (twice it), 256M is plenty, 256K is the external path */
+    static const struct { uint64_t mem; int threads; int whole; } runs[] = {
+        { 256 << 10, 1, 0 }, { (uint64_t)256 << 20, 1, 1 }, { (uint64_t)256 << 20, 2, 1 },
+        { (uint64_t)256 << 20, 3, 1 }, { 4 << 20, 2, 0 },
+    };
+    for (size_t i = 0; i < sizeof runs / sizeof *runs; i++) {
+        epsnet_sort_settings s;
+        epsnet_sort_default_settings(&s);
+        s.mem = runs[i].mem;
+        s.threads = runs[i].threads;
+        s.tmpdir = tl_tmpdir();
+        epsnet_sort_stats st;
+        CHECK_EQ_INT(epsnet_sort_file(in, tl_path(i ? "whole_b.smz" : "whole_a.smz"), &s, &st, &err), 0);
+        CHECK_EQ_INT(st.temp_bytes == 0, runs[i].whole);
+        if (i)
+            CHECK(same_bytes(tl_path("whole_a.smz"), tl_path("whole_b.smz")));
+    }
+}
+
 /* SPEC §5: a stream that never finalizes hits the memory budget with a
  * clear error, not an out-of-memory kill. */
 TEST(never_finalizing_stream_hits_the_budget)
@@ -457,6 +486,7 @@ int main(void)
     RUN(generated_shapes_keep_every_triangle_with_many_runs);
     RUN(shared_meshes_keep_every_triangle);
     RUN(output_bytes_do_not_depend_on_the_budget);
+    RUN(in_memory_sort_gives_the_same_bytes_for_any_thread_count);
     RUN(never_finalizing_stream_hits_the_budget);
     RUN(an_output_wider_than_the_budget_is_a_clear_error);
     RUN(empty_mesh_sorts_to_an_empty_stream);

@@ -759,9 +759,11 @@ typedef struct epsnet_sort_settings {
      * fixed overhead of a few MB (reader window, compressors), so budgets
      * below about 16M are honoured only approximately. The output's live
      * vertices (its width, about 64 bytes each) must fit in half of it, or
-     * the sort fails with EPSNET_ELIMIT. When 8 bytes per input vertex fit
-     * in half of it, ranks are looked up in memory instead of joined
-     * externally, which is several times faster; the output is the same.
+     * the sort fails with EPSNET_ELIMIT. When the whole mesh and the arrays
+     * that sort it (about 68 bytes per vertex and 36 per face) fit in half
+     * of it, it is sorted in memory with no temporary file at all; else,
+     * when 8 bytes per input vertex fit in half of it, ranks are looked up
+     * in memory instead of joined externally. The output is the same.
      * Default: 512M. */
     uint64_t mem;
     /* Folder for the temporary runs; NULL = the output's folder.
@@ -775,7 +777,11 @@ typedef struct epsnet_sort_settings {
      * Default: NULL. */
     int (*progress)(void *opaque, uint64_t done, uint64_t total);
     void *progress_opaque;
-    uint8_t reserved[64];
+    /* Threads for the in-memory sort (when the mesh and its arrays fit in
+     * half of mem): 0 = all cores, 1 = the calling thread only. The output
+     * never depends on it. Default: 0. */
+    int threads;
+    uint8_t reserved[60];
 } epsnet_sort_settings;
 
 EPSNET_API void epsnet_sort_default_settings(epsnet_sort_settings *s);

@@ -123,6 +123,7 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
     if (ctx->settings.mem)
         ss.mem = ctx->settings.mem / 2;
     ss.tmpdir = dir;
+    ss.threads = ctx->settings.threads;
     ss.progress = ctx->settings.progress;
     ss.progress_opaque = ctx->settings.progress_opaque;
     double t0 = en_now();

@@ -6,11 +6,13 @@
 #include "sort/sort.h"
 
 #include <math.h>
+#include <unistd.h>
 #include <string.h>
 
 #include "common/alloc.h"
 #include "common/error.h"
 #include "common/hash64.h"
+#include "common/pool.h"
 #include "common/util.h"
 #include "io/sink.h"
 #include "sort/extsort.h"
@@ -139,6 +141,17 @@ struct en_sort {
     en_spill *vsorted;           /* vertices in rank order */
     en_spill *fraw;              /* input faces (old ids), input order */
     int in_core;                 /* rank_of/last_of arrays fit the budget */
+    int whole;                   /* everything is in memory (see whole_fits) */
+    double *xyz;                 /* whole: input vertices, 3 each */
+    uint32_t *tri;               /* whole: input faces, 3 old ids each */
+    size_t xyz_n, xyz_cap;       /* vertices */
+    size_t tri_n, tri_cap;       /* faces */
+    double *sxyz;                /* whole: the vertices in rank order, 3 each */
+    uint32_t *fend;              /* whole: rank -> end of its faces in fitems */
+    uint64_t *fitems;            /* whole: faces by (last corner, input order): see whole_faces */
+    uint64_t whole_bytes;        /* accounted */
+    en_pool *pool;               /* whole: workers for the chunks; NULL = this thread */
+    size_t chunks;               /* pieces the whole path's loops are cut into */
     uint32_t *rank_of;           /* in core: old id -> rank */
     uint32_t *last_of;           /* in core: rank -> last use, UINT32_MAX none */
     uint64_t arrays_bytes;
@@ -234,6 +247,368 @@ static double bitsd(uint64_t u)
     return d;
 }
 
+/* ---- everything in memory ----
+ *
+ * note: when the input's vertices and faces and the arrays that sort them
+ * fit in half of the budget (the other half is for the live vertices of
+ * pass 6, as over_budget() says), passes 1 to 5 need no temporary file and
+ * no compression at all: the vertices are ranked by a radix sort of their
+ * keys, and the faces are put in (last corner, input order) by a counting
+ * sort on their last corner, which is a rank. The output is the same as
+ * the external passes' (the same two stable orders). Past that size the
+ * read falls back to the spills, with what it has read so far.
+ */
+
+/* Bytes the whole path may hold at once for nv vertices and nf faces, a
+ * bound on both of its peaks: xyz and tri, the keys (16 bytes each) with
+ * their radix copy or, later, the coordinates in rank order and rank_of;
+ * then the coordinates, the faces' items and their radix copy (16 bytes
+ * each), fend and last_of. */
+static uint64_t whole_bytes(uint64_t nv, uint64_t nf)
+{
+    return 68 * nv + 36 * nf;
+}
+
+static int whole_fits(const sort_job *j, uint64_t nv, uint64_t nf)
+{
+    return nv < UINT32_MAX && nf < UINT32_MAX && whole_bytes(nv, nf) <= j->set.mem / 2;
+}
+
+/* No longer whole: what was read goes to the spills, in input order. */
+static int whole_spill(sort_job *j, epsnet_error *err)
+{
+    int rc = 0;
+    j->whole = 0;
+    if (j->xyz_n && (rc = en_spill_write(j->vraw, j->xyz, j->xyz_n * 3 * sizeof *j->xyz, err)))
+        return rc;
+    for (size_t f = 0; f < j->tri_n && rc == 0;) {
+        size_t n = j->tri_n - f < BATCH ? j->tri_n - f : BATCH;
+        for (size_t i = 0; i < 3 * n; i++)
+            j->fbuf[i] = j->tri[3 * f + i];
+        rc = en_spill_write(j->fraw, j->fbuf, n * 3 * sizeof *j->fbuf, err);
+        f += n;
+    }
+    en_free(j->xyz);
+    en_free(j->tri);
+    j->xyz = NULL;
+    j->tri = NULL;
+    j->xyz_cap = j->tri_cap = j->xyz_n = j->tri_n = 0;
+    en_mem_give(&j->mem, j->whole_bytes);
+    j->whole_bytes = 0;
+    return rc;
+}
+
+/* Room for at least one more vertex (vertices 1) or face (0): grow by half
+ * within the budget. @return 0, or 1 when it does not fit (then the caller
+ * spills). */
+static int whole_grow(sort_job *j, int vertices)
+{
+    size_t n = vertices ? j->xyz_n : j->tri_n, cap = vertices ? j->xyz_cap : j->tri_cap;
+    size_t want = cap < 4096 ? 4096 : cap + cap / 2;
+    uint64_t nv = vertices ? want : j->xyz_cap, nf = vertices ? j->tri_cap : want;
+    if (!whole_fits(j, nv, nf)) {
+        /* the most that fits */
+        uint64_t lo = n + 1, hi = want;
+        if (!whole_fits(j, vertices ? lo : nv, vertices ? nf : lo))
+            return 1;
+        while (lo < hi) {
+            uint64_t mid = lo + (hi - lo + 1) / 2;
+            if (whole_fits(j, vertices ? mid : nv, vertices ? nf : mid))
+                lo = mid;
+            else
+                hi = mid - 1;
+        }
+        want = (size_t)lo;
+    }
+    void *p = vertices ? en_realloc(j->xyz, want * 3 * sizeof *j->xyz) : en_realloc(j->tri, want * 3 * sizeof *j->tri);
+    if (!p)
+        return 1; /* note: the spills need far less memory: try them */
+    if (vertices) {
+        j->xyz = p;
+        j->xyz_cap = want;
+    } else {
+        j->tri = p;
+        j->tri_cap = want;
+    }
+    uint64_t b = (uint64_t)j->xyz_cap * 3 * sizeof *j->xyz + (uint64_t)j->tri_cap * 3 * sizeof *j->tri;
+    en_mem_give(&j->mem, j->whole_bytes);
+    j->whole_bytes = b;
+    en_mem_take(&j->mem, b);
+    return 0;
+}
+
+/* @return 0 when kept, 1 when the path is no longer whole (the caller
+ * spills the record), or < 0. */
+static int whole_vertex(sort_job *j, const double p[3], epsnet_error *err)
+{
+    if (j->xyz_n == j->xyz_cap && whole_grow(j, 1)) {
+        int rc = whole_spill(j, err);
+        return rc ? rc : 1;
+    }
+    memcpy(j->xyz + 3 * j->xyz_n++, p, 3 * sizeof *p);
+    return 0;
+}
+
+static int whole_face(sort_job *j, const uint64_t v[3], epsnet_error *err)
+{
+    if (v[0] >= UINT32_MAX || v[1] >= UINT32_MAX || v[2] >= UINT32_MAX ||
+        (j->tri_n == j->tri_cap && whole_grow(j, 0))) {
+        int rc = whole_spill(j, err);
+        return rc ? rc : 1;
+    }
+    for (int s = 0; s < 3; s++)
+        j->tri[3 * j->tri_n + (size_t)s] = (uint32_t)v[s];
+    j->tri_n++;
+    return 0;
+}
+
+static int internal(const sort_job *j, const char *what, epsnet_error *err);
+
+/* The whole path's loops run as `chunks` pieces on the pool. Pieces are
+ * cut by count only and write disjoint ranges (or disjoint entries), so
+ * the result is the same for any number of threads. */
+typedef struct whole_piece {
+    sort_job *j;
+    size_t lo, hi;               /* items [lo, hi) */
+    int shift;                   /* radix: the byte counted or moved */
+    size_t count[256];           /* radix: this piece's histogram, then its offsets */
+    const uint64_t *src;         /* radix: 2 words per item (key, id) */
+    uint64_t *dst;
+} whole_piece;
+
+static int run_pieces(sort_job *j, whole_piece *pc, en_job_fn fn, epsnet_error *err)
+{
+    int first = 0;
+    if (!j->pool) {
+        for (size_t c = 0; c < j->chunks; c++)
+            if ((first = fn(&pc[c])) != 0)
+                break;
+    } else {
+        for (size_t c = 0; c < j->chunks; c++)
+            if (en_pool_submit(j->pool, fn, &pc[c]) && !first)
+                first = EPSNET_EINTERNAL;
+        void *job;
+        int result;
+        while (en_pool_retire(j->pool, &job, &result))
+            if (result && !first)
+                first = result;
+    }
+    return first ? internal(j, "a piece of the in-memory sort failed", err) : 0;
+}
+
+static void cut_pieces(sort_job *j, whole_piece *pc, uint64_t n)
+{
+    for (size_t c = 0; c < j->chunks; c++) {
+        pc[c].j = j;
+        pc[c].lo = (size_t)(n * c / j->chunks);
+        pc[c].hi = (size_t)(n * (c + 1) / j->chunks);
+    }
+}
+
+/* Keys of the vertices, and each key byte's histogram over all of them. */
+static int piece_keys(void *arg)
+{
+    whole_piece *p = arg;
+    sort_job *j = p->j;
+    uint64_t *k = p->dst;
+    for (size_t i = p->lo; i < p->hi; i++) {
+        k[2 * i] = order_key(j->xyz[3 * i + (size_t)j->axis]);
+        k[2 * i + 1] = i;
+    }
+    return 0;
+}
+
+static int piece_count(void *arg)
+{
+    whole_piece *p = arg;
+    memset(p->count, 0, sizeof p->count);
+    for (size_t i = p->lo; i < p->hi; i++)
+        p->count[(p->src[2 * i] >> p->shift) & 0xff]++;
+    return 0;
+}
+
+static int piece_move(void *arg)
+{
+    whole_piece *p = arg;
+    for (size_t i = p->lo; i < p->hi; i++) {
+        size_t at = p->count[(p->src[2 * i] >> p->shift) & 0xff]++;
+        p->dst[2 * at] = p->src[2 * i];
+        p->dst[2 * at + 1] = p->src[2 * i + 1];
+    }
+    return 0;
+}
+
+/* note: the coordinates are gathered into rank order here, where the
+ * loop's reads are independent and overlap, rather than read at random in
+ * pass 6, one at a time behind the live map. */
+static int piece_ranks(void *arg)
+{
+    whole_piece *p = arg;
+    sort_job *j = p->j;
+    for (size_t r = p->lo; r < p->hi; r++) {
+        uint32_t id = (uint32_t)p->src[2 * r + 1];
+        j->rank_of[id] = (uint32_t)r;
+        memcpy(j->sxyz + 3 * r, j->xyz + 3 * (size_t)id, 3 * sizeof *j->xyz);
+    }
+    return 0;
+}
+
+static int piece_faces(void *arg)
+{
+    whole_piece *p = arg;
+    sort_job *j = p->j;
+    for (size_t f = p->lo; f < p->hi; f++) {
+        const uint32_t *t = j->tri + 3 * f;
+        uint64_t a = j->rank_of[t[0]], b = j->rank_of[t[1]], c = j->rank_of[t[2]];
+        uint64_t m = a > b ? a : b;
+        m = m > c ? m : c;
+        j->fitems[2 * f] = m | a << 32;
+        j->fitems[2 * f + 1] = b | c << 32;
+    }
+    return 0;
+}
+
+static int whole_alloc(sort_job *j, void **p, uint64_t n, size_t elem, epsnet_error *err)
+{
+    *p = en_malloc(n ? (size_t)n * elem : 1);
+    return *p ? 0 : nomem(j, err);
+}
+
+/* LSD radix sort of n items of 2 words by the bits keymask selects of
+ * their first word, a byte at a time, in pieces: stable, and byte
+ * positions where every key has the same value are skipped (the low bytes
+ * of coordinates that came from float32 are all zero; the high bytes of
+ * ranks). *a holds the items and gets the sorted ones; *b is the scratch
+ * copy, which this frees. */
+static int whole_radix(sort_job *j, whole_piece *pc, uint64_t **a, uint64_t **b, uint64_t n, uint64_t keymask,
+                       epsnet_error *err)
+{
+    uint64_t diff = 0;
+    for (uint64_t i = 0; i < n; i++)
+        diff |= (*a)[2 * i] ^ (*a)[0];
+    diff &= keymask;
+    int rc = 0;
+    cut_pieces(j, pc, n);
+    for (int shift = 0; rc == 0 && shift < 64; shift += 8) {
+        if (((diff >> shift) & 0xff) == 0)
+            continue;
+        for (size_t c = 0; c < j->chunks; c++) {
+            pc[c].src = *a;
+            pc[c].dst = *b;
+            pc[c].shift = shift;
+        }
+        if ((rc = run_pieces(j, pc, piece_count, err)))
+            break;
+        size_t sum = 0;
+        for (int d = 0; d < 256; d++)
+            for (size_t c = 0; c < j->chunks; c++) {
+                size_t k = pc[c].count[d];
+                pc[c].count[d] = sum;
+                sum += k;
+            }
+        if ((rc = run_pieces(j, pc, piece_move, err)))
+            break;
+        uint64_t *t = *a;
+        *a = *b;
+        *b = t;
+    }
+    en_free(*b);
+    *b = NULL;
+    return rc;
+}
+
+/* Passes 2 and 3 in memory: the vertices' (key, id) radix-sorted; equal
+ * coordinates keep input order. */
+static int whole_order(sort_job *j, epsnet_error *err)
+{
+    uint64_t nv = j->st.vertices;
+    uint64_t *a = NULL, *b = NULL;
+    whole_piece *pc = en_calloc(j->chunks, sizeof *pc);
+    int rc = pc ? 0 : nomem(j, err);
+    if (rc == 0 && (rc = whole_alloc(j, (void **)&a, 2 * nv, sizeof *a, err)) == 0)
+        rc = whole_alloc(j, (void **)&b, 2 * nv, sizeof *b, err);
+    uint64_t temp = 32 * nv;
+    en_mem_take(&j->mem, temp);
+    if (rc == 0) {
+        cut_pieces(j, pc, nv);
+        for (size_t c = 0; c < j->chunks; c++)
+            pc[c].dst = a;
+        rc = run_pieces(j, pc, piece_keys, err);
+    }
+    if (rc == 0)
+        rc = whole_radix(j, pc, &a, &b, nv, UINT64_MAX, err);
+    if (rc == 0)
+        rc = progress(j, 1, 1, err);
+    if (rc == 0 && (rc = whole_alloc(j, (void **)&j->sxyz, 3 * nv, sizeof *j->sxyz, err)) == 0)
+        rc = whole_alloc(j, (void **)&j->rank_of, nv, sizeof *j->rank_of, err);
+    en_mem_take(&j->mem, 28 * nv);
+    if (rc == 0) {
+        cut_pieces(j, pc, nv);
+        for (size_t c = 0; c < j->chunks; c++)
+            pc[c].src = a;
+        j->phase = 3;
+        rc = run_pieces(j, pc, piece_ranks, err);
+    }
+    en_free(a);
+    en_free(b);
+    en_free(pc);
+    en_free(j->xyz);
+    j->xyz = NULL;
+    en_mem_give(&j->mem, temp + 24 * nv);
+    return rc;
+}
+
+/* Passes 4 and 5 in memory: each face becomes (last corner | its first
+ * corner's rank << 32, second | third << 32), in pieces; a radix sort on
+ * the last corner keeps input order among equals, which is pass 5's order.
+ * fend[r] ends rank r's faces; last_of[r] is r's largest last corner. */
+static int whole_faces(sort_job *j, epsnet_error *err)
+{
+    uint64_t nv = j->st.vertices, nf = j->st.faces;
+    whole_piece *pc = en_calloc(j->chunks, sizeof *pc);
+    uint64_t *b = NULL;
+    int rc = pc ? 0 : nomem(j, err);
+    if (rc == 0 && (rc = whole_alloc(j, (void **)&j->fitems, 2 * nf, sizeof *j->fitems, err)) == 0 &&
+        (rc = whole_alloc(j, (void **)&j->fend, nv, sizeof *j->fend, err)) == 0)
+        rc = whole_alloc(j, (void **)&j->last_of, nv, sizeof *j->last_of, err);
+    en_mem_take(&j->mem, 16 * nf + 8 * nv);
+    if (rc == 0) {
+        cut_pieces(j, pc, nf);
+        rc = run_pieces(j, pc, piece_faces, err);
+    }
+    /* the input ids are no longer needed: the faces hold ranks now */
+    en_free(j->tri);
+    en_free(j->rank_of);
+    j->tri = NULL;
+    j->rank_of = NULL;
+    en_mem_give(&j->mem, 12 * nf + 4 * nv);
+    if (rc == 0)
+        rc = whole_alloc(j, (void **)&b, 2 * nf, sizeof *b, err);
+    en_mem_take(&j->mem, 16 * nf);
+    if (rc == 0)
+        rc = whole_radix(j, pc, &j->fitems, &b, nf, UINT32_MAX, err);
+    en_free(b);
+    en_mem_give(&j->mem, 16 * nf);
+    en_free(pc);
+    if (rc || (rc = progress(j, 1, 2, err)))
+        return rc;
+    for (uint64_t v = 0; v < nv; v++)
+        j->last_of[v] = UINT32_MAX;
+    uint32_t prev = 0;
+    for (uint64_t f = 0; f < nf; f++) {
+        const uint64_t *it = j->fitems + 2 * f;
+        uint32_t l = (uint32_t)it[0], r[3] = { (uint32_t)(it[0] >> 32), (uint32_t)it[1], (uint32_t)(it[1] >> 32) };
+        for (; prev < l; prev++)
+            j->fend[prev] = (uint32_t)f;
+        for (int s = 0; s < 3; s++)
+            if (j->last_of[r[s]] == UINT32_MAX || j->last_of[r[s]] < l)
+                j->last_of[r[s]] = l;
+    }
+    for (; prev < nv; prev++)
+        j->fend[prev] = (uint32_t)nf;
+    return progress(j, 2, 2, err);
+}
+
 /* ---- pass 1: read ---- */
 
 static int pass_read(sort_job *j, epsnet_error *err)
@@ -252,13 +627,21 @@ static int pass_read(sort_job *j, epsnet_error *err)
             return rc;
         if (rec.kind == EPSNET_REC_VERTEX) {
             for (int k = 0; k < 3; k++) {
-                j->vbuf[3 * nb + (size_t)k] = rec.xyz[k];
                 if (rec.xyz[k] < j->lo[k])
                     j->lo[k] = rec.xyz[k];
                 if (rec.xyz[k] > j->hi[k])
                     j->hi[k] = rec.xyz[k];
             }
             j->st.vertices++;
+            if (j->whole) {
+                if ((rc = whole_vertex(j, rec.xyz, err)) < 0)
+                    return rc;
+                if (rc == 0)
+                    continue;
+                nb = 0; /* no longer whole: the vertex goes to the spill */
+            }
+            for (int k = 0; k < 3; k++)
+                j->vbuf[3 * nb + (size_t)k] = rec.xyz[k];
             if (++nb == BATCH) {
                 if ((rc = en_spill_write(j->vraw, j->vbuf, nb * 3 * sizeof *j->vbuf, err)))
                     return rc;
@@ -266,6 +649,13 @@ static int pass_read(sort_job *j, epsnet_error *err)
             }
         } else if (rec.kind == EPSNET_REC_TRIANGLE) {
             j->st.faces++;
+            if (j->whole) {
+                if ((rc = whole_face(j, rec.v, err)) < 0)
+                    return rc;
+                if (rc == 0)
+                    continue;
+                nf = 0;
+            }
             memcpy(j->fbuf + 3 * nf, rec.v, sizeof rec.v);
             if (++nf == BATCH) {
                 if ((rc = en_spill_write(j->fraw, j->fbuf, nf * 3 * sizeof *j->fbuf, err)))
@@ -276,6 +666,8 @@ static int pass_read(sort_job *j, epsnet_error *err)
     }
     if (rc < 0)
         return rc;
+    if (j->whole)
+        return 0;
     if ((nb && (rc = en_spill_write(j->vraw, j->vbuf, nb * 3 * sizeof *j->vbuf, err))) ||
         (nf && (rc = en_spill_write(j->fraw, j->fbuf, nf * 3 * sizeof *j->fbuf, err))) ||
         (rc = en_spill_rewind(j->fraw, err)))
@@ -574,13 +966,33 @@ static int emit_group(sort_job *j, uint64_t rank, size_t n, epsnet_error *err)
     return 0;
 }
 
+/* The whole path's faces whose last corner is rank, as pass 5 would give
+ * them (last corner, -, its corners' ranks; emit_group needs no face id). */
+static int whole_group(sort_job *j, uint64_t rank, size_t *n, epsnet_error *err)
+{
+    uint32_t start = rank ? j->fend[rank - 1] : 0, end = j->fend[rank];
+    *n = end - start;
+    if (*n > j->group_cap && en_grow((void **)&j->group, &j->group_cap, *n, 5 * sizeof *j->group))
+        return nomem(j, err);
+    for (uint32_t i = start; i < end; i++) {
+        uint64_t *g = j->group + 5 * (size_t)(i - start);
+        const uint64_t *it = j->fitems + 2 * (size_t)i;
+        g[0] = rank;
+        g[1] = 0;
+        g[2] = it[0] >> 32;
+        g[3] = (uint32_t)it[1];
+        g[4] = it[1] >> 32;
+    }
+    return 0;
+}
+
 static int pass_emit(sort_job *j, epsnet_error *err)
 {
     uint64_t nv = j->st.vertices, next_id = 0;
     int rc;
     for (uint64_t rank = 0; rank < nv;) {
         size_t nb = nv - rank < BATCH ? (size_t)(nv - rank) : BATCH;
-        if ((rc = read_vertices(j, j->vsorted, nb, err)))
+        if (!j->whole && (rc = read_vertices(j, j->vsorted, nb, err)))
             return rc;
         for (size_t b = 0; b < nb; b++, rank++) {
             uint64_t last;
@@ -591,7 +1003,7 @@ static int pass_emit(sort_job *j, epsnet_error *err)
                 continue;
             }
             epsnet_record rec = { .kind = EPSNET_REC_VERTEX };
-            memcpy(rec.xyz, j->vbuf + 3 * b, sizeof rec.xyz);
+            memcpy(rec.xyz, j->whole ? j->sxyz + 3 * rank : j->vbuf + 3 * b, sizeof rec.xyz);
             if ((rc = j->emit(j->emit_opaque, &rec, err)))
                 return rc;
             if (live_add(&j->live, rank, next_id++, last))
@@ -600,13 +1012,17 @@ static int pass_emit(sort_job *j, epsnet_error *err)
                 j->st.max_width = j->live.count;
             size_t n = 0;
             const uint64_t *f;
-            while ((f = en_extsort_peek(j->faces, &rc, err)) && f[0] == rank) {
-                if (n == j->group_cap && en_grow((void **)&j->group, &j->group_cap, n + 1, 5 * sizeof *j->group))
-                    return nomem(j, err);
-                if ((rc = en_extsort_next(j->faces, j->group + 5 * n, err)) < 0)
-                    return rc;
-                n++;
-            }
+            if (j->whole)
+                rc = whole_group(j, rank, &n, err);
+            else
+                while ((f = en_extsort_peek(j->faces, &rc, err)) && f[0] == rank) {
+                    if (n == j->group_cap &&
+                        en_grow((void **)&j->group, &j->group_cap, n + 1, 5 * sizeof *j->group))
+                        return nomem(j, err);
+                    if ((rc = en_extsort_next(j->faces, j->group + 5 * n, err)) < 0)
+                        return rc;
+                    n++;
+                }
             if (rc < 0 || (rc = over_budget(j, err)))
                 return rc;
             if (n && (rc = emit_group(j, rank, n, err)))
@@ -652,6 +1068,20 @@ static int open_job(sort_job *j, epsnet_error *err)
     if (rc)
         return rc;
     j->ct = epsnet_reader_info(j->r)->coord_type;
+    j->whole = whole_fits(j, 0, 0);
+    const epsnet_mesh_info *in = epsnet_reader_info(j->r);
+    if (j->whole && in->nverts != EPSNET_COUNT_UNKNOWN && in->nfaces != EPSNET_COUNT_UNKNOWN &&
+        whole_fits(j, in->nverts, in->nfaces)) {
+        /* note: the header's counts are only a hint; growth still checks */
+        j->xyz = en_malloc(in->nverts ? (size_t)in->nverts * 3 * sizeof *j->xyz : 1);
+        j->tri = en_malloc(in->nfaces ? (size_t)in->nfaces * 3 * sizeof *j->tri : 1);
+        if (!j->xyz || !j->tri)
+            return nomem(j, err);
+        j->xyz_cap = (size_t)in->nverts;
+        j->tri_cap = (size_t)in->nfaces;
+        j->whole_bytes = 24 * in->nverts + 12 * in->nfaces;
+        en_mem_take(&j->mem, j->whole_bytes);
+    }
     if ((rc = en_spill_open(&j->vraw, j->tmpdir, j->owner, err)) ||
         (rc = en_spill_open(&j->fraw, j->tmpdir, j->owner, err)) ||
         (rc = en_spill_open(&j->vsorted, j->tmpdir, j->owner, err)) ||
@@ -680,6 +1110,12 @@ static void close_job(sort_job *j)
     en_free(j->fbuf);
     en_free(j->rank_of);
     en_free(j->last_of);
+    en_free(j->xyz);
+    en_free(j->tri);
+    en_free(j->sxyz);
+    en_free(j->fend);
+    en_free(j->fitems);
+    en_pool_free(&j->pool);
     en_mem_give(&j->mem, j->arrays_bytes);
     en_free(j->tmpdir);
 }
@@ -706,6 +1142,24 @@ static int choose_relabel(sort_job *j, epsnet_error *err)
     return 0;
 }
 
+/* Workers for the whole path: as epsnet_settings.threads (0 = all cores,
+ * 1 = this thread). A thread that cannot start leaves the work to this
+ * one: the output does not depend on it. */
+static int start_pool(sort_job *j, epsnet_error *err)
+{
+    long n = j->set.threads > 0 ? j->set.threads : sysconf(_SC_NPROCESSORS_ONLN);
+    n = n > 64 ? 64 : n;
+    j->chunks = 1;
+    if (n <= 1)
+        return 0;
+    int rc = en_pool_new(&j->pool, (int)n, (size_t)n);
+    if (rc == EPSNET_ENOMEM)
+        return nomem(j, err);
+    if (rc == 0)
+        j->chunks = (size_t)n;
+    return 0;
+}
+
 /* Passes 1 to 5: everything but the output walk. */
 static int run_passes(sort_job *j, epsnet_error *err)
 {
@@ -717,6 +1171,14 @@ static int run_passes(sort_job *j, epsnet_error *err)
     if (j->set.axis < 0)
         j->axis = j->st.vertices ? en_sort_longest_axis(j->lo, j->hi) : 2;
     j->st.axis = j->axis;
+    if (j->whole) {
+        j->in_core = 1; /* ranks and last uses are arrays */
+        j->phase = 2;
+        if ((rc = start_pool(j, err)) || (rc = whole_order(j, err)))
+            return rc;
+        j->phase = 5;
+        return whole_faces(j, err);
+    }
     if ((rc = choose_relabel(j, err)))
         return rc;
     j->phase = 2;

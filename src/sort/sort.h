@@ -26,6 +26,15 @@
  * the faces through it and fills an array of last uses, and pass 4 and
  * sorter L are skipped: the same output with a third of the temporary
  * traffic.
+ *
+ * When the whole mesh and the arrays that sort it fit in half of the budget
+ * (sort.c: whole_bytes), passes 1 to 5 run in memory instead: the read
+ * keeps vertices and faces in arrays, the vertices are ranked by a radix
+ * sort of (coordinate key, id), the faces relabelled and radix-sorted on
+ * their last corner, in pieces on a worker pool. Both sorts are stable, so
+ * the output is the external passes' to the byte, for any thread count. A
+ * read that outgrows the budget moves what it holds to the spills of pass 1
+ * and goes on with the external passes.
  */
 #ifndef EN_SORT_SORT_H
 #define EN_SORT_SORT_H
