@@ -149,6 +149,7 @@ struct en_sort {
     double *sxyz;                /* whole: the vertices in rank order, 3 each */
     uint32_t *fend;              /* whole: rank -> end of its faces in fitems */
     uint64_t *fitems;            /* whole: faces by (last corner, input order): see whole_faces */
+    uint32_t *out_id, *fin;      /* whole: see whole_emit */
     uint64_t whole_bytes;        /* accounted */
     en_pool *pool;               /* whole: workers for the chunks; NULL = this thread */
     size_t chunks;               /* pieces the whole path's loops are cut into */
@@ -250,20 +251,22 @@ static double bitsd(uint64_t u)
 /* ---- everything in memory ----
  *
  * note: when the input's vertices and faces and the arrays that sort them
- * fit in half of the budget (the other half is for the live vertices of
- * pass 6, as over_budget() says), passes 1 to 5 need no temporary file and
- * no compression at all: the vertices are ranked by a radix sort of their
- * keys, and the faces are put in (last corner, input order) by a counting
- * sort on their last corner, which is a rank. The output is the same as
- * the external passes' (the same two stable orders). Past that size the
- * read falls back to the spills, with what it has read so far.
+ * fit in half of the budget (half, as for the in-core arrays of
+ * choose_relabel: the rest is the reader's, the writer's and, in pass 6,
+ * the consumer's), passes 1 to 5 need no temporary file and no compression
+ * at all: the vertices are ranked by a radix sort of their keys, and the
+ * faces put in (last corner, input order) by a radix sort on their last
+ * corner, which is a rank. Both sorts are stable, so the output is the
+ * external passes' to the byte. Past that size the read moves what it holds
+ * to the spills and goes on with the external passes.
  */
 
 /* Bytes the whole path may hold at once for nv vertices and nf faces, a
  * bound on both of its peaks: xyz and tri, the keys (16 bytes each) with
  * their radix copy or, later, the coordinates in rank order and rank_of;
  * then the coordinates, the faces' items and their radix copy (16 bytes
- * each), fend and last_of. */
+ * each), fend and last_of. Pass 6 holds less: the coordinates, the items,
+ * and four arrays over the ranks. */
 static uint64_t whole_bytes(uint64_t nv, uint64_t nf)
 {
     return 68 * nv + 36 * nf;
@@ -966,33 +969,75 @@ static int emit_group(sort_job *j, uint64_t rank, size_t n, epsnet_error *err)
     return 0;
 }
 
-/* The whole path's faces whose last corner is rank, as pass 5 would give
- * them (last corner, -, its corners' ranks; emit_group needs no face id). */
-static int whole_group(sort_job *j, uint64_t rank, size_t *n, epsnet_error *err)
+/*
+ * Pass 6 of the whole path: emit_group() and the live map again, but with
+ * arrays over the ranks (new id, face of the group after which a vertex is
+ * finalized), which are already within the budget; so the same records in
+ * the same order, without a hash lookup per corner. A face's corners are
+ * ranks no larger than its last corner, so each was written before it.
+ */
+static int whole_emit(sort_job *j, epsnet_error *err)
 {
-    uint32_t start = rank ? j->fend[rank - 1] : 0, end = j->fend[rank];
-    *n = end - start;
-    if (*n > j->group_cap && en_grow((void **)&j->group, &j->group_cap, *n, 5 * sizeof *j->group))
-        return nomem(j, err);
-    for (uint32_t i = start; i < end; i++) {
-        uint64_t *g = j->group + 5 * (size_t)(i - start);
-        const uint64_t *it = j->fitems + 2 * (size_t)i;
-        g[0] = rank;
-        g[1] = 0;
-        g[2] = it[0] >> 32;
-        g[3] = (uint32_t)it[1];
-        g[4] = it[1] >> 32;
+    uint64_t nv = j->st.vertices, live = 0;
+    uint32_t next_id = 0;
+    int rc = whole_alloc(j, (void **)&j->out_id, nv, sizeof *j->out_id, err);
+    if (rc || (rc = whole_alloc(j, (void **)&j->fin, nv, sizeof *j->fin, err)))
+        return rc;
+    en_mem_take(&j->mem, 8 * nv);
+    const uint32_t *last_of = j->last_of;
+    uint32_t *fin = j->fin, *id = j->out_id;
+    for (uint64_t rank = 0; rank < nv; rank++) {
+        if (((rank + 1) & PROGRESS_EVERY) == 0 && (rc = progress(j, rank, nv, err)))
+            return rc;
+        if (last_of[rank] == UINT32_MAX) {
+            j->st.unreferenced++;
+            continue;
+        }
+        epsnet_record rec = { .kind = EPSNET_REC_VERTEX };
+        memcpy(rec.xyz, j->sxyz + 3 * rank, sizeof rec.xyz);
+        if ((rc = j->emit(j->emit_opaque, &rec, err)))
+            return rc;
+        id[rank] = next_id++;
+        fin[rank] = UINT32_MAX;
+        if (++live > j->st.max_width)
+            j->st.max_width = live;
+        uint32_t start = rank ? j->fend[rank - 1] : 0, end = j->fend[rank];
+        for (uint32_t i = end; i-- > start;) {
+            const uint64_t *it = j->fitems + 2 * (size_t)i;
+            uint32_t c[3] = { (uint32_t)(it[0] >> 32), (uint32_t)it[1], (uint32_t)(it[1] >> 32) };
+            for (int s = 0; s < 3; s++)
+                if (last_of[c[s]] == rank && fin[c[s]] == UINT32_MAX)
+                    fin[c[s]] = i;
+        }
+        for (uint32_t i = start; i < end; i++) {
+            const uint64_t *it = j->fitems + 2 * (size_t)i;
+            uint32_t c[3] = { (uint32_t)(it[0] >> 32), (uint32_t)it[1], (uint32_t)(it[1] >> 32) };
+            if ((rc = put_record(j, EPSNET_REC_TRIANGLE, id[c[0]], id[c[1]], id[c[2]], err)))
+                return rc;
+            for (int s = 0; s < 3; s++) {
+                if ((s > 0 && c[s] == c[0]) || (s > 1 && c[s] == c[1]) || last_of[c[s]] != rank ||
+                    fin[c[s]] != i)
+                    continue;
+                if ((rc = put_record(j, EPSNET_REC_FINALIZE, id[c[s]], 0, 0, err)))
+                    return rc;
+                live--;
+            }
+        }
     }
-    return 0;
+    if (live)
+        return internal(j, "vertices left live at the end", err);
+    return progress(j, nv, nv, err);
 }
 
 static int pass_emit(sort_job *j, epsnet_error *err)
 {
+    if (j->whole)
+        return whole_emit(j, err);
     uint64_t nv = j->st.vertices, next_id = 0;
     int rc;
     for (uint64_t rank = 0; rank < nv;) {
         size_t nb = nv - rank < BATCH ? (size_t)(nv - rank) : BATCH;
-        if (!j->whole && (rc = read_vertices(j, j->vsorted, nb, err)))
+        if ((rc = read_vertices(j, j->vsorted, nb, err)))
             return rc;
         for (size_t b = 0; b < nb; b++, rank++) {
             uint64_t last;
@@ -1003,7 +1048,7 @@ static int pass_emit(sort_job *j, epsnet_error *err)
                 continue;
             }
             epsnet_record rec = { .kind = EPSNET_REC_VERTEX };
-            memcpy(rec.xyz, j->whole ? j->sxyz + 3 * rank : j->vbuf + 3 * b, sizeof rec.xyz);
+            memcpy(rec.xyz, j->vbuf + 3 * b, sizeof rec.xyz);
             if ((rc = j->emit(j->emit_opaque, &rec, err)))
                 return rc;
             if (live_add(&j->live, rank, next_id++, last))
@@ -1012,17 +1057,13 @@ static int pass_emit(sort_job *j, epsnet_error *err)
                 j->st.max_width = j->live.count;
             size_t n = 0;
             const uint64_t *f;
-            if (j->whole)
-                rc = whole_group(j, rank, &n, err);
-            else
-                while ((f = en_extsort_peek(j->faces, &rc, err)) && f[0] == rank) {
-                    if (n == j->group_cap &&
-                        en_grow((void **)&j->group, &j->group_cap, n + 1, 5 * sizeof *j->group))
-                        return nomem(j, err);
-                    if ((rc = en_extsort_next(j->faces, j->group + 5 * n, err)) < 0)
-                        return rc;
-                    n++;
-                }
+            while ((f = en_extsort_peek(j->faces, &rc, err)) && f[0] == rank) {
+                if (n == j->group_cap && en_grow((void **)&j->group, &j->group_cap, n + 1, 5 * sizeof *j->group))
+                    return nomem(j, err);
+                if ((rc = en_extsort_next(j->faces, j->group + 5 * n, err)) < 0)
+                    return rc;
+                n++;
+            }
             if (rc < 0 || (rc = over_budget(j, err)))
                 return rc;
             if (n && (rc = emit_group(j, rank, n, err)))
@@ -1115,6 +1156,8 @@ static void close_job(sort_job *j)
     en_free(j->sxyz);
     en_free(j->fend);
     en_free(j->fitems);
+    en_free(j->out_id);
+    en_free(j->fin);
     en_pool_free(&j->pool);
     en_mem_give(&j->mem, j->arrays_bytes);
     en_free(j->tmpdir);
