@@ -935,6 +935,26 @@ static int put_record(sort_job *j, epsnet_record_kind kind, uint64_t a, uint64_t
     return j->emit(j->emit_opaque, &rec, err);
 }
 
+/* note: the records are those of the stream in the input's coordinate
+ * type, as a .smz of it would give them back: float32 values rounded (and
+ * refused when they do not fit, as the .smz writer refuses them), so that a
+ * consumer fed directly sees what it would read from the sorted file. */
+static int emit_vertex(sort_job *j, const double xyz[3], uint64_t id, epsnet_error *err)
+{
+    epsnet_record rec = { .kind = EPSNET_REC_VERTEX };
+    memcpy(rec.xyz, xyz, sizeof rec.xyz);
+    if (j->ct == EPSNET_COORD_FLOAT32)
+        for (int k = 0; k < 3; k++) {
+            float f = (float)xyz[k];
+            if (isfinite(xyz[k]) && !isfinite(f))
+                return en_error_set(err, EPSNET_EUNSUPPORTED, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                    "vertex %llu: coordinate %g does not fit in float32",
+                                    (unsigned long long)id + 1, xyz[k]);
+            rec.xyz[k] = f;
+        }
+    return j->emit(j->emit_opaque, &rec, err);
+}
+
 /* Write the faces whose last corner is rank, finalizing each vertex after
  * the last of them that uses it (if this is its last group). */
 static int emit_group(sort_job *j, uint64_t rank, size_t n, epsnet_error *err)
@@ -993,9 +1013,7 @@ static int whole_emit(sort_job *j, epsnet_error *err)
             j->st.unreferenced++;
             continue;
         }
-        epsnet_record rec = { .kind = EPSNET_REC_VERTEX };
-        memcpy(rec.xyz, j->sxyz + 3 * rank, sizeof rec.xyz);
-        if ((rc = j->emit(j->emit_opaque, &rec, err)))
+        if ((rc = emit_vertex(j, j->sxyz + 3 * rank, next_id, err)))
             return rc;
         id[rank] = next_id++;
         fin[rank] = UINT32_MAX;
@@ -1047,9 +1065,7 @@ static int pass_emit(sort_job *j, epsnet_error *err)
                 j->st.unreferenced++;
                 continue;
             }
-            epsnet_record rec = { .kind = EPSNET_REC_VERTEX };
-            memcpy(rec.xyz, j->vbuf + 3 * b, sizeof rec.xyz);
-            if ((rc = j->emit(j->emit_opaque, &rec, err)))
+            if ((rc = emit_vertex(j, j->vbuf + 3 * b, next_id, err)))
                 return rc;
             if (live_add(&j->live, rank, next_id++, last))
                 return nomem(j, err);
