@@ -536,7 +536,7 @@ static int watch_folders(void *opaque, uint64_t done, uint64_t total)
  * spilling or not. */
 TEST(unsorted_input_feeds_the_pipeline_without_a_sorted_copy)
 {
-    char dir[512], runs[600], ply[600], smz[600], a[600], b[600];
+    char dir[512], runs[520], ply[600], smz[600], a[600], b[600];
     snprintf(dir, sizeof dir, "%s/nocopy", tl_tmpdir());
     snprintf(runs, sizeof runs, "%s/runs", dir);
     CHECK_EQ_INT(mkdir(dir, 0700), 0);

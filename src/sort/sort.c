@@ -141,6 +141,7 @@ struct en_sort {
     en_spill *vsorted;           /* vertices in rank order */
     en_spill *fraw;              /* input faces (old ids), input order */
     int in_core;                 /* rank_of/last_of arrays fit the budget */
+    int narrow;                  /* ranks fit 32 bits: sorter F's items are 3 words, not 4 */
     int whole;                   /* everything is in memory (see whole_fits) */
     double *xyz;                 /* whole: input vertices, 3 each */
     uint32_t *tri;               /* whole: input faces, 3 old ids each */
@@ -821,7 +822,15 @@ static int add_face(sort_job *j, uint64_t f, const uint64_t r[3], epsnet_error *
     for (int s = 1; s < 3; s++)
         if (r[s] > last)
             last = r[s];
-    uint64_t face[5] = { last, f, r[0], r[1], r[2] };
+    /* note: a face's id is not kept: it only breaks ties on the last
+     * corner, which the stable sort does by itself (faces are added in
+     * input order); with ranks below 2^32 the corners share words. */
+    uint64_t face[4] = { last, r[0], r[1], r[2] };
+    if (j->narrow) {
+        face[1] = r[0] | r[1] << 32;
+        face[2] = r[2];
+    }
+    (void)f;
     int rc = en_extsort_add(j->faces, face, err);
     for (int s = 0; s < 3 && rc == 0; s++) {
         if (j->in_core) {
@@ -1076,8 +1085,18 @@ static int pass_emit(sort_job *j, epsnet_error *err)
             while ((f = en_extsort_peek(j->faces, &rc, err)) && f[0] == rank) {
                 if (n == j->group_cap && en_grow((void **)&j->group, &j->group_cap, n + 1, 5 * sizeof *j->group))
                     return nomem(j, err);
-                if ((rc = en_extsort_next(j->faces, j->group + 5 * n, err)) < 0)
+                uint64_t it[4], *g = j->group + 5 * n;
+                if ((rc = en_extsort_next(j->faces, it, err)) < 0)
                     return rc;
+                g[0] = it[0];
+                g[1] = 0;
+                if (j->narrow) {
+                    g[2] = it[1] & UINT32_MAX;
+                    g[3] = it[1] >> 32;
+                    g[4] = it[2];
+                } else {
+                    memcpy(g + 2, it + 1, 3 * sizeof *g);
+                }
                 n++;
             }
             if (rc < 0 || (rc = over_budget(j, err)))
@@ -1144,7 +1163,7 @@ static int open_job(sort_job *j, epsnet_error *err)
         (rc = en_spill_open(&j->vsorted, j->tmpdir, j->owner, err)) ||
         (rc = open_sorter(j, &j->corners, 2, 1, err)) || (rc = open_sorter(j, &j->verts, 4, 1, err)) ||
         (rc = open_sorter(j, &j->map, 2, 1, err)) || (rc = open_sorter(j, &j->joined, 2, 1, err)) ||
-        (rc = open_sorter(j, &j->faces, 5, 1, err)) || (rc = open_sorter(j, &j->lastuse, 2, 1, err)))
+        (rc = open_sorter(j, &j->lastuse, 2, 1, err)))
         return rc;
     return 0;
 }
@@ -1238,7 +1257,8 @@ static int run_passes(sort_job *j, epsnet_error *err)
         j->phase = 5;
         return whole_faces(j, err);
     }
-    if ((rc = choose_relabel(j, err)))
+    j->narrow = j->st.vertices < UINT32_MAX;
+    if ((rc = open_sorter(j, &j->faces, j->narrow ? 3 : 4, 1, err)) || (rc = choose_relabel(j, err)))
         return rc;
     j->phase = 2;
     if ((rc = pass_order(j, err)))

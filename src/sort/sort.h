@@ -12,7 +12,8 @@
  *                  merge C against M (both by old id): (face, slot, rank)
  *                  -> sorter J
  *   5. faces       merge J: whole faces in ranks -> sorter F by (last
- *                  corner, face); every corner -> sorter L as (rank, last
+ *                  corner, face: a stable sort on the last corner of faces
+ *                  added in input order); every corner -> sorter L as (rank, last
  *                  corner of its face)
  *   6. emit        walk the ranks once: a vertex no L item names is dropped;
  *                  otherwise it is written, then the faces whose last corner
