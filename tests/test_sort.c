@@ -360,7 +360,8 @@ TEST(output_bytes_do_not_depend_on_the_budget)
 /* The in-memory path (the mesh and its arrays fit in half of the budget:
  * no temporary bytes at all) gives the external passes' bytes for any
  * thread count, and so does a read that outgrows it midway and moves what
- * it has read to the spills. */
+ * it has read to the spills; the external passes too, whether their runs
+ * are formed on a worker (threads > 1) or inline. */
 TEST(in_memory_sort_gives_the_same_bytes_for_any_thread_count)
 {
     epsnet_error err;
@@ -370,7 +371,7 @@ TEST(in_memory_sort_gives_the_same_bytes_for_any_thread_count)
      * short of that (twice it), 256M is plenty, 256K is the external path */
     static const struct { uint64_t mem; int threads; int whole; } runs[] = {
         { 256 << 10, 1, 0 }, { (uint64_t)256 << 20, 1, 1 }, { (uint64_t)256 << 20, 2, 1 },
-        { (uint64_t)256 << 20, 3, 1 }, { 4 << 20, 2, 0 },
+        { (uint64_t)256 << 20, 3, 1 }, { 4 << 20, 2, 0 }, { 4 << 20, 1, 0 }, { 256 << 10, 2, 0 },
     };
     for (size_t i = 0; i < sizeof runs / sizeof *runs; i++) {
         epsnet_sort_settings s;

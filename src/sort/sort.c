@@ -189,6 +189,13 @@ static int nomem(const sort_job *j, epsnet_error *err)
     return en_error_set(err, EPSNET_ENOMEM, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
 }
 
+/* Threads asked for: as epsnet_settings.threads, 0 = all cores. */
+static long sort_workers(const sort_job *j)
+{
+    long n = j->set.threads > 0 ? j->set.threads : sysconf(_SC_NPROCESSORS_ONLN);
+    return n > 64 ? 64 : n;
+}
+
 /* note: every sorter keys on its first word only. The sort is stable and
  * items arrive in input order (vertex id, face id), so ties keep input
  * order: the (coordinate, id) and (last corner, face) orders of sort.h
@@ -197,7 +204,7 @@ static int open_sorter(sort_job *j, en_extsort **es, size_t words, size_t key_wo
 {
     en_extsort_config c = {
         .item_words = words, .key_words = key_words, .mem = j->set.mem / 4,
-        .tmpdir = j->tmpdir, .owner = j->owner, .account = &j->mem,
+        .tmpdir = j->tmpdir, .owner = j->owner, .account = &j->mem, .threads = sort_workers(j) > 1,
     };
     return en_extsort_open(es, &c, err);
 }
@@ -1225,8 +1232,7 @@ static int choose_relabel(sort_job *j, epsnet_error *err)
  * one: the output does not depend on it. */
 static int start_pool(sort_job *j, epsnet_error *err)
 {
-    long n = j->set.threads > 0 ? j->set.threads : sysconf(_SC_NPROCESSORS_ONLN);
-    n = n > 64 ? 64 : n;
+    long n = sort_workers(j);
     j->chunks = 1;
     if (n <= 1)
         return 0;
