@@ -359,8 +359,9 @@ TEST(output_bytes_do_not_depend_on_the_budget)
 
 /* The in-memory path (the mesh and its arrays fit in half of the budget:
  * no temporary bytes at all) gives the external passes' bytes for any
- * thread count, and so does a read that outgrows it midway and moves what
- * it has read to the spills; the external passes too, whether their runs
+ * thread count, and so does a read that outgrows it midway (an OBJ: no
+ * counts announced) and moves what it has read to the spills; the
+ * external passes too, whether their runs
  * are formed on a worker (threads > 1) or inline. */
 TEST(in_memory_sort_gives_the_same_bytes_for_any_thread_count)
 {
@@ -385,6 +386,15 @@ TEST(in_memory_sort_gives_the_same_bytes_for_any_thread_count)
         if (i)
             CHECK(same_bytes(tl_path("whole_a.smz"), tl_path("whole_b.smz")));
     }
+    /* an OBJ announces no counts: at 4M its read outgrows memory midway */
+    const char *obj = tl_path("whole.obj");
+    CHECK_EQ_INT(tl_gen_file(obj, "bumpy", 40000, NAN, 4, 1, &err), 0);
+    epsnet_sort_stats st;
+    CHECK_EQ_INT(sort_with(obj, tl_path("whole_c.smz"), (uint64_t)256 << 20, -1, &st, &err), 0);
+    CHECK_EQ_U64(st.temp_bytes, 0);
+    CHECK_EQ_INT(sort_with(obj, tl_path("whole_d.smz"), 4 << 20, -1, &st, &err), 0);
+    CHECK(st.temp_bytes > 0);
+    CHECK(same_bytes(tl_path("whole_c.smz"), tl_path("whole_d.smz")));
 }
 
 typedef struct record_list {

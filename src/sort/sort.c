@@ -383,7 +383,7 @@ typedef struct whole_piece {
     size_t lo, hi;               /* items [lo, hi) */
     int shift;                   /* radix: the byte counted or moved */
     size_t count[256];           /* radix: this piece's histogram, then its offsets */
-    const uint64_t *src;         /* radix: 2 words per item (key, id) */
+    const uint64_t *src;         /* radix: 2 words per item, the key first */
     uint64_t *dst;
 } whole_piece;
 
@@ -416,7 +416,7 @@ static void cut_pieces(sort_job *j, whole_piece *pc, uint64_t n)
     }
 }
 
-/* Keys of the vertices, and each key byte's histogram over all of them. */
+/* The vertices' (key, input id) items. */
 static int piece_keys(void *arg)
 {
     whole_piece *p = arg;
@@ -1151,10 +1151,12 @@ static int open_job(sort_job *j, epsnet_error *err)
     if (rc)
         return rc;
     j->ct = epsnet_reader_info(j->r)->coord_type;
-    j->whole = whole_fits(j, 0, 0);
     const epsnet_mesh_info *in = epsnet_reader_info(j->r);
-    if (j->whole && in->nverts != EPSNET_COUNT_UNKNOWN && in->nfaces != EPSNET_COUNT_UNKNOWN &&
-        whole_fits(j, in->nverts, in->nfaces)) {
+    int counted = in->nverts != EPSNET_COUNT_UNKNOWN && in->nfaces != EPSNET_COUNT_UNKNOWN;
+    /* note: a header that announces too much for memory sends the read to
+     * the spills at once, rather than after filling half of the budget */
+    j->whole = counted ? whole_fits(j, in->nverts, in->nfaces) : whole_fits(j, 0, 0);
+    if (j->whole && counted) {
         /* note: the header's counts are only a hint; growth still checks */
         j->xyz = en_malloc(in->nverts ? (size_t)in->nverts * 3 * sizeof *j->xyz : 1);
         j->tri = en_malloc(in->nfaces ? (size_t)in->nfaces * 3 * sizeof *j->tri : 1);
