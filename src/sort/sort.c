@@ -823,7 +823,7 @@ static int pass_relabel(sort_job *j, epsnet_error *err)
 
 /* ---- pass 5: whole faces, and last uses ---- */
 
-static int add_face(sort_job *j, uint64_t f, const uint64_t r[3], epsnet_error *err)
+static int add_face(sort_job *j, const uint64_t r[3], epsnet_error *err)
 {
     uint64_t last = r[0];
     for (int s = 1; s < 3; s++)
@@ -837,7 +837,6 @@ static int add_face(sort_job *j, uint64_t f, const uint64_t r[3], epsnet_error *
         face[1] = r[0] | r[1] << 32;
         face[2] = r[2];
     }
-    (void)f;
     int rc = en_extsort_add(j->faces, face, err);
     for (int s = 0; s < 3 && rc == 0; s++) {
         if (j->in_core) {
@@ -867,7 +866,7 @@ static int pass_faces_in_core(sort_job *j, epsnet_error *err)
             uint64_t r[3];
             for (int s = 0; s < 3; s++)
                 r[s] = j->rank_of[j->fbuf[3 * i + (size_t)s]];
-            if ((rc = add_face(j, f, r, err)))
+            if ((rc = add_face(j, r, err)))
                 return rc;
         }
         if ((rc = progress(j, f, j->st.faces, err)))
@@ -892,7 +891,7 @@ static int pass_faces(sort_job *j, epsnet_error *err)
                 return internal(j, "face corners out of step", err);
         }
         uint64_t r[3] = { c[0][1], c[1][1], c[2][1] };
-        if ((rc = add_face(j, f, r, err)))
+        if ((rc = add_face(j, r, err)))
             return rc;
         if ((f & PROGRESS_EVERY) == 0 && (rc = progress(j, f, j->st.faces, err)))
             return rc;
