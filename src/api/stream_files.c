@@ -100,9 +100,11 @@ static void temp_folder(const epsnet_context *ctx, const char *out_path, char *d
  * pipeline keeps its own sizing from the whole of it: its slabs (and so
  * the output bytes) must be those of the same run on the sorted file, and
  * the sort's last pass, which runs beside the pipeline, holds only what
- * passes 1 to 5 left within that half (the faces' final merge or the
- * in-core last-use array, and the live vertices, which the sort itself
- * stops at half of its share). With no --mem the sort keeps its default.
+ * passes 1 to 5 left within that half: the in-memory sort's arrays (at
+ * most half of its share, src/sort/sort.c: whole_bytes), or the final
+ * merge of the faces, the in-core last-use array and the live vertices,
+ * which the sort itself stops at half of its share. With no --mem the sort
+ * keeps its default (512M) and the pipeline its own limits.
  */
 static int open_input(epsnet_context *ctx, const char *in_path, const char *out_path, en_input *in,
                       double *sort_seconds, epsnet_error *err)
