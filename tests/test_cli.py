@@ -227,9 +227,9 @@ def sigint_leaves_nothing():
 
 @case
 def file_size_limit_in_every_writing_command():
-    """`ulimit -f` hit by the output, by the sorted copy simplify makes of an
-    unsorted mesh and by sort's spilled runs: exit 3 naming the output,
-    nothing left beside it."""
+    """`ulimit -f` hit by the output (also of simplify fed by the sort of an
+    unsorted mesh) and by the sort's spilled runs (of sort and of simplify):
+    exit 3 naming the output, nothing left beside it."""
     src = path("fsz.ply")
     assert run("gen", "bumpy", "--faces", "100000", "--shuffle", "-o", src, "-q")[0] == 0
     smz = path("fsz.smz")
@@ -238,7 +238,8 @@ def file_size_limit_in_every_writing_command():
     def limit():
         resource.setrlimit(resource.RLIMIT_FSIZE, (30_000, 30_000))
 
-    for cmd, inp, out, extra in (("simplify", src, "fsz_a.smz", []),     # the sorted copy
+    for cmd, inp, out, extra in (("simplify", src, "fsz_a.smz", []),     # the output, fed by the sort
+                                 ("simplify", src, "fsz_f.smz", ["--mem", "2M", "--tmpdir", TMP]),  # its runs
                                  ("simplify", smz, "fsz_b.ply", []),     # the output
                                  ("sample", smz, "fsz_c.ply", []),
                                  ("sort", src, "fsz_d.smz", ["--mem", "1M", "--tmpdir", TMP]),  # spilled runs
@@ -253,33 +254,28 @@ def file_size_limit_in_every_writing_command():
 
 @case
 def sigterm_during_sorting_leaves_nothing():
-    """SIGTERM while simplify sorts an unsorted mesh into its temporary copy,
-    and while sort spills runs into --tmpdir: exit 130, no output, no
-    temporary file in either folder."""
+    """SIGTERM while simplify sorts an unsorted mesh on its way into the
+    pipeline, and while sort spills runs into --tmpdir: exit 130, no output,
+    no temporary file in either folder."""
     src = path("term.ply")
     assert run("gen", "bumpy", "--faces", "2000000", "--shuffle", "-o", src, "-q")[0] == 0
     spill = path("term_spill")
     os.mkdir(spill)
-    for args, out in ((["simplify", src], "term_s.smz"),
+    for args, out in ((["simplify", src, "--mem", "8M", "--tmpdir", spill], "term_s.smz"),
                       (["sort", src, "--mem", "4M", "--tmpdir", spill], "term_sorted.smz")):
         p = subprocess.Popen([EPSNET, *args, "-o", path(out), "-q"], stderr=subprocess.PIPE)
         deadline = time.time() + 60
-        if args[0] == "simplify":
-            # wait until the temporary sorted copy exists: the signal must
-            # land while there is something to clean up
-            while not leftovers(TMP) and p.poll() is None and time.time() < deadline:
-                time.sleep(0.01)
-            assert leftovers(TMP), "the sorted copy never appeared"
-        else:
-            # the runs are anonymous files: wait until the process has some open in spill
-            def spilled():
-                try:
-                    return any(os.readlink(f"/proc/{p.pid}/fd/{fd}").startswith(spill)
-                               for fd in os.listdir(f"/proc/{p.pid}/fd"))
-                except OSError:
-                    return False
-            while not spilled() and p.poll() is None and time.time() < deadline:
-                time.sleep(0.01)
+
+        # the runs are anonymous files: wait until the process has some open
+        # in spill, so that the signal lands while there is something to clean up
+        def spilled():
+            try:
+                return any(os.readlink(f"/proc/{p.pid}/fd/{fd}").startswith(spill)
+                           for fd in os.listdir(f"/proc/{p.pid}/fd"))
+            except OSError:
+                return False
+        while not spilled() and p.poll() is None and time.time() < deadline:
+            time.sleep(0.01)
         assert p.poll() is None, (args, "finished before the signal")
         p.send_signal(signal.SIGTERM)
         p.wait(timeout=60)

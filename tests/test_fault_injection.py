@@ -80,6 +80,24 @@ def hausdorff_without_threads(a, b):
         print("ok   hausdorff_without_threads")
 
 
+def sort_without_threads(src):
+    """The sort's workers (in-memory pieces, runs formed on a worker) leave
+    the work to the calling thread when they cannot start: same bytes."""
+    global failures
+    bad = []
+    for mem in ("1M", "256M"):
+        ref, got = os.path.join(TMP, "t_ref.smz"), os.path.join(TMP, "t_got.smz")
+        p = run(["sort", src, "-o", ref, "--mem", mem, "--tmpdir", TMP, "-j", "3", "-q"])
+        q = run(["sort", src, "-o", got, "--mem", mem, "--tmpdir", TMP, "-j", "3", "-q"], 1, "EPSNET_FAIL_THREAD")
+        if p.returncode or q.returncode or open(ref, "rb").read() != open(got, "rb").read() or leftovers():
+            bad.append((mem, p.returncode, q.returncode, q.stderr[-300:]))
+    if bad:
+        failures += 1
+        print("FAIL sort_without_threads", bad[0])
+    else:
+        print("ok   sort_without_threads")
+
+
 def main():
     src = os.path.join(TMP, "in.ply")
     p = run(["gen", "bumpy", "--faces", "3000", "--shuffle", "-o", src, "-q"])
@@ -107,14 +125,20 @@ def main():
     big = os.path.join(TMP, "big.ply")
     p = run(["gen", "bumpy", "--faces", "40000", "--shuffle", "-o", big, "-q"])
     assert p.returncode == 0, p.stderr
+    sort_without_threads(big)
     walk("sort_spilling", lambda o: ["sort", big, "-o", o + ".smz", "--mem", "1M", "--tmpdir", TMP, "-q"],
          max_points=900, stride=3)
-    # A full disk at every write: the output, the sorted copy simplify makes
-    # of an unsorted PLY, sort's spilled runs and the PLY writer's spill.
+    # simplify fed straight by that sort (no sorted copy), spilling too.
+    walk("simplify_sort_spilling", lambda o: ["simplify", big, "-o", o + ".smz", "--mem", "2M", "--tmpdir", TMP,
+                                              "-j", "2", "-q"], max_points=900, stride=13)
+    # A full disk at every write: the output of simplify fed by the sort of
+    # an unsorted PLY, the runs both sorts spill and the PLY writer's spill.
     walk("full_disk_simplify_unsorted", lambda o: ["simplify", src, "-o", o + ".smz", "-q"],
          what="EPSNET_FAIL_WRITE")
     walk("full_disk_sort_spilling", lambda o: ["sort", big, "-o", o + ".smz", "--mem", "1M", "--tmpdir", TMP,
                                                "-q"], what="EPSNET_FAIL_WRITE")
+    walk("full_disk_simplify_sort_spilling", lambda o: ["simplify", big, "-o", o + ".smz", "--mem", "2M",
+                                                        "--tmpdir", TMP, "-q"], what="EPSNET_FAIL_WRITE")
     walk("full_disk_convert_to_ply", lambda o: ["convert", sma, "-o", o + ".ply", "-q"],
          what="EPSNET_FAIL_WRITE")
     walk("full_disk_sample_points", lambda o: ["sample", smz, "-o", o + ".ply", "-q"],

@@ -6,7 +6,9 @@
  * grows with the stream's width, not its length; a worker's error surfaces
  * in slab order; the push/pull API gives what the file API gives.
  */
+#include <dirent.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include "api/run.h"
 #include "sample_util.h"
@@ -469,6 +471,114 @@ TEST(unsorted_input_is_sorted_first)
     CHECK_EQ_INT(count_entries(dir), 4); /* in.ply, in.smz, a.smz, b.smz */
 }
 
+/* What a run's progress callback saw of its folders: the output's (dir)
+ * and the temporaries' (runs). */
+typedef struct folder_watch {
+    const char *dir, *runs;
+    int calls;
+    int strangers;  /* most entries in dir beside the inputs, runs, a.smz (the run before's) and its temporary */
+    int named_runs; /* most entries in runs */
+    int open_runs;  /* most files this process had open in runs at once */
+} folder_watch;
+
+static int max_int(int a, int b)
+{
+    return a > b ? a : b;
+}
+
+static int watch_folders(void *opaque, uint64_t done, uint64_t total)
+{
+    (void)done;
+    (void)total;
+    folder_watch *w = opaque;
+    w->calls++;
+    int strangers = 0, named = 0, open_runs = 0;
+    DIR *d = opendir(w->dir);
+    for (struct dirent *e; d && (e = readdir(d));)
+        if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..") && strcmp(e->d_name, "in.ply") &&
+            strcmp(e->d_name, "in.smz") && strcmp(e->d_name, "b.smz") && strcmp(e->d_name, "a.smz") && strcmp(e->d_name, "runs") &&
+            strncmp(e->d_name, ".a.smz.epsnet-", 14))
+            strangers++;
+    if (d)
+        closedir(d);
+    d = opendir(w->runs);
+    for (struct dirent *e; d && (e = readdir(d));)
+        named += strcmp(e->d_name, ".") && strcmp(e->d_name, "..");
+    if (d)
+        closedir(d);
+    d = opendir("/proc/self/fd");
+    size_t n = strlen(w->runs);
+    for (struct dirent *e; d && (e = readdir(d));) {
+        char link[300], target[700];
+        snprintf(link, sizeof link, "/proc/self/fd/%s", e->d_name);
+        ssize_t k = readlink(link, target, sizeof target - 1);
+        if (k > 0) {
+            target[k] = '\0';
+            open_runs += strncmp(target, w->runs, n) == 0 && target[n] == '/';
+        }
+    }
+    if (d)
+        closedir(d);
+    w->strangers = max_int(w->strangers, strangers);
+    w->named_runs = max_int(w->named_runs, named);
+    w->open_runs = max_int(w->open_runs, open_runs);
+    return 0;
+}
+
+/* SPEC §2 "One chain of stages": the sort's last pass feeds the first
+ * chunker. No sorted copy is written anywhere: the only temporaries are the
+ * sort's runs, anonymous files in --tmpdir (several at once when --mem is
+ * small enough to spill); progress moves while the sort runs; and the
+ * bytes are those of simplifying the sorted file, for 1 and 2 threads,
+ * spilling or not. */
+TEST(unsorted_input_feeds_the_pipeline_without_a_sorted_copy)
+{
+    char dir[512], runs[520], ply[600], smz[600], a[600], b[600];
+    snprintf(dir, sizeof dir, "%s/nocopy", tl_tmpdir());
+    snprintf(runs, sizeof runs, "%s/runs", dir);
+    CHECK_EQ_INT(mkdir(dir, 0700), 0);
+    CHECK_EQ_INT(mkdir(runs, 0700), 0);
+    snprintf(ply, sizeof ply, "%s/in.ply", dir);
+    snprintf(smz, sizeof smz, "%s/in.smz", dir);
+    snprintf(a, sizeof a, "%s/a.smz", dir);
+    snprintf(b, sizeof b, "%s/b.smz", dir);
+    epsnet_error err;
+    CHECK_EQ_INT(tl_gen_file(ply, "bumpy", 20000, NAN, 5, 1, &err), 0);
+    CHECK_EQ_INT(epsnet_sort_file(ply, smz, NULL, NULL, &err), 0);
+    CHECK_EQ_INT(simplify_file(smz, b, 300, 1, 2, NULL, &err), 0);
+    static const uint64_t mems[] = { 0, 4u << 20 }; /* the default, and one that spills */
+    for (int m = 0; m < 2; m++)
+        for (int threads = 1; threads <= 2; threads++) {
+            folder_watch w = { .dir = dir, .runs = runs };
+            epsnet_settings set;
+            epsnet_default_settings(&set);
+            set.rotation_mode = EPSNET_ROTATION_IDENTITY;
+            set.frequency = 8;
+            set.slab_vertices = 300;
+            set.threads = threads;
+            set.passes = 2;
+            set.mem = mems[m];
+            set.tmpdir = runs;
+            set.progress = watch_folders;
+            set.progress_opaque = &w;
+            epsnet_context *ctx = NULL;
+            CHECK_EQ_INT(epsnet_context_new(&ctx, &set, &err), 0);
+            CHECK_EQ_INT(epsnet_simplify_file(ctx, ply, a, &err), 0);
+            CHECK(epsnet_context_stats(ctx)->seconds_sort > 0);
+            epsnet_context_free(&ctx);
+            if (!tl_same_file(a, b))
+                fprintf(stderr, "  mem %llu, %d threads: bytes differ\n", (unsigned long long)mems[m], threads);
+            CHECK(tl_same_file(a, b));
+            CHECK(w.calls > 0);
+            CHECK_EQ_INT(w.strangers, 0);
+            CHECK_EQ_INT(w.named_runs, 0);
+            if (m == 1)
+                CHECK(w.open_runs > 1);
+            CHECK_EQ_INT(count_entries(runs), 0);
+            CHECK_EQ_INT(count_entries(dir), 5); /* in.ply, in.smz, a.smz, b.smz, runs */
+        }
+}
+
 /* One vertex at 1e200 keeps its faces' normals finite but overflows the
  * quadrics to NaN; the collapse queue once looped forever on NaN costs. */
 TEST(huge_coordinates_end)
@@ -640,6 +750,7 @@ int main(void)
     RUN(active_set_grows_with_width_not_length);
     RUN(worker_error_surfaces_in_order);
     RUN(unsorted_input_is_sorted_first);
+    RUN(unsorted_input_feeds_the_pipeline_without_a_sorted_copy);
     RUN(huge_coordinates_end);
     RUN(push_pull_matches_file_api);
     RUN(push_refuses_until_waiting_output_is_pulled);

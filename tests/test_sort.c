@@ -357,6 +357,109 @@ TEST(output_bytes_do_not_depend_on_the_budget)
     CHECK(same_bytes(tl_path("det1.smz"), tl_path("det3.smz")));
 }
 
+/* The in-memory path (the mesh and its arrays fit in half of the budget:
+ * no temporary bytes at all) gives the external passes' bytes for any
+ * thread count, and so does a read that outgrows it midway (an OBJ: no
+ * counts announced) and moves what it has read to the spills; the
+ * external passes too, whether their runs
+ * are formed on a worker (threads > 1) or inline. */
+TEST(in_memory_sort_gives_the_same_bytes_for_any_thread_count)
+{
+    epsnet_error err;
+    const char *in = tl_path("whole.ply");
+    CHECK_EQ_INT(tl_gen_file(in, "bumpy", 40000, NAN, 4, 1, &err), 0);
+    /* 20K vertices and 40K faces need about 2.8M in memory: 4M is midway
+     * short of that (twice it), 256M is plenty, 256K is the external path */
+    static const struct { uint64_t mem; int threads; int whole; } runs[] = {
+        { 256 << 10, 1, 0 }, { (uint64_t)256 << 20, 1, 1 }, { (uint64_t)256 << 20, 2, 1 },
+        { (uint64_t)256 << 20, 3, 1 }, { 4 << 20, 2, 0 }, { 4 << 20, 1, 0 }, { 256 << 10, 2, 0 },
+    };
+    for (size_t i = 0; i < sizeof runs / sizeof *runs; i++) {
+        epsnet_sort_settings s;
+        epsnet_sort_default_settings(&s);
+        s.mem = runs[i].mem;
+        s.threads = runs[i].threads;
+        s.tmpdir = tl_tmpdir();
+        epsnet_sort_stats st;
+        CHECK_EQ_INT(epsnet_sort_file(in, tl_path(i ? "whole_b.smz" : "whole_a.smz"), &s, &st, &err), 0);
+        CHECK_EQ_INT(st.temp_bytes == 0, runs[i].whole);
+        if (i)
+            CHECK(same_bytes(tl_path("whole_a.smz"), tl_path("whole_b.smz")));
+    }
+    /* an OBJ announces no counts: at 4M its read outgrows memory midway */
+    const char *obj = tl_path("whole.obj");
+    CHECK_EQ_INT(tl_gen_file(obj, "bumpy", 40000, NAN, 4, 1, &err), 0);
+    epsnet_sort_stats st;
+    CHECK_EQ_INT(sort_with(obj, tl_path("whole_c.smz"), (uint64_t)256 << 20, -1, &st, &err), 0);
+    CHECK_EQ_U64(st.temp_bytes, 0);
+    CHECK_EQ_INT(sort_with(obj, tl_path("whole_d.smz"), 4 << 20, -1, &st, &err), 0);
+    CHECK(st.temp_bytes > 0);
+    CHECK(same_bytes(tl_path("whole_c.smz"), tl_path("whole_d.smz")));
+}
+
+typedef struct record_list {
+    epsnet_record *r;
+    size_t n, cap;
+} record_list;
+
+static int collect_record(void *opaque, const epsnet_record *rec, epsnet_error *err)
+{
+    (void)err;
+    record_list *l = opaque;
+    if (l->n == l->cap) {
+        l->cap = l->cap ? 2 * l->cap : 1024;
+        l->r = realloc(l->r, l->cap * sizeof *l->r);
+    }
+    l->r[l->n++] = *rec;
+    return 0;
+}
+
+/* The sort as a stage (en_sort_emit) hands over exactly the records that
+ * its .smz gives back: an OBJ read as float32 (its first 64K look like
+ * floats) with a longer coordinate later gets that coordinate as float32. */
+TEST(emitted_records_are_those_of_the_sorted_file)
+{
+    const char *obj = tl_path("late.obj");
+    epsnet_error err;
+    CHECK_EQ_INT(tl_gen_file(obj, "bumpy", 20000, NAN, 3, 1, &err), 0);
+    size_t n;
+    char *text = (char *)tl_read_file(obj, &n);
+    CHECK(text != NULL && n > 300000);
+    char *v = strstr(text + 200000, "\nv ");
+    CHECK(v != NULL);
+    FILE *f = fopen(obj, "wb");
+    fwrite(text, 1, (size_t)(v - text), f);
+    fputs("\nv 0.1000000000000000055511151231257827 0.2 0.3", f);
+    char *eol = strchr(v + 1, '\n');
+    fwrite(eol, 1, n - (size_t)(eol - text), f);
+    fclose(f);
+    free(text);
+    const char *smz = tl_path("late.smz");
+    CHECK_EQ_INT(sort_with(obj, smz, (uint64_t)64 << 20, -1, NULL, &err), 0);
+    record_list got = { 0 };
+    en_sort *s = NULL;
+    CHECK_EQ_INT(en_sort_open(&s, obj, smz, NULL, &err), 0);
+    CHECK_EQ_INT(en_sort_emit(s, collect_record, &got, &err), 0);
+    en_sort_close(&s, NULL);
+    epsnet_reader *r = NULL;
+    CHECK_EQ_INT(epsnet_reader_open(&r, smz, NULL, &err), 0);
+    epsnet_record rec;
+    size_t i = 0, differ = 0;
+    int rc;
+    while ((rc = epsnet_reader_next(r, &rec, &err)) == 1 && i < got.n) {
+        const epsnet_record *g = &got.r[i++];
+        if (g->kind != rec.kind || (rec.kind == EPSNET_REC_VERTEX && memcmp(g->xyz, rec.xyz, sizeof rec.xyz)) ||
+            (rec.kind != EPSNET_REC_VERTEX && g->v[0] != rec.v[0]) ||
+            (rec.kind == EPSNET_REC_TRIANGLE && (g->v[1] != rec.v[1] || g->v[2] != rec.v[2])))
+            differ++;
+    }
+    CHECK_EQ_INT(rc, 0);
+    CHECK_EQ_U64(i, got.n);
+    CHECK_EQ_U64(differ, 0);
+    epsnet_reader_close(&r);
+    free(got.r);
+}
+
 /* SPEC §5: a stream that never finalizes hits the memory budget with a
  * clear error, not an out-of-memory kill. */
 TEST(never_finalizing_stream_hits_the_budget)
@@ -457,6 +560,8 @@ int main(void)
     RUN(generated_shapes_keep_every_triangle_with_many_runs);
     RUN(shared_meshes_keep_every_triangle);
     RUN(output_bytes_do_not_depend_on_the_budget);
+    RUN(in_memory_sort_gives_the_same_bytes_for_any_thread_count);
+    RUN(emitted_records_are_those_of_the_sorted_file);
     RUN(never_finalizing_stream_hits_the_budget);
     RUN(an_output_wider_than_the_budget_is_a_clear_error);
     RUN(empty_mesh_sorts_to_an_empty_stream);

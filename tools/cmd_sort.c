@@ -23,6 +23,9 @@ static void sort_help(void)
            "                      (default auto)\n"
            "      --mem SIZE      memory budget, e.g. 256M, 4G (default 512M)\n"
            "      --tmpdir DIR    folder for the temporary runs (default: beside OUT)\n"
+           "  -j, --threads N     threads when the mesh fits in half of --mem and is\n"
+           "                      sorted in memory (default 0: all cores); the output\n"
+           "                      is the same for any N\n"
            "      --format NAME   output format instead of OUT's extension\n"
            "  -q, --quiet         no progress bar, no summary\n"
            "  -h, --help          this text\n");
@@ -55,14 +58,15 @@ int cmd_sort(int argc, char **argv)
         { "output", required_argument, NULL, 'o' }, { "axis", required_argument, NULL, 'A' },
         { "mem", required_argument, NULL, 'm' },    { "tmpdir", required_argument, NULL, 't' },
         { "format", required_argument, NULL, 'f' }, { "quiet", no_argument, NULL, 'q' },
-        { "help", no_argument, NULL, 'h' },         { 0, 0, 0, 0 },
+        { "help", no_argument, NULL, 'h' },         { "threads", required_argument, NULL, 'j' },
+        { 0, 0, 0, 0 },
     };
     epsnet_sort_settings ss;
     epsnet_sort_default_settings(&ss);
     const char *out = NULL;
     int c, rc;
     optind = 1;
-    while ((c = getopt_long(argc, argv, "o:qh", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, "o:j:qh", opts, NULL)) != -1) {
         switch (c) {
         case 'o': out = optarg; break;
         case 'A':
@@ -76,6 +80,15 @@ int cmd_sort(int argc, char **argv)
                 return cli_usage_error("sort", "--mem must be more than 0");
             break;
         case 't': ss.tmpdir = optarg; break;
+        case 'j': {
+            uint64_t v;
+            if ((rc = cli_parse_u64("sort", "--threads", optarg, &v)))
+                return rc;
+            if (v > 1024)
+                return cli_usage_error("sort", "--threads must be at most 1024");
+            ss.threads = (int)v;
+            break;
+        }
         case 'f': ss.format = optarg; break;
         case 'q': cli_quiet = 1; break;
         case 'h': sort_help(); return EXIT_OK;

@@ -409,8 +409,8 @@ typedef struct epsnet_settings {
     int threads;
     /* Memory budget in bytes. It sets the slab size (see slab_vertices), the
      * reader's budget for live vertices, the budget for output held back by
-     * a vertex that stays open (output leaves in input id order), and the
-     * sort's budget when an input has to be sorted first. Over it, a run
+     * a vertex that stays open (output leaves in input id order); when an
+     * input has to be sorted first, half of it is the sort's budget. Over it, a run
      * stops with EPSNET_ELIMIT and a message that says what grew. 0 = none
      * given: slabs of 65536 vertices, and half the physical memory as the
      * limit for live vertices and held output (a clear error, never the OOM
@@ -795,9 +795,11 @@ typedef struct epsnet_sort_settings {
      * fixed overhead of a few MB (reader window, compressors), so budgets
      * below about 16M are honoured only approximately. The output's live
      * vertices (its width, about 64 bytes each) must fit in half of it, or
-     * the sort fails with EPSNET_ELIMIT. When 8 bytes per input vertex fit
-     * in half of it, ranks are looked up in memory instead of joined
-     * externally, which is several times faster; the output is the same.
+     * the sort fails with EPSNET_ELIMIT. When the whole mesh and the arrays
+     * that sort it (about 68 bytes per vertex and 36 per face) fit in half
+     * of it, it is sorted in memory with no temporary file at all; else,
+     * when 8 bytes per input vertex fit in half of it, ranks are looked up
+     * in memory instead of joined externally. The output is the same.
      * Default: 512M. */
     uint64_t mem;
     /* Folder for the temporary runs; NULL = the output's folder.
@@ -814,7 +816,11 @@ typedef struct epsnet_sort_settings {
     /* Warnings, as in epsnet_settings. Default: NULL. */
     void (*warning)(void *opaque, const char *message);
     void *warning_opaque;
-    uint8_t reserved[48];
+    /* Threads for the in-memory sort (when the mesh and its arrays fit in
+     * half of mem): 0 = all cores, 1 = the calling thread only. The output
+     * never depends on it. Default: 0. */
+    int threads;
+    uint8_t reserved[44];
 } epsnet_sort_settings;
 
 EPSNET_API void epsnet_sort_default_settings(epsnet_sort_settings *s);

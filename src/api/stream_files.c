@@ -1,14 +1,13 @@
 /*
- * File-to-file runs of the streaming pipeline: epsnet_simplify_file() and
- * the point output of epsnet_sample_file(). The reader feeds the stream on
- * this thread; the stitcher's records go straight to the writer.
+ * File runs of the stage chain: epsnet_simplify_file(), en_simplify_streamed()
+ * (any output stage: the writer, render's collector) and the point output of
+ * epsnet_sample_file(). The input is read, or sorted, on this thread and
+ * pushed into the run's chain; the last pass's records go to the output.
  */
 #include <stdio.h>
-#include <errno.h>
 #include <limits.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "api/run.h"
 #include "api/stream_files.h"
@@ -17,7 +16,7 @@
 #include "common/util.h"
 #include "io/format.h"
 #include "io/samples_ply.h"
-#include "io/sink.h"
+#include "sort/sort.h"
 
 /* Records between two progress callbacks. */
 #define PROGRESS_EVERY 65536
@@ -27,12 +26,46 @@ static int writer_put(void *self, const epsnet_record *rec, epsnet_error *err)
     return epsnet_writer_put(self, rec, err);
 }
 
-/* Read r into the run, then end it; r is opened and closed by the caller. */
-static int feed(epsnet_context *ctx, en_run *run, epsnet_reader *r, const char *path, epsnet_error *err)
+/*
+ * The run's input: a stream read as it is (r), or an ordinary mesh that the
+ * sort turns into one on the fly (sort). info is what the writer and the
+ * chain need to know of the stream either way; sorted holds the sort's
+ * statistics once the input is closed.
+ */
+typedef struct en_input {
+    epsnet_reader *r;
+    en_sort *sort;
+    epsnet_mesh_info info;
+    int was_sorted;
+    epsnet_sort_stats sorted;
+} en_input;
+
+static void input_close(en_input *in)
 {
+    epsnet_reader_close(&in->r);
+    if (in->sort)
+        en_sort_close(&in->sort, &in->sorted);
+}
+
+static int run_put(void *self, const epsnet_record *rec, epsnet_error *err)
+{
+    return en_run_put(self, rec, err);
+}
+
+/* Push the input into the run, then end it. A sorted input's records leave
+ * the sort's last pass straight into the first chunker; the sort reports
+ * progress itself. */
+static int feed(epsnet_context *ctx, en_run *run, en_input *in, const char *path, epsnet_error *err)
+{
+    int rc;
+    if (in->sort) {
+        if ((rc = en_sort_emit(in->sort, run_put, run, err)))
+            return rc;
+        return en_run_end(run, err);
+    }
+    epsnet_reader *r = in->r;
     epsnet_record rec;
     uint64_t n = 0;
-    int rc;
     while ((rc = epsnet_reader_next(r, &rec, err)) == 1) {
         if ((rc = en_run_put(run, &rec, err)) != 0)
             return rc;
@@ -47,7 +80,7 @@ static int feed(epsnet_context *ctx, en_run *run, epsnet_reader *r, const char *
     return en_run_end(run, err);
 }
 
-/* Folder for the sorted copy: --tmpdir, else the output's folder. */
+/* Folder for the sort's runs: --tmpdir, else the output's folder. */
 static void temp_folder(const epsnet_context *ctx, const char *out_path, char *dir, size_t n)
 {
     const char *slash = strrchr(out_path, '/');
@@ -63,55 +96,51 @@ static void temp_folder(const epsnet_context *ctx, const char *out_path, char *d
 
 /*
  * Open in_path as a finalized stream. An ordinary mesh (PLY, OBJ, OFF, STL:
- * no finalization) is first sorted into a temporary .smz (issue 5, SPEC
- * §2), read back and unlinked as soon as it is open; it is registered for
- * removal on SIGINT/SIGTERM meanwhile. Without this the whole mesh would be
- * one slab: correct, but in memory. *sorted gets the sort's statistics
- * (axis -1 when the input was a stream and no sort ran).
+ * no finalization) is sorted first (docs/architecture.md §13): passes 1 to
+ * 5 of the sort run here, the last one inside feed(), whose records go to
+ * the first chunker without a temporary copy. Without this the whole mesh
+ * would be one slab: correct, but in memory.
+ *
+ * note: the budget split. The sort's buffers get half of --mem and the
+ * chain keeps its own sizing from the whole of it: its slabs (and so the
+ * output bytes) must be those of the same run on the sorted file, and the
+ * sort's last pass, which runs beside the chain, holds only what passes 1
+ * to 5 left within that half: the in-memory sort's arrays (at most half of
+ * its share, src/sort/sort.c: whole_bytes), or the final merge of the
+ * faces, the in-core last-use array and the live vertices, which the sort
+ * itself stops at half of its share. With no --mem the sort keeps its
+ * default (512M) and the chain its own limits.
  */
-static int open_input(epsnet_context *ctx, const char *in_path, const char *out_path, epsnet_reader **r,
-                      double *sort_seconds, epsnet_sort_stats *sorted, epsnet_error *err)
+static int open_input(epsnet_context *ctx, const char *in_path, const char *out_path, en_input *in,
+                      double *sort_seconds, epsnet_error *err)
 {
-    memset(sorted, 0, sizeof *sorted);
-    sorted->axis = -1; /* no sort ran */
     epsnet_reader_settings rs;
     epsnet_reader_default_settings(&rs);
     rs.mem_limit = en_run_mem_budget(&ctx->settings);
-    int rc = epsnet_reader_open(r, in_path, &rs, err);
-    if (rc || epsnet_reader_info(*r)->streaming)
+    int rc = epsnet_reader_open(&in->r, in_path, &rs, err);
+    if (rc == 0)
+        in->info = *epsnet_reader_info(in->r);
+    if (rc || in->info.streaming)
         return rc;
-    epsnet_reader_close(r);
-    char dir[PATH_MAX], tmp[PATH_MAX + 64];
+    epsnet_reader_close(&in->r);
+    char dir[PATH_MAX];
     temp_folder(ctx, out_path, dir, sizeof dir);
-    int slot;
-    int fd = en_temp_create(dir, ".epsnet-sorted-", ".smz", 0600, tmp, sizeof tmp, &slot);
-    if (fd < 0)
-        return en_error_set(err, EPSNET_EIO, out_path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "cannot create the sorted copy of %s in %s: %s", in_path, dir, strerror(errno));
-    close(fd);
     epsnet_sort_settings ss;
     epsnet_sort_default_settings(&ss);
     if (ctx->settings.mem)
-        ss.mem = ctx->settings.mem;
-    ss.tmpdir = ctx->tmpdir;
-    ss.format = "smz";
+        ss.mem = ctx->settings.mem / 2;
+    ss.tmpdir = dir;
+    ss.threads = ctx->settings.threads;
+    ss.progress = ctx->settings.progress;
+    ss.progress_opaque = ctx->settings.progress_opaque;
     ss.warning = ctx->settings.warning;
     ss.warning_opaque = ctx->settings.warning_opaque;
+    in->was_sorted = 1;
     double t0 = en_now();
-    rc = epsnet_sort_file(in_path, tmp, &ss, sorted, err);
+    rc = en_sort_open(&in->sort, in_path, out_path, &ss, err);
     *sort_seconds = en_now() - t0;
-    if (rc && err && strcmp(err->file, tmp) == 0) {
-        /* The copy's random name means nothing to the user and is gone by
-         * the time they read the message: name the output and the folder. */
-        char reason[sizeof err->reason];
-        snprintf(reason, sizeof reason, "%s", err->reason);
-        en_error_set(err, rc, out_path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                     "writing the sorted copy of the input in %s: %s", dir, reason);
-    }
     if (rc == 0)
-        rc = epsnet_reader_open(r, tmp, &rs, err);
-    unlink(tmp); /* the reader keeps it open; nothing is left behind */
-    en_temp_unregister(slot);
+        en_sort_info(in->sort, &in->info);
     return rc;
 }
 
@@ -119,26 +148,26 @@ int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *n
                          void *opaque, epsnet_error *err)
 {
     double t0 = en_now();
-    epsnet_reader *r = NULL;
+    en_input in;
+    memset(&in, 0, sizeof in);
     en_run run;
     memset(&run, 0, sizeof run);
     double sort_seconds = 0;
     en_stage out = { 0 };
-    epsnet_sort_stats sorted;
-    int rc = open_input(ctx, in_path, near_path, &r, &sort_seconds, &sorted, err);
+    int rc = open_input(ctx, in_path, near_path, &in, &sort_seconds, err);
     if (rc == 0)
-        rc = open_out(opaque, epsnet_reader_info(r), &out, err);
+        rc = open_out(opaque, &in.info, &out, err);
     if (rc == 0)
         rc = en_run_open(&run, ctx, EN_SLAB_SIMPLIFY, in_path, out, NULL, NULL, err);
-    ctx->stats.dropped = sorted.dropped; /* after en_run_open(), which resets the stats */
     if (rc == 0)
-        rc = feed(ctx, &run, r, in_path, err);
+        rc = feed(ctx, &run, &in, in_path, err);
     en_run_close(&run);
-    epsnet_reader_close(&r);
+    input_close(&in);
     ctx->stats.seconds_sort = sort_seconds;
-    /* note: a sorted copy holds only referenced vertices, so a mesh without
+    ctx->stats.dropped += in.sorted.dropped;
+    /* note: the sort passes on only referenced vertices, so a mesh without
      * faces is told by the sort's count of the input. */
-    uint64_t nv = sorted.axis >= 0 ? sorted.vertices : ctx->stats.vertices;
+    uint64_t nv = in.was_sorted ? in.sorted.vertices : ctx->stats.vertices;
     if (rc == 0 && nv > 0 && ctx->stats.faces == 0 && ctx->settings.warning) {
         char msg[PATH_MAX + 128];
         snprintf(msg, sizeof msg, "%s: %llu vertices but no faces: nothing to simplify, the output is empty",
@@ -224,24 +253,24 @@ int en_sample_points_streamed(epsnet_context *ctx, const char *in_path, const ch
                               epsnet_error *err)
 {
     double t0 = en_now();
-    epsnet_reader *r = NULL;
+    en_input in;
+    memset(&in, 0, sizeof in);
     en_run run;
     memset(&run, 0, sizeof run);
     sample_list l = { 0 };
     epsnet_coord_type ct = EPSNET_COORD_FLOAT32;
     double sort_seconds = 0;
-    epsnet_sort_stats sorted;
-    int rc = open_input(ctx, in_path, out_path, &r, &sort_seconds, &sorted, err);
+    int rc = open_input(ctx, in_path, out_path, &in, &sort_seconds, err);
     if (rc == 0) {
-        ct = epsnet_reader_info(r)->coord_type;
+        ct = in.info.coord_type;
         rc = en_run_open(&run, ctx, EN_SLAB_SAMPLE, in_path, (en_stage){ 0 }, collect, &l, err);
     }
-    ctx->stats.dropped = sorted.dropped;
     if (rc == 0)
-        rc = feed(ctx, &run, r, in_path, err);
+        rc = feed(ctx, &run, &in, in_path, err);
     en_run_close(&run);
+    input_close(&in);
     ctx->stats.seconds_sort = sort_seconds;
-    epsnet_reader_close(&r);
+    ctx->stats.dropped += in.sorted.dropped;
     ctx->stats.seconds_classify = en_now() - t0;
     /* Samples are few (about one per Gaussian vertex per feature): written in
      * input order, as the one-slab run writes them. */

@@ -42,8 +42,7 @@ static ssize_t disk_pwrite(int fd, const void *p, size_t n, off_t offset)
 
 /* ---- registry of named temporaries, for signal-time cleanup ----
  * note: used when O_TMPFILE is unavailable (anonymous files need no cleanup
- * at all, which is why they are tried first) and for the sorted copy that
- * sample and simplify read back. Slots are claimed with
+ * at all, which is why they are tried first). Slots are claimed with
  * atomics so a handler never sees a half-written path. */
 #define EN_TEMP_SLOTS 64
 static char en_temp_paths[EN_TEMP_SLOTS][PATH_MAX];
@@ -516,7 +515,11 @@ int en_spill_open(en_spill **out, const char *dir, const char *owner, epsnet_err
         en_spill_close(&sp);
         return en_error_set(err, EPSNET_ENOMEM, dir, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     }
-    ZSTD_CCtx_setParameter(sp->zc, ZSTD_c_compressionLevel, 1);
+    /* note: a fast level. A spill is read back once or twice, and the
+     * sort is bound by the processor: at level 1 compressing its spills
+     * was a third of its time; at -7 it needs 28% less CPU (2M faces,
+     * --mem 64M) for 40% more temporary bytes. */
+    ZSTD_CCtx_setParameter(sp->zc, ZSTD_c_compressionLevel, -7);
     *out = sp;
     return 0;
 }

@@ -11,6 +11,7 @@
 
 #include "common/alloc.h"
 #include "common/error.h"
+#include "common/pool.h"
 #include "io/sink.h"
 
 /* note: what one open run costs while it is merged: zstd's decoder keeps a
@@ -42,6 +43,17 @@ typedef struct run {
     uint64_t items;
 } run;
 
+/* A full buffer being sorted and written as a run on the pool's worker
+ * (extsort.h: cfg.threads). Written by the worker until retired; read by
+ * the caller's thread only after en_jobring_retire() hands it back. */
+typedef struct run_job {
+    en_extsort *es;
+    uint64_t *buf;             /* the items; the job owns it until retired */
+    size_t n;
+    en_spill *sp;              /* the run, rewound, or NULL on failure */
+    epsnet_error err;
+} run_job;
+
 typedef struct cursor {
     en_spill *sp;              /* borrowed from its run */
     uint64_t *buf;
@@ -71,6 +83,14 @@ struct en_extsort {
     size_t ncur;
     int failed;
     epsnet_error err;
+    /* runs formed on a worker (cfg.threads > 0): at most one in flight,
+     * sorted in scratch, while the caller fills buf; spare is the buffer
+     * the job gives back */
+    en_pool *pool;
+    en_jobring *ring;
+    run_job job;
+    int job_busy;
+    uint64_t *spare;
 };
 
 static int key_less(const uint64_t *a, const uint64_t *b, size_t k)
@@ -144,8 +164,9 @@ int en_extsort_open(en_extsort **out, const en_extsort_config *cfg, epsnet_error
     es->item_bytes = cfg->item_words * sizeof(uint64_t);
     uint64_t fan = cfg->mem / RUN_READ_COST;
     es->fanin = fan < MIN_FANIN ? MIN_FANIN : fan > MAX_FANIN ? MAX_FANIN : (size_t)fan;
-    /* Half of the budget for items, half for the radix sort's copy. */
-    uint64_t cap = cfg->mem / 2 / es->item_bytes;
+    /* Half of the budget for items, half for the radix sort's copy; a
+     * third each when a worker sorts one buffer while the next fills. */
+    uint64_t cap = cfg->mem / (cfg->threads > 0 ? 3 : 2) / es->item_bytes;
     if (cap < 1024)
         cap = 1024;
     if (cap > SIZE_MAX / es->item_bytes / 2)
@@ -189,7 +210,8 @@ static void free_buffer(en_extsort *es)
 {
     en_free(es->buf);
     en_free(es->scratch);
-    es->buf = es->scratch = NULL;
+    en_free(es->spare);
+    es->buf = es->scratch = es->spare = NULL;
     en_mem_give(es->cfg.account, es->buf_bytes);
     es->buf_bytes = 0;
 }
@@ -385,6 +407,68 @@ static int cascade(en_extsort *es, epsnet_error *err)
     }
 }
 
+static int run_job_fn(void *arg)
+{
+    run_job *jb = arg;
+    en_extsort *es = jb->es;
+    radix_sort(jb->buf, es->scratch, jb->n, es->cfg.item_words, es->cfg.key_words, es->count);
+    int rc = en_spill_open(&jb->sp, es->cfg.tmpdir, es->cfg.owner, &jb->err);
+    if (rc == 0)
+        rc = en_spill_write(jb->sp, jb->buf, jb->n * es->item_bytes, &jb->err);
+    if (rc == 0)
+        rc = en_spill_rewind(jb->sp, &jb->err);
+    if (rc)
+        en_spill_close(&jb->sp);
+    return rc;
+}
+
+/* Wait for the run in flight, if any, and put it on the stack. */
+static int retire_run(en_extsort *es, epsnet_error *err)
+{
+    if (!es->job_busy)
+        return 0;
+    void *job;
+    int rc;
+    en_jobring_retire(es->ring, &job, &rc);
+    es->job_busy = 0;
+    es->spare = es->job.buf;
+    if (rc) {
+        if (err)
+            *err = es->job.err;
+        return fail(es, rc, err);
+    }
+    if ((rc = push_run(es, es->job.sp, 0, es->job.n, err)))
+        return rc;
+    return cascade(es, err);
+}
+
+/* note: a worker sorts and compresses the full buffer while the caller
+ * fills the spare: the input's parsing and the runs' compression overlap.
+ * Runs stay in the order they were cut, so ties still leave by run age. */
+static int spill_buffer_async(en_extsort *es, epsnet_error *err)
+{
+    int rc = retire_run(es, err);
+    if (rc)
+        return rc;
+    if (!es->spare) {
+        es->spare = en_malloc(es->cap * es->item_bytes);
+        if (!es->spare)
+            return nomem(es, err);
+        es->buf_bytes += (uint64_t)es->cap * es->item_bytes;
+        en_mem_take(es->cfg.account, (uint64_t)es->cap * es->item_bytes);
+    }
+    es->job = (run_job){ .es = es, .buf = es->buf, .n = es->n };
+    if (en_jobring_submit(es->ring, run_job_fn, &es->job))
+        return fail(es, en_error_set(err, EPSNET_EINTERNAL, es->cfg.owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                     "external sort: the worker refused a run"),
+                    err);
+    es->job_busy = 1;
+    es->buf = es->spare;
+    es->spare = NULL;
+    es->n = 0;
+    return 0;
+}
+
 static int spill_buffer(en_extsort *es, epsnet_error *err)
 {
     radix_sort(es->buf, es->scratch, es->n, es->cfg.item_words, es->cfg.key_words, es->count);
@@ -414,7 +498,19 @@ int en_extsort_add(en_extsort *es, const uint64_t *item, epsnet_error *err)
     if (!es->buf && alloc_buffer(es, err))
         return es->err.code;
     if (es->n == es->cap) {
-        int rc = spill_buffer(es, err);
+        /* note: a thread that cannot start leaves the runs to this one */
+        if (es->cfg.threads > 0 && !es->pool) {
+            int rc = en_pool_new(&es->pool, 1);
+            if (rc == 0 && en_jobring_new(&es->ring, es->pool, 1)) {
+                en_pool_free(&es->pool);
+                rc = EPSNET_ENOMEM;
+            }
+            if (rc == EPSNET_ENOMEM)
+                return nomem(es, err);
+            if (rc)
+                es->cfg.threads = 0;
+        }
+        int rc = es->pool ? spill_buffer_async(es, err) : spill_buffer(es, err);
         if (rc)
             return rc;
     }
@@ -429,6 +525,9 @@ int en_extsort_finish(en_extsort *es, epsnet_error *err)
     if (es->failed)
         return fail(es, es->err.code, err);
     es->finished = 1;
+    int rc = retire_run(es, err);
+    if (rc)
+        return rc;
     if (es->nruns == 0) {
         /* note: all items fit: sort them in place and hand them out from
          * memory; the scratch half is no longer needed. */
@@ -441,7 +540,7 @@ int en_extsort_finish(en_extsort *es, epsnet_error *err)
         es->in_memory = 1;
         return 0;
     }
-    int rc = es->n ? spill_buffer(es, err) : 0;
+    rc = es->n ? spill_buffer(es, err) : 0;
     free_buffer(es);
     while (rc == 0 && es->nruns > es->fanin)
         rc = merge_top(es, es->fanin, es->runs[es->nruns - 1].level + 1, err);
@@ -501,6 +600,15 @@ void en_extsort_close(en_extsort **pes)
     en_extsort *es = pes ? *pes : NULL;
     if (!es)
         return;
+    if (es->job_busy) {
+        void *job;
+        int result;
+        en_jobring_retire(es->ring, &job, &result);
+        en_spill_close(&es->job.sp);
+        en_free(es->job.buf);
+    }
+    en_jobring_free(&es->ring, NULL);
+    en_pool_free(&es->pool);
     merge_end(es, &es->cur, &es->heap, es->ncur);
     for (size_t i = 0; i < es->nruns; i++)
         en_spill_close(&es->runs[i].sp);

@@ -31,6 +31,10 @@ typedef struct en_extsort_config {
     const char *tmpdir;       /* NULL = $TMPDIR or /tmp */
     const char *owner;        /* the output the runs serve, for messages */
     en_mem_account *account;  /* may be NULL */
+    int threads;              /* > 0: full buffers are sorted and written as runs
+                                 on a worker while the next one fills (the
+                                 budget is then cut in thirds, not halves);
+                                 the items come out the same */
 } en_extsort_config;
 
 typedef struct en_extsort en_extsort;

@@ -6,11 +6,13 @@
 #include "sort/sort.h"
 
 #include <math.h>
+#include <unistd.h>
 #include <string.h>
 
 #include "common/alloc.h"
 #include "common/error.h"
 #include "common/hash64.h"
+#include "common/pool.h"
 #include "common/util.h"
 #include "io/format.h"
 #include "io/sink.h"
@@ -126,18 +128,34 @@ static uint64_t live_bytes(const live_map *m)
 
 /* ---- the job ---- */
 
-typedef struct sort_job {
-    const char *in_path, *out_path;
+struct en_sort {
+    const char *in_path;
+    const char *owner;           /* the output the sort serves: named in messages */
     epsnet_sort_settings set;
     char *tmpdir;
     en_mem_account mem;
     epsnet_sort_stats st;
     epsnet_reader *r;
-    epsnet_writer *w;
+    en_sort_emit_fn emit;        /* pass 6 hands each record to emit(emit_opaque) */
+    void *emit_opaque;
     en_spill *vraw;              /* input vertices, input order */
     en_spill *vsorted;           /* vertices in rank order */
     en_spill *fraw;              /* input faces (old ids), input order */
     int in_core;                 /* rank_of/last_of arrays fit the budget */
+    int narrow;                  /* ranks fit 32 bits: sorter F's items are 3 words, not 4 */
+    int whole;                   /* everything is in memory (see whole_fits) */
+    double *xyz;                 /* whole: input vertices, 3 each */
+    uint32_t *tri;               /* whole: input faces, 3 old ids each */
+    size_t xyz_n, xyz_cap;       /* vertices */
+    size_t tri_n, tri_cap;       /* faces */
+    double *sxyz;                /* whole: the vertices in rank order, 3 each */
+    uint32_t *fend;              /* whole: rank -> end of its faces in fitems */
+    uint64_t *fitems;            /* whole: faces by (last corner, input order): see whole_faces */
+    uint32_t *out_id, *fin;      /* whole: see whole_emit */
+    uint64_t whole_bytes;        /* accounted */
+    en_pool *pool;               /* whole: workers for the chunks; NULL = this thread */
+    en_jobring *ring;            /* ... the chunks' jobs, retired in order */
+    size_t chunks;               /* pieces the whole path's loops are cut into */
     uint32_t *rank_of;           /* in core: old id -> rank */
     uint32_t *last_of;           /* in core: rank -> last use, UINT32_MAX none */
     uint64_t arrays_bytes;
@@ -152,7 +170,10 @@ typedef struct sort_job {
     uint64_t *group;             /* faces of one last corner: 5 words each */
     size_t group_cap;
     live_map live;
-} sort_job;
+    double t0;
+};
+
+typedef struct en_sort sort_job;
 
 static int progress(sort_job *j, uint64_t done, uint64_t total, epsnet_error *err)
 {
@@ -161,13 +182,20 @@ static int progress(sort_job *j, uint64_t done, uint64_t total, epsnet_error *er
     uint64_t frac = total ? (done >= total ? PHASE_UNITS : done * PHASE_UNITS / total) : 0;
     if (j->set.progress(j->set.progress_opaque, (uint64_t)(j->phase - 1) * PHASE_UNITS + frac,
                         (uint64_t)PHASES * PHASE_UNITS))
-        return en_error_set(err, EPSNET_EINTR, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE, "interrupted");
+        return en_error_set(err, EPSNET_EINTR, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE, "interrupted");
     return 0;
 }
 
 static int nomem(const sort_job *j, epsnet_error *err)
 {
-    return en_error_set(err, EPSNET_ENOMEM, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    return en_error_set(err, EPSNET_ENOMEM, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+}
+
+/* Threads asked for: as epsnet_settings.threads, 0 = all cores. */
+static long sort_workers(const sort_job *j)
+{
+    long n = j->set.threads > 0 ? j->set.threads : sysconf(_SC_NPROCESSORS_ONLN);
+    return n > 64 ? 64 : n;
 }
 
 /* note: every sorter keys on its first word only. The sort is stable and
@@ -178,7 +206,7 @@ static int open_sorter(sort_job *j, en_extsort **es, size_t words, size_t key_wo
 {
     en_extsort_config c = {
         .item_words = words, .key_words = key_words, .mem = j->set.mem / 4,
-        .tmpdir = j->tmpdir, .owner = j->out_path, .account = &j->mem,
+        .tmpdir = j->tmpdir, .owner = j->owner, .account = &j->mem, .threads = sort_workers(j) > 1,
     };
     return en_extsort_open(es, &c, err);
 }
@@ -230,6 +258,370 @@ static double bitsd(uint64_t u)
     return d;
 }
 
+/* ---- everything in memory ----
+ *
+ * note: when the input's vertices and faces and the arrays that sort them
+ * fit in half of the budget (half, as for the in-core arrays of
+ * choose_relabel: the rest is the reader's, the writer's and, in pass 6,
+ * the consumer's), passes 1 to 5 need no temporary file and no compression
+ * at all: the vertices are ranked by a radix sort of their keys, and the
+ * faces put in (last corner, input order) by a radix sort on their last
+ * corner, which is a rank. Both sorts are stable, so the output is the
+ * external passes' to the byte. Past that size the read moves what it holds
+ * to the spills and goes on with the external passes.
+ */
+
+/* Bytes the whole path may hold at once for nv vertices and nf faces, a
+ * bound on both of its peaks: xyz and tri, the keys (16 bytes each) with
+ * their radix copy or, later, the coordinates in rank order and rank_of;
+ * then the coordinates, the faces' items and their radix copy (16 bytes
+ * each), fend and last_of. Pass 6 holds less: the coordinates, the items,
+ * and four arrays over the ranks. */
+static uint64_t whole_bytes(uint64_t nv, uint64_t nf)
+{
+    return 68 * nv + 36 * nf;
+}
+
+static int whole_fits(const sort_job *j, uint64_t nv, uint64_t nf)
+{
+    return nv < UINT32_MAX && nf < UINT32_MAX && whole_bytes(nv, nf) <= j->set.mem / 2;
+}
+
+/* No longer whole: what was read goes to the spills, in input order. */
+static int whole_spill(sort_job *j, epsnet_error *err)
+{
+    int rc = 0;
+    j->whole = 0;
+    if (j->xyz_n && (rc = en_spill_write(j->vraw, j->xyz, j->xyz_n * 3 * sizeof *j->xyz, err)))
+        return rc;
+    for (size_t f = 0; f < j->tri_n && rc == 0;) {
+        size_t n = j->tri_n - f < BATCH ? j->tri_n - f : BATCH;
+        for (size_t i = 0; i < 3 * n; i++)
+            j->fbuf[i] = j->tri[3 * f + i];
+        rc = en_spill_write(j->fraw, j->fbuf, n * 3 * sizeof *j->fbuf, err);
+        f += n;
+    }
+    en_free(j->xyz);
+    en_free(j->tri);
+    j->xyz = NULL;
+    j->tri = NULL;
+    j->xyz_cap = j->tri_cap = j->xyz_n = j->tri_n = 0;
+    en_mem_give(&j->mem, j->whole_bytes);
+    j->whole_bytes = 0;
+    return rc;
+}
+
+/* Room for at least one more vertex (vertices 1) or face (0): grow by half
+ * within the budget. @return 0, or 1 when it does not fit (then the caller
+ * spills). */
+static int whole_grow(sort_job *j, int vertices)
+{
+    size_t n = vertices ? j->xyz_n : j->tri_n, cap = vertices ? j->xyz_cap : j->tri_cap;
+    size_t want = cap < 4096 ? 4096 : cap + cap / 2;
+    uint64_t nv = vertices ? want : j->xyz_cap, nf = vertices ? j->tri_cap : want;
+    if (!whole_fits(j, nv, nf)) {
+        /* the most that fits */
+        uint64_t lo = n + 1, hi = want;
+        if (!whole_fits(j, vertices ? lo : nv, vertices ? nf : lo))
+            return 1;
+        while (lo < hi) {
+            uint64_t mid = lo + (hi - lo + 1) / 2;
+            if (whole_fits(j, vertices ? mid : nv, vertices ? nf : mid))
+                lo = mid;
+            else
+                hi = mid - 1;
+        }
+        want = (size_t)lo;
+    }
+    void *p = vertices ? en_realloc(j->xyz, want * 3 * sizeof *j->xyz) : en_realloc(j->tri, want * 3 * sizeof *j->tri);
+    if (!p)
+        return 1; /* note: the spills need far less memory: try them */
+    if (vertices) {
+        j->xyz = p;
+        j->xyz_cap = want;
+    } else {
+        j->tri = p;
+        j->tri_cap = want;
+    }
+    uint64_t b = (uint64_t)j->xyz_cap * 3 * sizeof *j->xyz + (uint64_t)j->tri_cap * 3 * sizeof *j->tri;
+    en_mem_give(&j->mem, j->whole_bytes);
+    j->whole_bytes = b;
+    en_mem_take(&j->mem, b);
+    return 0;
+}
+
+/* @return 0 when kept, 1 when the path is no longer whole (the caller
+ * spills the record), or < 0. */
+static int whole_vertex(sort_job *j, const double p[3], epsnet_error *err)
+{
+    if (j->xyz_n == j->xyz_cap && whole_grow(j, 1)) {
+        int rc = whole_spill(j, err);
+        return rc ? rc : 1;
+    }
+    memcpy(j->xyz + 3 * j->xyz_n++, p, 3 * sizeof *p);
+    return 0;
+}
+
+static int whole_face(sort_job *j, const uint64_t v[3], epsnet_error *err)
+{
+    if (v[0] >= UINT32_MAX || v[1] >= UINT32_MAX || v[2] >= UINT32_MAX ||
+        (j->tri_n == j->tri_cap && whole_grow(j, 0))) {
+        int rc = whole_spill(j, err);
+        return rc ? rc : 1;
+    }
+    for (int s = 0; s < 3; s++)
+        j->tri[3 * j->tri_n + (size_t)s] = (uint32_t)v[s];
+    j->tri_n++;
+    return 0;
+}
+
+static int internal(const sort_job *j, const char *what, epsnet_error *err);
+
+/* The whole path's loops run as `chunks` pieces on the pool. Pieces are
+ * cut by count only and write disjoint ranges (or disjoint entries), so
+ * the result is the same for any number of threads. */
+typedef struct whole_piece {
+    sort_job *j;
+    size_t lo, hi;               /* items [lo, hi) */
+    int shift;                   /* radix: the byte counted or moved */
+    size_t count[256];           /* radix: this piece's histogram, then its offsets */
+    const uint64_t *src;         /* radix: 2 words per item, the key first */
+    uint64_t *dst;
+} whole_piece;
+
+static int run_pieces(sort_job *j, whole_piece *pc, en_job_fn fn, epsnet_error *err)
+{
+    int first = 0;
+    if (!j->pool) {
+        for (size_t c = 0; c < j->chunks; c++)
+            if ((first = fn(&pc[c])) != 0)
+                break;
+    } else {
+        for (size_t c = 0; c < j->chunks; c++)
+            if (en_jobring_submit(j->ring, fn, &pc[c]) && !first)
+                first = EPSNET_EINTERNAL;
+        void *job;
+        int result;
+        while (en_jobring_retire(j->ring, &job, &result))
+            if (result && !first)
+                first = result;
+    }
+    return first ? internal(j, "a piece of the in-memory sort failed", err) : 0;
+}
+
+static void cut_pieces(sort_job *j, whole_piece *pc, uint64_t n)
+{
+    for (size_t c = 0; c < j->chunks; c++) {
+        pc[c].j = j;
+        pc[c].lo = (size_t)(n * c / j->chunks);
+        pc[c].hi = (size_t)(n * (c + 1) / j->chunks);
+    }
+}
+
+/* The vertices' (key, input id) items. */
+static int piece_keys(void *arg)
+{
+    whole_piece *p = arg;
+    sort_job *j = p->j;
+    uint64_t *k = p->dst;
+    for (size_t i = p->lo; i < p->hi; i++) {
+        k[2 * i] = order_key(j->xyz[3 * i + (size_t)j->axis]);
+        k[2 * i + 1] = i;
+    }
+    return 0;
+}
+
+static int piece_count(void *arg)
+{
+    whole_piece *p = arg;
+    memset(p->count, 0, sizeof p->count);
+    for (size_t i = p->lo; i < p->hi; i++)
+        p->count[(p->src[2 * i] >> p->shift) & 0xff]++;
+    return 0;
+}
+
+static int piece_move(void *arg)
+{
+    whole_piece *p = arg;
+    for (size_t i = p->lo; i < p->hi; i++) {
+        size_t at = p->count[(p->src[2 * i] >> p->shift) & 0xff]++;
+        p->dst[2 * at] = p->src[2 * i];
+        p->dst[2 * at + 1] = p->src[2 * i + 1];
+    }
+    return 0;
+}
+
+/* note: the coordinates are gathered into rank order here, where the
+ * loop's reads are independent and overlap, rather than read at random in
+ * pass 6, one at a time behind the live map. */
+static int piece_ranks(void *arg)
+{
+    whole_piece *p = arg;
+    sort_job *j = p->j;
+    for (size_t r = p->lo; r < p->hi; r++) {
+        uint32_t id = (uint32_t)p->src[2 * r + 1];
+        j->rank_of[id] = (uint32_t)r;
+        memcpy(j->sxyz + 3 * r, j->xyz + 3 * (size_t)id, 3 * sizeof *j->xyz);
+    }
+    return 0;
+}
+
+static int piece_faces(void *arg)
+{
+    whole_piece *p = arg;
+    sort_job *j = p->j;
+    for (size_t f = p->lo; f < p->hi; f++) {
+        const uint32_t *t = j->tri + 3 * f;
+        uint64_t a = j->rank_of[t[0]], b = j->rank_of[t[1]], c = j->rank_of[t[2]];
+        uint64_t m = a > b ? a : b;
+        m = m > c ? m : c;
+        j->fitems[2 * f] = m | a << 32;
+        j->fitems[2 * f + 1] = b | c << 32;
+    }
+    return 0;
+}
+
+static int whole_alloc(sort_job *j, void **p, uint64_t n, size_t elem, epsnet_error *err)
+{
+    *p = en_malloc(n ? (size_t)n * elem : 1);
+    return *p ? 0 : nomem(j, err);
+}
+
+/* LSD radix sort of n items of 2 words by the bits keymask selects of
+ * their first word, a byte at a time, in pieces: stable, and byte
+ * positions where every key has the same value are skipped (the low bytes
+ * of coordinates that came from float32 are all zero; the high bytes of
+ * ranks). *a holds the items and gets the sorted ones; *b is the scratch
+ * copy, which this frees. */
+static int whole_radix(sort_job *j, whole_piece *pc, uint64_t **a, uint64_t **b, uint64_t n, uint64_t keymask,
+                       epsnet_error *err)
+{
+    uint64_t diff = 0;
+    for (uint64_t i = 0; i < n; i++)
+        diff |= (*a)[2 * i] ^ (*a)[0];
+    diff &= keymask;
+    int rc = 0;
+    cut_pieces(j, pc, n);
+    for (int shift = 0; rc == 0 && shift < 64; shift += 8) {
+        if (((diff >> shift) & 0xff) == 0)
+            continue;
+        for (size_t c = 0; c < j->chunks; c++) {
+            pc[c].src = *a;
+            pc[c].dst = *b;
+            pc[c].shift = shift;
+        }
+        if ((rc = run_pieces(j, pc, piece_count, err)))
+            break;
+        size_t sum = 0;
+        for (int d = 0; d < 256; d++)
+            for (size_t c = 0; c < j->chunks; c++) {
+                size_t k = pc[c].count[d];
+                pc[c].count[d] = sum;
+                sum += k;
+            }
+        if ((rc = run_pieces(j, pc, piece_move, err)))
+            break;
+        uint64_t *t = *a;
+        *a = *b;
+        *b = t;
+    }
+    en_free(*b);
+    *b = NULL;
+    return rc;
+}
+
+/* Passes 2 and 3 in memory: the vertices' (key, id) radix-sorted; equal
+ * coordinates keep input order. */
+static int whole_order(sort_job *j, epsnet_error *err)
+{
+    uint64_t nv = j->st.vertices;
+    uint64_t *a = NULL, *b = NULL;
+    whole_piece *pc = en_calloc(j->chunks, sizeof *pc);
+    int rc = pc ? 0 : nomem(j, err);
+    if (rc == 0 && (rc = whole_alloc(j, (void **)&a, 2 * nv, sizeof *a, err)) == 0)
+        rc = whole_alloc(j, (void **)&b, 2 * nv, sizeof *b, err);
+    uint64_t temp = 32 * nv;
+    en_mem_take(&j->mem, temp);
+    if (rc == 0) {
+        cut_pieces(j, pc, nv);
+        for (size_t c = 0; c < j->chunks; c++)
+            pc[c].dst = a;
+        rc = run_pieces(j, pc, piece_keys, err);
+    }
+    if (rc == 0)
+        rc = whole_radix(j, pc, &a, &b, nv, UINT64_MAX, err);
+    if (rc == 0)
+        rc = progress(j, 1, 1, err);
+    if (rc == 0 && (rc = whole_alloc(j, (void **)&j->sxyz, 3 * nv, sizeof *j->sxyz, err)) == 0)
+        rc = whole_alloc(j, (void **)&j->rank_of, nv, sizeof *j->rank_of, err);
+    en_mem_take(&j->mem, 28 * nv);
+    if (rc == 0) {
+        cut_pieces(j, pc, nv);
+        for (size_t c = 0; c < j->chunks; c++)
+            pc[c].src = a;
+        j->phase = 3;
+        rc = run_pieces(j, pc, piece_ranks, err);
+    }
+    en_free(a);
+    en_free(b);
+    en_free(pc);
+    en_free(j->xyz);
+    j->xyz = NULL;
+    en_mem_give(&j->mem, temp + 24 * nv);
+    return rc;
+}
+
+/* Passes 4 and 5 in memory: each face becomes (last corner | its first
+ * corner's rank << 32, second | third << 32), in pieces; a radix sort on
+ * the last corner keeps input order among equals, which is pass 5's order.
+ * fend[r] ends rank r's faces; last_of[r] is r's largest last corner. */
+static int whole_faces(sort_job *j, epsnet_error *err)
+{
+    uint64_t nv = j->st.vertices, nf = j->st.faces;
+    whole_piece *pc = en_calloc(j->chunks, sizeof *pc);
+    uint64_t *b = NULL;
+    int rc = pc ? 0 : nomem(j, err);
+    if (rc == 0 && (rc = whole_alloc(j, (void **)&j->fitems, 2 * nf, sizeof *j->fitems, err)) == 0 &&
+        (rc = whole_alloc(j, (void **)&j->fend, nv, sizeof *j->fend, err)) == 0)
+        rc = whole_alloc(j, (void **)&j->last_of, nv, sizeof *j->last_of, err);
+    en_mem_take(&j->mem, 16 * nf + 8 * nv);
+    if (rc == 0) {
+        cut_pieces(j, pc, nf);
+        rc = run_pieces(j, pc, piece_faces, err);
+    }
+    /* the input ids are no longer needed: the faces hold ranks now */
+    en_free(j->tri);
+    en_free(j->rank_of);
+    j->tri = NULL;
+    j->rank_of = NULL;
+    en_mem_give(&j->mem, 12 * nf + 4 * nv);
+    if (rc == 0)
+        rc = whole_alloc(j, (void **)&b, 2 * nf, sizeof *b, err);
+    en_mem_take(&j->mem, 16 * nf);
+    if (rc == 0)
+        rc = whole_radix(j, pc, &j->fitems, &b, nf, UINT32_MAX, err);
+    en_free(b);
+    en_mem_give(&j->mem, 16 * nf);
+    en_free(pc);
+    if (rc || (rc = progress(j, 1, 2, err)))
+        return rc;
+    for (uint64_t v = 0; v < nv; v++)
+        j->last_of[v] = UINT32_MAX;
+    uint32_t prev = 0;
+    for (uint64_t f = 0; f < nf; f++) {
+        const uint64_t *it = j->fitems + 2 * f;
+        uint32_t l = (uint32_t)it[0], r[3] = { (uint32_t)(it[0] >> 32), (uint32_t)it[1], (uint32_t)(it[1] >> 32) };
+        for (; prev < l; prev++)
+            j->fend[prev] = (uint32_t)f;
+        for (int s = 0; s < 3; s++)
+            if (j->last_of[r[s]] == UINT32_MAX || j->last_of[r[s]] < l)
+                j->last_of[r[s]] = l;
+    }
+    for (; prev < nv; prev++)
+        j->fend[prev] = (uint32_t)nf;
+    return progress(j, 2, 2, err);
+}
+
 /* ---- pass 1: read ---- */
 
 static int pass_read(sort_job *j, epsnet_error *err)
@@ -248,13 +640,21 @@ static int pass_read(sort_job *j, epsnet_error *err)
             return rc;
         if (rec.kind == EPSNET_REC_VERTEX) {
             for (int k = 0; k < 3; k++) {
-                j->vbuf[3 * nb + (size_t)k] = rec.xyz[k];
                 if (rec.xyz[k] < j->lo[k])
                     j->lo[k] = rec.xyz[k];
                 if (rec.xyz[k] > j->hi[k])
                     j->hi[k] = rec.xyz[k];
             }
             j->st.vertices++;
+            if (j->whole) {
+                if ((rc = whole_vertex(j, rec.xyz, err)) < 0)
+                    return rc;
+                if (rc == 0)
+                    continue;
+                nb = 0; /* no longer whole: the vertex goes to the spill */
+            }
+            for (int k = 0; k < 3; k++)
+                j->vbuf[3 * nb + (size_t)k] = rec.xyz[k];
             if (++nb == BATCH) {
                 if ((rc = en_spill_write(j->vraw, j->vbuf, nb * 3 * sizeof *j->vbuf, err)))
                     return rc;
@@ -262,6 +662,13 @@ static int pass_read(sort_job *j, epsnet_error *err)
             }
         } else if (rec.kind == EPSNET_REC_TRIANGLE) {
             j->st.faces++;
+            if (j->whole) {
+                if ((rc = whole_face(j, rec.v, err)) < 0)
+                    return rc;
+                if (rc == 0)
+                    continue;
+                nf = 0;
+            }
             memcpy(j->fbuf + 3 * nf, rec.v, sizeof rec.v);
             if (++nf == BATCH) {
                 if ((rc = en_spill_write(j->fraw, j->fbuf, nf * 3 * sizeof *j->fbuf, err)))
@@ -272,6 +679,8 @@ static int pass_read(sort_job *j, epsnet_error *err)
     }
     if (rc < 0)
         return rc;
+    if (j->whole)
+        return 0;
     if ((nb && (rc = en_spill_write(j->vraw, j->vbuf, nb * 3 * sizeof *j->vbuf, err))) ||
         (nf && (rc = en_spill_write(j->fraw, j->fbuf, nf * 3 * sizeof *j->fbuf, err))) ||
         (rc = en_spill_rewind(j->fraw, err)))
@@ -286,7 +695,7 @@ static int read_faces(sort_job *j, size_t want, epsnet_error *err)
     if (got < 0)
         return (int)got;
     if ((size_t)got != want * 3 * sizeof *j->fbuf)
-        return en_error_set(err, EPSNET_EINTERNAL, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+        return en_error_set(err, EPSNET_EINTERNAL, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "temporary face file is short");
     return 0;
 }
@@ -298,7 +707,7 @@ static int read_vertices(sort_job *j, en_spill *sp, size_t want, epsnet_error *e
     if (got < 0)
         return (int)got;
     if ((size_t)got != want * 3 * sizeof *j->vbuf)
-        return en_error_set(err, EPSNET_EINTERNAL, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+        return en_error_set(err, EPSNET_EINTERNAL, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "temporary vertex file is short");
     return 0;
 }
@@ -367,7 +776,7 @@ static int pass_rank(sort_job *j, epsnet_error *err)
 
 static int internal(const sort_job *j, const char *what, epsnet_error *err)
 {
-    return en_error_set(err, EPSNET_EINTERNAL, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+    return en_error_set(err, EPSNET_EINTERNAL, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
                         "sort: %s", what);
 }
 
@@ -416,13 +825,20 @@ static int pass_relabel(sort_job *j, epsnet_error *err)
 
 /* ---- pass 5: whole faces, and last uses ---- */
 
-static int add_face(sort_job *j, uint64_t f, const uint64_t r[3], epsnet_error *err)
+static int add_face(sort_job *j, const uint64_t r[3], epsnet_error *err)
 {
     uint64_t last = r[0];
     for (int s = 1; s < 3; s++)
         if (r[s] > last)
             last = r[s];
-    uint64_t face[5] = { last, f, r[0], r[1], r[2] };
+    /* note: a face's id is not kept: it only breaks ties on the last
+     * corner, which the stable sort does by itself (faces are added in
+     * input order); with ranks below 2^32 the corners share words. */
+    uint64_t face[4] = { last, r[0], r[1], r[2] };
+    if (j->narrow) {
+        face[1] = r[0] | r[1] << 32;
+        face[2] = r[2];
+    }
     int rc = en_extsort_add(j->faces, face, err);
     for (int s = 0; s < 3 && rc == 0; s++) {
         if (j->in_core) {
@@ -452,7 +868,7 @@ static int pass_faces_in_core(sort_job *j, epsnet_error *err)
             uint64_t r[3];
             for (int s = 0; s < 3; s++)
                 r[s] = j->rank_of[j->fbuf[3 * i + (size_t)s]];
-            if ((rc = add_face(j, f, r, err)))
+            if ((rc = add_face(j, r, err)))
                 return rc;
         }
         if ((rc = progress(j, f, j->st.faces, err)))
@@ -477,7 +893,7 @@ static int pass_faces(sort_job *j, epsnet_error *err)
                 return internal(j, "face corners out of step", err);
         }
         uint64_t r[3] = { c[0][1], c[1][1], c[2][1] };
-        if ((rc = add_face(j, f, r, err)))
+        if ((rc = add_face(j, r, err)))
             return rc;
         if ((f & PROGRESS_EVERY) == 0 && (rc = progress(j, f, j->st.faces, err)))
             return rc;
@@ -497,7 +913,7 @@ static int over_budget(sort_job *j, epsnet_error *err)
         j->mem.peak = j->mem.used + bytes;
     if (bytes <= j->set.mem / 2)
         return 0;
-    return en_error_set(err, EPSNET_ELIMIT, j->out_path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+    return en_error_set(err, EPSNET_ELIMIT, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
                         "the sorted stream keeps %llu vertices live at once (%llu bytes), over half of the "
                         "memory budget of %llu bytes; raise --mem",
                         (unsigned long long)j->live.count, (unsigned long long)bytes,
@@ -533,7 +949,27 @@ static int put_record(sort_job *j, epsnet_record_kind kind, uint64_t a, uint64_t
                       epsnet_error *err)
 {
     epsnet_record rec = { .kind = kind, .v = { a, b, c } };
-    return epsnet_writer_put(j->w, &rec, err);
+    return j->emit(j->emit_opaque, &rec, err);
+}
+
+/* note: the records are those of the stream in the input's coordinate
+ * type, as a .smz of it would give them back: float32 values rounded (and
+ * refused when they do not fit, as the .smz writer refuses them), so that a
+ * consumer fed directly sees what it would read from the sorted file. */
+static int emit_vertex(sort_job *j, const double xyz[3], uint64_t id, epsnet_error *err)
+{
+    epsnet_record rec = { .kind = EPSNET_REC_VERTEX };
+    memcpy(rec.xyz, xyz, sizeof rec.xyz);
+    if (j->ct == EPSNET_COORD_FLOAT32)
+        for (int k = 0; k < 3; k++) {
+            float f = (float)xyz[k];
+            if (isfinite(xyz[k]) && !isfinite(f))
+                return en_error_set(err, EPSNET_EUNSUPPORTED, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                    "vertex %llu: coordinate %g does not fit in float32",
+                                    (unsigned long long)id + 1, xyz[k]);
+            rec.xyz[k] = f;
+        }
+    return j->emit(j->emit_opaque, &rec, err);
 }
 
 /* Write the faces whose last corner is rank, finalizing each vertex after
@@ -570,8 +1006,68 @@ static int emit_group(sort_job *j, uint64_t rank, size_t n, epsnet_error *err)
     return 0;
 }
 
+/*
+ * Pass 6 of the whole path: emit_group() and the live map again, but with
+ * arrays over the ranks (new id, face of the group after which a vertex is
+ * finalized), which are already within the budget; so the same records in
+ * the same order, without a hash lookup per corner. A face's corners are
+ * ranks no larger than its last corner, so each was written before it.
+ */
+static int whole_emit(sort_job *j, epsnet_error *err)
+{
+    uint64_t nv = j->st.vertices, live = 0;
+    uint32_t next_id = 0;
+    int rc = whole_alloc(j, (void **)&j->out_id, nv, sizeof *j->out_id, err);
+    if (rc || (rc = whole_alloc(j, (void **)&j->fin, nv, sizeof *j->fin, err)))
+        return rc;
+    en_mem_take(&j->mem, 8 * nv);
+    const uint32_t *last_of = j->last_of;
+    uint32_t *fin = j->fin, *id = j->out_id;
+    for (uint64_t rank = 0; rank < nv; rank++) {
+        if (((rank + 1) & PROGRESS_EVERY) == 0 && (rc = progress(j, rank, nv, err)))
+            return rc;
+        if (last_of[rank] == UINT32_MAX) {
+            j->st.unreferenced++;
+            continue;
+        }
+        if ((rc = emit_vertex(j, j->sxyz + 3 * rank, next_id, err)))
+            return rc;
+        id[rank] = next_id++;
+        fin[rank] = UINT32_MAX;
+        if (++live > j->st.max_width)
+            j->st.max_width = live;
+        uint32_t start = rank ? j->fend[rank - 1] : 0, end = j->fend[rank];
+        for (uint32_t i = end; i-- > start;) {
+            const uint64_t *it = j->fitems + 2 * (size_t)i;
+            uint32_t c[3] = { (uint32_t)(it[0] >> 32), (uint32_t)it[1], (uint32_t)(it[1] >> 32) };
+            for (int s = 0; s < 3; s++)
+                if (last_of[c[s]] == rank && fin[c[s]] == UINT32_MAX)
+                    fin[c[s]] = i;
+        }
+        for (uint32_t i = start; i < end; i++) {
+            const uint64_t *it = j->fitems + 2 * (size_t)i;
+            uint32_t c[3] = { (uint32_t)(it[0] >> 32), (uint32_t)it[1], (uint32_t)(it[1] >> 32) };
+            if ((rc = put_record(j, EPSNET_REC_TRIANGLE, id[c[0]], id[c[1]], id[c[2]], err)))
+                return rc;
+            for (int s = 0; s < 3; s++) {
+                if ((s > 0 && c[s] == c[0]) || (s > 1 && c[s] == c[1]) || last_of[c[s]] != rank ||
+                    fin[c[s]] != i)
+                    continue;
+                if ((rc = put_record(j, EPSNET_REC_FINALIZE, id[c[s]], 0, 0, err)))
+                    return rc;
+                live--;
+            }
+        }
+    }
+    if (live)
+        return internal(j, "vertices left live at the end", err);
+    return progress(j, nv, nv, err);
+}
+
 static int pass_emit(sort_job *j, epsnet_error *err)
 {
+    if (j->whole)
+        return whole_emit(j, err);
     uint64_t nv = j->st.vertices, next_id = 0;
     int rc;
     for (uint64_t rank = 0; rank < nv;) {
@@ -586,9 +1082,7 @@ static int pass_emit(sort_job *j, epsnet_error *err)
                 j->st.unreferenced++;
                 continue;
             }
-            epsnet_record rec = { .kind = EPSNET_REC_VERTEX };
-            memcpy(rec.xyz, j->vbuf + 3 * b, sizeof rec.xyz);
-            if ((rc = epsnet_writer_put(j->w, &rec, err)))
+            if ((rc = emit_vertex(j, j->vbuf + 3 * b, next_id, err)))
                 return rc;
             if (live_add(&j->live, rank, next_id++, last))
                 return nomem(j, err);
@@ -599,8 +1093,18 @@ static int pass_emit(sort_job *j, epsnet_error *err)
             while ((f = en_extsort_peek(j->faces, &rc, err)) && f[0] == rank) {
                 if (n == j->group_cap && en_grow((void **)&j->group, &j->group_cap, n + 1, 5 * sizeof *j->group))
                     return nomem(j, err);
-                if ((rc = en_extsort_next(j->faces, j->group + 5 * n, err)) < 0)
+                uint64_t it[4], *g = j->group + 5 * n;
+                if ((rc = en_extsort_next(j->faces, it, err)) < 0)
                     return rc;
+                g[0] = it[0];
+                g[1] = 0;
+                if (j->narrow) {
+                    g[2] = it[1] & UINT32_MAX;
+                    g[3] = it[1] >> 32;
+                    g[4] = it[2];
+                } else {
+                    memcpy(g + 2, it + 1, 3 * sizeof *g);
+                }
                 n++;
             }
             if (rc < 0 || (rc = over_budget(j, err)))
@@ -634,7 +1138,7 @@ static char *dir_of(const char *path)
 
 static int open_job(sort_job *j, epsnet_error *err)
 {
-    j->tmpdir = j->set.tmpdir ? en_strdup(j->set.tmpdir) : dir_of(j->out_path);
+    j->tmpdir = j->set.tmpdir ? en_strdup(j->set.tmpdir) : dir_of(j->owner);
     j->vbuf = en_malloc(BATCH * 3 * sizeof *j->vbuf);
     j->fbuf = en_malloc(BATCH * 3 * sizeof *j->fbuf);
     if (!j->tmpdir || !j->vbuf || !j->fbuf)
@@ -648,35 +1152,34 @@ static int open_job(sort_job *j, epsnet_error *err)
     if (rc)
         return rc;
     j->ct = epsnet_reader_info(j->r)->coord_type;
-    if ((rc = en_spill_open(&j->vraw, j->tmpdir, j->out_path, err)) ||
-        (rc = en_spill_open(&j->fraw, j->tmpdir, j->out_path, err)) ||
-        (rc = en_spill_open(&j->vsorted, j->tmpdir, j->out_path, err)) ||
+    const epsnet_mesh_info *in = epsnet_reader_info(j->r);
+    int counted = in->nverts != EPSNET_COUNT_UNKNOWN && in->nfaces != EPSNET_COUNT_UNKNOWN;
+    /* note: a header that announces too much for memory sends the read to
+     * the spills at once, rather than after filling half of the budget */
+    j->whole = counted ? whole_fits(j, in->nverts, in->nfaces) : whole_fits(j, 0, 0);
+    if (j->whole && counted) {
+        /* note: the header's counts are only a hint; growth still checks */
+        j->xyz = en_malloc(in->nverts ? (size_t)in->nverts * 3 * sizeof *j->xyz : 1);
+        j->tri = en_malloc(in->nfaces ? (size_t)in->nfaces * 3 * sizeof *j->tri : 1);
+        if (!j->xyz || !j->tri)
+            return nomem(j, err);
+        j->xyz_cap = (size_t)in->nverts;
+        j->tri_cap = (size_t)in->nfaces;
+        j->whole_bytes = 24 * in->nverts + 12 * in->nfaces;
+        en_mem_take(&j->mem, j->whole_bytes);
+    }
+    if ((rc = en_spill_open(&j->vraw, j->tmpdir, j->owner, err)) ||
+        (rc = en_spill_open(&j->fraw, j->tmpdir, j->owner, err)) ||
+        (rc = en_spill_open(&j->vsorted, j->tmpdir, j->owner, err)) ||
         (rc = open_sorter(j, &j->corners, 2, 1, err)) || (rc = open_sorter(j, &j->verts, 4, 1, err)) ||
         (rc = open_sorter(j, &j->map, 2, 1, err)) || (rc = open_sorter(j, &j->joined, 2, 1, err)) ||
-        (rc = open_sorter(j, &j->faces, 5, 1, err)) || (rc = open_sorter(j, &j->lastuse, 2, 1, err)))
+        (rc = open_sorter(j, &j->lastuse, 2, 1, err)))
         return rc;
     return 0;
 }
 
-static int open_output(sort_job *j, epsnet_error *err)
-{
-    epsnet_writer_settings ws;
-    epsnet_writer_default_settings(&ws);
-    ws.format = j->set.format;
-    ws.tmpdir = j->tmpdir;
-    epsnet_mesh_info info;
-    memset(&info, 0, sizeof info);
-    info.nverts = EPSNET_COUNT_UNKNOWN;
-    info.nfaces = j->st.faces;
-    info.coord_type = j->ct;
-    info.streaming = 1;
-    info.sorted_axis = j->axis;
-    return epsnet_writer_open(&j->w, j->out_path, &ws, &info, err);
-}
-
 static void close_job(sort_job *j)
 {
-    epsnet_writer_abort(&j->w);
     epsnet_reader_close(&j->r);
     close_spill(j, &j->vraw);
     close_spill(j, &j->vsorted);
@@ -693,6 +1196,15 @@ static void close_job(sort_job *j)
     en_free(j->fbuf);
     en_free(j->rank_of);
     en_free(j->last_of);
+    en_free(j->xyz);
+    en_free(j->tri);
+    en_free(j->sxyz);
+    en_free(j->fend);
+    en_free(j->fitems);
+    en_free(j->out_id);
+    en_free(j->fin);
+    en_jobring_free(&j->ring, NULL);
+    en_pool_free(&j->pool);
     en_mem_give(&j->mem, j->arrays_bytes);
     en_free(j->tmpdir);
 }
@@ -719,7 +1231,29 @@ static int choose_relabel(sort_job *j, epsnet_error *err)
     return 0;
 }
 
-static int run_job(sort_job *j, epsnet_error *err)
+/* Workers for the whole path: as epsnet_settings.threads (0 = all cores,
+ * 1 = this thread). A thread that cannot start leaves the work to this
+ * one: the output does not depend on it. */
+static int start_pool(sort_job *j, epsnet_error *err)
+{
+    long n = sort_workers(j);
+    j->chunks = 1;
+    if (n <= 1)
+        return 0;
+    int rc = en_pool_new(&j->pool, (int)n);
+    if (rc == 0 && en_jobring_new(&j->ring, j->pool, (size_t)n)) {
+        en_pool_free(&j->pool);
+        rc = EPSNET_ENOMEM;
+    }
+    if (rc == EPSNET_ENOMEM)
+        return nomem(j, err);
+    if (rc == 0)
+        j->chunks = (size_t)n;
+    return 0;
+}
+
+/* Passes 1 to 5: everything but the output walk. */
+static int run_passes(sort_job *j, epsnet_error *err)
 {
     int rc;
     j->phase = 1;
@@ -730,7 +1264,16 @@ static int run_job(sort_job *j, epsnet_error *err)
     if (j->set.axis < 0)
         j->axis = j->st.vertices ? en_sort_longest_axis(j->lo, j->hi) : 2;
     j->st.axis = j->axis;
-    if ((rc = choose_relabel(j, err)))
+    if (j->whole) {
+        j->in_core = 1; /* ranks and last uses are arrays */
+        j->phase = 2;
+        if ((rc = start_pool(j, err)) || (rc = whole_order(j, err)))
+            return rc;
+        j->phase = 5;
+        return whole_faces(j, err);
+    }
+    j->narrow = j->st.vertices < UINT32_MAX;
+    if ((rc = open_sorter(j, &j->faces, j->narrow ? 3 : 4, 1, err)) || (rc = choose_relabel(j, err)))
         return rc;
     j->phase = 2;
     if ((rc = pass_order(j, err)))
@@ -742,12 +1285,75 @@ static int run_job(sort_job *j, epsnet_error *err)
     if (!j->in_core && (rc = pass_relabel(j, err)))
         return rc;
     j->phase = 5;
-    if ((rc = j->in_core ? pass_faces_in_core(j, err) : pass_faces(j, err)))
-        return rc;
+    return j->in_core ? pass_faces_in_core(j, err) : pass_faces(j, err);
+}
+
+int en_sort_open(en_sort **out, const char *in_path, const char *owner, const epsnet_sort_settings *settings,
+                 epsnet_error *err)
+{
+    *out = NULL;
+    if (!in_path || !owner)
+        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE, "sort: NULL path");
+    sort_job *j = en_calloc(1, sizeof *j);
+    if (!j)
+        return en_error_set(err, EPSNET_ENOMEM, owner, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    j->t0 = en_now();
+    j->in_path = in_path;
+    j->owner = owner;
+    if (settings)
+        j->set = *settings;
+    else
+        epsnet_sort_default_settings(&j->set);
+    if (j->set.axis < -1 || j->set.axis > 2) {
+        en_free(j);
+        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "sort axis %d is not -1 (auto), 0, 1 or 2", j->set.axis);
+    }
+    if (j->set.mem == 0)
+        j->set.mem = (uint64_t)512 << 20;
+    j->axis = j->set.axis;
+    *out = j;
+    return run_passes(j, err);
+}
+
+void en_sort_info(const en_sort *j, epsnet_mesh_info *info)
+{
+    memset(info, 0, sizeof *info);
+    info->nverts = EPSNET_COUNT_UNKNOWN;
+    info->nfaces = j->st.faces;
+    info->coord_type = j->ct;
+    info->streaming = 1;
+    info->sorted_axis = j->axis;
+}
+
+int en_sort_emit(en_sort *j, en_sort_emit_fn emit, void *opaque, epsnet_error *err)
+{
     j->phase = 6;
-    if ((rc = open_output(j, err)) || (rc = pass_emit(j, err)))
-        return rc;
-    return epsnet_writer_commit(&j->w, err);
+    j->emit = emit;
+    j->emit_opaque = opaque;
+    return pass_emit(j, err);
+}
+
+void en_sort_close(en_sort **pj, epsnet_sort_stats *stats)
+{
+    sort_job *j = *pj;
+    if (!j)
+        return;
+    close_job(j);
+    j->st.runs = j->runs;
+    j->st.temp_bytes = j->temp_bytes;
+    j->st.peak_memory = j->mem.peak;
+    j->st.peak_rss = en_peak_rss_bytes();
+    j->st.seconds = en_now() - j->t0;
+    if (stats)
+        *stats = j->st;
+    en_free(j);
+    *pj = NULL;
+}
+
+static int writer_put(void *w, const epsnet_record *rec, epsnet_error *err)
+{
+    return epsnet_writer_put(w, rec, err);
 }
 
 int epsnet_sort_file(const char *in_path, const char *out_path, const epsnet_sort_settings *settings,
@@ -756,29 +1362,24 @@ int epsnet_sort_file(const char *in_path, const char *out_path, const epsnet_sor
     if (!in_path || !out_path)
         return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "epsnet_sort_file: NULL path");
-    sort_job j;
-    memset(&j, 0, sizeof j);
-    j.in_path = in_path;
-    j.out_path = out_path;
-    if (settings)
-        j.set = *settings;
-    else
-        epsnet_sort_default_settings(&j.set);
-    if (j.set.axis < -1 || j.set.axis > 2)
-        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "sort axis %d is not -1 (auto), 0, 1 or 2", j.set.axis);
-    if (j.set.mem == 0)
-        j.set.mem = (uint64_t)512 << 20;
-    j.axis = j.set.axis;
-    double t0 = en_now();
-    int rc = run_job(&j, err);
-    close_job(&j);
-    j.st.runs = j.runs;
-    j.st.temp_bytes = j.temp_bytes;
-    j.st.peak_memory = j.mem.peak;
-    j.st.peak_rss = en_peak_rss_bytes();
-    j.st.seconds = en_now() - t0;
-    if (stats)
-        *stats = j.st;
+    en_sort *j = NULL;
+    epsnet_writer *w = NULL;
+    int rc = en_sort_open(&j, in_path, out_path, settings, err);
+    if (rc == 0) {
+        epsnet_writer_settings ws;
+        epsnet_writer_default_settings(&ws);
+        ws.format = j->set.format;
+        ws.tmpdir = j->tmpdir;
+        epsnet_mesh_info info;
+        en_sort_info(j, &info);
+        rc = epsnet_writer_open(&w, out_path, &ws, &info, err);
+    }
+    if (rc == 0 && (rc = en_sort_emit(j, writer_put, w, err)) == 0)
+        rc = epsnet_writer_commit(&w, err);
+    epsnet_writer_abort(&w);
+    if (j)
+        en_sort_close(&j, stats);
+    else if (stats)
+        memset(stats, 0, sizeof *stats);
     return rc;
 }

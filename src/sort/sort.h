@@ -12,7 +12,8 @@
  *                  merge C against M (both by old id): (face, slot, rank)
  *                  -> sorter J
  *   5. faces       merge J: whole faces in ranks -> sorter F by (last
- *                  corner, face); every corner -> sorter L as (rank, last
+ *                  corner, face: a stable sort on the last corner of faces
+ *                  added in input order); every corner -> sorter L as (rank, last
  *                  corner of its face)
  *   6. emit        walk the ranks once: a vertex no L item names is dropped;
  *                  otherwise it is written, then the faces whose last corner
@@ -26,11 +27,46 @@
  * the faces through it and fills an array of last uses, and pass 4 and
  * sorter L are skipped: the same output with a third of the temporary
  * traffic.
+ *
+ * When the whole mesh and the arrays that sort it fit in half of the budget
+ * (sort.c: whole_bytes), passes 1 to 5 run in memory instead: the read
+ * keeps vertices and faces in arrays, the vertices are ranked by a radix
+ * sort of (coordinate key, id), the faces relabelled and radix-sorted on
+ * their last corner, in pieces on a worker pool. Both sorts are stable, so
+ * the output is the external passes' to the byte, for any thread count. A
+ * read that outgrows the budget moves what it holds to the spills of pass 1
+ * and goes on with the external passes.
  */
 #ifndef EN_SORT_SORT_H
 #define EN_SORT_SORT_H
 
 #include "epsnet/epsnet.h"
+
+/*
+ * The sort as a stage (SPEC §2 "One chain of stages"): en_sort_open() runs
+ * passes 1 to 5, after which the output's axis and coordinate type are
+ * known (en_sort_info); en_sort_emit() runs pass 6 and hands every record of
+ * the sorted, finalized stream to emit instead of writing a file, so a
+ * consumer such as the first chunker takes them straight from the final
+ * merge. Temporary files are only the anonymous spills and runs of the
+ * passes (en_spill), in settings->tmpdir, else owner's folder.
+ */
+typedef struct en_sort en_sort;
+typedef int (*en_sort_emit_fn)(void *opaque, const epsnet_record *rec, epsnet_error *err);
+
+/* owner: the output the sort serves, named in messages (and whose folder
+ * holds the runs when settings->tmpdir is NULL). settings may be NULL.
+ * @return 0 or a negative code; *s is set in both cases (NULL only when
+ * nothing was allocated) and en_sort_close() frees it. */
+int en_sort_open(en_sort **s, const char *in_path, const char *owner, const epsnet_sort_settings *settings,
+                 epsnet_error *err);
+/* What the output stream will be: coord_type, streaming, sorted_axis, nfaces. */
+void en_sort_info(const en_sort *s, epsnet_mesh_info *info);
+/* Pass 6; once per en_sort. emit's non-zero return stops it and is returned. */
+int en_sort_emit(en_sort *s, en_sort_emit_fn emit, void *opaque, epsnet_error *err);
+/* Free everything (also after a failure), removing every temporary, and
+ * give the stats; sets *s to NULL. stats may be NULL. */
+void en_sort_close(en_sort **s, epsnet_sort_stats *stats);
 
 /* The automatic axis: the longest side of [lo, hi], the earlier axis on a
  * tie. */
