@@ -1,5 +1,5 @@
 /*
- * The peer to beat (issue 4, SPEC §6): meshoptimizer's meshopt_simplify on
+ * The peer to beat (issue 4): meshoptimizer's meshopt_simplify on
  * the same mesh, to the same output face count. Reads and writes through
  * epsnet's public API, so both tools see identical input and the output is
  * compacted the same way (unreferenced vertices dropped).

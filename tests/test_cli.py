@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Command-line behaviour that users and scripts rely on (SPEC §4, §5):
+"""Command-line behaviour that users and scripts rely on (docs/architecture.md §4, §5):
 exit codes per failure class, one error line naming file, position and
 reason, and nothing left at the -o path (or beside it) after a failure."""
 import os
@@ -287,7 +287,7 @@ def sigterm_during_sorting_leaves_nothing():
 
 @case
 def a_stream_that_never_finalizes_hits_the_budget_in_every_command():
-    """SPEC §5: a streaming input whose active set outgrows --mem (it never
+    """docs/architecture.md §12: a streaming input whose active set outgrows --mem (it never
     finalizes, or piles faces on vertices it never finalizes) is a clear
     budget error in sample and simplify too, not unbounded memory."""
     lines = ["v %d %d 0" % (i % 700, i // 700) for i in range(150000)]
@@ -584,7 +584,7 @@ def render_writes_a_png_and_leaves_nothing_on_failure():
 @case
 def deeply_nonmanifold_and_huge_fans_are_handled():
     """A 3000-page 'book' (one edge shared by 3000 faces, like a CAD assembly)
-    and a 10000-face fan: handled, locked where SPEC says, no hang."""
+    and a 10000-face fan: handled, locked as docs/method.md §6 says, no hang."""
     import math
     lines = ["v 0 0 0", "v 0 0 1"]
     n = 3000
@@ -609,7 +609,7 @@ def deeply_nonmanifold_and_huge_fans_are_handled():
 
 @case
 def what_an_input_holds_beyond_the_mesh_is_named_in_one_warning_line():
-    """SPEC §5: every element, property or statement the output does not carry
+    """docs/architecture.md §5: every element, property or statement the output does not carry
     is named in one warning line per run, and counted in the stats."""
     import json
     ply = write("extras.ply",

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Allocation failure at every point of real runs (STYLE.md: dav1d's
+"""Allocation failure at every point of real runs (after dav1d's
 alloc_fail; issue 8): with EPSNET_FAIL_ALLOC=N the N-th allocation and every
 later one fail; EPSNET_FAIL_THREAD does the same to thread creation and
 EPSNET_FAIL_WRITE to file writes (ENOSPC: a disk that fills up mid-run). For every N until the run no longer notices, the command

@@ -1,6 +1,6 @@
 /*
  * Synthetic mesh generator (src/gen): shapes are closed manifolds of the
- * designed genus, streams are sorted and finalized as SPEC §2 requires,
+ * designed genus, streams are sorted and finalized as docs/architecture.md §6 requires,
  * convex shapes are convex polyhedra on the coordinates as written, shuffled
  * output is the same surface, and memory does not grow with the face count.
  *
@@ -252,7 +252,7 @@ static double signed_volume6(const gen_mesh *m)
     return vol;
 }
 
-/* ---- stream order (SPEC §2) ---- */
+/* ---- stream order (docs/architecture.md §6) ---- */
 
 typedef struct order_report {
     uint64_t unsorted;        /* vertex below the previous one on the axis */

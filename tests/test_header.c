@@ -1,5 +1,5 @@
 /*
- * The public header stands alone (STYLE.md: dav1d's header_test) and every
+ * The public header stands alone (after dav1d's header_test) and every
  * entry point is exported by the shared library: this file includes only
  * <epsnet/epsnet.h>, is built against the public include folder only, and
  * links the shared libepsnet, so a missing EPSNET_API fails the build.

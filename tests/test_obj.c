@@ -167,7 +167,7 @@ TEST(other_statements_and_vertex_extras_are_skipped)
     check_tri(&m.rec[3], 0, 1, 2);
 }
 
-/* SPEC §5: every statement kind the records do not carry is named once,
+/* docs/architecture.md §5: every statement kind the records do not carry is named once,
  * in the order first met, with how many there were; comments and blank
  * lines are not statements. The text is complete at the end of the mesh. */
 TEST(skipped_statements_are_named_with_their_counts)

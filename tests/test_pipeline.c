@@ -1,5 +1,5 @@
 /*
- * The streaming pipeline's guarantees (SPEC §2, issue 6): the samples equal
+ * The streaming pipeline's guarantees (docs/architecture.md §11, issue 6): the samples equal
  * the one-slab in-core classification for any slab size; the output is the
  * same bytes for any thread count; it is a valid, sorted, finalized stream
  * with every sample kept; seams are simplified like the rest; the active set
@@ -139,7 +139,7 @@ static int simplify_file(const char *in, const char *out, uint32_t slab, int thr
     return rc;
 }
 
-/* SPEC §2: "same input and options give the same output bytes, for any
+/* docs/architecture.md §11: "same input and options give the same output bytes, for any
  * thread count" — slabs finish in any order on the workers. */
 TEST(same_bytes_for_threads_1_2_3_8)
 {
@@ -266,7 +266,7 @@ static int cmp_xyz(const void *a, const void *b)
     return memcmp(a, b, 3 * sizeof(double));
 }
 
-/* SPEC §2 "Output": a valid sorted stream; SPEC §1: samples survive, a
+/* docs/architecture.md §9: a valid sorted stream; docs/method.md §11: samples survive, a
  * closed surface keeps its genus. Many small slabs put seams everywhere. */
 TEST(output_is_a_valid_sorted_stream_keeping_samples_and_genus)
 {
@@ -525,7 +525,7 @@ static int watch_folders(void *opaque, uint64_t done, uint64_t total)
     return 0;
 }
 
-/* SPEC §2 "One chain of stages": the sort's last pass feeds the first
+/* docs/architecture.md §7: the sort's last pass feeds the first
  * chunker. No sorted copy is written anywhere: the only temporaries are the
  * sort's runs, anonymous files in --tmpdir (several at once when --mem is
  * small enough to spill); progress moves while the sort runs; and the

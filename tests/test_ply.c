@@ -280,7 +280,7 @@ TEST(extra_properties_and_elements_are_skipped)
 }
 
 /* What the reader tells about a file: its dropped text and count, known
- * from the header (SPEC §5). */
+ * from the header (docs/architecture.md §5). */
 static const char *dropped_of(const char *path, uint64_t *n, char *buf, size_t cap)
 {
     epsnet_reader *r = NULL;
@@ -397,7 +397,7 @@ TEST(short_polygons_are_skipped_and_pentagons_fanned)
     if (m.nt == 3)
         CHECK(memcmp(m.tri, want, sizeof want) == 0);
     tl_mesh_free(&m);
-    /* skipped, but named (SPEC §5) */
+    /* skipped, but named (docs/architecture.md §5) */
     epsnet_reader *r = NULL;
     CHECK_EQ_INT(epsnet_reader_open(&r, p, NULL, &err), 0);
     epsnet_record rec;

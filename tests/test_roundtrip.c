@@ -1,8 +1,8 @@
 /*
  * Exact round trips for every pair of formats: a mesh written in format A,
  * read, written in format B and read again keeps its counts, its coordinates
- * bit for bit and its triangles (SPEC §3; SPEC §1: output vertices are input
- * vertices with bit-identical coordinates).
+ * bit for bit and its triangles (docs/architecture.md §13; docs/method.md §11: output vertices are
+ * input vertices with bit-identical coordinates).
  *
  * The test mesh is a closed torus grid with irregular float coordinates, so
  * no format can pass by luck of round numbers:

@@ -1,6 +1,6 @@
 /*
- * The sampling theory, pinned (paper §3.4, §4; SPEC §1 "Invariants the tests
- * must hold"). Meshes come from the generator; the classification runs on a
+ * The sampling theory, pinned (paper §3.4, §4; docs/method.md §11, invariants the tests
+ * must hold). Meshes come from the generator; the classification runs on a
  * one-slab slab exactly as `epsnet sample` does.
  */
 #include "core/predicates.h"
@@ -237,7 +237,7 @@ static double *sample_points(const en_slab *s, const classified *c, uint32_t *n)
     return p;
 }
 
-/* SPEC §1: the sample set depends only on the mesh, G and R, never on the
+/* docs/method.md §11: the sample set depends only on the mesh, G and R, never on the
  * order in which vertices and faces arrive. */
 TEST(sample_set_does_not_depend_on_input_order)
 {

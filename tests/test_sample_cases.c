@@ -1,5 +1,5 @@
 /*
- * Tiny hand-made sampling cases (SPEC §1, paper §4.1): exact ties broken the
+ * Tiny hand-made sampling cases (docs/method.md §8, paper §4.1): exact ties broken the
  * same everywhere, saddles with negative winding, and needle tips.
  */
 #include "sample_util.h"
@@ -220,7 +220,7 @@ TEST(flat_cone_tip_inside_one_gaussian_triangle_is_not_a_sample)
  *   P3 --- 0 --- P0  (0,P2,P3) turns back clockwise from 240 to 180 deg: -z;
  *         /          (0,P3,P0) from 180 to 360 deg: +z.
  *        P2 (240 deg)
- * Normals +z and -z are in no open hemisphere: a sample (SPEC §1).
+ * Normals +z and -z are in no open hemisphere: a sample (docs/method.md §8).
  */
 TEST(needle_tip_is_a_sample)
 {

@@ -1,5 +1,5 @@
 /*
- * Shape approximation guarantees (SPEC §1 "Shape approximation", issue 4):
+ * Shape approximation guarantees (docs/method.md §9, issue 4):
  * output vertices are input vertices bit for bit, every sample survives a
  * single pass, topology is kept, no face flips, non-manifold parts pass
  * through, and the non-samples left are counted exactly.

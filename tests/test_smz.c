@@ -1,5 +1,5 @@
 /*
- * The native .smz format (SPEC §3, docs/smz.md): exact round trips with
+ * The native .smz format (docs/smz.md): exact round trips with
  * every other format, streams kept record for record (finalization
  * included), blocks decodable on their own through the index, and every
  * kind of damage reported with the block and the byte offset.
@@ -289,7 +289,7 @@ TEST(blocks_decode_independently_through_the_index)
     free(seq);
 }
 
-/* SPEC §5: a corrupt block gets one clear error naming the block and its
+/* docs/architecture.md §5: a corrupt block gets one clear error naming the block and its
  * byte offset. */
 TEST(corrupt_block_is_reported_with_block_and_offset)
 {
@@ -359,7 +359,7 @@ TEST(corrupt_block_is_reported_with_block_and_offset)
 }
 
 /* A hand-made file whose header says "sorted along x" over vertices that are
- * not: the reader must refuse it (SPEC §5). */
+ * not: the reader must refuse it (docs/architecture.md §5). */
 TEST(a_false_sorted_claim_is_rejected)
 {
     static const epsnet_record recs[] = {
@@ -403,7 +403,7 @@ TEST(a_false_sorted_claim_is_rejected)
     en_smz_encoder_free(&enc);
 }
 
-/* SPEC §3 target: at most 40% of binary PLY for a sorted stream, where the
+/* The size target: at most 40% of binary PLY for a sorted stream, where the
  * corner deltas are small. A shuffled (scanner-order) mesh has corners that
  * point anywhere, about 17 bits each at 100K vertices, and coordinates in
  * no order: no coding gets it to 40%, but it still beats binary PLY by a

@@ -1,5 +1,5 @@
 /*
- * epsnet_sort_file() (SPEC §2 "Input"): any mesh becomes a spatially sorted,
+ * epsnet_sort_file() (docs/architecture.md §13): any mesh becomes a spatially sorted,
  * finalized streaming mesh with exactly the same triangles (as triples of
  * coordinates, orientation included), whatever the memory budget, in the
  * same bytes every time. The output is checked by an independent validator
@@ -75,7 +75,7 @@ static int same_triangles(const tl_mesh *a, const tl_mesh *b)
 }
 
 /*
- * Independent validator of a sorted, finalized streaming mesh (SPEC §2):
+ * Independent validator of a sorted, finalized streaming mesh (docs/architecture.md §6):
  * vertices non-decreasing along axis; each triangle right after its last
  * vertex (its newest corner is the newest vertex); every vertex used, and
  * finalized exactly once, right after its last triangle (only other
@@ -460,7 +460,7 @@ TEST(emitted_records_are_those_of_the_sorted_file)
     free(got.r);
 }
 
-/* SPEC §5: a stream that never finalizes hits the memory budget with a
+/* docs/architecture.md §12: a stream that never finalizes hits the memory budget with a
  * clear error, not an out-of-memory kill. */
 TEST(never_finalizing_stream_hits_the_budget)
 {
@@ -510,7 +510,7 @@ TEST(empty_mesh_sorts_to_an_empty_stream)
     tl_mesh_free(&m);
 }
 
-/* Degenerate and duplicate faces are legal input (SPEC §5): kept as they
+/* Degenerate and duplicate faces are legal input (docs/architecture.md §5): kept as they
  * are, and a vertex repeated in one face is finalized once. */
 TEST(degenerate_and_duplicate_faces_are_kept)
 {

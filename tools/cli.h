@@ -77,8 +77,8 @@ int cli_run_progress_cb(void *opaque, uint64_t done, uint64_t total);
 
 double cli_now(void);
 
-/* Print "warning: MESSAGE" on stderr (SPEC §5 "Nothing is dropped without a
- * word"), even with -q: a warning is not a summary. An epsnet_settings /
+/* Print "warning: MESSAGE" on stderr (docs/architecture.md §5, nothing is dropped without a
+ * word), even with -q: a warning is not a summary. An epsnet_settings /
  * epsnet_sort_settings warning callback; opaque is the cli_progress whose
  * bar the line must not run into, or NULL. */
 void cli_warning(void *opaque, const char *message);

@@ -1,5 +1,5 @@
 /*
- * epsnet check: is FILE a valid streaming mesh (SPEC §2 "Input")? It must
+ * epsnet check: is FILE a valid streaming mesh (docs/architecture.md §6)? It must
  * read without error (every triangle after its corners, no reference to a
  * finalized vertex, every .smz block checksum right), finalize every vertex
  * it reads, and be sorted along the axis it declares or --axis names. The

@@ -1,6 +1,6 @@
 /*
  * epsnet info: what a mesh file holds and whether it is a usable streaming
- * mesh (SPEC §2): vertices sorted along an axis, every vertex finalized, and
+ * mesh (docs/architecture.md §6): vertices sorted along an axis, every vertex finalized, and
  * how wide the stream is (the most vertices live at once) and how far back a
  * triangle may reach (span).
  */
@@ -119,7 +119,7 @@ done:
     printf("\ntriangles:   %" PRIu64 "\n", nt);
     if (degenerate)
         printf("degenerate:  %" PRIu64 " triangles repeat a corner\n", degenerate);
-    /* SPEC §5: what the records do not carry, which every other command drops */
+    /* docs/architecture.md §5: what the records do not carry, which every other command drops */
     const char *dropped = epsnet_reader_dropped(r, NULL);
     if (dropped)
         printf("not read:    %s\n", dropped);

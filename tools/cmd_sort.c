@@ -1,6 +1,6 @@
 /*
  * epsnet sort: any mesh into a spatially sorted, finalized streaming mesh,
- * out of core (SPEC §2 "Input"; epsnet_sort_file() in the public header).
+ * out of core (docs/architecture.md §13; epsnet_sort_file() in the public header).
  */
 #include <getopt.h>
 #include <string.h>

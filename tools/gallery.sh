@@ -27,9 +27,9 @@ trap 'rm -rf "$tmp"' EXIT INT TERM
 # cylinder whole.
 for spec in bunny:bun_zipper.ply.zst:20,10:2:3 armadillo:armadillo_decim100k.obj.zst:200,10:1:2 \
             fandisk:fandisk.obj.zst:210,25:2:3; do
-    IFS=: read -r name file view level dot <<SPEC
+    IFS=: read -r name file view level dot <<ROWS
 $spec
-SPEC
+ROWS
     "$bin" render "$data/$file" -o "$out/${name}_samples.png" --samples --level "$level" --dot-radius "$dot" \
         --size 400x300 --view "$view" -q
     "$bin" render "$data/$file" -o "$out/${name}_simplified.png" --simplified --wire --level "$level" \

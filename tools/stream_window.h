@@ -1,5 +1,5 @@
 /*
- * The live window of a streaming mesh as a reader sees it (SPEC §2): the
+ * The live window of a streaming mesh as a reader sees it (docs/architecture.md §6): the
  * vertices read and not yet finalized lie in [base, next); one slot per
  * vertex of that window, in a ring, says whether the vertex is finalized
  * and which triangle used it last. Memory follows the span, not the mesh.

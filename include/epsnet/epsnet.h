@@ -211,8 +211,8 @@ EPSNET_API uint64_t epsnet_reader_bytes_read(const epsnet_reader *r);
 EPSNET_API uint64_t epsnet_reader_file_size(const epsnet_reader *r);
 
 /*
- * What the file holds that the records do not carry (SPEC §5 "Nothing is
- * dropped without a word"), as one line of text, e.g.
+ * What the file holds that the records do not carry (docs/architecture.md §5, nothing is
+ * dropped without a word), as one line of text, e.g.
  *   "element camera (1), vertex property confidence, vertex property red"
  * PLY names every element and property it skips (an element with its record
  * count) and faces of fewer than 3 corners; OBJ every statement kind it
@@ -439,13 +439,13 @@ typedef struct epsnet_settings {
     /* Write ASCII instead of binary where the output format offers both.
      * Default: 0. */
     int ascii;
-    /* Streaming pipeline (SPEC §2): vertices owned by each slab. 0 = derive
+    /* Streaming pipeline (docs/architecture.md §8): vertices owned by each slab. 0 = derive
      * it from mem (mem / 4800, at least 1024), or 65536 without a budget.
      * Slabs depend only on the input and this number, never on threads, so
      * the output does not either. Smaller slabs use less memory; the
      * samples are the same for every slab size. Default: 0. */
     uint32_t slab_vertices;
-    /* Warnings that do not stop a run (SPEC §5): what the input holds that
+    /* Warnings that do not stop a run (docs/architecture.md §5): what the input holds that
      * the output does not carry ("in.ply: dropped: element camera (1)", see
      * epsnet_reader_dropped()), an input with vertices but no faces. One
      * line each, without a newline, from the calling thread. NULL: not
@@ -465,7 +465,7 @@ EPSNET_API void epsnet_default_settings(epsnet_settings *s);
  */
 EPSNET_API int epsnet_parse_rotation(const char *text, epsnet_settings *s);
 
-/* Statistics of the last run of a context (paper Table 3 and SPEC §2). */
+/* Statistics of the last run of a context (paper Table 3 and docs/architecture.md §12). */
 typedef struct epsnet_stats {
     uint64_t vertices;            /* input vertices */
     uint64_t faces;               /* input triangles; counts up during a streamed run
@@ -537,7 +537,7 @@ EPSNET_API void epsnet_context_free(epsnet_context **ctx);
 EPSNET_API const epsnet_stats *epsnet_context_stats(const epsnet_context *ctx);
 
 /* ------------------------------------------------------------------------
- * 7. Sampling (paper §4, SPEC §1)
+ * 7. Sampling (paper §4, docs/method.md §8)
  * ------------------------------------------------------------------------ */
 
 typedef enum epsnet_sample_output {
@@ -567,7 +567,7 @@ EPSNET_API int epsnet_stats_write_json(const epsnet_context *ctx, const char *co
                                        const char *path, epsnet_error *err);
 
 /* ------------------------------------------------------------------------
- * 8. Simplifying (paper §4.2, §5; SPEC §1 "Shape approximation")
+ * 8. Simplifying (paper §4.2, §5; docs/method.md §9)
  * ------------------------------------------------------------------------ */
 
 /*
@@ -586,7 +586,7 @@ EPSNET_API int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, co
                                     epsnet_error *err);
 
 /* ------------------------------------------------------------------------
- * 8b. Streaming: push records in, pull records out (SPEC §2)
+ * 8b. Streaming: push records in, pull records out (docs/architecture.md §7)
  *
  * The pipeline behind epsnet_simplify_file(), for callers who produce or
  * consume records themselves. A *chunker* cuts the input into slabs of
@@ -767,7 +767,7 @@ EPSNET_API int epsnet_hausdorff_write_json(const epsnet_hausdorff_result *r, con
                                            epsnet_error *err);
 
 /* ------------------------------------------------------------------------
- * 10. Sorting (SPEC §2 "Input")
+ * 10. Sorting (docs/architecture.md §13)
  *
  * The pipeline needs a spatially sorted streaming mesh: vertices in
  * non-decreasing order along one axis, each triangle right after its last

@@ -1,6 +1,6 @@
 /*
- * Settings, the context's lifecycle and its statistics (STYLE.md habit 2:
- * one opaque context per job, configured by a settings struct with defaults).
+ * Settings, the context's lifecycle and its statistics
+ * (one opaque context per job, configured by a settings struct with defaults).
  */
 #include <inttypes.h>
 #include <math.h>

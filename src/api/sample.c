@@ -2,7 +2,7 @@
  * epsnet_sample_file(): the classification. Sample points stream through
  * the pipeline (src/api/stream_files.c); the whole-mesh view is read into
  * one slab that owns every vertex — the one-slab case of the per-slab core
- * (SPEC §2) — classified, and written with a flag per vertex.
+ * (docs/architecture.md §14) — classified, and written with a flag per vertex.
  */
 #include <stdio.h>
 #include <string.h>

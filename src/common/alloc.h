@@ -1,7 +1,7 @@
 /*
  * All library allocations go through these wrappers so that fault injection
  * (EPSNET_FAIL_ALLOC=N, see alloc.c) can make any one of them fail and prove
- * that every cleanup path works (STYLE.md: dav1d's alloc_fail).
+ * that every cleanup path works (after dav1d's alloc_fail).
  */
 #ifndef EN_COMMON_ALLOC_H
 #define EN_COMMON_ALLOC_H

@@ -30,7 +30,7 @@ int en_error_vset(epsnet_error *err, int code, const char *file, uint64_t line,
     err->offset = offset;
     vsnprintf(err->reason, sizeof err->reason, fmt, ap);
     /* note: one line only; a reason quoting input must not break the CLI's
-     * one-line error contract (SPEC §5). */
+     * one-line error contract (docs/architecture.md §5). */
     for (char *p = err->reason; *p; p++)
         if (*p == '\n' || *p == '\r')
             *p = ' ';

@@ -1,5 +1,5 @@
 /*
- * Fault injection counters (STYLE.md: dav1d's alloc_fail), shared by
+ * Fault injection counters (after dav1d's alloc_fail), shared by
  * allocation (EPSNET_FAIL_ALLOC), thread creation (EPSNET_FAIL_THREAD) and
  * file writes (EPSNET_FAIL_WRITE, a full disk): the N-th event (1-based) and
  * every later one fail.

@@ -1,5 +1,5 @@
 /*
- * Vertex classification on a slab (paper §4, SPEC §1): face normals into
+ * Vertex classification on a slab (paper §4, docs/method.md §8): face normals into
  * G's frame, face -> Gaussian triangle, candidates (vertices on a feature
  * edge), and the exact sample rule: a vertex is a sample iff the spherical
  * polygon of its face normals has a non-zero winding number about a vertex of
@@ -21,7 +21,7 @@
 enum {
     EN_C_CANDIDATE = 1 << 0, /* touches a feature edge (paper Definition 5) */
     EN_C_SAMPLE = 1 << 1,    /* kept: winding != 0, needle, or locked */
-    EN_C_LOCKED = 1 << 2,    /* boundary / non-manifold (SPEC §1) */
+    EN_C_LOCKED = 1 << 2,    /* boundary / non-manifold (docs/method.md §6) */
     EN_C_NEEDLE = 1 << 3,    /* normals not in an open hemisphere */
     EN_C_MULTI = 1 << 4,     /* encloses more than one Gaussian vertex */
 };

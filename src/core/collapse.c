@@ -1,5 +1,5 @@
 /*
- * Half-edge collapses of non-samples, cheapest first (paper §4.2, §5; SPEC §1).
+ * Half-edge collapses of non-samples, cheapest first (paper §4.2, §5; docs/method.md §9).
  *
  * Papers implemented:
  *   Garland, Heckbert. Surface simplification using quadric error metrics.
@@ -21,7 +21,7 @@
  * entry is popped, and an entry that fails is replaced by the vertex's
  * cheapest *valid* target. A vertex's valid cost is never below its
  * unchecked cost, so the entry that pops valid is still the cheapest valid
- * collapse in the mesh, as SPEC §1 asks; checking lazily keeps a run linear
+ * collapse in the mesh, as docs/method.md §9 asks; checking lazily keeps a run linear
  * where checking every neighbour after every collapse was quadratic in the
  * degree of the vertices that absorb many faces.
  */

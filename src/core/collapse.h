@@ -1,5 +1,5 @@
 /*
- * Shape approximation on a slab (paper §4.2 and §5, SPEC §1): remove the
+ * Shape approximation on a slab (paper §4.2 and §5, docs/method.md §9): remove the
  * removable vertices by half-edge collapses v -> u, cheapest first by
  * Garland-Heckbert quadric error, refusing any collapse that would change
  * topology, flip or over-turn a face, create a zero-area or duplicate face.

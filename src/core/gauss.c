@@ -1,6 +1,6 @@
 /*
  * The Gaussian sphere as an integer lattice on the octahedron |x|+|y|+|z| = N
- * (paper §3.3, SPEC §1; layout and id scheme in gauss.h).
+ * (paper §3.3, docs/method.md §2; layout and id scheme in gauss.h).
  */
 #include "core/gauss.h"
 

@@ -1,5 +1,5 @@
 /*
- * The Gaussian sphere G (paper §3.3, SPEC §1) in its own frame.
+ * The Gaussian sphere G (paper §3.3, docs/method.md §2) in its own frame.
  *
  * The paper's sphere — an octahedron whose triangles are split into four L
  * times, projected onto the unit sphere — is the radial projection of the
@@ -10,7 +10,7 @@
  * normalised: every test is the sign of a determinant or dot product, which
  * positive scaling does not change, so G's vertices stay exact small integers.
  * Any frequency N >= 1 is allowed (N = 2^L gives the paper's levels; other N
- * give SPEC's finer "4n^2 + 2" control).
+ * give the finer "4n^2 + 2" control of --frequency, docs/method.md §2).
  *
  * Ids. Vertex ids run over the layers z = N, N-1, ..., -N; within a layer,
  * the ring |x| + |y| = N - |z| is walked counter-clockwise (seen from +z)
@@ -165,7 +165,7 @@ enum {
  * the normals" (Carathéodory: a pair, coplanar triple or quadruple
  * suffices) decides, for m <= 64.
  * @return GAUSS_HEMI_CENTRE with centre set; GAUSS_HEMI_NONE (proved: a
- * needle tip, SPEC §1); or GAUSS_HEMI_UNVERIFIED when a hemisphere exists
+ * needle tip, docs/method.md §8); or GAUSS_HEMI_UNVERIFIED when a hemisphere exists
  * but no double-precision candidate separates the normals (the dual cone is
  * thinner than the rounding of its rays: a measure-zero configuration we
  * have not met in tests), or when m > 64 and the cheap candidates failed.

@@ -1,5 +1,5 @@
 /*
- * Exact sign predicates on double vectors (SPEC §1: "evaluated exactly").
+ * Exact sign predicates on double vectors (docs/method.md §4).
  *
  * Every predicate first evaluates in plain double precision and accepts the
  * sign when it exceeds a proven error bound (the "filter"); otherwise it

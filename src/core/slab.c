@@ -277,7 +277,7 @@ int en_slab_read_all(en_slab *s, epsnet_reader *r, const char *path, epsnet_erro
 }
 
 /* Corner order a file happens to use must not change a normal's rounding,
- * or the same mesh shuffled would give other samples (SPEC §1 invariants). */
+ * or the same mesh shuffled would give other samples (docs/method.md §11). */
 static int less_xyz(const double *a, const double *b)
 {
     if (a[0] != b[0])

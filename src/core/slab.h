@@ -1,5 +1,5 @@
 /*
- * The per-slab mesh: the unit of work of the whole pipeline (SPEC §2). A slab
+ * The per-slab mesh: the unit of work of the whole pipeline (docs/architecture.md §8). A slab
  * is a piece of the mesh with global vertex ids; it *owns* the vertices whose
  * classification and collapses it is responsible for and holds *ghost*
  * vertices (and the faces around its owned vertices) as read-only context.
@@ -20,8 +20,8 @@ enum {
     EN_V_OWNED = 1 << 0,      /* classified (and later simplified) by this slab */
     EN_V_TARGET = 1 << 4,     /* may receive a collapse: its whole star is here and undecided
                                * (the holder's seam rules decide: pipeline/seam.h) */
-    EN_V_BOUNDARY = 1 << 1,   /* on an open boundary: locked (SPEC §1) */
-    EN_V_NONMANIFOLD = 1 << 2,/* star is not one fan: locked (SPEC §1) */
+    EN_V_BOUNDARY = 1 << 1,   /* on an open boundary: locked (docs/method.md §6) */
+    EN_V_NONMANIFOLD = 1 << 2,/* star is not one fan: locked (docs/method.md §6) */
     EN_V_ISOLATED = 1 << 3,   /* referenced by no face */
 };
 
@@ -65,7 +65,7 @@ int en_slab_build_stars(en_slab *s);
  * Normal (not normalised) of the triangle t over positions pos: the double
  * cross product taken from the corner with the smallest coordinates, so it
  * does not depend on which corner a file lists first. A zero result is what
- * "zero-area face" means everywhere (SPEC §1: such faces have no normal).
+ * "zero-area face" means everywhere (docs/method.md §5: such faces have no normal).
  */
 void en_triangle_normal(const double *pos, const uint32_t t[3], double n[3]);
 

@@ -9,7 +9,7 @@
  *
  * note: every row lies in one plane of constant stream-axis coordinate
  * (shapes displace their vertices only within that plane), so the sorted
- * streaming order (SPEC §2) is "rows by axis value, columns in order" and
+ * streaming order (docs/architecture.md §6) is "rows by axis value, columns in order" and
  * the streamer only ever holds a few rows, whatever the face count.
  *
  * Every vertex position and every face's corners are computed from its

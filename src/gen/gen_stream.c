@@ -1,7 +1,7 @@
 /*
  * The two emitters.
  *
- * Sorted (SPEC §2 input order): rows are visited by their stream-axis value
+ * Sorted (docs/architecture.md §6): rows are visited by their stream-axis value
  * (ties by row index), columns in order, so vertices come in non-decreasing
  * axis order. A triangle is emitted right after the last of its corners,
  * and a vertex is finalized right after its last triangle: each live vertex

@@ -1,5 +1,5 @@
 /*
- * Wavefront OBJ (SPEC §3, ordinary formats): geometry only.
+ * Wavefront OBJ (docs/architecture.md §13, ordinary formats): geometry only.
  *
  * Reader: `v x y z [w | r g b [a]]` and `f` with corners `a`, `a/b`, `a/b/c`
  * or `a//c`; indices are 1-based, or negative and relative to the newest
@@ -188,7 +188,7 @@ static int parse_face(epsnet_reader *r, char *p)
     return 0;
 }
 
-/* SPEC §5: a statement kind the records do not carry is named, by its
+/* docs/architecture.md §5: a statement kind the records do not carry is named, by its
  * keyword, with how many there were. Keywords are printed, so bytes that
  * are not printable ASCII are shown as '?'. */
 static void drop_statement(epsnet_reader *r, const char *p)

@@ -1,5 +1,5 @@
 /*
- * OFF reader (SPEC §3 "Ordinary formats"). Geomview's text format: a keyword
+ * OFF reader (docs/architecture.md §13). Geomview's text format: a keyword
  * line "[ST][C][N]OFF", a counts line "nv nf ne", nv vertex lines and nf face
  * lines "n i0 .. i(n-1) [colour]", with 0-based indices and '#' comments.
  *

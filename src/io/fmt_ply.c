@@ -1,13 +1,13 @@
 /*
- * PLY reader and writer (SPEC §3 "Ordinary formats": ascii, binary little-
+ * PLY reader and writer (docs/architecture.md §13: ascii, binary little-
  * and big-endian, extra properties skipped, polygons triangulated; and PLY
  * `tristrips`, read as triangles). What is skipped is named through
- * epsnet_reader_dropped() (SPEC §5).
+ * epsnet_reader_dropped() (docs/architecture.md §5).
  *
  * Reading: the header becomes a list of elements with their properties; the
  * body is then walked element by element. The encoding is chosen once, when
  * the header is read: ascii records go through a line tokenizer, binary ones
- * through a table of per-type decoders for the file's byte order (STYLE.md,
+ * through a table of per-type decoders for the file's byte order (after
  * rply's driver tables), so no value ever tests the encoding.
  *
  * Writing: PLY needs every vertex before every face and both counts in the
@@ -523,7 +523,7 @@ static int header_finish(epsnet_reader *r, ply_reader *p)
             if (pr->role >= ROLE_X && pr->role <= ROLE_Z) {
                 have[pr->role] = 1;
                 /* note: 32-bit integers do not fit a float32, so they are
-                 * carried as float64 to keep every coordinate exact (SPEC §1). */
+                 * carried as float64 to keep every coordinate exact (docs/method.md §11). */
                 if (pr->type == PLY_FLOAT64 || pr->type == PLY_INT32 || pr->type == PLY_UINT32)
                     r->info.coord_type = EPSNET_COORD_FLOAT64;
             }
@@ -553,7 +553,7 @@ static int header_finish(epsnet_reader *r, ply_reader *p)
     return 0;
 }
 
-/* SPEC §5: every element and property the records do not carry is named.
+/* docs/architecture.md §5: every element and property the records do not carry is named.
  * note: per-vertex attributes (colours, normals, ...) are among them until
  * records carry attributes. Elements without records hold nothing. */
 static void note_dropped(epsnet_reader *r, const ply_reader *p)
@@ -671,7 +671,7 @@ static int is_strip_restart(ply_type t, int64_t v)
  * jumps (a swap) and encodes no surface: it is skipped (strip_turns), but it
  * still counts for the parity of the triangles after it. A face element's
  * triangle with a repeated corner is different: the file declares it a face,
- * so it is passed on like any other (SPEC §5: degenerate faces are legal
+ * so it is passed on like any other (docs/architecture.md §5: degenerate faces are legal
  * input, handled and reported downstream). Triangles with distinct indices
  * are passed on whatever their area, like faces.
  */
@@ -1341,7 +1341,7 @@ static int ply_fill(epsnet_reader *r)
             return 1;
     }
     /* note: a face of 0, 1 or 2 corners has no triangle to carry; it is
-     * legal and skipped, but not without a word (SPEC §5) */
+     * legal and skipped, but not without a word (docs/architecture.md §5) */
     if (p->short_polygons)
         en_reader_drop(r, "faces with fewer than 3 corners", p->short_polygons, 1);
     int rc = check_trailing(r, p);

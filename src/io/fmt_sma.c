@@ -1,6 +1,6 @@
 /*
  * SMA, the ASCII streaming mesh of Isenburg & Lindstrom, "Streaming Meshes"
- * (2005), as SPEC §3 describes it.
+ * (2005).
  *
  *   # nverts N            header comments before the first record
  *   # nfaces N            (other comments are ignored anywhere)
@@ -21,7 +21,7 @@
  * negatively referenced corner, in corner order. Header counts, when given,
  * must match the records at the end (a shorter file is truncated). The
  * reader needs pre-order streams (each triangle after its vertices), which
- * is what the epsnet pipeline consumes (SPEC §2).
+ * is what the epsnet pipeline consumes (docs/architecture.md §6).
  *
  * note: like OBJ, SMA has no coordinate type; info.coord_type is decided
  * from the `v` lines of the first 64 KiB by the rule of src/io/text_scan.h.

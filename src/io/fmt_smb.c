@@ -1,6 +1,6 @@
 /*
  * SMB, the binary streaming mesh of Isenburg & Lindstrom, "Streaming Meshes"
- * (2005), as SPEC §3 describes it:
+ * (2005):
  *
  *   byte 0     version, 0
  *   byte 1     byte order of everything after: 0 little, 1 big endian
@@ -31,13 +31,13 @@
  * used unless the other one scores higher; a broken declared reading is the
  * error unless the other passes every soft check. A truncated file thus
  * keeps its declared order and is reported where its data ends. The order
- * is chosen once and applied through a function pointer (STYLE.md: rply's
+ * is chosen once and applied through a function pointer (after rply's
  * drivers), not tested per value.
  *
  * note: the authors' writer (smwriter_smb.cpp) writes the rest of the header
  * only with the first record, so an empty mesh is the version byte followed
  * by the empty block word of its final flush: five zero bytes. That whole
- * file is read as a valid empty mesh (SPEC §5).
+ * file is read as a valid empty mesh (docs/architecture.md §5).
  *
  * Writer: little-endian, version 0, no comments. Counts come from the
  * announced info (-1 when unknown) and are patched with the real ones on

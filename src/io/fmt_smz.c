@@ -1,5 +1,5 @@
 /*
- * .smz, epsnet's native streaming mesh (SPEC §3; docs/smz.md describes
+ * .smz, epsnet's native streaming mesh (docs/smz.md describes
  * every byte): a header, independent zstd blocks each with its own
  * checksum, and an index found through a fixed-size trailer.
  *
@@ -8,7 +8,7 @@
  * reader: the running CRC of the index entries it would have written must
  * equal the stored index, and the trailer's counts and bbox must match what
  * was decoded. A header that declares the stream sorted is verified vertex
- * by vertex (SPEC §5: a stream claimed sorted that is not is an error).
+ * by vertex (docs/architecture.md §5: a stream claimed sorted that is not is an error).
  * Errors inside a block name the block and its byte offset.
  *
  * Writer: counts, bbox and the sorted flag are only known at the end, so the

@@ -1,5 +1,5 @@
 /*
- * STL reader (SPEC §3 "Ordinary formats": ascii and binary, with coincident
+ * STL reader (docs/architecture.md §13: ascii and binary, with coincident
  * corners welded exactly).
  *
  * STL stores three corners per facet and no indices. Corners are welded into

@@ -1,5 +1,5 @@
 /*
- * Format drivers (STYLE.md habit 8: a small reader/writer table, one file per
+ * Format drivers (a small reader/writer table, one file per
  * format). A driver parses bytes from an en_source and pushes records through
  * en_reader_push_*(), which validate them the same way for every format; a
  * writer driver turns records into bytes on an en_sink.
@@ -58,7 +58,7 @@ struct epsnet_reader {
     int failed;
     epsnet_error err;
 
-    /* What the records do not carry (SPEC §5), for epsnet_reader_dropped(). */
+    /* What the records do not carry (docs/architecture.md §5), for epsnet_reader_dropped(). */
     en_dropped drop[EN_DROP_MAX];
     size_t ndrop;
     uint64_t drop_more;              /* distinct items beyond EN_DROP_MAX */

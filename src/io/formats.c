@@ -1,4 +1,4 @@
-/* The format table (STYLE.md habit 8). Order matters only for content
+/* The format table. Order matters only for content
  * probing ties. */
 #include <pthread.h>
 #include <string.h>

@@ -1,6 +1,6 @@
 /*
  * Reader front end: format selection, the record queue, and the checks every
- * stream gets whatever its format (SPEC §5): coordinates are finite, triangle
+ * stream gets whatever its format (docs/architecture.md §5): coordinates are finite, triangle
  * corners exist and are not finalized, header counts are not absurd, and a
  * streaming input cannot grow its live set past the memory budget.
  */

@@ -1,5 +1,5 @@
 /*
- * PLY output of a classification (SPEC §3 "Samples output"): either a point
+ * PLY output of a classification (docs/architecture.md §13): either a point
  * set of the samples, each with the id of the Gaussian vertex it covers and a
  * colour per id, or the whole mesh with a per-vertex sample flag and colour
  * for viewing in MeshLab.

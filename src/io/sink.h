@@ -1,6 +1,6 @@
 /*
  * Byte sink: buffered output that becomes visible at its path only on commit
- * (SPEC §5: nothing half-written at the -o path), with optional zstd
+ * (docs/architecture.md §5: nothing half-written at the -o path), with optional zstd
  * compression. Also the spill file: an anonymous temporary file that
  * disappears when closed or when the process dies, used for data that must be
  * written once and read back (PLY faces of a streaming input, sort runs).

@@ -2,7 +2,7 @@
  * Numbers in text formats (OBJ, SMA, OFF): scanning tokens, choosing the
  * coordinate type of a text stream, and printing coordinates back.
  *
- * The coordinate-type rule (SPEC §1: output vertices are bit-identical input
+ * The coordinate-type rule (docs/method.md §11: output vertices are bit-identical input
  * vertices, so a float mesh must survive a text round trip):
  *   - A text stream has no declared coordinate type. It is FLOAT32 when every
  *     coordinate in its first EN_TEXT_PEEK_BYTES is "a float printed at its

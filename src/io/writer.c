@@ -37,7 +37,7 @@ int en_writer_printf(epsnet_writer *w, const char *fmt, ...)
 int en_format_coord(char *buf, double v, epsnet_coord_type t)
 {
     /* note: shortest text that parses back to the same bits, so ASCII
-     * round trips keep every coordinate exact (SPEC §1: output vertices are
+     * round trips keep every coordinate exact (docs/method.md §11: output vertices are
      * bit-identical input vertices); src/io/text_scan.c explains the method. */
     return en_text_format_coord(buf, v, t);
 }

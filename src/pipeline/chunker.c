@@ -170,7 +170,7 @@ static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
         rc = add_local(c, w, c->fin[j], EN_V_OWNED);
     }
     /* Every face around an owned vertex joins the slab; a face whose corners
-     * are now all owned is done with (this is its home: SPEC §2). */
+     * are now all owned is done with (this is its home: docs/architecture.md §8). */
     size_t kept = 0;
     for (size_t f = 0; f < c->nfaces && rc == 0; f++) {
         uint32_t *t = c->faces + 3 * f;

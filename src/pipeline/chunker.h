@@ -1,5 +1,5 @@
 /*
- * The chunker (SPEC §2): cuts a finalized streaming mesh into slabs.
+ * The chunker (docs/architecture.md §8): cuts a finalized streaming mesh into slabs.
  *
  * Slab k owns the next `slab_vertices` vertices to be finalized, in stream
  * order, and gets every face around them (the faces are all read by then,

@@ -1,5 +1,5 @@
 /*
- * The worker's half of the streaming pipeline (SPEC §2 "Worker pool"): one
+ * The worker's half of the streaming pipeline (docs/architecture.md §8): one
  * slab, classified and simplified on its own.
  *
  * A slab k owns the vertices finalized in its stretch of the stream and holds
@@ -13,7 +13,7 @@
  * this slab), so every face read or written is interior. An owned vertex
  * with a neighbour in another slab is *frozen*: it is classified here but its
  * collapses are left to the stitcher, together with the ring of inner
- * vertices around it (paper §4.3: the ε-net is local, so a band of one ring
+ * vertices around it (paper §4.2: the ε-net is local, so a band of one ring
  * decides a seam).
  */
 #ifndef EN_PIPELINE_SLAB_WORK_H

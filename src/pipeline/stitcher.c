@@ -351,7 +351,7 @@ static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
         en_stitch_vertex *x = &st->v[e.idx];
         if (x->remaining == 0) {
             if (!(x->state & S_IN_W))
-                sv_free(st, e.idx); /* no face left around it: not written (SPEC: unused vertices dropped) */
+                sv_free(st, e.idx); /* no face left around it: not written (docs/architecture.md §9) */
             continue;
         }
         x->out = st->next_out++;

@@ -1,5 +1,5 @@
 /*
- * The stitcher (SPEC §2): takes the slabs back in stream order, finishes
+ * The stitcher (docs/architecture.md §9): takes the slabs back in stream order, finishes
  * the seams between them and emits one ordered, finalized stream.
  *
  * Seams. Each slab hands over its frozen vertices (owned, with a neighbour

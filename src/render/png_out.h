@@ -1,7 +1,7 @@
 /*
  * PNG output for `epsnet render`, through libpng (encoding PNG is a solved
  * problem; see README "Dependencies"). The file appears at its path only when
- * complete, like every epsnet output (SPEC §5).
+ * complete, like every epsnet output (docs/architecture.md §5).
  */
 #ifndef EN_RENDER_PNG_OUT_H
 #define EN_RENDER_PNG_OUT_H

@@ -1,6 +1,6 @@
 /*
  * Positions of the vertices a streamed renderer may still be asked for, by
- * global index. For a streaming mesh (SPEC §2: every vertex finalized after
+ * global index. For a streaming mesh (docs/architecture.md §6: every vertex finalized after
  * its last triangle) only the live vertices are kept, in a hash table, so
  * memory follows the stream's width; for an ordinary format, where any
  * triangle may use any earlier vertex, every position is kept in a dense

@@ -1146,7 +1146,7 @@ static int open_job(sort_job *j, epsnet_error *err)
     epsnet_reader_settings rs;
     epsnet_reader_default_settings(&rs);
     /* note: a streaming input's live set is the reader's memory; the budget
-     * bounds it (SPEC §5: a stream that never finalizes hits the budget). */
+     * bounds it (docs/architecture.md §12: a stream that never finalizes hits the budget). */
     rs.mem_limit = j->set.mem;
     int rc = epsnet_reader_open(&j->r, j->in_path, &rs, err);
     if (rc)

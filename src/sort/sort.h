@@ -1,6 +1,6 @@
 /*
  * Out-of-core spatial sort of any mesh into a sorted, finalized streaming
- * mesh (SPEC §2 "Input"; epsnet_sort_file() in the public header is the
+ * mesh (docs/architecture.md §13; epsnet_sort_file() in the public header is the
  * entry point and states the output order). The passes:
  *
  *   1. read        vertices -> a temporary file in input order (and the
@@ -43,7 +43,7 @@
 #include "epsnet/epsnet.h"
 
 /*
- * The sort as a stage (SPEC §2 "One chain of stages"): en_sort_open() runs
+ * The sort as a stage (docs/architecture.md §7): en_sort_open() runs
  * passes 1 to 5, after which the output's axis and coordinate type are
  * known (en_sort_info); en_sort_emit() runs pass 6 and hands every record of
  * the sorted, finalized stream to emit instead of writing a file, so a

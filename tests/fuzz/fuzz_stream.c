@@ -11,7 +11,7 @@
  *                   `epsnet check` does for a name without a known suffix
  *
  * Beyond "no crash", the target asserts what `epsnet check` silently
- * relies on (SPEC §2): the reader never hands over a triangle corner or a
+ * relies on (docs/architecture.md §6): the reader never hands over a triangle corner or a
  * finalization outside the live window, never finalizes a vertex twice, and
  * the window's counters agree with the record counts. A violation aborts,
  * so libFuzzer reports it like a crash.
