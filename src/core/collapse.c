@@ -202,10 +202,30 @@ static void heap_remove(state *st, uint32_t v)
         sift_down(st, i, last);
 }
 
+/* note: the root's hole goes down along the smaller children to a leaf and
+ * the last entry rises from there (Floyd): it saves the comparison with the
+ * last entry at every level, which nearly always sinks to the bottom anyway. */
 static heap_entry heap_pop(state *st)
 {
     heap_entry top = st->heap[0];
-    heap_remove(st, top.v);
+    st->heap_pos[top.v] = UINT32_MAX;
+    size_t n = --st->heap_len;
+    if (n == 0)
+        return top;
+    heap_entry last = st->heap[n];
+    size_t i = 0;
+    for (;;) {
+        size_t first = 4 * i + 1;
+        if (first >= n)
+            break;
+        size_t c = first, end = first + 4 < n ? first + 4 : n;
+        for (size_t k = first + 1; k < end; k++)
+            if (entry_less(&st->heap[k], &st->heap[c]))
+                c = k;
+        heap_place(st, i, st->heap[c]);
+        i = c;
+    }
+    sift_up(st, i, last);
     return top;
 }
 
@@ -318,7 +338,9 @@ static int check_collapse(state *st, uint32_t v, uint32_t u)
             return EN_REFUSE_NORMAL;
         uint32_t x, y;
         other_corners(t, v, &x, &y);
-        if (has_face_on(st, u, x, y))
+        /* note: a face of u on x and y marks both, so unmarked corners spare
+         * the O(deg u) search. */
+        if (st->mark[x] == stamp && st->mark[y] == stamp && has_face_on(st, u, x, y))
             return EN_REFUSE_DUPLICATE;
     }
     return 0;
@@ -338,6 +360,12 @@ static double pair_cost(const state *st, uint32_t w, uint32_t x)
     return c == c ? c : INFINITY;
 }
 
+/* Corner of t at v (the first, should a face repeat v), as stars list it. */
+static int corner_at(const uint32_t *t, uint32_t v)
+{
+    return t[0] == v ? 0 : t[1] == v ? 1 : 2;
+}
+
 /* Targets of v with their costs, cheapest first, in st->cand; @return count
  * or -1 when out of memory. Each neighbour is the corner after v in exactly
  * one face of v's (manifold, closed) star, so it is listed once. */
@@ -349,10 +377,10 @@ static int64_t rank_targets(state *st, uint32_t v)
     uint32_t n = 0;
     const uint32_t *lv = st->pool + st->vf_start[v];
     for (uint32_t i = 0; i < st->vf_count[v]; i++) {
-        uint32_t x, y;
-        other_corners(st->tri + 3 * (size_t)lv[i], v, &x, &y);
-        cand[n].cost = pair_cost(st, v, x);
-        cand[n].u = x;
+        const uint32_t *t = st->tri + 3 * (size_t)lv[i];
+        int k = corner_at(t, v);
+        cand[n].cost = pair_cost(st, v, t[(k + 1) % 3]);
+        cand[n].u = t[(k + 1) % 3];
         n++;
     }
     /* insertion sort: stars are small (a vertex that absorbed a fan is the
@@ -377,9 +405,9 @@ static int queue_cheapest(state *st, uint32_t v)
     const uint32_t *lv = st->pool + st->vf_start[v];
     target best = { 0, UINT32_MAX };
     for (uint32_t i = 0; i < st->vf_count[v]; i++) {
-        uint32_t x, y;
-        other_corners(st->tri + 3 * (size_t)lv[i], v, &x, &y);
-        target t = { pair_cost(st, v, x), x };
+        const uint32_t *tr = st->tri + 3 * (size_t)lv[i];
+        int k = corner_at(tr, v);
+        target t = { pair_cost(st, v, tr[(k + 1) % 3]), tr[(k + 1) % 3] };
         if (best.u == UINT32_MAX || target_less(&t, &best))
             best = t;
     }
@@ -453,7 +481,6 @@ static int do_collapse(state *st, uint32_t v, uint32_t u)
     quadric_add(&st->q[u], &st->q[v]);
     st->self_err[u] = quadric_eval(&st->q[u], st->s->pos + 3 * (size_t)u);
     st->collapses++;
-
     /*
      * What changed: u's quadric (so every cost *from* u, and the cost of every
      * pair *into* u), and the neighbourhoods in u's ring (validity, checked
