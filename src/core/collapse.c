@@ -150,6 +150,22 @@ static void sift_up(state *st, size_t i, heap_entry e)
     heap_place(st, i, e);
 }
 
+/* The smallest of the children from first on (first < n): a full family,
+ * the common case, as a two-round tournament, without a loop. */
+static size_t min_child(const heap_entry *h, size_t first, size_t n)
+{
+    if (first + 4 <= n) {
+        size_t a = entry_less(&h[first + 1], &h[first]) ? first + 1 : first;
+        size_t b = entry_less(&h[first + 3], &h[first + 2]) ? first + 3 : first + 2;
+        return entry_less(&h[b], &h[a]) ? b : a;
+    }
+    size_t c = first;
+    for (size_t k = first + 1; k < n; k++)
+        if (entry_less(&h[k], &h[c]))
+            c = k;
+    return c;
+}
+
 static void sift_down(state *st, size_t i, heap_entry e)
 {
     size_t n = st->heap_len;
@@ -157,10 +173,7 @@ static void sift_down(state *st, size_t i, heap_entry e)
         size_t first = 4 * i + 1;
         if (first >= n)
             break;
-        size_t c = first, end = first + 4 < n ? first + 4 : n;
-        for (size_t k = first + 1; k < end; k++)
-            if (entry_less(&st->heap[k], &st->heap[c]))
-                c = k;
+        size_t c = min_child(st->heap, first, n);
         if (!entry_less(&st->heap[c], &e))
             break;
         heap_place(st, i, st->heap[c]);
@@ -218,10 +231,7 @@ static heap_entry heap_pop(state *st)
         size_t first = 4 * i + 1;
         if (first >= n)
             break;
-        size_t c = first, end = first + 4 < n ? first + 4 : n;
-        for (size_t k = first + 1; k < end; k++)
-            if (entry_less(&st->heap[k], &st->heap[c]))
-                c = k;
+        size_t c = min_child(st->heap, first, n);
         heap_place(st, i, st->heap[c]);
         i = c;
     }
@@ -311,13 +321,13 @@ static int check_collapse(state *st, uint32_t v, uint32_t u)
     }
     if (nedge != 2)
         return EN_REFUSE_LINK;
+    /* note: unmarking the allowed shared vertices leaves one test per corner;
+     * 0 is below every stamp. */
+    st->mark[v] = st->mark[u] = st->mark[opp[0]] = st->mark[opp[1]] = 0;
     for (uint32_t i = 0; i < st->vf_count[v]; i++) {
         const uint32_t *t = st->tri + 3 * (size_t)lv[i];
-        for (int k = 0; k < 3; k++) {
-            uint32_t x = t[k];
-            if (x != v && x != u && st->mark[x] == stamp && x != opp[0] && x != opp[1])
-                return EN_REFUSE_LINK;
-        }
+        if (st->mark[t[0]] == stamp || st->mark[t[1]] == stamp || st->mark[t[2]] == stamp)
+            return EN_REFUSE_LINK;
     }
     for (uint32_t i = 0; i < st->vf_count[v]; i++) {
         uint32_t f = lv[i];
@@ -338,9 +348,10 @@ static int check_collapse(state *st, uint32_t v, uint32_t u)
             return EN_REFUSE_NORMAL;
         uint32_t x, y;
         other_corners(t, v, &x, &y);
-        /* note: a face of u on x and y marks both, so unmarked corners spare
-         * the O(deg u) search. */
-        if (st->mark[x] == stamp && st->mark[y] == stamp && has_face_on(st, u, x, y))
+        /* note: a face of u on x and y makes both shared neighbours, which
+         * the link condition just limited to opp: other corners spare the
+         * O(deg u) search. */
+        if ((x == opp[0] || x == opp[1]) && (y == opp[0] || y == opp[1]) && has_face_on(st, u, x, y))
             return EN_REFUSE_DUPLICATE;
     }
     return 0;
