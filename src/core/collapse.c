@@ -89,9 +89,10 @@ typedef struct target {
 } target;
 
 /*
- * note: everything the queue keeps per vertex sits in one record of one
- * cache line. A collapse visits a ring of vertices scattered over the slab,
- * and with one array per field each visit missed the cache once per field.
+ * note: everything the queue keeps per vertex, its quadric included, sits in
+ * one 128-byte record (two cache lines, the queue's fields in the first). A
+ * collapse visits a ring of vertices scattered over the slab, and with one
+ * array per field each visit missed the cache once per field.
  */
 typedef struct vrec {
     double self_err;          /* q[v] evaluated at v's own position */
@@ -104,12 +105,13 @@ typedef struct vrec {
     uint8_t alive;            /* not collapsed away (mirrors vertex_alive) */
     uint8_t fallback;         /* v's queued entry is its cheapest *valid* one */
     uint8_t refused;          /* EN_REFUSE_* seen on the last evaluation */
-    uint8_t pad[20];
+    uint8_t pad[4];
+    en_quadric q;             /* accumulates through the collapses; copied back to the caller's q */
 } vrec;
+_Static_assert(sizeof(vrec) == 128, "a vertex record is two cache lines");
 
 typedef struct state {
     const en_slab *s;
-    en_quadric *q;
     double cos_bound;
     uint32_t *tri;
     uint8_t *falive, *valive;
@@ -377,7 +379,7 @@ static int target_less(const target *a, const target *b)
 
 static double pair_cost(const state *st, uint32_t w, uint32_t x)
 {
-    double c = quadric_eval(&st->q[w], st->s->pos + 3 * (size_t)x) + st->vx[x].self_err;
+    double c = quadric_eval(&st->vx[w].q, st->s->pos + 3 * (size_t)x) + st->vx[x].self_err;
     /* Huge coordinates (1e200) overflow quadrics to inf - inf = NaN. NaN is
      * unequal to itself, so the queue's staleness test would requeue such a
      * pair forever: such pairs go last, at +inf, where the test holds. */
@@ -503,8 +505,8 @@ static int do_collapse(state *st, uint32_t v, uint32_t u)
     st->vx[v].vf_count = 0;
     st->valive[v] = 0;
     st->vx[v].alive = 0;
-    quadric_add(&st->q[u], &st->q[v]);
-    st->vx[u].self_err = quadric_eval(&st->q[u], st->s->pos + 3 * (size_t)u);
+    quadric_add(&st->vx[u].q, &st->vx[v].q);
+    st->vx[u].self_err = quadric_eval(&st->vx[u].q, st->s->pos + 3 * (size_t)u);
     st->collapses++;
     /*
      * What changed: u's quadric (so every cost *from* u, and the cost of every
@@ -557,7 +559,6 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
 {
     state st = { 0 };
     st.s = s;
-    st.q = q;
     st.cos_bound = cos(cs->max_normal_dev_deg * (M_PI / 180.0));
     st.tri = tri_out;
     st.falive = face_alive;
@@ -582,7 +583,8 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
         memset(r, 0, sizeof *r);
         r->vf_start = s->star_start[v];
         r->vf_count = r->vf_cap = en_slab_degree(s, v);
-        r->self_err = quadric_eval(&q[v], s->pos + 3 * (size_t)v);
+        r->q = q[v];
+        r->self_err = quadric_eval(&r->q, s->pos + 3 * (size_t)v);
         r->best_u = UINT32_MAX;
         r->heap_pos = UINT32_MAX;
         r->removable = removable[v] != 0;
@@ -605,6 +607,8 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
         rc = do_collapse(&st, e.v, e.u);
     }
     if (rc == 0) {
+        for (uint32_t v = 0; v < s->nv; v++)
+            q[v] = st.vx[v].q;
         memset(counts, 0, sizeof *counts);
         counts->collapses = st.collapses;
         for (uint32_t v = 0; v < s->nv && rc == 0; v++) {
