@@ -28,6 +28,7 @@
 #include "core/collapse.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <string.h>
 
 #include "common/alloc.h"
@@ -87,28 +88,42 @@ typedef struct target {
     uint32_t u;
 } target;
 
+/*
+ * note: everything the queue keeps per vertex, its quadric included, sits in
+ * one 128-byte record (two cache lines, the queue's fields in the first). A
+ * collapse visits a ring of vertices scattered over the slab, and with one
+ * array per field each visit missed the cache once per field.
+ */
+typedef struct vrec {
+    double self_err;          /* q[v] evaluated at v's own position */
+    double best_cost;         /* cost of v's cheapest queued entry */
+    uint32_t vf_start, vf_count, vf_cap;
+    uint32_t heap_pos;        /* v's index in heap, or UINT32_MAX */
+    uint32_t best_u;          /* its target, UINT32_MAX when none */
+    uint32_t mark;            /* stamp per vertex for neighbour sets */
+    uint8_t removable;
+    uint8_t alive;            /* not collapsed away (mirrors vertex_alive) */
+    uint8_t fallback;         /* v's queued entry is its cheapest *valid* one */
+    uint8_t refused;          /* EN_REFUSE_* seen on the last evaluation */
+    uint8_t pad[4];
+    en_quadric q;             /* accumulates through the collapses; copied back to the caller's q */
+} vrec;
+_Static_assert(sizeof(vrec) == 128, "a vertex record is two cache lines");
+
 typedef struct state {
     const en_slab *s;
-    const uint8_t *removable;
-    en_quadric *q;
     double cos_bound;
     uint32_t *tri;
     uint8_t *falive, *valive;
     const double *ref_normal; /* unit normal each face had in the input (0 if none) */
 
-    /* vertex -> alive faces: list of v is pool[vf_start[v] .. + vf_count[v]) */
+    /* vertex -> alive faces: list of v is pool[vx[v].vf_start .. + vx[v].vf_count) */
     uint32_t *pool;
     size_t pool_len, pool_cap;
-    uint32_t *vf_start, *vf_count, *vf_cap;
 
-    uint32_t *heap_pos;       /* v's index in heap, or UINT32_MAX */
-    double *self_err;         /* q[v] evaluated at v's own position */
-    double *best_cost;        /* cost of v's cheapest queued entry */
-    uint32_t *best_u;         /* its target, UINT32_MAX when none */
-    uint8_t *fallback;        /* v's queued entry is its cheapest *valid* one */
-    uint32_t *mark;           /* stamp per vertex for neighbour sets */
+    vrec *vx;                 /* per vertex, 64-byte aligned */
+    void *vx_alloc;
     uint32_t stamp;
-    uint8_t *refused;         /* EN_REFUSE_* seen on the last evaluation */
 
     heap_entry *heap;
     size_t heap_len, heap_cap;
@@ -135,7 +150,7 @@ static int entry_less(const heap_entry *a, const heap_entry *b)
 static void heap_place(state *st, size_t i, heap_entry e)
 {
     st->heap[i] = e;
-    st->heap_pos[e.v] = (uint32_t)i;
+    st->vx[e.v].heap_pos = (uint32_t)i;
 }
 
 static void sift_up(state *st, size_t i, heap_entry e)
@@ -150,6 +165,22 @@ static void sift_up(state *st, size_t i, heap_entry e)
     heap_place(st, i, e);
 }
 
+/* The smallest of the children from first on (first < n): a full family,
+ * the common case, as a two-round tournament, without a loop. */
+static size_t min_child(const heap_entry *h, size_t first, size_t n)
+{
+    if (first + 4 <= n) {
+        size_t a = entry_less(&h[first + 1], &h[first]) ? first + 1 : first;
+        size_t b = entry_less(&h[first + 3], &h[first + 2]) ? first + 3 : first + 2;
+        return entry_less(&h[b], &h[a]) ? b : a;
+    }
+    size_t c = first;
+    for (size_t k = first + 1; k < n; k++)
+        if (entry_less(&h[k], &h[c]))
+            c = k;
+    return c;
+}
+
 static void sift_down(state *st, size_t i, heap_entry e)
 {
     size_t n = st->heap_len;
@@ -157,10 +188,7 @@ static void sift_down(state *st, size_t i, heap_entry e)
         size_t first = 4 * i + 1;
         if (first >= n)
             break;
-        size_t c = first, end = first + 4 < n ? first + 4 : n;
-        for (size_t k = first + 1; k < end; k++)
-            if (entry_less(&st->heap[k], &st->heap[c]))
-                c = k;
+        size_t c = min_child(st->heap, first, n);
         if (!entry_less(&st->heap[c], &e))
             break;
         heap_place(st, i, st->heap[c]);
@@ -173,7 +201,7 @@ static void sift_down(state *st, size_t i, heap_entry e)
 static int heap_set(state *st, uint32_t v, double cost, uint32_t u)
 {
     heap_entry e = { cost, v, u };
-    uint32_t i = st->heap_pos[v];
+    uint32_t i = st->vx[v].heap_pos;
     if (i == UINT32_MAX) {
         if (st->heap_len == st->heap_cap &&
             en_grow((void **)&st->heap, &st->heap_cap, st->heap_len + 1, sizeof *st->heap))
@@ -189,10 +217,10 @@ static int heap_set(state *st, uint32_t v, double cost, uint32_t u)
 
 static void heap_remove(state *st, uint32_t v)
 {
-    uint32_t i = st->heap_pos[v];
+    uint32_t i = st->vx[v].heap_pos;
     if (i == UINT32_MAX)
         return;
-    st->heap_pos[v] = UINT32_MAX;
+    st->vx[v].heap_pos = UINT32_MAX;
     heap_entry last = st->heap[--st->heap_len];
     if (i == st->heap_len)
         return;
@@ -202,10 +230,27 @@ static void heap_remove(state *st, uint32_t v)
         sift_down(st, i, last);
 }
 
+/* note: the root's hole goes down along the smaller children to a leaf and
+ * the last entry rises from there (Floyd): it saves the comparison with the
+ * last entry at every level, which nearly always sinks to the bottom anyway. */
 static heap_entry heap_pop(state *st)
 {
     heap_entry top = st->heap[0];
-    heap_remove(st, top.v);
+    st->vx[top.v].heap_pos = UINT32_MAX;
+    size_t n = --st->heap_len;
+    if (n == 0)
+        return top;
+    heap_entry last = st->heap[n];
+    size_t i = 0;
+    for (;;) {
+        size_t first = 4 * i + 1;
+        if (first >= n)
+            break;
+        size_t c = min_child(st->heap, first, n);
+        heap_place(st, i, st->heap[c]);
+        i = c;
+    }
+    sift_up(st, i, last);
     return top;
 }
 
@@ -224,29 +269,29 @@ static void other_corners(const uint32_t *t, uint32_t v, uint32_t *x, uint32_t *
 
 static int list_append(state *st, uint32_t v, uint32_t f)
 {
-    if (st->vf_count[v] == st->vf_cap[v]) {
+    if (st->vx[v].vf_count == st->vx[v].vf_cap) {
         /* Move the list to the end of the pool with room to grow. */
-        uint32_t cap = st->vf_cap[v] ? 2 * st->vf_cap[v] : 8;
+        uint32_t cap = st->vx[v].vf_cap ? 2 * st->vx[v].vf_cap : 8;
         if (en_grow((void **)&st->pool, &st->pool_cap, st->pool_len + cap, sizeof *st->pool))
             return EPSNET_ENOMEM;
-        memcpy(st->pool + st->pool_len, st->pool + st->vf_start[v], st->vf_count[v] * sizeof *st->pool);
-        st->vf_start[v] = (uint32_t)st->pool_len;
-        st->vf_cap[v] = cap;
+        memcpy(st->pool + st->pool_len, st->pool + st->vx[v].vf_start, st->vx[v].vf_count * sizeof *st->pool);
+        st->vx[v].vf_start = (uint32_t)st->pool_len;
+        st->vx[v].vf_cap = cap;
         st->pool_len += cap;
     }
-    st->pool[st->vf_start[v] + st->vf_count[v]++] = f;
+    st->pool[st->vx[v].vf_start + st->vx[v].vf_count++] = f;
     return 0;
 }
 
 static void list_remove(state *st, uint32_t v, uint32_t f)
 {
-    uint32_t *l = st->pool + st->vf_start[v];
-    for (uint32_t i = 0; i < st->vf_count[v]; i++)
+    uint32_t *l = st->pool + st->vx[v].vf_start;
+    for (uint32_t i = 0; i < st->vx[v].vf_count; i++)
         if (l[i] == f) {
             /* note: keep the order (not swap-remove) so that iteration, and
              * with it every tie, is the same on every run and platform. */
-            memmove(l + i, l + i + 1, (st->vf_count[v] - i - 1) * sizeof *l);
-            st->vf_count[v]--;
+            memmove(l + i, l + i + 1, (st->vx[v].vf_count - i - 1) * sizeof *l);
+            st->vx[v].vf_count--;
             return;
         }
 }
@@ -254,8 +299,8 @@ static void list_remove(state *st, uint32_t v, uint32_t f)
 /* Does u have an alive face on both x and y? */
 static int has_face_on(const state *st, uint32_t u, uint32_t x, uint32_t y)
 {
-    const uint32_t *l = st->pool + st->vf_start[u];
-    for (uint32_t i = 0; i < st->vf_count[u]; i++) {
+    const uint32_t *l = st->pool + st->vx[u].vf_start;
+    for (uint32_t i = 0; i < st->vx[u].vf_count; i++) {
         const uint32_t *t = st->tri + 3 * (size_t)l[i];
         if (has_corner(t, x) && has_corner(t, y))
             return 1;
@@ -273,15 +318,15 @@ static int check_collapse(state *st, uint32_t v, uint32_t u)
     if (!(st->s->vflags[u] & EN_V_TARGET))
         return EN_REFUSE_INCOMPLETE;
     uint32_t stamp = ++st->stamp;
-    const uint32_t *lu = st->pool + st->vf_start[u];
-    for (uint32_t i = 0; i < st->vf_count[u]; i++) {
+    const uint32_t *lu = st->pool + st->vx[u].vf_start;
+    for (uint32_t i = 0; i < st->vx[u].vf_count; i++) {
         const uint32_t *t = st->tri + 3 * (size_t)lu[i];
         for (int k = 0; k < 3; k++)
-            st->mark[t[k]] = stamp;
+            st->vx[t[k]].mark = stamp;
     }
-    const uint32_t *lv = st->pool + st->vf_start[v];
+    const uint32_t *lv = st->pool + st->vx[v].vf_start;
     uint32_t opp[2], nedge = 0;
-    for (uint32_t i = 0; i < st->vf_count[v]; i++) {
+    for (uint32_t i = 0; i < st->vx[v].vf_count; i++) {
         const uint32_t *t = st->tri + 3 * (size_t)lv[i];
         if (!has_corner(t, u))
             continue;
@@ -291,15 +336,15 @@ static int check_collapse(state *st, uint32_t v, uint32_t u)
     }
     if (nedge != 2)
         return EN_REFUSE_LINK;
-    for (uint32_t i = 0; i < st->vf_count[v]; i++) {
+    /* note: unmarking the allowed shared vertices leaves one test per corner;
+     * 0 is below every stamp. */
+    st->vx[v].mark = st->vx[u].mark = st->vx[opp[0]].mark = st->vx[opp[1]].mark = 0;
+    for (uint32_t i = 0; i < st->vx[v].vf_count; i++) {
         const uint32_t *t = st->tri + 3 * (size_t)lv[i];
-        for (int k = 0; k < 3; k++) {
-            uint32_t x = t[k];
-            if (x != v && x != u && st->mark[x] == stamp && x != opp[0] && x != opp[1])
-                return EN_REFUSE_LINK;
-        }
+        if (st->vx[t[0]].mark == stamp || st->vx[t[1]].mark == stamp || st->vx[t[2]].mark == stamp)
+            return EN_REFUSE_LINK;
     }
-    for (uint32_t i = 0; i < st->vf_count[v]; i++) {
+    for (uint32_t i = 0; i < st->vx[v].vf_count; i++) {
         uint32_t f = lv[i];
         const uint32_t *t = st->tri + 3 * (size_t)f;
         if (has_corner(t, u))
@@ -318,7 +363,10 @@ static int check_collapse(state *st, uint32_t v, uint32_t u)
             return EN_REFUSE_NORMAL;
         uint32_t x, y;
         other_corners(t, v, &x, &y);
-        if (has_face_on(st, u, x, y))
+        /* note: a face of u on x and y makes both shared neighbours, which
+         * the link condition just limited to opp: other corners spare the
+         * O(deg u) search. */
+        if ((x == opp[0] || x == opp[1]) && (y == opp[0] || y == opp[1]) && has_face_on(st, u, x, y))
             return EN_REFUSE_DUPLICATE;
     }
     return 0;
@@ -331,11 +379,17 @@ static int target_less(const target *a, const target *b)
 
 static double pair_cost(const state *st, uint32_t w, uint32_t x)
 {
-    double c = quadric_eval(&st->q[w], st->s->pos + 3 * (size_t)x) + st->self_err[x];
+    double c = quadric_eval(&st->vx[w].q, st->s->pos + 3 * (size_t)x) + st->vx[x].self_err;
     /* Huge coordinates (1e200) overflow quadrics to inf - inf = NaN. NaN is
      * unequal to itself, so the queue's staleness test would requeue such a
      * pair forever: such pairs go last, at +inf, where the test holds. */
     return c == c ? c : INFINITY;
+}
+
+/* Corner of t at v (the first, should a face repeat v), as stars list it. */
+static int corner_at(const uint32_t *t, uint32_t v)
+{
+    return t[0] == v ? 0 : t[1] == v ? 1 : 2;
 }
 
 /* Targets of v with their costs, cheapest first, in st->cand; @return count
@@ -343,16 +397,16 @@ static double pair_cost(const state *st, uint32_t w, uint32_t x)
  * one face of v's (manifold, closed) star, so it is listed once. */
 static int64_t rank_targets(state *st, uint32_t v)
 {
-    if (en_grow((void **)&st->cand, &st->cand_cap, st->vf_count[v], sizeof *st->cand))
+    if (en_grow((void **)&st->cand, &st->cand_cap, st->vx[v].vf_count, sizeof *st->cand))
         return -1;
     target *cand = st->cand;
     uint32_t n = 0;
-    const uint32_t *lv = st->pool + st->vf_start[v];
-    for (uint32_t i = 0; i < st->vf_count[v]; i++) {
-        uint32_t x, y;
-        other_corners(st->tri + 3 * (size_t)lv[i], v, &x, &y);
-        cand[n].cost = pair_cost(st, v, x);
-        cand[n].u = x;
+    const uint32_t *lv = st->pool + st->vx[v].vf_start;
+    for (uint32_t i = 0; i < st->vx[v].vf_count; i++) {
+        const uint32_t *t = st->tri + 3 * (size_t)lv[i];
+        int k = corner_at(t, v);
+        cand[n].cost = pair_cost(st, v, t[(k + 1) % 3]);
+        cand[n].u = t[(k + 1) % 3];
         n++;
     }
     /* insertion sort: stars are small (a vertex that absorbed a fan is the
@@ -372,20 +426,20 @@ static int64_t rank_targets(state *st, uint32_t v)
 /* Queue v's cheapest target, unchecked. */
 static int queue_cheapest(state *st, uint32_t v)
 {
-    if (!st->removable[v] || !st->valive[v] || st->vf_count[v] == 0)
+    if (!st->vx[v].removable || !st->vx[v].alive || st->vx[v].vf_count == 0)
         return 0;
-    const uint32_t *lv = st->pool + st->vf_start[v];
+    const uint32_t *lv = st->pool + st->vx[v].vf_start;
     target best = { 0, UINT32_MAX };
-    for (uint32_t i = 0; i < st->vf_count[v]; i++) {
-        uint32_t x, y;
-        other_corners(st->tri + 3 * (size_t)lv[i], v, &x, &y);
-        target t = { pair_cost(st, v, x), x };
+    for (uint32_t i = 0; i < st->vx[v].vf_count; i++) {
+        const uint32_t *tr = st->tri + 3 * (size_t)lv[i];
+        int k = corner_at(tr, v);
+        target t = { pair_cost(st, v, tr[(k + 1) % 3]), tr[(k + 1) % 3] };
         if (best.u == UINT32_MAX || target_less(&t, &best))
             best = t;
     }
-    st->best_cost[v] = best.cost;
-    st->best_u[v] = best.u;
-    st->fallback[v] = 0;
+    st->vx[v].best_cost = best.cost;
+    st->vx[v].best_u = best.u;
+    st->vx[v].fallback = 0;
     return heap_set(st, v, best.cost, best.u);
 }
 
@@ -400,25 +454,25 @@ static int queue_best_valid(state *st, uint32_t v)
         target t = st->cand[i];
         int why = check_collapse(st, v, t.u);
         if (why == 0) {
-            st->refused[v] = 0;
-            st->best_cost[v] = t.cost;
-            st->best_u[v] = t.u;
-            st->fallback[v] = 1;
+            st->vx[v].refused = 0;
+            st->vx[v].best_cost = t.cost;
+            st->vx[v].best_u = t.u;
+            st->vx[v].fallback = 1;
             return heap_set(st, v, t.cost, t.u);
         }
         reasons |= (uint8_t)why;
     }
-    st->refused[v] = reasons;
-    st->best_u[v] = UINT32_MAX;
-    st->fallback[v] = 1;
+    st->vx[v].refused = reasons;
+    st->vx[v].best_u = UINT32_MAX;
+    st->vx[v].fallback = 1;
     heap_remove(st, v);
     return 0;
 }
 
 static int is_neighbour(const state *st, uint32_t v, uint32_t u)
 {
-    const uint32_t *lv = st->pool + st->vf_start[v];
-    for (uint32_t i = 0; i < st->vf_count[v]; i++)
+    const uint32_t *lv = st->pool + st->vx[v].vf_start;
+    for (uint32_t i = 0; i < st->vx[v].vf_count; i++)
         if (has_corner(st->tri + 3 * (size_t)lv[i], u))
             return 1;
     return 0;
@@ -427,11 +481,11 @@ static int is_neighbour(const state *st, uint32_t v, uint32_t u)
 static int do_collapse(state *st, uint32_t v, uint32_t u)
 {
     /* v's list is consumed here; copy it since u's list may move in the pool */
-    uint32_t nf = st->vf_count[v];
+    uint32_t nf = st->vx[v].vf_count;
     if (en_grow((void **)&st->faces, &st->faces_cap, nf, sizeof *st->faces))
         return EPSNET_ENOMEM;
     uint32_t *faces = st->faces;
-    memcpy(faces, st->pool + st->vf_start[v], nf * sizeof *faces);
+    memcpy(faces, st->pool + st->vx[v].vf_start, nf * sizeof *faces);
     for (uint32_t i = 0; i < nf; i++) {
         uint32_t f = faces[i];
         uint32_t *t = st->tri + 3 * (size_t)f;
@@ -448,12 +502,12 @@ static int do_collapse(state *st, uint32_t v, uint32_t u)
                 return EPSNET_ENOMEM;
         }
     }
-    st->vf_count[v] = 0;
+    st->vx[v].vf_count = 0;
     st->valive[v] = 0;
-    quadric_add(&st->q[u], &st->q[v]);
-    st->self_err[u] = quadric_eval(&st->q[u], st->s->pos + 3 * (size_t)u);
+    st->vx[v].alive = 0;
+    quadric_add(&st->vx[u].q, &st->vx[v].q);
+    st->vx[u].self_err = quadric_eval(&st->vx[u].q, st->s->pos + 3 * (size_t)u);
     st->collapses++;
-
     /*
      * What changed: u's quadric (so every cost *from* u, and the cost of every
      * pair *into* u), and the neighbourhoods in u's ring (validity, checked
@@ -463,26 +517,26 @@ static int do_collapse(state *st, uint32_t v, uint32_t u)
      */
     int rc = queue_cheapest(st, u);
     uint32_t stamp = ++st->stamp;
-    st->mark[u] = stamp;
-    uint32_t count = st->vf_count[u];
+    st->vx[u].mark = stamp;
+    uint32_t count = st->vx[u].vf_count;
     for (uint32_t i = 0; i < count && rc == 0; i++) {
-        const uint32_t *t = st->tri + 3 * (size_t)st->pool[st->vf_start[u] + i];
+        const uint32_t *t = st->tri + 3 * (size_t)st->pool[st->vx[u].vf_start + i];
         for (int k = 0; k < 3 && rc == 0; k++) {
             uint32_t w = t[k];
-            if (st->mark[w] == stamp)
+            if (st->vx[w].mark == stamp)
                 continue;
-            st->mark[w] = stamp;
-            if (!st->removable[w])
+            st->vx[w].mark = stamp;
+            if (!st->vx[w].removable)
                 continue;
-            if (st->best_u[w] == u || st->best_u[w] == v || st->best_u[w] == UINT32_MAX || st->fallback[w]) {
+            if (st->vx[w].best_u == u || st->vx[w].best_u == v || st->vx[w].best_u == UINT32_MAX || st->vx[w].fallback) {
                 rc = queue_cheapest(st, w);
                 continue;
             }
             target cand = { pair_cost(st, w, u), u };
-            target best = { st->best_cost[w], st->best_u[w] };
+            target best = { st->vx[w].best_cost, st->vx[w].best_u };
             if (target_less(&cand, &best)) {
-                st->best_cost[w] = cand.cost;
-                st->best_u[w] = u;
+                st->vx[w].best_cost = cand.cost;
+                st->vx[w].best_u = u;
                 rc = heap_set(st, w, cand.cost, u);
             }
         }
@@ -493,16 +547,7 @@ static int do_collapse(state *st, uint32_t v, uint32_t u)
 static void state_free(state *st)
 {
     en_free(st->pool);
-    en_free(st->vf_start);
-    en_free(st->vf_count);
-    en_free(st->vf_cap);
-    en_free(st->heap_pos);
-    en_free(st->self_err);
-    en_free(st->best_cost);
-    en_free(st->best_u);
-    en_free(st->fallback);
-    en_free(st->mark);
-    en_free(st->refused);
+    en_free(st->vx_alloc);
     en_free(st->heap);
     en_free(st->cand);
     en_free(st->faces);
@@ -514,8 +559,6 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
 {
     state st = { 0 };
     st.s = s;
-    st.removable = removable;
-    st.q = q;
     st.cos_bound = cos(cs->max_normal_dev_deg * (M_PI / 180.0));
     st.tri = tri_out;
     st.falive = face_alive;
@@ -526,39 +569,33 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
     st.ref_normal = ref_normal;
     st.pool_cap = 3 * (size_t)s->nt + 8;
     st.pool = en_malloc(st.pool_cap * sizeof *st.pool);
-    st.vf_start = en_malloc(((size_t)s->nv + 1) * sizeof *st.vf_start);
-    st.vf_count = en_malloc(((size_t)s->nv + 1) * sizeof *st.vf_count);
-    st.vf_cap = en_malloc(((size_t)s->nv + 1) * sizeof *st.vf_cap);
-    st.heap_pos = en_malloc(((size_t)s->nv + 1) * sizeof *st.heap_pos);
-    st.self_err = en_malloc(((size_t)s->nv + 1) * sizeof *st.self_err);
-    st.best_cost = en_malloc(((size_t)s->nv + 1) * sizeof *st.best_cost);
-    st.best_u = en_malloc(((size_t)s->nv + 1) * sizeof *st.best_u);
-    st.fallback = en_calloc((size_t)s->nv + 1, 1);
-    st.mark = en_calloc((size_t)s->nv + 1, sizeof *st.mark);
-    st.refused = en_calloc((size_t)s->nv + 1, 1);
+    st.vx_alloc = en_malloc(((size_t)s->nv + 1) * sizeof *st.vx + 63);
     int rc = 0;
-    if (!st.pool || !st.vf_start || !st.vf_count || !st.vf_cap || !st.heap_pos || !st.mark ||
-        !st.refused || !st.self_err || !st.best_cost || !st.best_u || !st.fallback) {
+    if (!st.pool || !st.vx_alloc) {
         rc = EPSNET_ENOMEM;
         goto out;
     }
+    st.vx = (vrec *)(((uintptr_t)st.vx_alloc + 63) & ~(uintptr_t)63);
     memcpy(st.pool, s->star, s->star_start[s->nv] * sizeof *st.pool);
     st.pool_len = s->star_start[s->nv];
     for (uint32_t v = 0; v < s->nv; v++) {
-        st.vf_start[v] = s->star_start[v];
-        st.vf_count[v] = st.vf_cap[v] = en_slab_degree(s, v);
-    }
-    for (uint32_t v = 0; v < s->nv; v++) {
-        st.self_err[v] = quadric_eval(&q[v], s->pos + 3 * (size_t)v);
-        st.best_u[v] = UINT32_MAX;
-        st.heap_pos[v] = UINT32_MAX;
+        vrec *r = &st.vx[v];
+        memset(r, 0, sizeof *r);
+        r->vf_start = s->star_start[v];
+        r->vf_count = r->vf_cap = en_slab_degree(s, v);
+        r->q = q[v];
+        r->self_err = quadric_eval(&r->q, s->pos + 3 * (size_t)v);
+        r->best_u = UINT32_MAX;
+        r->heap_pos = UINT32_MAX;
+        r->removable = removable[v] != 0;
+        r->alive = 1;
     }
 
     for (uint32_t v = 0; v < s->nv && rc == 0; v++)
         rc = queue_cheapest(&st, v);
     while (rc == 0 && st.heap_len) {
         heap_entry e = heap_pop(&st);
-        if (!st.valive[e.u] || !is_neighbour(&st, e.v, e.u) || pair_cost(&st, e.v, e.u) != e.cost) {
+        if (!st.vx[e.u].alive || !is_neighbour(&st, e.v, e.u) || pair_cost(&st, e.v, e.u) != e.cost) {
             /* its target went away or got dearer: rank v's targets again */
             rc = queue_cheapest(&st, e.v);
             continue;
@@ -570,15 +607,17 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
         rc = do_collapse(&st, e.v, e.u);
     }
     if (rc == 0) {
+        for (uint32_t v = 0; v < s->nv; v++)
+            q[v] = st.vx[v].q;
         memset(counts, 0, sizeof *counts);
         counts->collapses = st.collapses;
         for (uint32_t v = 0; v < s->nv && rc == 0; v++) {
-            if (!removable[v] || !st.valive[v])
+            if (!removable[v] || !st.vx[v].alive)
                 continue;
             counts->remaining++;
             rc = queue_best_valid(&st, v); /* fresh reasons; the queue is not used again */
             for (int k = 0; k < EN_REFUSE_KINDS; k++)
-                counts->refused[k] += (st.refused[v] >> k) & 1;
+                counts->refused[k] += (st.vx[v].refused >> k) & 1;
         }
     }
 out:
