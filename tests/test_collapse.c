@@ -18,7 +18,7 @@ static void build(run *r, const double (*p)[3], int nv, const uint32_t (*f)[3], 
 {
     en_slab_init(&r->s);
     for (int i = 0; i < nv; i++)
-        en_slab_add_vertex(&r->s, (uint64_t)i, p[i], EN_V_OWNED | EN_V_COMPLETE);
+        en_slab_add_vertex(&r->s, (uint64_t)i, p[i], EN_V_OWNED | EN_V_TARGET);
     for (int i = 0; i < nt; i++)
         en_slab_add_face(&r->s, f[i][0], f[i][1], f[i][2]);
     CHECK_EQ_INT(en_slab_build_stars(&r->s), 0);
