@@ -597,6 +597,22 @@ TEST(huge_coordinates_end)
     CHECK(st.output_faces > 0 && st.output_faces < st.faces);
 }
 
+/* A push/pull stream on ctx, the reader of in and a writer of the pulled
+ * records to mine (a sorted stream along z, like the generated inputs). */
+static void open_push_pull(epsnet_context *ctx, const char *in, const char *mine, epsnet_stream **s,
+                           epsnet_reader **r, epsnet_writer **w)
+{
+    epsnet_error err;
+    epsnet_mesh_info info;
+    memset(&info, 0, sizeof info);
+    info.nverts = info.nfaces = EPSNET_COUNT_UNKNOWN;
+    info.streaming = 1;
+    info.sorted_axis = 2;
+    CHECK_EQ_INT(epsnet_stream_open(s, ctx, &err), 0);
+    CHECK_EQ_INT(epsnet_reader_open(r, in, NULL, &err), 0);
+    CHECK_EQ_INT(epsnet_writer_open(w, mine, NULL, &info, &err), 0);
+}
+
 /* The push/pull API (epsnet.h §8b) gives the records epsnet_simplify_file
  * writes, and rejects bad records with a clear error. */
 TEST(push_pull_matches_file_api)
@@ -610,14 +626,7 @@ TEST(push_pull_matches_file_api)
     epsnet_stream *s = NULL;
     epsnet_reader *r = NULL;
     epsnet_writer *w = NULL;
-    epsnet_mesh_info info;
-    memset(&info, 0, sizeof info);
-    info.nverts = info.nfaces = EPSNET_COUNT_UNKNOWN;
-    info.streaming = 1;
-    info.sorted_axis = 2;
-    CHECK_EQ_INT(epsnet_stream_open(&s, ctx, &err), 0);
-    CHECK_EQ_INT(epsnet_reader_open(&r, in, NULL, &err), 0);
-    CHECK_EQ_INT(epsnet_writer_open(&w, mine, NULL, &info, &err), 0);
+    open_push_pull(ctx, in, mine, &s, &r, &w);
     epsnet_record rec, o;
     int rc;
     uint64_t pulled = 0;
@@ -680,14 +689,7 @@ TEST(push_refuses_until_waiting_output_is_pulled)
     epsnet_stream *s = NULL;
     epsnet_reader *r = NULL;
     epsnet_writer *w = NULL;
-    epsnet_mesh_info info;
-    memset(&info, 0, sizeof info);
-    info.nverts = info.nfaces = EPSNET_COUNT_UNKNOWN;
-    info.streaming = 1;
-    info.sorted_axis = 2;
-    CHECK_EQ_INT(epsnet_stream_open(&s, ctx, &err), 0);
-    CHECK_EQ_INT(epsnet_reader_open(&r, in, NULL, &err), 0);
-    CHECK_EQ_INT(epsnet_writer_open(&w, mine, NULL, &info, &err), 0);
+    open_push_pull(ctx, in, mine, &s, &r, &w);
     epsnet_record rec, o;
     int rc, refusals = 0;
     while ((rc = epsnet_reader_next(r, &rec, &err)) == 1) {
