@@ -30,9 +30,10 @@ static int writer_put(void *self, const epsnet_record *rec, epsnet_error *err)
  * One bar for the whole chain when the input is sorted first. The sort
  * reports its six passes as equal parts of its total; passes 1 to 5 only
  * sort, while records of pass 6 go through every ε-net pass as they leave,
- * which is most of the run (2M shuffled faces, -j2: about 1 s of sorting in
- * 3.5). So passes 1 to 5 fill the first SORT_SHARE of the bar and pass 6 the
- * rest, and the ETA (elapsed / fraction) counts the stages still to come.
+ * which is most of the run (2M shuffled faces, -j2: 0.6 s of sorting in
+ * 2.6, bench/RESULTS.md; more when the sort spills). So passes 1 to 5 fill
+ * the first SORT_SHARE of the bar and pass 6 the rest, and the ETA
+ * (elapsed / fraction) counts the stages still to come.
  */
 #define SORT_SHARE 0.3
 #define BAR_UNITS 1000000u
