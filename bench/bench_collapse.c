@@ -64,7 +64,7 @@ int main(int argc, char **argv)
         removable[v] = !(vc[v] & EN_C_SAMPLE) && !(s.vflags[v] & (EN_V_BOUNDARY | EN_V_NONMANIFOLD | EN_V_ISOLATED));
         nremovable += removable[v];
     }
-    en_collapse_settings cs = { 60 };
+    en_collapse_settings cs = { .max_normal_dev_deg = 60 };
     en_collapse_counts counts = { 0 };
     double best = 1e30;
     for (int k = 0; k < reps; k++) {

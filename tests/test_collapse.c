@@ -28,7 +28,7 @@ static void build(run *r, const double (*p)[3], int nv, const uint32_t (*f)[3], 
 
 static int collapse(run *r, double max_dev)
 {
-    en_collapse_settings cs = { max_dev };
+    en_collapse_settings cs = { .max_normal_dev_deg = max_dev };
     return en_collapse_slab(&r->s, r->removable, r->q, r->ref, &cs, r->falive, r->valive, r->tri, &r->cc);
 }
 

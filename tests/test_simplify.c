@@ -396,7 +396,7 @@ TEST(no_face_turns_past_the_bound_from_its_input_normal)
         removable[v] = !(c.vclass[v] & EN_C_SAMPLE) && !(s.vflags[v] & (EN_V_BOUNDARY | EN_V_NONMANIFOLD));
     for (size_t b = 0; b < 2; b++) {
         en_quadrics_from_faces(&s, q, ref);
-        en_collapse_settings cs = { bounds[b] };
+        en_collapse_settings cs = { .max_normal_dev_deg = bounds[b] };
         en_collapse_counts cc;
         CHECK_EQ_INT(en_collapse_slab(&s, removable, q, ref, &cs, fa, va, tri, &cc), 0);
         CHECK(cc.collapses > s.nv / 2);

@@ -193,6 +193,7 @@ int cli_method_option(const char *cmd, int code, const char *arg, cli_method *m)
         if (v > 14)
             return method_usage(cmd, "--level must be between 0 and 14");
         m->settings.level = (int)v;
+        m->settings.target_level_given = 1;
         return 1;
     case 1001:
         if (cli_parse_u64(cmd, "--frequency", arg, &v))
@@ -200,6 +201,7 @@ int cli_method_option(const char *cmd, int code, const char *arg, cli_method *m)
         if (v < 1 || v > 16384)
             return method_usage(cmd, "--frequency must be between 1 and 16384");
         m->settings.frequency = (uint32_t)v;
+        m->settings.target_level_given = 1;
         return 1;
     case 1002:
         if (cli_parse_u64(cmd, "--seed", arg, &m->settings.seed))

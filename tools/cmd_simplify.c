@@ -20,6 +20,21 @@ static void simplify_help(void)
            "      --max-normal-dev D  refuse collapses that turn a face normal by more\n"
            "                          than D degrees (default 60)\n"
            "      --ascii             ASCII output where the format has both\n"
+           "\n"
+           "To a size or an error bound (docs/method.md §13): the samples of one ε-net\n"
+           "pass are kept as a feature skeleton, every other vertex may go, smallest\n"
+           "error first, until the target is met; samples go only when the skeleton\n"
+           "alone is over it. The skeleton's density is chosen from the target (a\n"
+           "quarter of the vertices it keeps) unless --level or --frequency is given.\n"
+           "      --faces N           keep N faces (N - 1 when a closed surface needs an\n"
+           "                          even count)\n"
+           "      --ratio R           keep round(R x input faces), 0 < R <= 1\n"
+           "      --vertices N        keep N vertices\n"
+           "      --error E           no collapse with an error over E x the bounding\n"
+           "                          box diagonal (error: area-weighted RMS distance to\n"
+           "                          the input planes its quadric holds, as\n"
+           "                          meshoptimizer's target_error); alone or with one\n"
+           "                          of the above, whichever stops first\n"
            "%s"
            "  -q, --quiet             no summary\n"
            "  -h, --help              this text\n",
@@ -32,14 +47,17 @@ int cmd_simplify(int argc, char **argv)
         { "output", required_argument, NULL, 'o' },  { "passes", required_argument, NULL, 'p' },
         { "max-normal-dev", required_argument, NULL, 'd' }, { "ascii", no_argument, NULL, 'a' },
         { "quiet", no_argument, NULL, 'q' },         { "help", no_argument, NULL, 'h' },
+        { "faces", required_argument, NULL, 'F' },   { "ratio", required_argument, NULL, 'R' },
+        { "vertices", required_argument, NULL, 'V' }, { "error", required_argument, NULL, 'E' },
         CLI_METHOD_OPTIONS,                          { 0, 0, 0, 0 },
     };
     cli_method m;
     cli_method_init(&m);
     const char *out = NULL;
     int c, rc;
-    uint64_t passes;
-    double dev;
+    uint64_t passes, count;
+    double dev, x;
+    int targets = 0;
     optind = 1;
     while ((c = getopt_long(argc, argv, "o:j:qh", opts, NULL)) != -1) {
         if ((rc = cli_method_option("simplify", c, optarg, &m)) != 0) {
@@ -63,6 +81,30 @@ int cmd_simplify(int argc, char **argv)
                 return cli_usage_error("simplify", "--max-normal-dev must be in (0, 180] degrees");
             m.settings.max_normal_dev = dev;
             break;
+        case 'F':
+        case 'V':
+            if ((rc = cli_parse_u64("simplify", c == 'F' ? "--faces" : "--vertices", optarg, &count)))
+                return rc;
+            if (count == 0)
+                return cli_usage_error("simplify", c == 'F' ? "--faces must be 1 or more" : "--vertices must be 1 or more");
+            *(c == 'F' ? &m.settings.target_faces : &m.settings.target_vertices) = count;
+            targets++;
+            break;
+        case 'R':
+            if ((rc = cli_parse_double("simplify", "--ratio", optarg, &x)))
+                return rc;
+            if (!(x > 0 && x <= 1))
+                return cli_usage_error("simplify", "--ratio must be in (0, 1]");
+            m.settings.target_ratio = x;
+            targets++;
+            break;
+        case 'E':
+            if ((rc = cli_parse_double("simplify", "--error", optarg, &x)))
+                return rc;
+            if (!(x > 0 && x < 1e300))
+                return cli_usage_error("simplify", "--error must be a positive number");
+            m.settings.target_error = x;
+            break;
         case 'a': m.settings.ascii = 1; break;
         case 'q': cli_quiet = 1; break;
         case 'h': simplify_help(); return EXIT_OK;
@@ -73,6 +115,10 @@ int cmd_simplify(int argc, char **argv)
         return cli_usage_error("simplify", "needs exactly one input file");
     if (!out)
         return cli_usage_error("simplify", "needs -o OUT");
+    if (targets > 1)
+        return cli_usage_error("simplify", "give one of --faces, --ratio and --vertices");
+    if ((targets || m.settings.target_error > 0) && m.settings.passes > 1)
+        return cli_usage_error("simplify", "--passes cannot be combined with a target (--faces, --ratio, --vertices, --error)");
 
     epsnet_error err;
     epsnet_context *ctx = NULL;

@@ -452,7 +452,51 @@ typedef struct epsnet_settings {
      * reported (epsnet_stats.dropped still counts). Default: NULL. */
     void (*warning)(void *opaque, const char *message);
     void *warning_opaque;
-    uint8_t reserved[92];
+    /*
+     * Simplification to a size or an error bound (docs/method.md §13). With
+     * any of these, simplify keeps the samples of one ε-net pass as a
+     * feature skeleton (every skeleton sample is in the output: the paper's
+     * ε-cover at that density) and removes the other vertices by half-edge
+     * collapses, smallest error first, until the target is met. Only when
+     * the skeleton alone is over the target are samples removed too, by the
+     * same order (epsnet_stats.samples_given_up counts them). The refusals
+     * are those of the ε-net pass (topology, max_normal_dev, zero area,
+     * duplicates; boundary and non-manifold vertices stay).
+     *
+     * At most one of target_faces, target_ratio and target_vertices;
+     * target_error may be given with one of them (both must then hold:
+     * the run stops at whichever comes first) or alone. 0 = none, for
+     * each. Without any of them simplify is the ε-net method (passes). A
+     * target needs passes = 1.
+     *
+     * target_faces: keep at most N triangles. A collapse removes the two
+     *   faces on its edge, so the output has N, or N - 1 when N is odd on a
+     *   closed surface, or more when refusals stop it (then a warning says
+     *   how many and why). Error (EPSNET_EINVAL) when over the input's faces.
+     * target_ratio: keep round(R * input faces), 0 < R <= 1.
+     * target_vertices: keep at most N vertices (exact unless refused).
+     * target_error: no collapse whose error exceeds E times the diagonal of
+     *   the mesh's bounding box. The error of a collapse is the root mean
+     *   square distance of its new vertex to the input planes its quadric
+     *   holds, weighted by their area: the measure of meshoptimizer's
+     *   target_error, not a Hausdorff bound.
+     *
+     * The skeleton's density: with target_level_given = 0, the run chooses
+     * the finest geodesic frequency whose samples take at most a quarter of
+     * the vertices the target keeps (measured: bench/RESULTS.md) and reports
+     * it in the stats' Gaussian sphere; with 1, level/frequency as given.
+     * An error bound alone keeps level/frequency as given.
+     *
+     * The whole mesh is then one slab when it fits mem (about 600 bytes a
+     * vertex), and the target is met exactly (docs/architecture.md §7).
+     * Defaults: 0.
+     */
+    uint64_t target_faces;
+    double target_ratio;
+    uint64_t target_vertices;
+    double target_error;
+    int target_level_given;
+    uint8_t reserved[56];
 } epsnet_settings;
 
 EPSNET_API void epsnet_default_settings(epsnet_settings *s);
@@ -516,7 +560,13 @@ typedef struct epsnet_stats {
     double cpu_workers;
     uint64_t dropped;             /* distinct items of the input the output does not carry
                                    * (epsnet_reader_dropped()) */
-    uint8_t reserved[24];
+    /* Simplification to a target (see epsnet_settings.target_faces): the
+     * target in faces (0: none, or vertices/error only), skeleton samples
+     * in the output, and samples removed because the skeleton alone was
+     * over the target. */
+    uint64_t target_faces;
+    uint64_t skeleton_vertices;
+    uint64_t samples_given_up;
 } epsnet_stats;
 
 typedef struct epsnet_context epsnet_context;

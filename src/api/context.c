@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "api/context.h"
+#include "api/run.h"
 #include "common/alloc.h"
 #include "common/error.h"
 #include "io/sink.h"
@@ -76,6 +77,14 @@ int epsnet_context_new(epsnet_context **out, const epsnet_settings *settings, ep
         why = "passes must be 1 or more";
     else if (!(c->settings.max_normal_dev > 0 && c->settings.max_normal_dev <= 180))
         why = "max_normal_dev must be in (0, 180] degrees";
+    else if ((c->settings.target_faces > 0) + (c->settings.target_ratio != 0) + (c->settings.target_vertices > 0) > 1)
+        why = "give one target size: target_faces, target_ratio or target_vertices";
+    else if (c->settings.target_ratio != 0 && !(c->settings.target_ratio > 0 && c->settings.target_ratio <= 1))
+        why = "target_ratio must be in (0, 1]";
+    else if (!(c->settings.target_error >= 0 && c->settings.target_error < INFINITY))
+        why = "target_error must be 0 (none) or a positive number";
+    else if (c->settings.passes > 1 && en_run_has_target(&c->settings))
+        why = "a target size or error needs passes = 1";
     if (why) {
         en_free(c);
         return bad(err, why);
@@ -109,11 +118,21 @@ const epsnet_stats *epsnet_context_stats(const epsnet_context *c)
     return &c->stats;
 }
 
+/* The level of frequency n (n = 2^level), or -1 when n is not a power of 2. */
+static int level_of(uint32_t n)
+{
+    for (int l = 0; l <= GAUSS_MAX_LEVEL; l++)
+        if (n == 1u << l)
+            return l;
+    return -1;
+}
+
 int epsnet_stats_write_json(const epsnet_context *c, const char *command, const char *path,
                             epsnet_error *err)
 {
     const epsnet_stats *s = &c->stats;
     const epsnet_settings *st = &c->settings;
+    const gauss_sphere *g = c->run_sphere.n ? &c->run_sphere : &c->sphere;
     char buf[4096];
     int n = snprintf(buf, sizeof buf,
         "{\n"
@@ -147,20 +166,20 @@ int epsnet_stats_write_json(const epsnet_context *c, const char *command, const 
         "  \"seams\": {\"faces\": %" PRIu64 ", \"collapses\": %" PRIu64 "},\n"
         "  \"nonsamples\": {\"band\": %" PRIu64 ", \"band_left\": %" PRIu64 ", \"inner\": %" PRIu64
         ", \"inner_left\": %" PRIu64 "},\n"
+        "  \"target\": {\"faces\": %" PRIu64 ", \"skeleton_vertices\": %" PRIu64 ", \"samples_given_up\": %" PRIu64 "},\n"
         "  \"dropped\": %" PRIu64 ",\n"
         "  \"peak_rss\": %" PRIu64 ",\n"
         "  \"seconds\": {\"read\": %.6f, \"normals\": %.6f, \"classify\": %.6f, \"simplify\": %.6f, "
         "\"write\": %.6f, \"sort\": %.6f},\n"
         "  \"cpu\": {\"main\": %.6f, \"workers\": %.6f}\n"
         "}\n",
-        command ? command : c->command, epsnet_version(), st->frequency ? -1 : st->level,
-        c->sphere.n, c->sphere.nverts, c->sphere.ntris, st->passes, st->max_normal_dev, s->vertices, s->faces,
+        command ? command : c->command, epsnet_version(), level_of(g->n), g->n, g->nverts, g->ntris, st->passes, st->max_normal_dev, s->vertices, s->faces,
         s->zero_area_faces, s->isolated_vertices, s->gaussian_vertices, s->feature_edges, s->candidates,
         s->samples, s->locked, s->boundary_vertices, s->nonmanifold_vertices, s->needle_vertices,
         s->multi_cover_samples, s->output_vertices, s->output_faces, s->collapses, s->passes,
         s->remaining_nonsamples, s->refused_link, s->refused_normal, s->refused_zero_area, s->refused_duplicate,
         s->max_active, s->slabs, s->seam_faces, s->seam_collapses, s->band_nonsamples,
-        s->band_nonsamples_left, s->inner_nonsamples, s->inner_nonsamples_left, s->dropped, s->peak_rss, s->seconds_read, s->seconds_normals, s->seconds_classify,
+        s->band_nonsamples_left, s->inner_nonsamples, s->inner_nonsamples_left, s->target_faces, s->skeleton_vertices, s->samples_given_up, s->dropped, s->peak_rss, s->seconds_read, s->seconds_normals, s->seconds_classify,
         s->seconds_simplify, s->seconds_write, s->seconds_sort, s->cpu_main, s->cpu_workers);
     if (n < 0 || (size_t)n >= sizeof buf)
         return en_error_set(err, EPSNET_EINTERNAL, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "stats too long");

@@ -9,6 +9,7 @@ struct epsnet_context {
     epsnet_settings settings;   /* copied; tmpdir points at our own copy */
     char *tmpdir;
     gauss_sphere sphere;        /* G with the settings' level and rotation */
+    gauss_sphere run_sphere;    /* G of the last run: the skeleton's, when a target chose it */
     epsnet_stats stats;         /* of the last run */
     char command[32];           /* name of the last run, for the JSON stats */
 };

@@ -1,5 +1,6 @@
 #include "api/run.h"
 
+#include <stdio.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -36,18 +37,72 @@ int en_run_workers(const epsnet_settings *set)
     return n <= 1 ? 0 : (int)n;
 }
 
-int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char *path, en_stage out,
-                en_sample_fn on_sample, void *sample_opaque, epsnet_error *err)
+int en_run_has_target(const epsnet_settings *set)
+{
+    return set->target_faces || set->target_ratio != 0 || set->target_vertices || set->target_error > 0;
+}
+
+/*
+ * The target stage (docs/architecture.md §7, docs/method.md §13): the
+ * settings' target for the slab works, and the slab size that makes the
+ * whole mesh one slab, so that the order of collapses is global and the
+ * target is met exactly. @return 0, or ELIMIT when the input is known to be
+ * over the budget (an input of unknown size meets the chain's own check
+ * while it is read).
+ */
+static int plan_target(en_run *run, const epsnet_settings *set, const char *path, const epsnet_mesh_info *in,
+                       uint32_t *slab_vertices, epsnet_error *err)
+{
+    en_target *t = &run->target;
+    t->faces = set->target_faces;
+    t->ratio = set->target_ratio;
+    t->vertices = set->target_vertices;
+    t->max_error = set->target_error > 0 ? set->target_error : -1;
+    t->choose_density = !set->target_level_given;
+    /* measured on the real scans at 5-50% of their faces: bench/RESULTS.md */
+    t->skeleton_share = 0.25;
+    uint64_t known_v = in ? in->nverts : EPSNET_COUNT_UNKNOWN, known_f = in ? in->nfaces : EPSNET_COUNT_UNKNOWN;
+    if (known_f != EPSNET_COUNT_UNKNOWN && t->faces > known_f)
+        return en_error_set(err, EPSNET_EINVAL, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "a target of %llu faces is more than the input's %llu", (unsigned long long)t->faces,
+                            (unsigned long long)known_f);
+    if (known_v != EPSNET_COUNT_UNKNOWN && t->vertices > known_v)
+        return en_error_set(err, EPSNET_EINVAL, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "a target of %llu vertices is more than the input's %llu",
+                            (unsigned long long)t->vertices, (unsigned long long)known_v);
+    uint64_t budget = en_run_mem_budget(set);
+    if (known_v != EPSNET_COUNT_UNKNOWN && budget && known_v > budget / EN_RUN_ONE_SLAB_BYTES_PER_VERTEX)
+        return en_error_set(err, EPSNET_ELIMIT, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "a target needs the whole mesh in one slab: %llu vertices take about %llu MB, over "
+                            "the memory budget of %llu MB (a streamed target is not implemented yet)",
+                            (unsigned long long)known_v,
+                            (unsigned long long)(known_v * EN_RUN_ONE_SLAB_BYTES_PER_VERTEX >> 20),
+                            (unsigned long long)(budget >> 20));
+    *slab_vertices = UINT32_MAX - 1;
+    return 0;
+}
+
+int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char *path,
+                const epsnet_mesh_info *in, en_stage out, en_sample_fn on_sample, void *sample_opaque,
+                epsnet_error *err)
 {
     memset(run, 0, sizeof *run);
     run->ctx = ctx;
+    run->path = path;
     run->cpu_start = en_thread_cpu_seconds();
     run->wall_start = en_now();
     memset(&ctx->stats, 0, sizeof ctx->stats);
     ctx->stats.gaussian_vertices = ctx->sphere.nverts;
+    ctx->run_sphere = ctx->sphere;
     const epsnet_settings *set = &ctx->settings;
+    uint32_t slab_vertices = en_run_slab_vertices(set);
+    int target = mode == EN_SLAB_SIMPLIFY && en_run_has_target(set);
+    run->has_target = target;
+    int rc = target ? plan_target(run, set, path, in, &slab_vertices, err) : 0;
+    if (rc)
+        return rc;
     int workers = en_run_workers(set);
-    int rc = en_pool_new(&run->pool, workers);
+    rc = en_pool_new(&run->pool, workers);
     if (rc == EPSNET_ENOMEM)
         return en_error_set(err, rc, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     if (rc)
@@ -60,7 +115,8 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         .seed = set->seed,
         .passes = set->passes,
         .max_normal_dev = set->max_normal_dev,
-        .slab_vertices = en_run_slab_vertices(set),
+        .target = target ? &run->target : NULL,
+        .slab_vertices = slab_vertices,
         .mem_budget = en_run_mem_budget(set),
         /* note: two slabs per worker keep every worker busy while the
          * caller stitches the oldest one. */
@@ -113,6 +169,38 @@ static void fill_stats(epsnet_stats *st, const en_chain_stats *cs)
     st->output_vertices = cs->output_vertices;
     st->output_faces = cs->output_faces;
     st->remaining_nonsamples = cs->remaining_nonsamples;
+    st->skeleton_vertices = cs->skeleton_kept;
+    st->samples_given_up = cs->samples_given_up;
+    st->target_faces = cs->target_faces;
+}
+
+/* A count target above which the run ended: why, in one line. */
+static void warn_missed_target(const en_run *run, const epsnet_stats *st, int stopped_by_error)
+{
+    const epsnet_settings *set = &run->ctx->settings;
+    int faces = st->target_faces > 0;
+    uint64_t want = faces ? st->target_faces : set->target_vertices;
+    uint64_t got = faces ? st->output_faces : st->output_vertices;
+    if (!set->warning || !want || got <= want)
+        return;
+    char msg[1024];
+    if (stopped_by_error)
+        snprintf(msg, sizeof msg,
+                 "%s: the error bound (%g of the diagonal) stopped simplification at %llu %s, above the target "
+                 "of %llu",
+                 run->path ? run->path : "input", set->target_error, (unsigned long long)got,
+                 faces ? "faces" : "vertices", (unsigned long long)want);
+    else
+        snprintf(msg, sizeof msg,
+                 "%s: target of %llu %s missed by %llu: %llu removable vertices were refused every collapse "
+                 "(link %llu, normal %llu, zero-area %llu, duplicate %llu); boundary and non-manifold vertices "
+                 "(%llu) are kept",
+                 run->path ? run->path : "input", (unsigned long long)want, faces ? "faces" : "vertices",
+                 (unsigned long long)(got - want), (unsigned long long)st->remaining_nonsamples,
+                 (unsigned long long)st->refused_link, (unsigned long long)st->refused_normal,
+                 (unsigned long long)st->refused_zero_area, (unsigned long long)st->refused_duplicate,
+                 (unsigned long long)st->locked);
+    set->warning(set->warning_opaque, msg);
 }
 
 int en_run_end(en_run *run, epsnet_error *err)
@@ -124,6 +212,15 @@ int en_run_end(en_run *run, epsnet_error *err)
     en_chain_stats cs;
     en_chain_stats_get(run->chain, &cs);
     fill_stats(st, &cs);
+    if (cs.skeleton_frequency && cs.skeleton_frequency != run->ctx->sphere.n) {
+        /* the stats report the sphere the skeleton was taken at */
+        gauss_sphere chosen;
+        if (gauss_init(&chosen, cs.skeleton_frequency, &run->ctx->sphere.rot) == 0)
+            run->ctx->run_sphere = chosen;
+    }
+    st->gaussian_vertices = run->ctx->run_sphere.nverts;
+    if (run->has_target)
+        warn_missed_target(run, st, cs.stopped_by_error);
     st->cpu_workers = en_pool_job_cpu_seconds(run->pool);
     st->cpu_main = en_thread_cpu_seconds() - run->cpu_start;
     if (en_pool_threads(run->pool) == 0)

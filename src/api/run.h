@@ -20,29 +20,42 @@ uint64_t en_run_mem_budget(const epsnet_settings *set);
 /* Worker threads: 0 when one thread is asked for (jobs run inline). */
 int en_run_workers(const epsnet_settings *set);
 
+/* Does set ask for a size or an error target? */
+int en_run_has_target(const epsnet_settings *set);
+
+/* Bytes a one-slab run holds per input vertex, all arrays of the slab work
+ * and the collapse core counted (measured: docs/architecture.md §12). */
+#define EN_RUN_ONE_SLAB_BYTES_PER_VERTEX 640
+
 typedef struct en_run {
     epsnet_context *ctx;
     en_pool *pool;
     en_chain *chain;
     en_stage input;               /* the chain's input stage */
+    en_target target;             /* SIMPLIFY with a target; the chain points here */
+    int has_target;
+    const char *path;
     double cpu_start;             /* calling thread's CPU clock at open */
     double wall_start;
 } en_run;
 
 /*
  * Start a run in `mode` on ctx's settings: resets ctx->stats, starts the
- * workers. out: SIMPLIFY's output stage; on_sample: SAMPLE's sample sink.
+ * workers. in: what is known of the input (counts, bbox; NULL: nothing).
+ * out: SIMPLIFY's output stage; on_sample: SAMPLE's sample sink.
  * @return 0, or a negative code with err filled (then nothing is left
  * running and run_close() is still safe).
  */
-int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char *path, en_stage out,
-                en_sample_fn on_sample, void *sample_opaque, epsnet_error *err);
+int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char *path,
+                const epsnet_mesh_info *in, en_stage out, en_sample_fn on_sample, void *sample_opaque,
+                epsnet_error *err);
 
 /* Push one input record (counts it for progress in ctx->stats.faces). */
 int en_run_put(en_run *run, const epsnet_record *rec, epsnet_error *err);
 
 /* End of input: finish the chain and fill ctx->stats (all but the stage
- * times and peak_rss, which the caller knows). */
+ * times and peak_rss, which the caller knows). A target that was not met
+ * is said in one warning line (docs/method.md §13: no silent miss). */
 int en_run_end(en_run *run, epsnet_error *err);
 
 /* Free the chain, stop the workers. Accepts a run that failed to open. */

@@ -187,7 +187,7 @@ int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *n
     if (rc == 0)
         rc = open_out(opaque, &in.info, &out, err);
     if (rc == 0)
-        rc = en_run_open(&run, ctx, EN_SLAB_SIMPLIFY, in_path, out, NULL, NULL, err);
+        rc = en_run_open(&run, ctx, EN_SLAB_SIMPLIFY, in_path, &in.info, out, NULL, NULL, err);
     if (rc == 0)
         rc = feed(ctx, &run, &in, in_path, err);
     en_run_close(&run);
@@ -292,7 +292,7 @@ int en_sample_points_streamed(epsnet_context *ctx, const char *in_path, const ch
     int rc = open_input(ctx, in_path, out_path, &in, &sort_seconds, err);
     if (rc == 0) {
         ct = in.info.coord_type;
-        rc = en_run_open(&run, ctx, EN_SLAB_SAMPLE, in_path, (en_stage){ 0 }, collect, &l, err);
+        rc = en_run_open(&run, ctx, EN_SLAB_SAMPLE, in_path, &in.info, (en_stage){ 0 }, collect, &l, err);
     }
     if (rc == 0)
         rc = feed(ctx, &run, &in, in_path, err);

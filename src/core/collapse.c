@@ -134,6 +134,15 @@ typedef struct state {
     size_t faces_cap;
 
     uint64_t collapses;
+
+    /* Limits (en_collapse_settings) and what they count. */
+    const uint8_t *tier;      /* the caller's removable[]: 2 = second tier */
+    int by_error;
+    double max_cost;          /* by_error: max_error squared; otherwise +inf */
+    uint64_t keep_faces, keep_vertices;
+    uint64_t faces_alive, vertices_alive;
+    uint64_t given_up;
+    int stopped_by_error;
 } state;
 
 static int entry_less(const heap_entry *a, const heap_entry *b)
@@ -377,6 +386,13 @@ static int target_less(const target *a, const target *b)
     return a->cost != b->cost ? a->cost < b->cost : a->u < b->u;
 }
 
+/* The area a quadric carries: each plane enters with its area times a unit
+ * normal's outer product, whose trace is 1. */
+static double quadric_area(const en_quadric *q)
+{
+    return q->a2 + q->b2 + q->c2;
+}
+
 static double pair_cost(const state *st, uint32_t w, uint32_t x)
 {
     double c = quadric_eval(&st->vx[w].q, st->s->pos + 3 * (size_t)x) + st->vx[x].self_err;
@@ -384,6 +400,16 @@ static double pair_cost(const state *st, uint32_t w, uint32_t x)
      * unequal to itself, so the queue's staleness test would requeue such a
      * pair forever: such pairs go last, at +inf, where the test holds. */
     return c == c ? c : INFINITY;
+}
+
+/* The squared error of collapsing w onto x at quadric cost c: the cost per
+ * unit of the area the merged quadric carries, an area-weighted mean squared
+ * distance to its planes (en_collapse_settings.max_error). */
+static double collapse_error2(const state *st, uint32_t w, uint32_t x, double c)
+{
+    double area = quadric_area(&st->vx[w].q) + quadric_area(&st->vx[x].q);
+    double e = area > 0 ? c / area : c;
+    return e > 0 ? e : 0; /* rounding can take a sum of squares below zero */
 }
 
 /* Corner of t at v (the first, should a face repeat v), as stars list it. */
@@ -491,6 +517,7 @@ static int do_collapse(state *st, uint32_t v, uint32_t u)
         uint32_t *t = st->tri + 3 * (size_t)f;
         if (has_corner(t, u)) {
             st->falive[f] = 0;
+            st->faces_alive--;
             for (int k = 0; k < 3; k++)
                 if (t[k] != v)
                     list_remove(st, t[k], f);
@@ -505,6 +532,8 @@ static int do_collapse(state *st, uint32_t v, uint32_t u)
     st->vx[v].vf_count = 0;
     st->valive[v] = 0;
     st->vx[v].alive = 0;
+    st->vertices_alive--;
+    st->given_up += st->tier[v] == 2;
     quadric_add(&st->vx[u].q, &st->vx[v].q);
     st->vx[u].self_err = quadric_eval(&st->vx[u].q, st->s->pos + 3 * (size_t)u);
     st->collapses++;
@@ -587,34 +616,73 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
         r->self_err = quadric_eval(&r->q, s->pos + 3 * (size_t)v);
         r->best_u = UINT32_MAX;
         r->heap_pos = UINT32_MAX;
-        r->removable = removable[v] != 0;
+        r->removable = removable[v] == 1;
         r->alive = 1;
     }
 
-    for (uint32_t v = 0; v < s->nv && rc == 0; v++)
-        rc = queue_cheapest(&st, v);
-    while (rc == 0 && st.heap_len) {
-        heap_entry e = heap_pop(&st);
-        if (!st.vx[e.u].alive || !is_neighbour(&st, e.v, e.u) || pair_cost(&st, e.v, e.u) != e.cost) {
-            /* its target went away or got dearer: rank v's targets again */
-            rc = queue_cheapest(&st, e.v);
-            continue;
+    st.tier = removable;
+    st.by_error = cs->by_error;
+    st.max_cost = cs->by_error && cs->max_error >= 0 ? cs->max_error * cs->max_error : INFINITY;
+    st.keep_faces = cs->keep_faces;
+    st.keep_vertices = cs->keep_vertices;
+    st.faces_alive = s->nt;
+    for (uint32_t v = 0; v < s->nv; v++) {
+        st.vertices_alive += st.vx[v].vf_count > 0;
+        st.vx[v].removable = removable[v] == 1;
+    }
+    int tier2 = 0, met = 0;
+    for (;;) {
+        for (uint32_t v = 0; v < s->nv && rc == 0; v++)
+            if (!tier2 || removable[v] == 2)
+                rc = queue_cheapest(&st, v);
+        while (rc == 0 && st.heap_len) {
+            met = (st.keep_faces && st.faces_alive <= st.keep_faces) ||
+                  (st.keep_vertices && st.vertices_alive <= st.keep_vertices);
+            if (met)
+                break;
+            heap_entry e = heap_pop(&st);
+            if (!st.vx[e.u].alive || !is_neighbour(&st, e.v, e.u) || pair_cost(&st, e.v, e.u) != e.cost) {
+                /* its target went away or got dearer: rank v's targets again */
+                rc = queue_cheapest(&st, e.v);
+                continue;
+            }
+            if (st.by_error && collapse_error2(&st, e.v, e.u, e.cost) > st.max_cost) {
+                /* over the error bound: v waits (a later collapse nearby
+                 * may bring its error down, since the area grows too) */
+                st.stopped_by_error = 1;
+                continue;
+            }
+            if (check_collapse(&st, e.v, e.u)) {
+                rc = queue_best_valid(&st, e.v); /* replace it by v's cheapest valid target */
+                continue;
+            }
+            rc = do_collapse(&st, e.v, e.u);
         }
-        if (check_collapse(&st, e.v, e.u)) {
-            rc = queue_best_valid(&st, e.v); /* replace it by v's cheapest valid target */
-            continue;
-        }
-        rc = do_collapse(&st, e.v, e.u);
+        met = (st.keep_faces && st.faces_alive <= st.keep_faces) ||
+              (st.keep_vertices && st.vertices_alive <= st.keep_vertices);
+        if (rc || met || tier2 || !(st.keep_faces || st.keep_vertices))
+            break;
+        /* The first tier is spent and the target is not met: the second
+         * tier joins, cheapest first like the rest. */
+        tier2 = 1;
+        for (uint32_t v = 0; v < s->nv; v++)
+            st.vx[v].removable |= removable[v] == 2;
     }
     if (rc == 0) {
         for (uint32_t v = 0; v < s->nv; v++)
             q[v] = st.vx[v].q;
         memset(counts, 0, sizeof *counts);
         counts->collapses = st.collapses;
+        counts->given_up = st.given_up;
+        counts->faces_left = st.faces_alive;
+        counts->vertices_left = st.vertices_alive;
+        counts->stopped_by_error = st.stopped_by_error;
         for (uint32_t v = 0; v < s->nv && rc == 0; v++) {
-            if (!removable[v] || !st.vx[v].alive)
+            if (!st.vx[v].removable || !st.vx[v].alive)
                 continue;
             counts->remaining++;
+            if (met)
+                continue; /* left by the target, not refused */
             rc = queue_best_valid(&st, v); /* fresh reasons; the queue is not used again */
             for (int k = 0; k < EN_REFUSE_KINDS; k++)
                 counts->refused[k] += (st.vx[v].refused >> k) & 1;

@@ -28,12 +28,33 @@ enum {
 };
 #define EN_REFUSE_KINDS 5
 
+/*
+ * What a run may do. Zero-initialised fields past the first mean "no limit",
+ * which is the ε-net pass (docs/method.md §9): every removable vertex that
+ * can go, goes. The target stage (docs/method.md §13) sets the limits.
+ */
 typedef struct en_collapse_settings {
     double max_normal_dev_deg;   /* no face may end up turned further than this from its input normal */
+    /* Stop once at most this many faces (of the slab's, alive) or vertices
+     * (alive and on a face) remain; 0: no such stop. A collapse removes
+     * every face on its edge, two inside a surface, so a face target can
+     * end one below. */
+    uint64_t keep_faces, keep_vertices;
+    /* With by_error, no collapse whose error exceeds max_error (a
+     * distance). The error of a collapse is the root of its quadric cost
+     * divided by the area the merged quadric carries (the trace of its 3x3
+     * part): the area-weighted RMS distance to the planes it stands for.
+     * The order stays by quadric cost (measured against ordering by this
+     * error: bench/RESULTS.md). */
+    int by_error;
+    double max_error;
 } en_collapse_settings;
 
 typedef struct en_collapse_counts {
     uint64_t collapses;
+    uint64_t given_up;           /* collapses of second-tier vertices (removable == 2) */
+    uint64_t faces_left, vertices_left; /* alive faces; alive vertices on a face */
+    int stopped_by_error;        /* a collapse past max_error was left undone */
     uint64_t remaining;          /* removable vertices still present */
     uint64_t refused[EN_REFUSE_KINDS]; /* remaining vertices refused for each reason */
 } en_collapse_counts;
@@ -45,7 +66,11 @@ typedef struct en_collapse_counts {
 void en_quadrics_from_faces(const en_slab *s, en_quadric *q, double *unit_normal);
 
 /*
- * Collapse every vertex v with removable[v] != 0 that can go, cheapest first.
+ * Collapse every vertex v with removable[v] != 0 that can go, cheapest first,
+ * until a limit of cs is met. removable[v] == 2 marks a second tier: such a
+ * vertex is queued only once no first-tier collapse is left and a face or
+ * vertex limit is still unmet (the target stage gives up skeleton samples
+ * this way, docs/method.md §13).
  * Needs the slab's stars. q (per vertex) accumulates through the collapses.
  * ref_normal (per face, from en_quadrics_from_faces() on the input) bounds
  * how far any face may turn.

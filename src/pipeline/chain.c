@@ -137,6 +137,12 @@ static int retire_one(en_pass *p, epsnet_error *err)
         if (p->index == 0)
             en_classify_counts_add(&c->stats.counts, &w->counts);
         c->stats.collapses += w->collapses;
+        c->stats.skeleton_kept += w->skeleton_kept;
+        c->stats.samples_given_up += w->given_up;
+        c->stats.target_faces += w->keep_faces;
+        c->stats.stopped_by_error |= w->stopped_by_error;
+        if (w->target && w->target->choose_density && c->stats.slabs == 0)
+            c->stats.skeleton_frequency = w->chosen.n;
         for (int k = 0; k < EN_REFUSE_KINDS; k++)
             c->stats.refused[k] += w->refused[k];
         c->stats.slabs++;
@@ -154,6 +160,7 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     w->g = &p->g;
     w->mode = c->cfg.mode;
     w->max_normal_dev = c->cfg.max_normal_dev;
+    w->target = c->cfg.mode == EN_SLAB_SIMPLIFY ? c->cfg.target : NULL;
     int rc = 0;
     while (rc == 0 && en_jobring_full(p->ring))
         rc = retire_one(p, err);

@@ -32,6 +32,7 @@ typedef struct en_chain_config {
     uint64_t seed;                /* later passes' rotations (gauss_pass_rotation) */
     int passes;                   /* SIMPLIFY: ε-net passes, >= 1; SAMPLE: 1 */
     double max_normal_dev;
+    const en_target *target;      /* SIMPLIFY: a size or error target (one pass); NULL: none */
     uint32_t slab_vertices;
     uint64_t mem_budget;          /* bytes the chain may hold beyond the reader's; 0: none */
     size_t ring_capacity;         /* slabs in flight per pass */
@@ -50,6 +51,12 @@ typedef struct en_chain_stats {
     uint64_t band_nonsamples, band_left, inner_nonsamples, inner_left;
     uint64_t max_active;
     uint64_t output_vertices, output_faces, remaining_nonsamples; /* last pass */
+    /* With a target: the skeleton's frequency (0 when not chosen here),
+     * samples kept and given up, whether the error bound stopped it. */
+    uint32_t skeleton_frequency;
+    uint64_t target_faces;        /* the face target as resolved (0: none) */
+    uint64_t skeleton_kept, samples_given_up;
+    int stopped_by_error;
 } en_chain_stats;
 
 /* @return 0, or a negative code with err filled. cfg is copied (path and

@@ -1,5 +1,6 @@
 #include "pipeline/slab_work.h"
 
+#include <math.h>
 #include <string.h>
 
 #include "common/alloc.h"
@@ -101,6 +102,89 @@ static int classify(en_slab_work *w)
     return 0;
 }
 
+/* Faces and vertices the slab may keep under its target (0: no limit). */
+static void target_limits(const en_slab_work *w, uint64_t *keep_faces, uint64_t *keep_vertices)
+{
+    const en_target *t = w->target;
+    *keep_faces = t->faces ? t->faces : t->ratio > 0 ? (uint64_t)llround(t->ratio * (double)w->s.nt) : 0;
+    *keep_vertices = t->vertices;
+    /* 0 means "no limit" to the collapse core: a target of no faces at all
+     * is the nearest it can get, one face */
+    if ((t->faces || t->ratio > 0) && *keep_faces == 0)
+        *keep_faces = 1;
+}
+
+/* The diagonal of the bounding box of the slab's vertices on faces: the
+ * whole mesh's when the slab is the whole mesh (the target stage's case). */
+static double slab_diagonal(const en_slab *s)
+{
+    double lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY };
+    for (uint32_t v = 0; v < s->nv; v++) {
+        if (en_slab_degree(s, v) == 0)
+            continue;
+        for (int k = 0; k < 3; k++) {
+            double x = s->pos[3 * (size_t)v + k];
+            lo[k] = x < lo[k] ? x : lo[k];
+            hi[k] = x > hi[k] ? x : hi[k];
+        }
+    }
+    double d2 = 0;
+    for (int k = 0; k < 3; k++)
+        d2 += hi[k] >= lo[k] ? (hi[k] - lo[k]) * (hi[k] - lo[k]) : 0;
+    return sqrt(d2);
+}
+
+static uint64_t vertices_on_faces(const en_slab *s)
+{
+    uint64_t n = 0;
+    for (uint32_t v = 0; v < s->nv; v++)
+        n += en_slab_degree(s, v) > 0;
+    return n;
+}
+
+/*
+ * The skeleton's density (docs/method.md §13): the finest geodesic frequency
+ * whose samples are at most skeleton_share of the vertices the target
+ * keeps. Finer spheres give more samples (not strictly, so the scan stops
+ * at the first frequency over the budget rather than bisecting), and the
+ * scan goes by steps of about sqrt 2 in frequency, i.e. 2 in sphere
+ * vertices. With no count to aim at (an error bound alone), the sphere
+ * given stays. Leaves the classification at the chosen sphere in w.
+ */
+static int choose_density(en_slab_work *w)
+{
+    static const uint32_t freq[] = { 1, 2, 3, 4, 6, 8, 11, 16, 23, 32, 45, 64, 91, 128 };
+    uint64_t keep_faces, keep_vertices;
+    target_limits(w, &keep_faces, &keep_vertices);
+    uint64_t on_faces = vertices_on_faces(&w->s), goal = keep_vertices;
+    if (!goal && keep_faces && w->s.nt)
+        goal = (uint64_t)((double)on_faces * (double)keep_faces / (double)w->s.nt);
+    w->chosen = *w->g;
+    if (!goal)
+        return classify(w);
+    double budget = w->target->skeleton_share * (double)goal;
+    uint32_t best = freq[0];
+    for (size_t i = 0; i < sizeof freq / sizeof *freq; i++) {
+        if (gauss_init(&w->chosen, freq[i], &w->g->rot))
+            return oom(w);
+        const gauss_sphere *given = w->g;
+        w->g = &w->chosen;
+        memset(&w->counts, 0, sizeof w->counts);
+        int rc = classify(w);
+        w->g = given;
+        if (rc)
+            return rc;
+        if ((double)w->counts.samples > budget)
+            break;
+        best = freq[i];
+    }
+    if (gauss_init(&w->chosen, best, &w->g->rot))
+        return oom(w);
+    w->g = &w->chosen;
+    memset(&w->counts, 0, sizeof w->counts);
+    return classify(w);
+}
+
 static int owned_here(const en_slab_work *w, uint32_t v)
 {
     return v < w->nowned;
@@ -190,6 +274,9 @@ static int simplify(en_slab_work *w)
             k = en_vertex_kind_of(w->border[v] == EN_BORDER_INNER, 0, en_seam_locked(s->vflags[v]),
                                   (w->vclass[v] & EN_C_SAMPLE) != 0);
         removable[v] = (uint8_t)en_removable(k);
+        /* under a target, samples are the second tier (en_collapse_slab) */
+        if (w->target && k == EN_VK_SAMPLE)
+            removable[v] = 2;
         s->vflags[v] = (uint8_t)((s->vflags[v] & ~EN_V_TARGET) | (en_receives(k) ? EN_V_TARGET : 0));
         nremovable += removable[v];
         if (!owned_here(w, v))
@@ -198,7 +285,19 @@ static int simplify(en_slab_work *w)
         w->band_nonsamples += nonsample && w->band[v];
         w->inner_nonsamples += nonsample && !w->band[v];
     }
-    en_collapse_settings cs = { w->max_normal_dev };
+    en_collapse_settings cs = { .max_normal_dev_deg = w->max_normal_dev };
+    if (w->target) {
+        target_limits(w, &cs.keep_faces, &cs.keep_vertices);
+        w->keep_faces = cs.keep_faces;
+        if (w->target->faces > s->nt || w->target->vertices > vertices_on_faces(s))
+            return en_error_set(&w->err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "a target of %llu %s is more than the input's %llu",
+                                (unsigned long long)(w->target->faces ? w->target->faces : w->target->vertices),
+                                w->target->faces ? "faces" : "vertices",
+                                (unsigned long long)(w->target->faces ? s->nt : vertices_on_faces(s)));
+        cs.by_error = 1;
+        cs.max_error = w->target->max_error >= 0 ? w->target->max_error * slab_diagonal(s) : -1;
+    }
     en_collapse_counts cc;
     if (nremovable == 0) {
         if (s->nt) /* a slab of isolated vertices has no face array at all */
@@ -210,7 +309,12 @@ static int simplify(en_slab_work *w)
     } else {
         w->collapses = cc.collapses;
         memcpy(w->refused, cc.refused, sizeof w->refused);
+        w->given_up = cc.given_up;
+        w->stopped_by_error = cc.stopped_by_error;
     }
+    if (w->target)
+        for (uint32_t v = 0; v < w->nowned; v++)
+            w->skeleton_kept += (w->vclass[v] & EN_C_SAMPLE) && w->valive[v] && !(s->vflags[v] & EN_V_ISOLATED);
     mark_bands(w);
     return 0;
 }
@@ -222,6 +326,8 @@ int en_slab_work_run(void *arg)
     en_error_clear(&w->err);
     if (en_slab_build_stars(&w->s))
         w->rc = oom(w);
+    else if (w->target && w->target->choose_density && w->mode == EN_SLAB_SIMPLIFY)
+        w->rc = choose_density(w);
     else
         w->rc = classify(w);
     if (w->rc == 0 && w->mode == EN_SLAB_SIMPLIFY)

@@ -29,6 +29,25 @@
 
 typedef enum en_slab_mode { EN_SLAB_SAMPLE, EN_SLAB_SIMPLIFY } en_slab_mode;
 
+/*
+ * A size or error target (docs/method.md §13): the ε-net samples are a
+ * skeleton that stays, every other vertex may go by quadric error until the
+ * target is met, and the samples go too, by the same order, only when the
+ * target cannot be met without them. NULL in a slab work: the ε-net pass,
+ * which removes every non-sample it can.
+ */
+typedef struct en_target {
+    uint64_t faces;               /* keep at most this many faces; 0: see ratio */
+    double ratio;                 /* keep this share of the slab's faces; 0: none */
+    uint64_t vertices;            /* keep at most this many vertices; 0: none */
+    double max_error;             /* no collapse whose error (a distance) exceeds it; < 0: none */
+    /* Skeleton density: 0 = choose the finest geodesic frequency whose
+     * samples take at most skeleton_share of the target's vertices;
+     * otherwise the slab work's sphere as given. */
+    int choose_density;
+    double skeleton_share;
+} en_target;
+
 typedef struct en_slab_work {
     /* Input, filled by the chunker. Local vertices: the owned ones first
      * (s.vflags EN_V_OWNED), in increasing global id, then the ghosts. */
@@ -44,6 +63,7 @@ typedef struct en_slab_work {
     const gauss_sphere *g;
     en_slab_mode mode;
     double max_normal_dev;
+    const en_target *target;      /* NULL: the ε-net pass */
 
     /* Output. */
     int rc;
@@ -63,6 +83,13 @@ typedef struct en_slab_work {
     uint64_t band_nonsamples, inner_nonsamples; /* owned non-samples of each kind */
     uint64_t collapses;
     uint64_t refused[EN_REFUSE_KINDS]; /* inner non-samples left, by reason */
+    /* With a target: the sphere the skeleton was taken at (g points here
+     * when the density was chosen), samples collapsed to meet the target,
+     * samples kept, and whether the error bound left collapses undone. */
+    gauss_sphere chosen;
+    uint64_t given_up, skeleton_kept, keep_faces;
+    uint64_t faces_left, vertices_left;
+    int stopped_by_error;
 
     /* Worker scratch, and the capacity of every array above: a slab work is
      * reused for a later cut (en_slab_work_reset), so a run in its steady

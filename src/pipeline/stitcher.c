@@ -232,7 +232,7 @@ static int collapse_seams(en_stitcher *st, epsnet_error *err)
     }
     for (size_t f = 0; f < st->nwf; f++)
         memcpy(ref + 3 * f, st->wf[f].ref, 3 * sizeof *ref);
-    en_collapse_settings cs = { st->max_normal_dev };
+    en_collapse_settings cs = { .max_normal_dev_deg = st->max_normal_dev };
     en_collapse_counts cc;
     if (en_collapse_slab(ws, removable, q, ref, &cs, falive, valive, tri, &cc)) {
         rc = oom(err);
