@@ -101,9 +101,144 @@ TEST(tetrahedron_corner_is_refused_as_duplicate_or_for_its_normal)
     }
 }
 
+/* A G x G grid of unit squares, two faces each, heights z(i, j); every
+ * inner vertex removable with the tier given by tier(i, j). */
+#define G 6
+typedef struct grid {
+    en_slab s;
+    en_quadric q[G * G];
+    double ref[3 * 2 * (G - 1) * (G - 1)];
+    uint8_t removable[G * G], falive[2 * (G - 1) * (G - 1)], valive[G * G];
+    uint32_t tri[3 * 2 * (G - 1) * (G - 1)];
+    en_collapse_counts cc;
+} grid;
+
+static void build_grid(grid *g, double bump, int tier2_from)
+{
+    en_slab_init(&g->s);
+    for (int j = 0; j < G; j++)
+        for (int i = 0; i < G; i++) {
+            double p[3] = { i, j, bump * (double)((i * 7 + j * 3) % 5) };
+            en_slab_add_vertex(&g->s, (uint64_t)(j * G + i), p, EN_V_OWNED | EN_V_TARGET);
+        }
+    for (int j = 0; j + 1 < G; j++)
+        for (int i = 0; i + 1 < G; i++) {
+            uint32_t a = (uint32_t)(j * G + i), b = a + 1, c = a + G + 1, d = a + G;
+            en_slab_add_face(&g->s, a, b, c);
+            en_slab_add_face(&g->s, a, c, d);
+        }
+    CHECK_EQ_INT(en_slab_build_stars(&g->s), 0);
+    en_quadrics_from_faces(&g->s, g->q, g->ref);
+    memset(g->removable, 0, sizeof g->removable);
+    for (int j = 1; j + 1 < G; j++)
+        for (int i = 1; i + 1 < G; i++)
+            g->removable[j * G + i] = (uint8_t)(j * G + i >= tier2_from ? 2 : 1);
+}
+
+static int collapse_grid(grid *g, const en_collapse_settings *cs)
+{
+    return en_collapse_slab(&g->s, g->removable, g->q, g->ref, cs, g->falive, g->valive, g->tri, &g->cc);
+}
+
+static uint64_t alive_faces(const grid *g)
+{
+    uint64_t n = 0;
+    for (uint32_t f = 0; f < g->s.nt; f++)
+        n += g->falive[f];
+    return n;
+}
+
+/* A face target stops the collapses at the target, or one below it (an
+ * inner collapse takes two faces); a vertex target exactly at it. */
+TEST(face_and_vertex_targets_stop_the_collapses)
+{
+    for (uint64_t keep = 49; keep >= 35; keep -= 7) {
+        grid g;
+        build_grid(&g, 0, G * G);
+        en_collapse_settings cs = { .max_normal_dev_deg = 60, .keep_faces = keep };
+        CHECK_EQ_INT(collapse_grid(&g, &cs), 0);
+        CHECK(g.cc.faces_left <= keep && g.cc.faces_left + 1 >= keep);
+        CHECK_EQ_U64(alive_faces(&g), g.cc.faces_left);
+        CHECK_EQ_U64(g.cc.collapses, (50 - g.cc.faces_left) / 2);
+        en_slab_free(&g.s);
+    }
+    grid g;
+    build_grid(&g, 0, G * G);
+    en_collapse_settings cs = { .max_normal_dev_deg = 60, .keep_vertices = 30 };
+    CHECK_EQ_INT(collapse_grid(&g, &cs), 0);
+    CHECK_EQ_U64(g.cc.vertices_left, 30);
+    CHECK_EQ_U64(g.cc.collapses, 6);
+    en_slab_free(&g.s);
+}
+
+/* The second tier joins only when the first is spent and the target is
+ * still unmet: every first-tier vertex is gone before one of the second. */
+TEST(second_tier_goes_only_when_the_first_cannot_meet_the_target)
+{
+    grid g;
+    build_grid(&g, 0, 3 * G); /* rows 1 and 2 first tier, rows 3 and 4 second */
+    en_collapse_settings cs = { .max_normal_dev_deg = 60, .keep_faces = 40 };
+    CHECK_EQ_INT(collapse_grid(&g, &cs), 0);
+    CHECK_EQ_U64(g.cc.given_up, 0); /* 8 first-tier vertices cover 10 faces */
+    en_slab_free(&g.s);
+
+    build_grid(&g, 0, 3 * G);
+    cs.keep_faces = 20;
+    CHECK_EQ_INT(collapse_grid(&g, &cs), 0);
+    CHECK(g.cc.given_up > 0);
+    for (int v = G; v < 3 * G; v++)
+        if (g.removable[v] == 1)
+            CHECK_EQ_INT(g.valive[v], 0);
+    CHECK(g.cc.faces_left <= 20);
+    en_slab_free(&g.s);
+
+    /* no face or vertex target: the second tier never joins */
+    build_grid(&g, 0, 3 * G);
+    en_collapse_settings none = { .max_normal_dev_deg = 60 };
+    CHECK_EQ_INT(collapse_grid(&g, &none), 0);
+    CHECK_EQ_U64(g.cc.given_up, 0);
+    for (int v = 3 * G; v < G * G; v++)
+        CHECK_EQ_INT(g.valive[v], 1);
+    en_slab_free(&g.s);
+}
+
+/* An error bound: on a flat grid every collapse costs 0 and all go; on a
+ * bumpy one a tiny bound stops them and says so, and a larger bound never
+ * leaves more faces. */
+TEST(error_bound_refuses_dear_collapses)
+{
+    grid g;
+    build_grid(&g, 0, G * G);
+    en_collapse_settings cs = { .max_normal_dev_deg = 90, .by_error = 1, .max_error = 0 };
+    CHECK_EQ_INT(collapse_grid(&g, &cs), 0);
+    CHECK_EQ_INT(g.cc.stopped_by_error, 0);
+    CHECK_EQ_U64(g.cc.remaining, 0);
+    en_slab_free(&g.s);
+
+    uint64_t last = UINT64_MAX, first = 0;
+    const double bounds[] = { 1e-9, 0.01, 0.05, 0.2, 10 };
+    for (int b = 0; b < 5; b++) {
+        build_grid(&g, 0.3, G * G);
+        cs.max_error = bounds[b];
+        CHECK_EQ_INT(collapse_grid(&g, &cs), 0);
+        if (b == 0) /* only collapses inside flat patches, if any, pass */
+            CHECK_EQ_INT(g.cc.stopped_by_error, 1);
+        if (b == 4)
+            CHECK(g.cc.faces_left < first);
+        if (b == 0)
+            first = g.cc.faces_left;
+        CHECK(g.cc.faces_left <= last);
+        last = g.cc.faces_left;
+        en_slab_free(&g.s);
+    }
+}
+
 int main(void)
 {
     RUN(flat_fan_centre_goes_to_smallest_neighbour_and_its_faces_follow);
     RUN(tetrahedron_corner_is_refused_as_duplicate_or_for_its_normal);
+    RUN(face_and_vertex_targets_stop_the_collapses);
+    RUN(second_tier_goes_only_when_the_first_cannot_meet_the_target);
+    RUN(error_bound_refuses_dear_collapses);
     return tl_finish();
 }

@@ -1,0 +1,240 @@
+#!/usr/bin/env python3
+"""simplify to a size or an error bound (docs/method.md §13): the target is
+met, the skeleton of ε-net samples is in the output, topology is kept, the
+bytes do not depend on threads, --error is monotone, and contradictory
+options get one error line and exit 1. Real meshes from ../shared/data are
+used when present and skipped cleanly when not."""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+EPSNET = sys.argv[1] if len(sys.argv) > 1 else os.environ["EPSNET_BIN"]
+DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "data")
+TMP = tempfile.mkdtemp(prefix="epsnet-target-")
+failures = 0
+
+
+def run(*args, timeout=300):
+    p = subprocess.run([EPSNET, *args], capture_output=True, text=True, timeout=timeout)
+    return p.returncode, p.stdout, p.stderr
+
+
+def path(name):
+    return os.path.join(TMP, name)
+
+
+def case(fn):
+    global failures
+    try:
+        fn()
+        print("ok  ", fn.__name__)
+    except AssertionError as e:
+        failures += 1
+        print("FAIL", fn.__name__, "-", e)
+    return fn
+
+
+def ascii_ply(p):
+    """Vertices (as the writer's text, so equal strings are equal bits) and
+    faces of an ASCII PLY."""
+    with open(p) as f:
+        lines = f.read().split("\n")
+    counts, props, i = {}, {}, 0
+    order = []
+    while lines[i] != "end_header":
+        w = lines[i].split()
+        if w and w[0] == "element":
+            counts[w[1]] = int(w[2])
+            order.append(w[1])
+            props[w[1]] = []
+        elif w and w[0] == "property":
+            props[order[-1]].append(w[-1])
+        i += 1
+    i += 1
+    verts, faces = [], []
+    for el in order:
+        for _ in range(counts[el]):
+            w = lines[i].split()
+            i += 1
+            if el == "vertex":
+                xyz = [w[props[el].index(a)] for a in "xyz"]
+                verts.append(tuple(xyz))
+            elif el == "face":
+                n = int(w[0])
+                faces.append(tuple(int(x) for x in w[1:1 + n]))
+    return verts, faces
+
+
+def simplify(src, out, *opts):
+    stats = out + ".json"
+    rc, _, err = run("simplify", src, "-o", out, "-q", "--stats", stats, *opts)
+    assert rc == 0, f"simplify {opts}: exit {rc}: {err}"
+    with open(stats) as f:
+        return json.load(f), err
+
+
+def gen(shape, faces, name, *opts):
+    p = path(name)
+    if not os.path.exists(p):
+        rc, _, err = run("gen", shape, "--faces", str(faces), "-o", p, "-q", *opts)
+        assert rc == 0, err
+    return p
+
+
+def real_meshes():
+    names = ("bun_zipper.ply.zst", "armadillo_decim100k.obj.zst", "fandisk.obj.zst")
+    found = [os.path.join(DATA, n) for n in names if os.path.exists(os.path.join(DATA, n))]
+    if not found:
+        print("skip real meshes: ../shared/data is absent")
+    return found
+
+
+def euler_and_closed(verts, faces):
+    edges = {}
+    for f in faces:
+        for k in range(3):
+            a, b = f[k], f[(k + 1) % 3]
+            key = (min(a, b), max(a, b))
+            edges[key] = edges.get(key, 0) + 1
+    used = {v for f in faces for v in f}
+    closed = all(c == 2 for c in edges.values())
+    return len(used) - len(edges) + len(faces), closed
+
+
+@case
+def face_target_is_met_on_generated_meshes_for_any_threads():
+    for shape in ("bumpy", "cad", "torus"):
+        src = gen(shape, 30000, shape + ".ply", "--shuffle")
+        for ratio in ("0.05", "0.25", "0.5"):
+            outs = []
+            for j in ("1", "2"):
+                out = path(f"{shape}_{ratio}_j{j}.ply")
+                s, _ = simplify(src, out, "--ratio", ratio, "-j", j)
+                want = round(float(ratio) * s["faces"])
+                assert s["target"]["faces"] == want, (shape, ratio, s["target"], want)
+                got = s["output_faces"]
+                assert want - 1 <= got <= want, f"{shape} --ratio {ratio}: {got} faces, target {want}"
+                outs.append(open(out, "rb").read())
+            assert outs[0] == outs[1], f"{shape} --ratio {ratio}: -j1 and -j2 differ"
+
+
+@case
+def faces_and_vertices_targets_are_exact():
+    src = gen("bumpy", 20000, "bumpy20k.ply")
+    s, _ = simplify(src, path("f.ply"), "--faces", "3001")
+    assert s["output_faces"] in (3000, 3001), s["output_faces"]
+    s, _ = simplify(src, path("v.ply"), "--vertices", "1234")
+    assert s["output_vertices"] == 1234, s["output_vertices"]
+
+
+@case
+def slab_size_does_not_change_a_target_run():
+    """A target holds the whole mesh as one slab, so --slab (the
+    ε-net pass's knob) gives the same bytes."""
+    src = gen("bumpy", 20000, "bumpy20k.ply")
+    a = path("slab_a.ply")
+    b = path("slab_b.ply")
+    simplify(src, a, "--ratio", "0.2")
+    simplify(src, b, "--ratio", "0.2", "--slab", "1024")
+    assert open(a, "rb").read() == open(b, "rb").read()
+
+
+@case
+def targets_on_real_meshes():
+    for src in real_meshes():
+        for ratio in ("0.1", "0.5"):
+            out = path("real.ply")
+            s, err = simplify(src, out, "--ratio", ratio, "-j", "2")
+            want = s["target"]["faces"]
+            got = s["output_faces"]
+            tol = max(1, want // 200)
+            assert abs(got - want) <= tol or "missed" in err, f"{src} {ratio}: {got} faces, target {want}; {err}"
+
+
+@case
+def every_skeleton_sample_is_in_the_output():
+    meshes = [gen("cad", 20000, "cad20k.ply"), gen("bumpy", 20000, "bumpy20k.ply")] + real_meshes()[:1]
+    for src in meshes:
+        for ratio in ("0.1", "0.3"):
+            out = path("skel.ply")
+            s, _ = simplify(src, out, "--ratio", ratio, "--ascii")
+            if s["target"]["samples_given_up"]:
+                continue  # below the skeleton: samples go by design
+            n = s["gaussian_sphere"]["frequency"]
+            pts = path("skel_samples.ply")
+            rc, _, err = run("sample", src, "-o", pts, "--frequency", str(n), "--ascii", "-q")
+            assert rc == 0, err
+            samples, _ = ascii_ply(pts)
+            verts, _ = ascii_ply(out)
+            have = set(verts)
+            missing = [p for p in samples if p not in have]
+            assert not missing, f"{src} {ratio}: {len(missing)} of {len(samples)} samples at frequency {n} missing"
+            assert s["target"]["skeleton_vertices"] == len(samples), (s["target"], len(samples))
+
+
+@case
+def a_closed_manifold_stays_closed_with_its_genus():
+    for shape in ("torus", "sphere", "bumpy"):
+        src = gen(shape, 20000, shape + "_asc.ply", "--ascii")
+        v0, f0 = ascii_ply(src)
+        chi0, closed0 = euler_and_closed(v0, f0)
+        assert closed0, shape
+        for ratio in ("0.02", "0.2"):
+            out = path(shape + "_closed.ply")
+            simplify(src, out, "--ratio", ratio, "--ascii")
+            v, f = ascii_ply(out)
+            chi, closed = euler_and_closed(v, f)
+            assert closed and chi == chi0, f"{shape} {ratio}: closed {closed}, chi {chi} (input {chi0})"
+
+
+@case
+def a_larger_error_bound_never_gives_more_faces():
+    meshes = [gen("bumpy", 20000, "bumpy20k.ply"), gen("cad", 20000, "cad20k.ply")] + real_meshes()[:1]
+    for src in meshes:
+        last = None
+        for e in ("0.00001", "0.0001", "0.001", "0.01", "0.1"):
+            s, _ = simplify(src, path("err.ply"), "--error", e)
+            faces = s["output_faces"]
+            assert last is None or faces <= last, f"{src}: --error {e} gave {faces} faces, more than {last}"
+            last = faces
+        # with a face target too, whichever stops first
+        s, err = simplify(src, path("err2.ply"), "--error", "0.00001", "--ratio", "0.05")
+        assert s["output_faces"] > s["target"]["faces"] and "error bound" in err, (s["output_faces"], err)
+
+
+@case
+def below_the_skeleton_samples_are_given_up_and_counted():
+    src = gen("cad", 20000, "cad20k.ply")
+    s, err = simplify(src, path("tiny.ply"), "--faces", "40", "--level", "3")
+    assert s["target"]["samples_given_up"] > 0, s["target"]
+    assert s["output_faces"] <= 40 or "missed" in err, (s["output_faces"], err)
+
+
+@case
+def no_option_no_change():
+    """Without a target simplify is the ε-net method: same bytes as --level 3."""
+    src = gen("bumpy", 20000, "bumpy20k.ply")
+    a, b = path("plain_a.ply"), path("plain_b.ply")
+    simplify(src, a)
+    simplify(src, b, "--level", "3")
+    assert open(a, "rb").read() == open(b, "rb").read()
+
+
+@case
+def contradictory_or_impossible_options_exit_1_with_one_line():
+    src = gen("bumpy", 20000, "bumpy20k.ply")
+    out = path("bad.ply")
+    for opts in (("--faces", "10", "--ratio", "0.5"), ("--ratio", "0"), ("--ratio", "1.5"), ("--ratio", "-0.1"),
+                 ("--error", "-1"), ("--vertices", "10", "--faces", "10"), ("--faces", "10", "--passes", "2"),
+                 ("--faces", "100000000")):
+        rc, _, err = run("simplify", src, "-o", out, "-q", *opts)
+        lines = err.strip().splitlines()
+        assert rc == 1, f"{opts}: exit {rc}, stderr {err!r}"
+        assert len(lines) == 1, f"{opts}: want one line, got {lines!r}"
+        assert not os.path.exists(out), f"{opts}: output left behind"
+
+
+print(f"{failures} failed")
+sys.exit(1 if failures else 0)
