@@ -550,7 +550,7 @@ def panel(rows, key, title, x0, y0, w, h):
 
 
 def write_svg(path, mesh, rows, notes):
-    W, H = 980, 430
+    W, H = 1040, 430
     el = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{H}" '
           f'viewBox="0 0 {W} {H}" font-family="sans-serif">',
           f'<rect width="{W}" height="{H}" fill="white"/>',
