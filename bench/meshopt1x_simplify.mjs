@@ -18,6 +18,8 @@
 // version, where seconds is the simplify call alone and peak_rss_bytes the
 // process high-water mark (node and the WASM heap included).
 import { readFileSync, writeFileSync, renameSync } from 'node:fs';
+import { createRequire } from 'node:module';
+import { dirname, join } from 'node:path';
 import { MeshoptSimplifier } from 'meshoptimizer';
 
 function die(message) {
@@ -172,7 +174,8 @@ for (let i = 0; i + 2 < out.length; i += 3)
 writeFileSync(output + '.tmp', lines.join('\n') + '\n');
 renameSync(output + '.tmp', output);
 
-const pkg = new URL('package.json', import.meta.resolve('meshoptimizer'));
-const version = JSON.parse(readFileSync(pkg, 'utf8')).version;
+// the package's exports hide package.json: find it beside the resolved entry
+const entry = createRequire(import.meta.url).resolve('meshoptimizer');
+const version = JSON.parse(readFileSync(join(dirname(entry), 'package.json'), 'utf8')).version;
 const peak = process.resourceUsage().maxRSS * 1024;
 process.stdout.write(`${facesIn} ${out.length / 3} ${seconds.toFixed(4)} ${peak} ${error} ${version}\n`);
