@@ -239,6 +239,15 @@ def done_row(mesh, faces_in, ratio, target, tool, got, metrics, note=""):
     return row
 
 
+def failed_row(mesh, faces_in, ratio, target, tool, error):
+    """A run that failed stays in the table as n/a with the reason, so one
+    bad case does not lose the others."""
+    first = str(error).splitlines()
+    log(f"    {tool} failed: {error}")
+    return na_row(mesh, faces_in, ratio, target, tool,
+                  "failed: " + (first[-1] if first else "?"))
+
+
 def run_epsnet(tools, src, work, extra):
     out = os.path.join(work, "epsnet.smb")
     stats = os.path.join(work, "epsnet.json")
@@ -248,6 +257,15 @@ def run_epsnet(tools, src, work, extra):
     # the tool's own high-water mark (VmHWM), else GNU time's
     got["peak_rss"] = data.get("peak_rss") or got["peak_rss"]
     remove(stats)
+    # what a targeted run reports about its skeleton (issue 15), when it does
+    facts = []
+    sphere = data.get("gaussian_sphere")
+    if extra and isinstance(sphere, dict) and "frequency" in sphere:
+        facts.append(f"frequency {sphere['frequency']}")
+    for key in ("skeleton_share", "samples_given_up"):
+        if extra and key in data:
+            facts.append(f"{key} {data[key]}")
+    got["note"] = ", ".join(facts)
     return out, got
 
 
@@ -291,28 +309,39 @@ def measure_mesh(tools, args, mesh, src, work):
         peer_target = target
         log(f"  {mesh} ratio {ratio:g}: target {target} faces")
         if tools.has_ratio:
-            out, got = run_epsnet(tools, src, work, ["--ratio", f"{ratio:g}"])
-            metrics = tools.hausdorff(src, out, work)
-            remove(out)
-            rows.append(done_row(mesh, faces_in, ratio, target, T_RATIO, got, metrics))
-            peer_target = metrics["faces"]
+            try:
+                out, got = run_epsnet(tools, src, work, ["--ratio", f"{ratio:g}"])
+                metrics = tools.hausdorff(src, out, work)
+                remove(out)
+                rows.append(done_row(mesh, faces_in, ratio, target, T_RATIO, got,
+                                     metrics, got["note"]))
+                peer_target = metrics["faces"]
+            except BenchError as e:
+                rows.append(failed_row(mesh, faces_in, ratio, target, T_RATIO, e))
         else:
             rows.append(na_row(mesh, faces_in, ratio, target, T_RATIO,
                                "no --ratio in this epsnet"))
         if tools.peer:
-            out, got = run_mo18(tools, src, work, peer_target)
-            metrics = tools.hausdorff(src, out, work)
-            remove(out)
-            rows.append(done_row(mesh, faces_in, ratio, target, T_MO18, got, metrics))
+            try:
+                out, got = run_mo18(tools, src, work, peer_target)
+                metrics = tools.hausdorff(src, out, work)
+                remove(out)
+                rows.append(done_row(mesh, faces_in, ratio, target, T_MO18, got, metrics))
+            except BenchError as e:
+                rows.append(failed_row(mesh, faces_in, ratio, target, T_MO18, e))
         else:
             rows.append(na_row(mesh, faces_in, ratio, target, T_MO18,
                                "peer_meshopt not built"))
         if ply:
-            out, got = run_mo1x(tools, ply, work, peer_target)
-            metrics = tools.hausdorff(src, out, work)
-            remove(out)
-            rows.append(done_row(mesh, faces_in, ratio, target, T_MO1X, got, metrics,
-                                 f"meshoptimizer {tools.mo1x_version}; time not comparable"))
+            try:
+                out, got = run_mo1x(tools, ply, work, peer_target)
+                metrics = tools.hausdorff(src, out, work)
+                remove(out)
+                rows.append(done_row(mesh, faces_in, ratio, target, T_MO1X, got, metrics,
+                                     f"meshoptimizer {tools.mo1x_version}; "
+                                     "time not comparable"))
+            except BenchError as e:
+                rows.append(failed_row(mesh, faces_in, ratio, target, T_MO1X, e))
         else:
             rows.append(na_row(mesh, faces_in, ratio, target, T_MO1X,
                                "node or the npm package missing"))
@@ -358,6 +387,13 @@ def markdown(rows, command, notes):
             f"| {fmt(hmax, 3)} | {fmt(hmean, 4)} "
             f"| {fmt(r['normal_dev_mean_deg'], 2)} | {fmt(r['seconds'], 2)} "
             f"| {fmt(r['peak_rss_mb'], 1)} |")
+    failed = [f"{r['mesh']} {r['tool']} at {100 * r['ratio']:g}%: {r['note']}"
+              for r in rows if r["note"].startswith("failed")]
+    extra = [f"{r['mesh']} {100 * r['ratio']:g}%: {r['note']}" for r in rows
+             if r["tool"] == T_RATIO and r["faces"] is not None and r["note"]]
+    notes = list(notes) + failed
+    if extra:
+        notes.append("epsnet --ratio runs: " + "; ".join(extra))
     if notes:
         lines += ["", "Notes:"] + [f"- {n}" for n in notes]
     return "\n".join(lines) + "\n"
@@ -416,8 +452,9 @@ def must_show(rows, ratios):
 
         def verdict(ok):
             return "yes" if ok else "NO"
-        out.append(f"- {label}, {len(cases)} cases"
-                   + (f" ({len(missing)} missing: {', '.join(missing)})" if missing else ""))
+        out.append(f"- {label}, {len(cases)} of {len(cases) + len(missing)} cases"
+                   + (f" (INCOMPLETE, no row for: {', '.join(missing)}; the "
+                      "figures below cover only the cases measured)" if missing else ""))
         out.append(f"  - Hausdorff max, geometric mean of ratios: {gm_max:.3f}× "
                    f"(goal ≤ 1.0: {verdict(gm_max <= 1.0)})")
         out.append(f"  - Hausdorff max, worst case: {worst:.3f}× at {worst_case} "
