@@ -262,9 +262,12 @@ def run_epsnet(tools, src, work, extra):
     sphere = data.get("gaussian_sphere")
     if extra and isinstance(sphere, dict) and "frequency" in sphere:
         facts.append(f"frequency {sphere['frequency']}")
-    for key in ("skeleton_share", "samples_given_up"):
-        if extra and key in data:
-            facts.append(f"{key} {data[key]}")
+    target = data.get("target") if extra else None
+    if isinstance(target, dict):
+        if data.get("output_vertices"):
+            share = target.get("skeleton_vertices", 0) / data["output_vertices"]
+            facts.append(f"skeleton {100 * share:.0f}% of the output vertices")
+        facts.append(f"samples given up {target.get('samples_given_up', 0)}")
     got["note"] = ", ".join(facts)
     return out, got
 

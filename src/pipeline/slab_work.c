@@ -142,18 +142,36 @@ static uint64_t vertices_on_faces(const en_slab *s)
     return n;
 }
 
+/* Classify w at geodesic frequency n (in w->chosen); *samples: how many. */
+static int classify_at(en_slab_work *w, uint32_t n, uint64_t *samples)
+{
+    gauss_rotation rot = w->g->rot;
+    if (gauss_init(&w->chosen, n, &rot))
+        return oom(w);
+    w->g = &w->chosen;
+    memset(&w->counts, 0, sizeof w->counts);
+    int rc = classify(w);
+    *samples = w->counts.samples;
+    return rc;
+}
+
 /*
  * The skeleton's density (docs/method.md §13): the finest geodesic frequency
- * whose samples are at most skeleton_share of the vertices the target
- * keeps. Finer spheres give more samples (not strictly, so the scan stops
- * at the first frequency over the budget rather than bisecting), and the
- * scan goes by steps of about sqrt 2 in frequency, i.e. 2 in sphere
- * vertices. With no count to aim at (an error bound alone), the sphere
- * given stays. Leaves the classification at the chosen sphere in w.
+ * of the list whose samples are at most skeleton_share of the vertices the
+ * target keeps. The list goes by steps of about sqrt 2 in frequency (2 in
+ * sphere vertices). Each try is a classification of the whole slab, so the
+ * search starts where frequency 1 predicts: beyond the locked vertices,
+ * samples grow about like the sphere's 4n^2 + 2 vertices. From there it
+ * walks up while under the budget (and the count still grows), or down
+ * until under it (sample counts grow with n, but not strictly, so it walks
+ * rather than bisects). With no
+ * count to aim at (an error bound alone), the sphere given stays. Leaves
+ * the classification at the chosen frequency in w.
  */
 static int choose_density(en_slab_work *w)
 {
     static const uint32_t freq[] = { 1, 2, 3, 4, 6, 8, 11, 16, 23, 32, 45, 64, 91, 128 };
+    const int nfreq = (int)(sizeof freq / sizeof *freq);
     uint64_t keep_faces, keep_vertices;
     target_limits(w, &keep_faces, &keep_vertices);
     uint64_t on_faces = vertices_on_faces(&w->s), goal = keep_vertices;
@@ -163,26 +181,49 @@ static int choose_density(en_slab_work *w)
     if (!goal)
         return classify(w);
     double budget = w->target->skeleton_share * (double)goal;
-    uint32_t best = freq[0];
-    for (size_t i = 0; i < sizeof freq / sizeof *freq; i++) {
-        if (gauss_init(&w->chosen, freq[i], &w->g->rot))
-            return oom(w);
-        const gauss_sphere *given = w->g;
-        w->g = &w->chosen;
-        memset(&w->counts, 0, sizeof w->counts);
-        int rc = classify(w);
-        w->g = given;
-        if (rc)
+    uint64_t samples;
+    int rc = classify_at(w, freq[0], &samples);
+    if (rc || (double)samples > budget)
+        return rc; /* even the coarsest is over: frequency 1, samples may go */
+    double locked = (double)w->counts.locked, free1 = (double)samples - locked;
+    double grow = free1 > 0 ? (budget - locked) / free1 : 1e9; /* (4n^2 + 2) / 6 */
+    double n_est = sqrt((6 * grow - 2) / 4);
+    int i = 0;
+    while (i + 1 < nfreq && i < 4 && (double)freq[i + 1] <= n_est)
+        i++; /* at most 4 steps at once: where the count stops growing
+              * (CAD), the prediction overshoots, and a fine sphere costs */
+    int best = 0, at = 0; /* best under budget so far; frequency classified last */
+    if (i > 0) {
+        if ((rc = classify_at(w, freq[i], &samples)))
             return rc;
-        if ((double)w->counts.samples > budget)
-            break;
-        best = freq[i];
+        at = i;
+        if ((double)samples <= budget) {
+            best = i;
+            /* up while under the budget; a count that stops growing (flat
+             * parts, a CAD model's few normals) ends the walk too: finer
+             * spheres then only cost classifications */
+            uint64_t last = samples;
+            for (int flat = 0; best + 1 < nfreq && !flat;) {
+                if ((rc = classify_at(w, freq[best + 1], &samples)))
+                    return rc;
+                at = best + 1;
+                if ((double)samples > budget)
+                    break;
+                best++;
+                flat = (double)samples < 1.05 * (double)last; /* under 5% more for twice the sphere */
+                last = samples;
+            }
+        } else {
+            for (best = i - 1; best > 0; best--) {
+                if ((rc = classify_at(w, freq[best], &samples)))
+                    return rc;
+                at = best;
+                if ((double)samples <= budget)
+                    break;
+            }
+        }
     }
-    if (gauss_init(&w->chosen, best, &w->g->rot))
-        return oom(w);
-    w->g = &w->chosen;
-    memset(&w->counts, 0, sizeof w->counts);
-    return classify(w);
+    return at == best ? 0 : classify_at(w, freq[best], &samples);
 }
 
 static int owned_here(const en_slab_work *w, uint32_t v)
