@@ -130,14 +130,31 @@ def faces_and_vertices_targets_are_exact():
 
 
 @case
-def slab_size_does_not_change_a_target_run():
-    """A target holds the whole mesh as one slab, so --slab (the
-    ε-net pass's knob) gives the same bytes."""
+def streamed_target_is_exact_for_any_slab_size_and_threads():
+    """A mesh over the slab size asked for is streamed: a thinning pass on
+    slabs, then one slab to the target (docs/architecture.md §7)."""
+    src = gen("bumpy", 30000, "bumpy30k_shuf.ply", "--shuffle")
+    for slab in ("1024", "2048", "4096"):
+        outs = []
+        for j in ("1", "2"):
+            out = path(f"streamed_{slab}_{j}.ply")
+            s, _ = simplify(src, out, "--ratio", "0.1", "--slab", slab, "-j", j)
+            want = s["target"]["faces"]
+            assert s["passes"] == 2 and s["slabs"] > 2, (slab, s["passes"], s["slabs"])
+            assert want - 1 <= s["output_faces"] <= want, (slab, s["output_faces"], want)
+            outs.append(open(out, "rb").read())
+        assert outs[0] == outs[1], f"--slab {slab}: -j1 and -j2 differ"
+
+
+@case
+def a_target_within_one_slab_does_not_depend_on_the_default_slab_size():
+    """Without --slab, a mesh that fits the budget is one slab: --mem (which
+    sets the ε-net pass's slabs) does not change the bytes."""
     src = gen("bumpy", 20000, "bumpy20k.ply")
     a = path("slab_a.ply")
     b = path("slab_b.ply")
     simplify(src, a, "--ratio", "0.2")
-    simplify(src, b, "--ratio", "0.2", "--slab", "1024")
+    simplify(src, b, "--ratio", "0.2", "--mem", "64M")
     assert open(a, "rb").read() == open(b, "rb").read()
 
 
@@ -156,10 +173,10 @@ def targets_on_real_meshes():
 @case
 def every_skeleton_sample_is_in_the_output():
     meshes = [gen("cad", 20000, "cad20k.ply"), gen("bumpy", 20000, "bumpy20k.ply")] + real_meshes()[:1]
-    for src in meshes:
+    for src, opts in [(m, ()) for m in meshes] + [(meshes[1], ("--slab", "4096"))]:
         for ratio in ("0.1", "0.3"):
             out = path("skel.ply")
-            s, _ = simplify(src, out, "--ratio", ratio, "--ascii")
+            s, _ = simplify(src, out, "--ratio", ratio, "--ascii", *opts)
             if s["target"]["samples_given_up"]:
                 continue  # below the skeleton: samples go by design
             n = s["gaussian_sphere"]["frequency"]

@@ -1,5 +1,6 @@
 #include "api/run.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 #include <unistd.h>
@@ -43,17 +44,55 @@ int en_run_has_target(const epsnet_settings *set)
 }
 
 /*
+ * A streamed target (docs/architecture.md §7): a THIN pass on slabs, then a
+ * FINISH pass over what it left, as one slab. The thin pass keeps half as
+ * much again as the target (and a point more), so that the last collapses,
+ * those that decide the result, are taken in one global order; less when
+ * that would not fit the budget, down to the target itself.
+ */
+static int plan_streamed(en_run *run, const char *path, uint64_t nv, uint64_t nf,
+                         uint64_t budget, epsnet_error *err)
+{
+    en_target *t = &run->target, *f = &run->finish;
+    uint64_t n_faces = t->faces ? t->faces : t->ratio > 0 ? (uint64_t)llround(t->ratio * (double)nf) : 0;
+    double share = t->vertices ? (double)t->vertices / (double)nv : (double)n_faces / (double)nf;
+    double fits = budget ? 0.8 * (double)(budget / EN_RUN_ONE_SLAB_BYTES_PER_VERTEX) / (double)nv : 1;
+    double keep = 1.5 * share + 0.01;
+    keep = keep < fits ? keep : fits;
+    if (keep < 1.02 * share)
+        return en_error_set(err, EPSNET_ELIMIT, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "a target of %.1f%% of %llu vertices is more than one slab holds in the memory budget "
+                            "of %llu MB (about %d bytes a vertex); give more --mem or a smaller target",
+                            100 * share, (unsigned long long)nv, (unsigned long long)(budget >> 20),
+                            EN_RUN_ONE_SLAB_BYTES_PER_VERTEX);
+    *f = *t;
+    f->mode = EN_TARGET_FINISH;
+    f->faces = n_faces;
+    f->ratio = 0;
+    f->choose_density = 0;
+    t->mode = EN_TARGET_THIN;
+    t->ratio = share;
+    t->faces = t->vertices = 0;
+    t->thin_keep = keep < 1 ? keep : 1;
+    run->passes = 2;
+    return 0;
+}
+
+/*
  * The target stage (docs/architecture.md §7, docs/method.md §13): the
- * settings' target for the slab works, and the slab size that makes the
- * whole mesh one slab, so that the order of collapses is global and the
- * target is met exactly. @return 0, or ELIMIT when the input is known to be
- * over the budget (an input of unknown size meets the chain's own check
- * while it is read).
+ * settings' target for the slab works, and the slabs. An input within one
+ * slab (the slab size of the settings), or of unknown size, or with an
+ * error bound, is one slab: the order of collapses is global and the
+ * target is met exactly. A larger one, over the budget or over a slab size
+ * the settings give, is streamed (plan_streamed). @return
+ * 0, or ELIMIT when the input is known to be over the budget (an input of
+ * unknown size meets the chain's own check while it is read).
  */
 static int plan_target(en_run *run, const epsnet_settings *set, const char *path, const epsnet_mesh_info *in,
                        uint32_t *slab_vertices, epsnet_error *err)
 {
     en_target *t = &run->target;
+    t->mode = EN_TARGET_WHOLE;
     t->faces = set->target_faces;
     t->ratio = set->target_ratio;
     t->vertices = set->target_vertices;
@@ -71,10 +110,16 @@ static int plan_target(en_run *run, const epsnet_settings *set, const char *path
                             "a target of %llu vertices is more than the input's %llu",
                             (unsigned long long)t->vertices, (unsigned long long)known_v);
     uint64_t budget = en_run_mem_budget(set);
+    /* streamed: over the budget, or over the slab size the user asked for */
+    int over = known_v != EPSNET_COUNT_UNKNOWN && budget && known_v > budget / EN_RUN_ONE_SLAB_BYTES_PER_VERTEX;
+    if (known_v != EPSNET_COUNT_UNKNOWN && known_f != EPSNET_COUNT_UNKNOWN && known_f > 0 && t->max_error < 0 &&
+        (over || (set->slab_vertices && known_v > set->slab_vertices)))
+        return plan_streamed(run, path, known_v, known_f, budget, err);
     if (known_v != EPSNET_COUNT_UNKNOWN && budget && known_v > budget / EN_RUN_ONE_SLAB_BYTES_PER_VERTEX)
         return en_error_set(err, EPSNET_ELIMIT, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "a target needs the whole mesh in one slab: %llu vertices take about %llu MB, over "
-                            "the memory budget of %llu MB (a streamed target is not implemented yet)",
+                            "this target needs the whole mesh in one slab: %llu vertices take about %llu MB, over "
+                            "the memory budget of %llu MB (an error bound, or an input whose face count is not "
+                            "known ahead, is not streamed)",
                             (unsigned long long)known_v,
                             (unsigned long long)(known_v * EN_RUN_ONE_SLAB_BYTES_PER_VERTEX >> 20),
                             (unsigned long long)(budget >> 20));
@@ -113,9 +158,10 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         .path = path,
         .sphere = &ctx->sphere,
         .seed = set->seed,
-        .passes = set->passes,
+        .passes = run->passes ? run->passes : set->passes,
         .max_normal_dev = set->max_normal_dev,
         .target = target ? &run->target : NULL,
+        .finish = run->passes == 2 ? &run->finish : NULL,
         .slab_vertices = slab_vertices,
         .mem_budget = en_run_mem_budget(set),
         /* note: two slabs per worker keep every worker busy while the

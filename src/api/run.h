@@ -32,7 +32,8 @@ typedef struct en_run {
     en_pool *pool;
     en_chain *chain;
     en_stage input;               /* the chain's input stage */
-    en_target target;             /* SIMPLIFY with a target; the chain points here */
+    en_target target, finish;     /* SIMPLIFY with a target; the chain points here */
+    int passes;                   /* 2 for a streamed target (THIN, FINISH) */
     int has_target;
     const char *path;
     double cpu_start;             /* calling thread's CPU clock at open */

@@ -23,6 +23,7 @@ enum {
     EN_V_BOUNDARY = 1 << 1,   /* on an open boundary: locked (docs/method.md §6) */
     EN_V_NONMANIFOLD = 1 << 2,/* star is not one fan: locked (docs/method.md §6) */
     EN_V_ISOLATED = 1 << 3,   /* referenced by no face */
+    EN_V_SKELETON = 1 << 5,   /* a skeleton sample of an earlier pass (docs/method.md §13) */
 };
 
 typedef struct en_slab {

@@ -23,6 +23,12 @@ typedef struct en_pass {
     en_chain *chain;
     int index;
     gauss_sphere g;
+    /* Its target (NULL: the ε-net pass). A THIN pass's first slab chooses
+     * the density and the pass waits for it; its later slabs take `fixed`,
+     * the same target at that density. */
+    const en_target *target;
+    en_target fixed;
+    int density_pending;
     en_chunker ch;
     en_jobring *ring;
     en_stitcher st;
@@ -137,12 +143,16 @@ static int retire_one(en_pass *p, epsnet_error *err)
         if (p->index == 0)
             en_classify_counts_add(&c->stats.counts, &w->counts);
         c->stats.collapses += w->collapses;
-        c->stats.skeleton_kept += w->skeleton_kept;
-        c->stats.samples_given_up += w->given_up;
-        c->stats.target_faces += w->keep_faces;
-        c->stats.stopped_by_error |= w->stopped_by_error;
-        if (w->target && w->target->choose_density && c->stats.slabs == 0)
+        if (w->target && w->target->mode != EN_TARGET_THIN) {
+            c->stats.skeleton_kept += w->skeleton_kept;
+            c->stats.samples_given_up += w->given_up;
+            c->stats.target_faces += w->keep_faces;
+            c->stats.stopped_by_error |= w->stopped_by_error;
+        }
+        if (w->target && w->target->choose_density) {
             c->stats.skeleton_frequency = w->chosen.n;
+            p->g = w->chosen; /* a THIN pass's later slabs */
+        }
         for (int k = 0; k < EN_REFUSE_KINDS; k++)
             c->stats.refused[k] += w->refused[k];
         c->stats.slabs++;
@@ -160,7 +170,10 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     w->g = &p->g;
     w->mode = c->cfg.mode;
     w->max_normal_dev = c->cfg.max_normal_dev;
-    w->target = c->cfg.mode == EN_SLAB_SIMPLIFY ? c->cfg.target : NULL;
+    int choosing = p->density_pending;
+    w->target = !p->target || c->cfg.mode != EN_SLAB_SIMPLIFY ? NULL
+                : p->target->mode == EN_TARGET_THIN && !choosing ? &p->fixed
+                                                                  : p->target;
     int rc = 0;
     while (rc == 0 && en_jobring_full(p->ring))
         rc = retire_one(p, err);
@@ -171,10 +184,20 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
         if (rc) {
             p->in_flight_elements -= (uint64_t)w->s.nv + w->s.nt;
             en_error_set(err, rc, c->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE, "worker pool refused a slab");
+            free_work(w);
+            return rc;
         }
-    }
-    if (rc)
+    } else {
         free_work(w);
+        return rc;
+    }
+    /* One density for the whole pass: the first slab chooses it, alone,
+     * and every later slab is classified at it (docs/method.md §13). */
+    if (choosing) {
+        p->density_pending = 0;
+        while (rc == 0 && en_jobring_in_flight(p->ring))
+            rc = retire_one(p, err);
+    }
     return rc;
 }
 
@@ -274,15 +297,26 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
         p->chain = c;
         p->index = i;
         p->g = *cfg->sphere;
-        if (i > 0) {
+        p->target = i == 0 ? cfg->target : NULL;
+        if (cfg->finish && i == c->cfg.passes - 1)
+            p->target = cfg->finish;
+        if (p->target) {
+            p->fixed = *p->target;
+            p->fixed.choose_density = 0;
+            p->density_pending = p->target->mode == EN_TARGET_THIN && p->target->choose_density;
+        }
+        int finish = p->target && p->target->mode == EN_TARGET_FINISH;
+        if (i > 0 && !finish) {
             gauss_rotation r;
             gauss_pass_rotation(cfg->seed, i + 1, &r);
             gauss_init(&p->g, cfg->sphere->n, &r);
         }
-        if (en_chunker_init(&p->ch, cfg->slab_vertices, cfg->path) ||
+        if (en_chunker_init(&p->ch, finish ? UINT32_MAX - 1 : cfg->slab_vertices, cfg->path) ||
             en_stitcher_init(&p->st, cfg->max_normal_dev, downstream(c, i)) ||
             en_jobring_new(&p->ring, pool, cfg->ring_capacity))
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+        p->ch.read_marks = finish;
+        p->st.keep_seams = p->st.mark_samples = p->target && p->target->mode == EN_TARGET_THIN;
     }
     if (rc) {
         en_chain_free(&c);

@@ -32,7 +32,10 @@ typedef struct en_chain_config {
     uint64_t seed;                /* later passes' rotations (gauss_pass_rotation) */
     int passes;                   /* SIMPLIFY: ε-net passes, >= 1; SAMPLE: 1 */
     double max_normal_dev;
-    const en_target *target;      /* SIMPLIFY: a size or error target (one pass); NULL: none */
+    /* SIMPLIFY: a size or error target (docs/method.md §13), for pass 1;
+     * NULL: none. finish: a last pass that takes a THIN pass's output to
+     * the target, as one slab; NULL: none. */
+    const en_target *target, *finish;
     uint32_t slab_vertices;
     uint64_t mem_budget;          /* bytes the chain may hold beyond the reader's; 0: none */
     size_t ring_capacity;         /* slabs in flight per pass */

@@ -51,8 +51,9 @@ static int bad(en_chunker *c, epsnet_error *err, const char *what, uint64_t id)
                         (unsigned long long)c->records, what, (unsigned long long)id);
 }
 
-static int new_vertex(en_chunker *c, const double xyz[3], epsnet_error *err)
+static int new_vertex(en_chunker *c, const epsnet_record *rec, epsnet_error *err)
 {
+    const double *xyz = rec->xyz;
     uint32_t i;
     if (c->free_len) {
         i = c->free_list[--c->free_len];
@@ -68,6 +69,7 @@ static int new_vertex(en_chunker *c, const double xyz[3], epsnet_error *err)
     v->nref = 0;
     v->local_slab = -1;
     v->owner = EN_OWNER_LIVE;
+    v->skeleton = c->read_marks && (rec->v[0] & EN_MARK_SKELETON);
     if (en_idmap_put(&c->map, c->next_gid, i)) {
         if (i + 1 == c->v_len)
             c->v_len--;
@@ -135,7 +137,7 @@ static int add_local(en_chunker *c, en_slab_work *w, uint32_t i, uint8_t flags)
     en_chunk_vertex *v = &c->v[i];
     if (v->local_slab == (int64_t)w->index)
         return 0;
-    int64_t l = en_slab_add_vertex(&w->s, v->gid, v->xyz, flags);
+    int64_t l = en_slab_add_vertex(&w->s, v->gid, v->xyz, (uint8_t)(flags | (v->skeleton ? EN_V_SKELETON : 0)));
     if (l < 0 || en_grow((void **)&c->pool_of, &c->pool_of_cap, (size_t)l + 1, sizeof *c->pool_of))
         return -1;
     c->pool_of[l] = i;
@@ -247,7 +249,7 @@ int en_chunker_put(en_chunker *c, const epsnet_record *rec, en_slab_work **out, 
         return en_error_set(err, EPSNET_EINVAL, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "record after the end of the stream");
     if (rec->kind == EPSNET_REC_VERTEX)
-        return new_vertex(c, rec->xyz, err);
+        return new_vertex(c, rec, err);
     if (rec->kind == EPSNET_REC_TRIANGLE) {
         uint32_t t[3];
         for (int j = 0; j < 3; j++)

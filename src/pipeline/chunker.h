@@ -29,6 +29,7 @@ typedef struct en_chunk_vertex {
     uint32_t local;       /* its local id in the slab being cut ... */
     int64_t local_slab;   /* ... valid when this equals that slab's index */
     int64_t owner;        /* owning slab; EN_OWNER_LIVE / EN_OWNER_FINAL before its cut */
+    uint8_t skeleton;     /* its record carried EN_MARK_SKELETON (read_marks only) */
 } en_chunk_vertex;
 
 #define EN_OWNER_LIVE (-1)
@@ -36,6 +37,7 @@ typedef struct en_chunk_vertex {
 
 typedef struct en_chunker {
     uint32_t slab_vertices;
+    int read_marks;            /* take EN_MARK_SKELETON into EN_V_SKELETON */
     const char *path;          /* for messages, may be NULL */
     en_chunk_vertex *v;        /* pool, reused through free_list */
     size_t v_len, v_cap;

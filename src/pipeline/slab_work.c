@@ -106,6 +106,19 @@ static int classify(en_slab_work *w)
 static void target_limits(const en_slab_work *w, uint64_t *keep_faces, uint64_t *keep_vertices)
 {
     const en_target *t = w->target;
+    if (t->mode == EN_TARGET_THIN) {
+        /* a share of the faces inside the slab, the only ones its
+         * collapses can reach; seam faces are left whole for the finish
+         * (measured: thinning a share of all its faces over-thins the
+         * inside of small slabs, whose seams cannot give their part) */
+        uint64_t inside = 0;
+        for (uint32_t f = 0; f < w->s.nt; f++)
+            inside += (w->fflags[f] & EN_F_INTERIOR) != 0;
+        uint64_t drop = (uint64_t)((1 - t->thin_keep) * (double)inside);
+        *keep_faces = w->s.nt > drop ? w->s.nt - drop : 1;
+        *keep_vertices = 0;
+        return;
+    }
     *keep_faces = t->faces ? t->faces : t->ratio > 0 ? (uint64_t)llround(t->ratio * (double)w->s.nt) : 0;
     *keep_vertices = t->vertices;
     /* 0 means "no limit" to the collapse core: a target of no faces at all
@@ -175,7 +188,9 @@ static int choose_density(en_slab_work *w)
     uint64_t keep_faces, keep_vertices;
     target_limits(w, &keep_faces, &keep_vertices);
     uint64_t on_faces = vertices_on_faces(&w->s), goal = keep_vertices;
-    if (!goal && keep_faces && w->s.nt)
+    if (w->target->mode == EN_TARGET_THIN) /* the final target's share of this slab */
+        goal = (uint64_t)((double)on_faces * w->target->ratio);
+    else if (!goal && keep_faces && w->s.nt)
         goal = (uint64_t)((double)on_faces * (double)keep_faces / (double)w->s.nt);
     w->chosen = *w->g;
     if (!goal)
@@ -224,6 +239,23 @@ static int choose_density(en_slab_work *w)
         }
     }
     return at == best ? 0 : classify_at(w, freq[best], &samples);
+}
+
+/* The finish of a streamed target: the first pass classified, and its
+ * samples came marked (EN_V_SKELETON); nothing is classified again, since
+ * the skeleton is the input's ε-net, not the thinned mesh's. */
+static int skeleton_from_marks(en_slab_work *w)
+{
+    const en_slab *s = &w->s;
+    size_t nv = (size_t)s->nv + 1;
+    if (zeroed(&w->vclass, &w->cap.vclass, nv, sizeof *w->vclass) ||
+        room(&w->vgvertex, &w->cap.vgvertex, nv, sizeof *w->vgvertex))
+        return oom(w);
+    for (uint32_t v = 0; v < s->nv; v++) {
+        w->vclass[v] = (s->vflags[v] & EN_V_SKELETON) ? EN_C_SAMPLE : 0;
+        w->vgvertex[v] = -1;
+    }
+    return 0;
 }
 
 static int owned_here(const en_slab_work *w, uint32_t v)
@@ -316,7 +348,7 @@ static int simplify(en_slab_work *w)
                                   (w->vclass[v] & EN_C_SAMPLE) != 0);
         removable[v] = (uint8_t)en_removable(k);
         /* under a target, samples are the second tier (en_collapse_slab) */
-        if (w->target && k == EN_VK_SAMPLE)
+        if (w->target && k == EN_VK_SAMPLE && w->target->mode != EN_TARGET_THIN)
             removable[v] = 2;
         s->vflags[v] = (uint8_t)((s->vflags[v] & ~EN_V_TARGET) | (en_receives(k) ? EN_V_TARGET : 0));
         nremovable += removable[v];
@@ -330,7 +362,8 @@ static int simplify(en_slab_work *w)
     if (w->target) {
         target_limits(w, &cs.keep_faces, &cs.keep_vertices);
         w->keep_faces = cs.keep_faces;
-        if (w->target->faces > s->nt || w->target->vertices > vertices_on_faces(s))
+        if (w->target->mode == EN_TARGET_WHOLE &&
+            (w->target->faces > s->nt || w->target->vertices > vertices_on_faces(s)))
             return en_error_set(&w->err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
                                 "a target of %llu %s is more than the input's %llu",
                                 (unsigned long long)(w->target->faces ? w->target->faces : w->target->vertices),
@@ -367,6 +400,8 @@ int en_slab_work_run(void *arg)
     en_error_clear(&w->err);
     if (en_slab_build_stars(&w->s))
         w->rc = oom(w);
+    else if (w->target && w->target->mode == EN_TARGET_FINISH)
+        w->rc = skeleton_from_marks(w);
     else if (w->target && w->target->choose_density && w->mode == EN_SLAB_SIMPLIFY)
         w->rc = choose_density(w);
     else

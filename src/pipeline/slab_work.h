@@ -36,9 +36,24 @@ typedef enum en_slab_mode { EN_SLAB_SAMPLE, EN_SLAB_SIMPLIFY } en_slab_mode;
  * target cannot be met without them. NULL in a slab work: the ε-net pass,
  * which removes every non-sample it can.
  */
+typedef enum en_target_mode {
+    EN_TARGET_WHOLE,              /* one slab: choose the density, classify, collapse to the target */
+    EN_TARGET_THIN,               /* streamed pass: classify, collapse non-samples to a share of
+                                   * each slab's faces, leave seams whole, mark the samples */
+    EN_TARGET_FINISH,             /* one slab after a THIN pass: the marks are the skeleton,
+                                   * collapse to the target */
+} en_target_mode;
+
+/* Between the passes of a streamed target, a vertex record's v[0] carries
+ * this bit for a skeleton sample. Only the chain's own passes write it (the
+ * stitcher's mark_samples) or read it (the chunker's read_marks). */
+#define EN_MARK_SKELETON 1u
+
 typedef struct en_target {
+    en_target_mode mode;
     uint64_t faces;               /* keep at most this many faces; 0: see ratio */
     double ratio;                 /* keep this share of the slab's faces; 0: none */
+    double thin_keep;             /* THIN: keep this share of each slab's own faces */
     uint64_t vertices;            /* keep at most this many vertices; 0: none */
     double max_error;             /* no collapse whose error (a distance) exceeds it; < 0: none */
     /* Skeleton density: 0 = choose the finest geodesic frequency whose

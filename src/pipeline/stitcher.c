@@ -363,7 +363,8 @@ static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
             else
                 st->stats.inner_left++;
         }
-        int rc = put(st, EPSNET_REC_VERTEX, 0, 0, 0, x->xyz, err);
+        uint64_t mark = st->mark_samples && (x->state & S_FIXED) ? EN_MARK_SKELETON : 0;
+        int rc = put(st, EPSNET_REC_VERTEX, mark, 0, 0, x->xyz, err);
         if (rc)
             return rc;
         while (st->nfheap && st->fheap[0].key <= e.gid) {
@@ -482,7 +483,7 @@ int en_stitcher_take(en_stitcher *st, const en_slab_work *w, epsnet_error *err)
     int rc = take_vertices(st, w, err);
     if (rc == 0)
         rc = take_faces(st, w, err);
-    if (rc == 0)
+    if (rc == 0 && !st->keep_seams)
         rc = collapse_seams(st, err);
     if (rc == 0 && settle(st))
         rc = oom(err);

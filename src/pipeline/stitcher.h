@@ -67,6 +67,9 @@ typedef struct en_stitcher {
     uint32_t *local;                  /* scratch: slab local id -> pool index */
     size_t local_cap;
     en_slab ws;                       /* scratch for W's collapses */
+    /* The first pass of a streamed target (docs/method.md §13): seams are
+     * left for the one-slab pass after it, and samples leave marked. */
+    int keep_seams, mark_samples;
     en_stitch_stats stats;
 } en_stitcher;
 

@@ -1319,7 +1319,9 @@ int en_sort_open(en_sort **out, const char *in_path, const char *owner, const ep
 void en_sort_info(const en_sort *j, epsnet_mesh_info *info)
 {
     memset(info, 0, sizeof *info);
-    info->nverts = EPSNET_COUNT_UNKNOWN;
+    /* vertices read: those no face uses are dropped as they are emitted,
+     * so what comes out is at most this (a bound, for planning) */
+    info->nverts = j->st.vertices;
     info->nfaces = j->st.faces;
     info->coord_type = j->ct;
     info->streaming = 1;
