@@ -93,8 +93,8 @@ void en_smz_header_encode(const en_smz_header *h, uint8_t out[EN_SMZ_HEADER_BYTE
 {
     memset(out, 0, EN_SMZ_HEADER_BYTES);
     memcpy(out, en_smz_magic, 8);
-    out[8] = EN_SMZ_VERSION & 0xff;
-    out[9] = EN_SMZ_VERSION >> 8;
+    out[8] = h->attrs.count ? 2 : 1;
+    out[9] = 0;
     out[10] = h->coord_type == EPSNET_COORD_FLOAT64 ? 1 : 0;
     out[11] = (uint8_t)((h->sorted && h->axis >= 0 ? FLAG_SORTED : 0) | (h->has_bbox ? FLAG_BBOX : 0));
     out[12] = h->axis >= 0 && h->axis < 3 ? (uint8_t)h->axis : (uint8_t)AXIS_NONE;
@@ -113,8 +113,8 @@ int en_smz_header_decode(const uint8_t in[EN_SMZ_HEADER_BYTES], en_smz_header *h
         return -1;
     }
     unsigned version = (unsigned)in[8] | (unsigned)in[9] << 8;
-    if (version != EN_SMZ_VERSION) {
-        snprintf(why, why_len, "unsupported .smz version %u (this build reads %u)", version, EN_SMZ_VERSION);
+    if (version < 1 || version > EN_SMZ_VERSION) {
+        snprintf(why, why_len, "unsupported .smz version %u (this build reads 1 to %u)", version, EN_SMZ_VERSION);
         return 8;
     }
     if (get32(in + 92) != en_smz_crc32(0, in, 92)) {
@@ -133,6 +133,7 @@ int en_smz_header_decode(const uint8_t in[EN_SMZ_HEADER_BYTES], en_smz_header *h
         snprintf(why, why_len, "stream axis %u is not 0, 1, 2 or 255", in[12]);
         return 12;
     }
+    h->version = version;
     h->coord_type = in[10] ? EPSNET_COORD_FLOAT64 : EPSNET_COORD_FLOAT32;
     h->axis = in[12] == AXIS_NONE ? -1 : in[12];
     h->sorted = (in[11] & FLAG_SORTED) && h->axis >= 0;
@@ -147,6 +148,60 @@ int en_smz_header_decode(const uint8_t in[EN_SMZ_HEADER_BYTES], en_smz_header *h
                 set_why(why, why_len, "bounding box is not finite or has min > max");
                 return 32;
             }
+    return 0;
+}
+
+/* ---- attribute table (version 2) ---- */
+
+size_t en_smz_attr_table_encode(const epsnet_attr_layout *l, uint8_t *out)
+{
+    size_t n = 8;
+    put32(out + 4, l->count);
+    for (uint32_t i = 0; i < l->count; i++) {
+        size_t len = strlen(l->attr[i].name);
+        out[n++] = (uint8_t)l->attr[i].type;
+        out[n++] = (uint8_t)len;
+        memcpy(out + n, l->attr[i].name, len);
+        n += len;
+    }
+    put32(out, (uint32_t)(n - 4));
+    put32(out + n, en_smz_crc32(0, out + 4, n - 4));
+    return n + 4;
+}
+
+int en_smz_attr_table_decode(const uint8_t *body, uint32_t body_len, uint32_t crc, epsnet_attr_layout *l,
+                             char *why, size_t why_len)
+{
+    memset(l, 0, sizeof *l);
+    if (en_smz_crc32(0, body, body_len) != crc) {
+        set_why(why, why_len, "attribute table checksum mismatch");
+        return -1;
+    }
+    if (body_len < 4 || get32(body) > EPSNET_ATTR_MAX) {
+        set_why(why, why_len, "attribute table has a bad attribute count");
+        return -1;
+    }
+    uint32_t n = get32(body), at = 4;
+    for (uint32_t i = 0; i < n; i++) {
+        if (body_len - at < 2 || body[at + 1] == 0 || body[at + 1] >= EPSNET_ATTR_NAME_MAX ||
+            body_len - at - 2 < body[at + 1]) {
+            snprintf(why, why_len, "attribute %u of the table is cut short or has a bad name length", i + 1);
+            return -1;
+        }
+        char name[EPSNET_ATTR_NAME_MAX];
+        memcpy(name, body + at + 2, body[at + 1]);
+        name[body[at + 1]] = '\0';
+        if (strlen(name) != body[at + 1] ||
+            epsnet_attr_layout_add(l, name, (epsnet_attr_type)body[at]) != 0) {
+            snprintf(why, why_len, "attribute %u of the table has a bad type (%u) or name", i + 1, body[at]);
+            return -1;
+        }
+        at += 2u + body[at + 1];
+    }
+    if (at != body_len) {
+        set_why(why, why_len, "attribute table has unused bytes");
+        return -1;
+    }
     return 0;
 }
 
@@ -450,11 +505,11 @@ int en_smz_unpack(void *dctx, const uint8_t *payload, const en_smz_block_header 
 
 /* Section layout of a raw payload, checked against the block header. */
 typedef struct raw_sections {
-    const uint8_t *kinds, *coords, *tris, *fins, *end;
+    const uint8_t *kinds, *coords, *attrs, *tris, *fins, *end;
 } raw_sections;
 
-static int split_sections(const uint8_t *raw, const en_smz_block_header *b, int width, raw_sections *s,
-                          char *why, size_t why_len)
+static int split_sections(const uint8_t *raw, const en_smz_block_header *b, int width, uint32_t asz,
+                          raw_sections *s, char *why, size_t why_len)
 {
     if (b->raw_bytes < RAW_PREFIX_BYTES) {
         set_why(why, why_len, "payload too short");
@@ -462,25 +517,79 @@ static int split_sections(const uint8_t *raw, const en_smz_block_header *b, int 
     }
     uint64_t kb = get32(raw), tb = get32(raw + 4), fb = get32(raw + 8);
     uint64_t cb = (uint64_t)b->nverts * 3 * (uint64_t)width;
-    if (RAW_PREFIX_BYTES + kb + cb + tb + fb != b->raw_bytes) {
+    uint64_t ab = (uint64_t)b->nverts * asz;
+    if (RAW_PREFIX_BYTES + kb + cb + ab + tb + fb != b->raw_bytes) {
         set_why(why, why_len, "payload section sizes do not add up");
         return -1;
     }
     s->kinds = raw + RAW_PREFIX_BYTES;
     s->coords = s->kinds + kb;
-    s->tris = s->coords + cb;
+    s->attrs = s->coords + cb;
+    s->tris = s->attrs + ab;
     s->fins = s->tris + tb;
     s->end = s->fins + fb;
     return 0;
 }
 
+/* An attribute value's bits as an unsigned integer of its width, from (and
+ * to) the host-order bytes records carry (docs/smz.md "Attributes"). */
+static uint64_t attr_load(const uint8_t *p, size_t w)
+{
+    switch (w) {
+    case 1: return p[0];
+    case 2: { uint16_t v; memcpy(&v, p, 2); return v; }
+    case 4: { uint32_t v; memcpy(&v, p, 4); return v; }
+    default: { uint64_t v; memcpy(&v, p, 8); return v; }
+    }
+}
+
+static void attr_store(uint8_t *p, size_t w, uint64_t u)
+{
+    switch (w) {
+    case 1: p[0] = (uint8_t)u; break;
+    case 2: { uint16_t v = (uint16_t)u; memcpy(p, &v, 2); break; }
+    case 4: { uint32_t v = (uint32_t)u; memcpy(p, &v, 4); break; }
+    default: memcpy(p, &u, 8); break;
+    }
+}
+
+/* The attribute section into attr_out (nverts * l->size bytes): per
+ * attribute, the byte planes of the differences of its values. */
+static void decode_attrs(const uint8_t *sec, uint32_t nverts, const epsnet_attr_layout *l, uint8_t *attr_out)
+{
+    const uint8_t *p = sec;
+    for (uint32_t a = 0; a < l->count; a++) {
+        size_t w = epsnet_attr_type_size(l->attr[a].type);
+        uint64_t prev = 0;
+        uint64_t mask = w == 8 ? UINT64_MAX : ((uint64_t)1 << (8 * w)) - 1;
+        for (uint32_t i = 0; i < nverts; i++) {
+            uint64_t d = 0;
+            for (size_t j = 0; j < w; j++)
+                d |= (uint64_t)p[j * nverts + i] << (8 * j);
+            prev = (prev + d) & mask;
+            attr_store(attr_out + (size_t)i * l->size + l->attr[a].offset, w, prev);
+        }
+        p += w * nverts;
+    }
+}
+
 int en_smz_decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet_coord_type ct,
                         epsnet_record *out, char *why, size_t why_len)
 {
+    return en_smz_decode_block_attrs(raw, b, ct, NULL, NULL, out, why, why_len);
+}
+
+int en_smz_decode_block_attrs(const uint8_t *raw, const en_smz_block_header *b, epsnet_coord_type ct,
+                              const epsnet_attr_layout *l, uint8_t *attr_out, epsnet_record *out, char *why,
+                              size_t why_len)
+{
     int width = coord_width(ct);
+    uint32_t asz = l ? l->size : 0;
     raw_sections s;
-    if (split_sections(raw, b, width, &s, why, why_len))
+    if (split_sections(raw, b, width, asz, &s, why, why_len))
         return -1;
+    if (asz)
+        decode_attrs(s.attrs, b->nverts, l, attr_out);
     const uint8_t *kp = s.kinds, *tp = s.tris, *fp = s.fins;
     const uint8_t *plane[3][8];
     for (int k = 0; k < 3; k++)
@@ -508,6 +617,7 @@ int en_smz_decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet
         for (uint64_t i = 0; i < len; i++, rec++) {
             epsnet_record *r = out + rec;
             r->kind = (epsnet_record_kind)kind;
+            r->attr = NULL;
             if (kind == EPSNET_REC_VERTEX) {
                 if (vi == b->nverts)
                     goto counts;
@@ -523,6 +633,7 @@ int en_smz_decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet
                         prev[k] &= 0xffffffffu;
                     r->xyz[k] = bits_coord(prev[k], ct);
                 }
+                r->attr = asz ? attr_out + vi * asz : NULL;
                 vi++;
                 nv++;
             } else if (kind == EPSNET_REC_TRIANGLE) {
@@ -586,6 +697,8 @@ static int buf_reserve(byte_buf *b, size_t more)
 
 struct en_smz_encoder {
     epsnet_coord_type ct;
+    epsnet_attr_layout attrs;
+    uint8_t *abytes;         /* attrs.size per vertex, bits_cap vertices */
     byte_buf kinds, tris, fins;
     uint64_t *bits;          /* 3 per vertex */
     size_t bits_cap;         /* in vertices */
@@ -605,6 +718,14 @@ en_smz_encoder *en_smz_encoder_new(epsnet_coord_type ct)
     return e;
 }
 
+en_smz_encoder *en_smz_encoder_new_attrs(epsnet_coord_type ct, const epsnet_attr_layout *l)
+{
+    en_smz_encoder *e = en_smz_encoder_new(ct);
+    if (e && l)
+        e->attrs = *l;
+    return e;
+}
+
 void en_smz_encoder_free(en_smz_encoder **pe)
 {
     en_smz_encoder *e = pe ? *pe : NULL;
@@ -614,6 +735,7 @@ void en_smz_encoder_free(en_smz_encoder **pe)
     en_free(e->tris.p);
     en_free(e->fins.p);
     en_free(e->bits);
+    en_free(e->abytes);
     en_free(e);
     *pe = NULL;
 }
@@ -641,8 +763,16 @@ int en_smz_encoder_add(en_smz_encoder *e, const epsnet_record *rec, uint64_t nve
             if (en_grow(&p, &cap, (size_t)e->nverts + 1, 3 * sizeof *e->bits))
                 return -1;
             e->bits = p;
+            if (e->attrs.size) {
+                uint8_t *a = en_realloc(e->abytes, cap * e->attrs.size);
+                if (!a)
+                    return -1;
+                e->abytes = a;
+            }
             e->bits_cap = cap;
         }
+        if (e->attrs.size)
+            memcpy(e->abytes + (size_t)e->nverts * e->attrs.size, rec->attr, e->attrs.size);
         for (int k = 0; k < 3; k++)
             e->bits[3 * (size_t)e->nverts + (size_t)k] = coord_bits(rec->xyz[k], e->ct);
         e->nverts++;
@@ -673,8 +803,8 @@ uint32_t en_smz_encoder_records(const en_smz_encoder *e)
 
 size_t en_smz_encoder_raw_bytes(const en_smz_encoder *e)
 {
-    return RAW_PREFIX_BYTES + e->kinds.len + 10 + (size_t)e->nverts * 3 * (size_t)coord_width(e->ct) +
-           e->tris.len + e->fins.len;
+    return RAW_PREFIX_BYTES + e->kinds.len + 10 +
+           (size_t)e->nverts * (3 * (size_t)coord_width(e->ct) + e->attrs.size) + e->tris.len + e->fins.len;
 }
 
 int en_smz_encoder_flush(en_smz_encoder *e, void *cctx, uint8_t **out, size_t *out_cap,
@@ -684,7 +814,8 @@ int en_smz_encoder_flush(en_smz_encoder *e, void *cctx, uint8_t **out, size_t *o
         return -1;
     int width = coord_width(e->ct);
     size_t cb = (size_t)e->nverts * 3 * (size_t)width;
-    size_t raw_len = RAW_PREFIX_BYTES + e->kinds.len + cb + e->tris.len + e->fins.len;
+    size_t ab = (size_t)e->nverts * e->attrs.size;
+    size_t raw_len = RAW_PREFIX_BYTES + e->kinds.len + cb + ab + e->tris.len + e->fins.len;
     uint8_t *raw = en_malloc(raw_len);
     if (!raw)
         return -1;
@@ -710,6 +841,21 @@ int en_smz_encoder_flush(en_smz_encoder *e, void *cctx, uint8_t **out, size_t *o
         }
     }
     p += cb;
+    /* note: attributes the same way, one attribute at a time: neighbours
+     * in the stream tend to share colours and normals, so differences of
+     * their bits are mostly small (docs/smz.md "Attributes"). */
+    for (uint32_t a = 0; a < e->attrs.count; a++) {
+        size_t w = epsnet_attr_type_size(e->attrs.attr[a].type);
+        uint64_t prev = 0;
+        for (uint32_t i = 0; i < e->nverts; i++) {
+            uint64_t cur = attr_load(e->abytes + (size_t)i * e->attrs.size + e->attrs.attr[a].offset, w);
+            uint64_t d = cur - prev;
+            prev = cur;
+            for (size_t j = 0; j < w; j++)
+                p[j * e->nverts + i] = (uint8_t)(d >> (8 * j));
+        }
+        p += w * e->nverts;
+    }
     if (e->tris.len)
         memcpy(p, e->tris.p, e->tris.len);
     p += e->tris.len;
@@ -799,6 +945,20 @@ int en_smz_read_index(int fd, const char *path, uint64_t file_size, en_smz_index
         rc = en_error_set(err, EPSNET_EFORMAT, path, EPSNET_POS_NONE, t->index_offset,
                           "index is corrupt (bad tag or checksum)");
     uint64_t expect = EN_SMZ_HEADER_BYTES;
+    if (rc == 0 && idx->header.version >= 2) {
+        /* the attribute table sits between the header and block 0 */
+        uint8_t tab[EN_SMZ_MAX_TABLE_BYTES];
+        uint32_t body = 0;
+        if (pread_all(fd, tab, 4, EN_SMZ_HEADER_BYTES) || (body = get32(tab)) > EN_SMZ_MAX_TABLE_BYTES - 8 ||
+            EN_SMZ_HEADER_BYTES + 8 + (uint64_t)body > t->index_offset ||
+            pread_all(fd, tab + 4, body + 4, EN_SMZ_HEADER_BYTES + 4))
+            rc = en_error_set(err, EPSNET_EFORMAT, path, EPSNET_POS_NONE, EN_SMZ_HEADER_BYTES,
+                              "attribute table is cut short or too long");
+        else if (en_smz_attr_table_decode(tab + 4, body, get32(tab + 4 + body), &idx->header.attrs, why,
+                                          sizeof why))
+            rc = en_error_set(err, EPSNET_EFORMAT, path, EPSNET_POS_NONE, EN_SMZ_HEADER_BYTES, "%s", why);
+        expect += 8 + (uint64_t)body;
+    }
     for (uint64_t i = 0; rc == 0 && i < t->blocks; i++) {
         en_smz_index_entry *e = &idx->entries[i];
         en_smz_index_entry_decode(ib + EN_SMZ_INDEX_HEAD_BYTES + i * EN_SMZ_INDEX_ENTRY_BYTES, e);
