@@ -728,6 +728,141 @@ def tristrips_simplify_like_their_triangle_list():
     assert strips.count(-1) < len(faces), "no strip of two triangles: the test tests nothing"
 
 
+# ---- per-vertex attributes (issue 16): bit for bit through every format that holds them ----
+
+PLY_TYPES = {"char": "b", "uchar": "B", "short": "h", "ushort": "H", "int": "i", "uint": "I",
+             "float": "f", "double": "d"}
+
+
+def read_ply(p):
+    """(property names and types, vertex records as byte strings of the whole record in a canonical
+    little-endian layout, faces) of a PLY, ascii or binary little-endian, scalar vertex properties."""
+    data = open(p, "rb").read()
+    end = data.index(b"end_header\n") + len(b"end_header\n")
+    lines = data[:end].decode().splitlines()
+    fmt = lines[1].split()[1]
+    props, elems, cur = [], [], None
+    for ln in lines:
+        t = ln.split()
+        if t[0] == "element":
+            elems.append((t[1], int(t[2])))
+            cur = t[1]
+        elif t[0] == "property" and cur == "vertex":
+            props.append((t[2], t[1]))
+    nv = dict(elems)["vertex"]
+    nf = dict(elems).get("face", 0)
+    rec = "<" + "".join(PLY_TYPES[ty] for _, ty in props)
+    verts, faces = [], []
+    if fmt == "ascii":
+        toks = data[end:].decode().split("\n")
+        for i in range(nv):
+            vals = toks[i].split()
+            conv = [float(v) if PLY_TYPES[ty] in "fd" else int(v) for v, (_, ty) in zip(vals, props)]
+            verts.append(struct.pack(rec, *conv))
+        for i in range(nf):
+            faces.append(tuple(int(v) for v in toks[nv + i].split()[1:]))
+    else:
+        assert fmt == "binary_little_endian", fmt
+        size = struct.calcsize(rec)
+        at = end
+        for i in range(nv):
+            verts.append(data[at:at + size])
+            at += size
+        for i in range(nf):
+            n = data[at]
+            faces.append(struct.unpack_from(f"<{n}i", data, at + 1))
+            at += 1 + 4 * n
+    return props, verts, faces
+
+
+def attributed_ply(name, faces=3000, shuffle=True):
+    """A generated bumpy PLY with one attribute of every type, values made to test every bit."""
+    base = path(name + ".base.ply")
+    args = ["gen", "bumpy", "--faces", str(faces), "--seed", "3", "-o", base, "-q"]
+    rc, _, err = run(*(args + ["--shuffle"] if shuffle else args))
+    assert rc == 0, err
+    _, verts, faces_ = read_ply(base)
+    extra = [("red", "uchar"), ("green", "uchar"), ("blue", "uchar"), ("nx", "float"), ("ny", "float"),
+             ("nz", "float"), ("s", "float"), ("t", "float"), ("confidence", "double"), ("label", "short"),
+             ("flags", "ushort"), ("id", "int"), ("stamp", "uint"), ("tilt", "char")]
+    head = ["ply", "format binary_little_endian 1.0", f"element vertex {len(verts)}", "property float x",
+            "property float y", "property float z"]
+    head += [f"property {ty} {n}" for n, ty in extra]
+    head += [f"element face {len(faces_)}", "property list uchar int vertex_indices", "end_header"]
+    body = bytearray()
+    for i, v in enumerate(verts):
+        body += v
+        body += struct.pack("<3B", i % 256, (7 * i) % 256, 255 - i % 256)
+        body += struct.pack("<5f", i * 1e-3, -0.5, 1 / (i + 1), 0.1 * i, float("-0.0") if i % 2 else 3.5)
+        body += struct.pack("<dhHiIb", i * 1.0000000001e-7, -i % 30000, 65535 - i % 65536, -i * 999, i * 77777,
+                            -(i % 128))
+    for f in faces_:
+        body += struct.pack("<B3i", 3, *f)
+    return write(name, ("\n".join(head) + "\n").encode() + bytes(body))
+
+
+@case
+def attributes_round_trip_bit_for_bit():
+    src = attributed_ply("attr.ply", faces=20000)
+    props, verts, faces = read_ply(src)
+    want = sorted(verts)
+    # convert: binary -> ascii -> binary and through .smz, the same records
+    a, b, z, zb = path("attr_a.ply"), path("attr_b.ply"), path("attr.smz"), path("attr_z.ply")
+    for args in (("convert", src, "-o", a, "--ascii"), ("convert", a, "-o", b), ("convert", src, "-o", z),
+                 ("convert", z, "-o", zb)):
+        rc, _, err = run(*args, "-q")
+        assert rc == 0 and err == "", (args, err)
+    for p in (a, b, zb):
+        got = read_ply(p)
+        assert got[0] == props and got[1] == verts and got[2] == faces, p
+    assert open(b, "rb").read() == open(zb, "rb").read()
+    # sort, in memory and through the external passes: every vertex keeps its own attributes,
+    # and both give the same bytes; .smz then PLY gives them again
+    s1, s2, s3, s3p = path("attr_s1.ply"), path("attr_s2.ply"), path("attr_s3.smz"), path("attr_s3.ply")
+    s4 = path("attr_s4.ply")
+    # 1M: runs with ranks in memory; 100K: the fully external join (src/sort/sort.h)
+    for args in (("sort", src, "-o", s1), ("sort", src, "-o", s2, "--mem", "1M"), ("sort", src, "-o", s3),
+                 ("convert", s3, "-o", s3p), ("sort", src, "-o", s4, "--mem", "100K", "-j", "1")):
+        rc, _, err = run(*args, "-q")
+        assert rc == 0 and err == "", (args, err)
+    got = read_ply(s1)
+    assert got[0] == props and sorted(got[1]) == want, "sort changed some vertex's attributes"
+    assert open(s1, "rb").read() == open(s2, "rb").read(), "external sort differs from the in-memory one"
+    assert open(s1, "rb").read() == open(s4, "rb").read(), "external join differs from the in-memory sort"
+    assert open(s1, "rb").read() == open(s3p, "rb").read(), "sort through .smz differs"
+    rc, text, _ = run("info", s3)
+    assert rc == 0 and "uchar red, uchar green" in text and "(44 bytes per vertex)" in text, text
+    # simplify does not carry them yet: it names every one of them in its one warning line
+    rc, _, err = run("simplify", src, "-o", path("attr_simp.ply"), "-q")
+    assert rc == 0, err
+    names = ", ".join(f"vertex property {n}" for n, _ in props[3:])
+    assert err.splitlines() == [f"warning: {src}: dropped: {names}"], err
+
+
+@case
+def bad_attribute_tables_are_errors_not_crashes():
+    src = attributed_ply("attr_bad.ply", faces=200)
+    z = path("attr_bad.smz")
+    rc, _, err = run("convert", src, "-o", z, "-q")
+    assert rc == 0, err
+    data = bytearray(open(z, "rb").read())
+    assert data[8] == 2, "a stream with attributes is .smz version 2"
+    body = struct.unpack_from("<I", data, 96)[0]
+    for at, val in ((96, 0xff), (96 + 3, 0x7f), (100, 33), (104, 0), (104, 9), (105, 0), (105, 200),
+                    (106, ord(" ")), (96 + 4 + body, 0)):
+        bad = bytearray(data)
+        bad[at] = val if bad[at] != val else (val + 1) % 256
+        p = write("attr_bad_%d.smz" % at, bytes(bad))
+        rc, _, err = run("convert", p, "-o", path("attr_bad_out.ply"), "-q")
+        assert rc == 2 and p in err and len(err.splitlines()) == 1, (at, rc, err)
+    # a PLY vertex property list is still dropped and named; a property twice is an error
+    expect_bad_input("attr_twice.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
+                     "property float y\nproperty float z\nproperty uchar red\nproperty uchar red\n"
+                     "end_header\n0 0 0 1 2\n", ":8:")
+    expect_bad_input("attr_value.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
+                     "property float y\nproperty float z\nproperty uchar red\nend_header\n0 0 0 256\n", ":9:")
+
+
 subprocess.run(["rm", "-rf", TMP])
 print(f"{failures} failed")
 sys.exit(1 if failures else 0)
