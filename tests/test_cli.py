@@ -863,6 +863,42 @@ def bad_attribute_tables_are_errors_not_crashes():
                      "property float y\nproperty float z\nproperty uchar red\nend_header\n0 0 0 256\n", ":9:")
 
 
+@case
+def obj_colours_round_trip_through_ply_sort_and_smz():
+    verts = ["v 0 0 0 1 0 0.5", "v 1 0 0 0.1 0.2 0.3", "v 0 1 0 0.33333334 0.001 0", "v 0 0 1 1 1 1",
+             "v 1 1 1 0.7 0.25 1e-08"]
+    faces = ["f 1 3 2", "f 1 2 4", "f 1 4 3", "f 2 3 4", "f 2 5 3"]
+    src = write("col.obj", "\n".join(verts + faces) + "\n")
+    a, b = path("col_a.ply"), path("col_b.obj")
+    for args in (("convert", src, "-o", a), ("convert", a, "-o", b)):
+        rc, _, err = run(*args, "-q")
+        assert rc == 0 and err == "", (args, err)
+    assert open(b).read() == open(src).read(), open(b).read()
+    props, _, _ = read_ply(a)
+    assert props[3:] == [("red", "float"), ("green", "float"), ("blue", "float")], props
+    z, zo = path("col_s.smz"), path("col_s.obj")
+    for args in (("sort", src, "-o", z), ("convert", z, "-o", zo)):
+        rc, _, err = run(*args, "-q")
+        assert rc == 0 and err == "", (args, err)
+    got = [ln for ln in open(zo).read().splitlines() if ln.startswith("v ")]
+    assert sorted(got) == sorted(verts[:2] + ["v 0 1 0 0.33333334 0.001 0"] + verts[3:4] +
+                                 ["v 1 1 1 0.7 0.25 1e-08"]), got
+    # OBJ holds only float colours: integer colours are named as dropped, in the same line
+    ply = write("col_u8.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                "property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n"
+                "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 1 2 3\n"
+                "1 0 0 4 5 6\n0 1 0 7 8 9\n3 0 1 2\n")
+    o = path("col_u8.obj")
+    rc, _, err = run("convert", ply, "-o", o, "-q")
+    assert rc == 0 and err.splitlines() == [
+        f"warning: {ply}: dropped: vertex property red, vertex property green, vertex property blue "
+        f"({o} cannot hold them)"], err
+    # a vertex without colours in a coloured OBJ gets zeros and is counted
+    mixed = write("col_mixed.obj", "v 0 0 0 1 1 1\nv 1 0 0\nv 0 1 0 0.5 0.5 0.5\nf 1 2 3\n")
+    rc, _, err = run("convert", mixed, "-o", path("col_mixed.ply"), "-q")
+    assert rc == 0 and err.splitlines() == [f"warning: {mixed}: dropped: vertex without colour (1)"], err
+
+
 subprocess.run(["rm", "-rf", TMP])
 print(f"{failures} failed")
 sys.exit(1 if failures else 0)
