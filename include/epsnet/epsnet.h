@@ -287,7 +287,9 @@ EPSNET_API uint64_t epsnet_reader_file_size(const epsnet_reader *r);
  * dropped without a word), as one line of text, e.g.
  *   "element camera (1), vertex property confidence, vertex property red"
  * PLY names every element and property it skips (an element with its record
- * count) and faces of fewer than 3 corners; OBJ every statement kind it
+ * count), vertex list properties, vertex properties past EPSNET_ATTR_MAX,
+ * and faces of fewer than 3 corners (scalar vertex properties are carried
+ * as attributes, epsnet_mesh_info.vertex_attrs); OBJ every statement kind it
  * skips, with how many it met ("usemtl (3), vt (120)"). Most of it is known
  * from the PLY header, the rest as the file is read: the text is complete
  * once epsnet_reader_next() has returned 0.
@@ -345,6 +347,8 @@ EPSNET_API int epsnet_writer_open(epsnet_writer **w, const char *path,
 
 /*
  * Append one record. Triangles must reference vertices already written.
+ * When info announced vertex attributes, every vertex record must carry its
+ * packed bytes in rec->attr (EPSNET_EINVAL when it is NULL).
  * @return 0, or a negative code with err filled (the writer must then be
  * aborted).
  */
@@ -869,7 +873,10 @@ EPSNET_API int epsnet_hausdorff_write_json(const epsnet_hausdorff_result *r, con
  *   - triangles ordered by their last corner in that order, then by input
  *     order, each with its corners (and so its orientation) as in the input;
  *   - each vertex finalized right after the last triangle that uses it;
- *   - vertices that no triangle uses are dropped (and counted).
+ *   - vertices that no triangle uses are dropped (and counted);
+ *   - every vertex keeps its attributes, bit for bit, when the output
+ *     format holds them; those it cannot hold are named in the one
+ *     dropped warning (settings.warning) and counted in stats.dropped.
  * Input finalization records are ignored; a streaming input is still read
  * under the memory budget (a stream that never finalizes hits it: ELIMIT).
  * ------------------------------------------------------------------------ */
@@ -883,8 +890,8 @@ typedef struct epsnet_sort_settings {
      * below about 16M are honoured only approximately. The output's live
      * vertices (its width, about 64 bytes each) must fit in half of it, or
      * the sort fails with EPSNET_ELIMIT. When the whole mesh and the arrays
-     * that sort it (about 68 bytes per vertex and 36 per face) fit in half
-     * of it, it is sorted in memory with no temporary file at all; else,
+     * that sort it (about 68 bytes per vertex, plus twice the vertex's
+     * attribute bytes, and 36 per face) fit in half of it, it is sorted in memory with no temporary file at all; else,
      * when 8 bytes per input vertex fit in half of it, ranks are looked up
      * in memory instead of joined externally. The output is the same.
      * Default: 512M. */
