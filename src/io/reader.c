@@ -143,14 +143,18 @@ int en_reader_add_attr(epsnet_reader *r, const char *name, epsnet_attr_type type
     if (epsnet_attr_layout_find(&r->file_attrs, name) >= 0)
         return en_reader_fail(r, EPSNET_EFORMAT, "vertex property '%s' appears twice", name);
     int rc = epsnet_attr_layout_add(&r->file_attrs, name, type);
-    if (rc == EPSNET_ELIMIT || (rc == EPSNET_EINVAL && strlen(name) >= EPSNET_ATTR_NAME_MAX)) {
+    if (rc) {
+        /* note: past EPSNET_ATTR_MAX, or a name a layout refuses (too long,
+         * unprintable bytes): skipped and named, as before attributes were
+         * carried (docs/architecture.md §5) */
         char what[EN_DROP_NAME];
         snprintf(what, sizeof what, "vertex property %s", name);
+        for (char *c = what; *c; c++)
+            if ((unsigned char)*c < 0x20 || (unsigned char)*c == 0x7f)
+                *c = '?';
         en_reader_drop(r, what, 0, 0);
         return 0;
     }
-    if (rc)
-        return en_reader_fail(r, EPSNET_EFORMAT, "vertex property name '%s' cannot be carried", name);
     r->info.vertex_attrs = r->file_attrs;
     return 1;
 }
