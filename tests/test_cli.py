@@ -515,13 +515,13 @@ def check_names_the_corrupt_block_and_offset():
     rc, _, err = run("sort", src, "-o", good, "-q")
     assert rc == 0, err
     data = bytearray(open(good, "rb").read())
-    assert data[96:100] == b"SMZB", data[96:100]
-    data[96 + 40 + 20] ^= 0x40          # inside block 0's payload
+    assert data[108:112] == b"SMZB", data[108:112]    # after the header and the attribute table
+    data[108 + 40 + 20] ^= 0x40          # inside block 0's payload
     bad = write("ck_bad.smz", bytes(data))
     rc, _, err = run("check", bad)
     lines = err.strip().splitlines()
     assert rc == 2 and len(lines) == 1, (rc, err)
-    assert bad in lines[0] and "byte 96" in lines[0] and "block 0 is corrupt" in lines[0], lines[0]
+    assert bad in lines[0] and "byte 108" in lines[0] and "block 0 is corrupt" in lines[0], lines[0]
 
 
 @case

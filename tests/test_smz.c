@@ -232,7 +232,8 @@ TEST(empty_mesh_is_valid)
     CHECK_EQ_U64(n, 0);
     CHECK_EQ_U64(info.nverts, 0);
     CHECK_EQ_U64(info.nfaces, 0);
-    CHECK_EQ_U64(file_size(p), EN_SMZ_HEADER_BYTES + EN_SMZ_INDEX_HEAD_BYTES + EN_SMZ_TRAILER_BYTES);
+    /* version 2: the attribute table (12 bytes with no attribute) follows the header */
+    CHECK_EQ_U64(file_size(p), EN_SMZ_HEADER_BYTES + 12 + EN_SMZ_INDEX_HEAD_BYTES + EN_SMZ_TRAILER_BYTES);
     free(got);
 }
 
@@ -264,7 +265,7 @@ TEST(blocks_decode_independently_through_the_index)
         unsigned char *raw = malloc(bh.raw_bytes);
         epsnet_record *recs = malloc(bh.records * sizeof *recs);
         CHECK_EQ_INT(en_smz_unpack(dctx, bytes + e->offset + EN_SMZ_BLOCK_HEADER_BYTES, &bh, raw, why, sizeof why), 0);
-        CHECK_EQ_INT(en_smz_decode_block(raw, &bh, idx.header.coord_type, recs, why, sizeof why), 0);
+        CHECK_EQ_INT(en_smz_decode_block_h(raw, &bh, &idx.header, NULL, recs, why, sizeof why), 0);
         /* where this block starts in the sequential stream */
         at = 0;
         for (uint64_t k = 0; k < b; k++)
@@ -368,11 +369,13 @@ TEST(a_false_sorted_claim_is_rejected)
         { .kind = EPSNET_REC_VERTEX, .xyz = { 2, 1, 0 } },
         { .kind = EPSNET_REC_TRIANGLE, .v = { 0, 2, 1 } },
     };
-    en_smz_header h = { .coord_type = EPSNET_COORD_FLOAT32, .sorted = 1, .axis = 0,
+    en_smz_header h = { .version = 2, .coord_type = EPSNET_COORD_FLOAT32, .sorted = 1, .axis = 0,
                         .nverts = EPSNET_COUNT_UNKNOWN, .nfaces = EPSNET_COUNT_UNKNOWN };
-    uint8_t hb[EN_SMZ_HEADER_BYTES];
+    uint8_t hb[EN_SMZ_HEADER_BYTES], tab[EN_SMZ_MAX_TABLE_BYTES];
     en_smz_header_encode(&h, hb);
-    en_smz_encoder *enc = en_smz_encoder_new(EPSNET_COORD_FLOAT32);
+    size_t ntab = en_smz_attr_table_encode(&h.attrs, tab);
+    CHECK_EQ_U64(ntab, 12);
+    en_smz_encoder *enc = en_smz_encoder_new_v2(EPSNET_COORD_FLOAT32, NULL, 0);
     uint64_t nv = 0;
     for (size_t i = 0; i < 4; i++) {
         CHECK_EQ_INT(en_smz_encoder_add(enc, &recs[i], nv), 0);
@@ -389,6 +392,7 @@ TEST(a_false_sorted_claim_is_rejected)
     en_smz_block_header_encode(&b, bh);
     FILE *f = fopen(tl_path("liar.smz"), "wb");
     fwrite(hb, 1, sizeof hb, f);
+    fwrite(tab, 1, ntab, f);
     fwrite(bh, 1, sizeof bh, f);
     fwrite(payload, 1, b.compressed_bytes, f);
     fclose(f);
@@ -396,7 +400,7 @@ TEST(a_false_sorted_claim_is_rejected)
     epsnet_error err;
     CHECK_EQ_INT(tl_read_mesh(tl_path("liar.smz"), &m, &err), EPSNET_EFORMAT);
     CHECK_STR_CONTAINS(epsnet_error_message(&err), "vertex 2 goes back along x");
-    CHECK_STR_CONTAINS(epsnet_error_message(&err), "byte 96");
+    CHECK_STR_CONTAINS(epsnet_error_message(&err), "byte 108");
     tl_mesh_free(&m);
     free(payload);
     ZSTD_freeCCtx(cctx);

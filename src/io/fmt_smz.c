@@ -19,6 +19,7 @@
  */
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <zstd.h>
 
@@ -173,8 +174,7 @@ static int read_block(epsnet_reader *r, smz_reader *st)
         return rc;
     }
     if (en_smz_unpack(st->dctx, st->payload, &b, st->raw, why, sizeof why) ||
-        en_smz_decode_block_attrs(st->raw, &b, st->header.coord_type, &st->header.attrs, st->attrs, st->recs, why,
-                                  sizeof why))
+        en_smz_decode_block_h(st->raw, &b, &st->header, st->attrs, st->recs, why, sizeof why))
         return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset, "block %llu is corrupt: %s",
                                  (unsigned long long)st->block_no, why);
     en_smz_index_entry e = {
@@ -391,7 +391,8 @@ static int smz_open_writer(epsnet_writer *w)
     if (!st)
         return wfail_nomem(w);
     w->state = st;
-    st->enc = en_smz_encoder_new_attrs(w->coord_type, &w->attrs);
+    st->axis = w->info.sorted_axis >= 0 && w->info.sorted_axis < 3 ? w->info.sorted_axis : -1;
+    st->enc = en_smz_encoder_new_v2(w->coord_type, &w->attrs, st->axis);
     st->cctx = ZSTD_createCCtx();
     if (!st->enc || !st->cctx)
         return wfail_nomem(w);
@@ -399,7 +400,6 @@ static int smz_open_writer(epsnet_writer *w)
     ZSTD_CCtx_setParameter(st->cctx, ZSTD_c_compressionLevel, level);
     ZSTD_CCtx_setParameter(st->cctx, ZSTD_c_checksumFlag, 1);
     ZSTD_CCtx_setParameter(st->cctx, ZSTD_c_contentSizeFlag, 1);
-    st->axis = w->info.sorted_axis >= 0 && w->info.sorted_axis < 3 ? w->info.sorted_axis : -1;
     st->sorted_ok = 1;
     st->prev_axis = -INFINITY;
     st->block_min = INFINITY;
@@ -409,6 +409,7 @@ static int smz_open_writer(epsnet_writer *w)
         st->hi[k] = -INFINITY;
     }
     en_smz_header *h = &st->announced;
+    h->version = EN_SMZ_VERSION;
     h->attrs = w->attrs;
     h->coord_type = w->coord_type;
     h->axis = st->axis;
@@ -422,7 +423,7 @@ static int smz_open_writer(epsnet_writer *w)
     uint8_t hb[EN_SMZ_HEADER_BYTES];
     en_smz_header_encode(h, hb);
     int rc = en_writer_bytes(w, hb, sizeof hb);
-    if (rc == 0 && h->attrs.count) {
+    if (rc == 0) {
         uint8_t tab[EN_SMZ_MAX_TABLE_BYTES];
         rc = en_writer_bytes(w, tab, en_smz_attr_table_encode(&h->attrs, tab));
     }

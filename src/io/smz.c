@@ -7,6 +7,7 @@
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -15,6 +16,7 @@
 
 #include "common/alloc.h"
 #include "common/error.h"
+#include "common/hash64.h"
 
 const uint8_t en_smz_magic[8] = { 0x89, 'S', 'M', 'Z', '\r', '\n', 0x1a, '\n' };
 const uint8_t en_smz_end_magic[8] = { 'S', 'M', 'Z', 'I', 'N', 'D', 'E', 'X' };
@@ -93,7 +95,7 @@ void en_smz_header_encode(const en_smz_header *h, uint8_t out[EN_SMZ_HEADER_BYTE
 {
     memset(out, 0, EN_SMZ_HEADER_BYTES);
     memcpy(out, en_smz_magic, 8);
-    out[8] = h->attrs.count ? 2 : 1;
+    out[8] = (uint8_t)(h->version ? h->version : EN_SMZ_VERSION);
     out[9] = 0;
     out[10] = h->coord_type == EPSNET_COORD_FLOAT64 ? 1 : 0;
     out[11] = (uint8_t)((h->sorted && h->axis >= 0 ? FLAG_SORTED : 0) | (h->has_bbox ? FLAG_BBOX : 0));
@@ -503,6 +505,125 @@ int en_smz_unpack(void *dctx, const uint8_t *payload, const en_smz_block_header 
     return 0;
 }
 
+/* ---- coordinate prediction (version 2, docs/smz.md "Coordinates") ----
+ *
+ * note: in a sorted stream the previous vertex is close along the stream
+ * axis only; across it consecutive vertices jump about the slab, so the
+ * other two coordinates of version 1 hardly compress (docs/smz.md "Why").
+ * Version 2 predicts them from the vertex's neighbours in the block, the
+ * classic parallelogram rule (Touma & Gotsman; Isenburg & Lindstrom use it
+ * for streaming meshes): a vertex's first triangle in the block whose other
+ * two corners a, b come before it, and the vertex c across the edge ab in
+ * an earlier triangle, give a + b - c. The connectivity is decoded first
+ * (it needs no coordinate), so a decoder knows every prediction before it
+ * reads a coordinate. */
+
+typedef struct pred_ref {
+    int64_t a, b, c;            /* block-local vertices, -1 none */
+} pred_ref;
+
+/* refs of the block's nverts vertices from its triangles (global corners,
+ * in stream order). @return 0 or -1 out of memory. */
+static int predict_refs(const uint64_t *tri, size_t ntris, uint64_t first, uint32_t nverts, pred_ref *ref)
+{
+    for (uint32_t v = 0; v < nverts; v++)
+        ref[v] = (pred_ref){ -1, -1, -1 };
+    size_t cap = 16;
+    while (cap < 6 * ntris + 16)
+        cap *= 2;
+    uint64_t *key = en_malloc(cap * sizeof *key);
+    int64_t *val = en_malloc(cap * sizeof *val);
+    if (!key || !val) {
+        en_free(key);
+        en_free(val);
+        return -1;
+    }
+    for (size_t i = 0; i < cap; i++)
+        key[i] = UINT64_MAX;
+    for (size_t t = 0; t < ntris; t++) {
+        int64_t l[3];
+        int inside = 1;
+        for (int k = 0; k < 3; k++) {
+            uint64_t g = tri[3 * t + (size_t)k];
+            l[k] = g >= first && g - first < nverts ? (int64_t)(g - first) : -1;
+            inside &= l[k] >= 0;
+        }
+        if (!inside || l[0] == l[1] || l[1] == l[2] || l[0] == l[2])
+            continue;
+        int m = l[0] > l[1] ? (l[0] > l[2] ? 0 : 2) : (l[1] > l[2] ? 1 : 2);
+        int64_t v = l[m], a = l[(m + 1) % 3], b = l[(m + 2) % 3];
+        if (ref[v].a < 0) {
+            ref[v].a = a;
+            ref[v].b = b;
+            uint64_t k = (uint64_t)(a < b ? a : b) << 32 | (uint64_t)(a < b ? b : a);
+            for (size_t i = en_hash_slot(k, cap - 1); key[i] != UINT64_MAX; i = (i + 1) & (cap - 1))
+                if (key[i] == k) {
+                    if (val[i] < v)
+                        ref[v].c = val[i];
+                    break;
+                }
+        }
+        for (int e = 0; e < 3; e++) {
+            int64_t p = l[e], q = l[(e + 1) % 3], o = l[(e + 2) % 3];
+            uint64_t k = (uint64_t)(p < q ? p : q) << 32 | (uint64_t)(p < q ? q : p);
+            size_t i = en_hash_slot(k, cap - 1);
+            while (key[i] != UINT64_MAX && key[i] != k)
+                i = (i + 1) & (cap - 1);
+            key[i] = k;
+            val[i] = o;
+        }
+    }
+    en_free(key);
+    en_free(val);
+    return 0;
+}
+
+/* Coordinate bits (width w bytes) to an integer in the order of the values,
+ * and back: -0 and +0 stay apart, so the map is one to one. */
+static uint64_t ord_bits(uint64_t u, int w)
+{
+    uint64_t sign = (uint64_t)1 << (8 * w - 1), mask = w == 8 ? UINT64_MAX : (sign << 1) - 1;
+    return (u & sign) ? ~(u & ~sign) & mask : u;
+}
+
+static uint64_t unord_bits(uint64_t m, int w)
+{
+    uint64_t sign = (uint64_t)1 << (8 * w - 1), mask = w == 8 ? UINT64_MAX : (sign << 1) - 1;
+    return (m & sign) ? (~m & mask) | sign : m;
+}
+
+/* The predicted value of coordinate k of local vertex v from the values
+ * already known (pos: 3 per local vertex). axis: the stream axis, whose
+ * coordinate the previous vertex predicts (it is close along it). */
+static double predict_coord(const double *pos, const pred_ref *ref, uint32_t v, int k, int axis)
+{
+    const pred_ref *r = &ref[v];
+    if (k != axis && r->a >= 0) {
+        double a = pos[3 * r->a + k], b = pos[3 * r->b + k];
+        if (r->c >= 0)
+            return a + b - pos[3 * r->c + k];
+        return (a + b) * 0.5;
+    }
+    return v ? pos[3 * (size_t)(v - 1) + (size_t)k] : 0.0;
+}
+
+/* Residual of bits against the prediction, zigzagged so that small
+ * differences of either sign have zero high bytes; and back. */
+static uint64_t residual(uint64_t bits, uint64_t pred, int w)
+{
+    uint64_t mask = w == 8 ? UINT64_MAX : ((uint64_t)1 << (8 * w)) - 1;
+    uint64_t r = (ord_bits(bits, w) - ord_bits(pred, w)) & mask;
+    uint64_t neg = (r >> (8 * w - 1)) & 1;
+    return ((r << 1) ^ (neg ? mask : 0)) & mask;
+}
+
+static uint64_t unresidual(uint64_t z, uint64_t pred, int w)
+{
+    uint64_t mask = w == 8 ? UINT64_MAX : ((uint64_t)1 << (8 * w)) - 1;
+    uint64_t r = ((z >> 1) ^ ((z & 1) ? mask : 0)) & mask;
+    return unord_bits((ord_bits(pred, w) + r) & mask, w);
+}
+
 /* Section layout of a raw payload, checked against the block header. */
 typedef struct raw_sections {
     const uint8_t *kinds, *coords, *attrs, *tris, *fins, *end;
@@ -573,21 +694,73 @@ static void decode_attrs(const uint8_t *sec, uint32_t nverts, const epsnet_attr_
     }
 }
 
+static int decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet_coord_type ct, int version,
+                        int axis, const epsnet_attr_layout *l, uint8_t *attr_out, epsnet_record *out, char *why,
+                        size_t why_len);
+
 int en_smz_decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet_coord_type ct,
                         epsnet_record *out, char *why, size_t why_len)
 {
-    return en_smz_decode_block_attrs(raw, b, ct, NULL, NULL, out, why, why_len);
+    return decode_block(raw, b, ct, 1, -1, NULL, NULL, out, why, why_len);
 }
 
-int en_smz_decode_block_attrs(const uint8_t *raw, const en_smz_block_header *b, epsnet_coord_type ct,
-                              const epsnet_attr_layout *l, uint8_t *attr_out, epsnet_record *out, char *why,
-                              size_t why_len)
+int en_smz_decode_block_h(const uint8_t *raw, const en_smz_block_header *b, const en_smz_header *h,
+                          uint8_t *attr_out, epsnet_record *out, char *why, size_t why_len)
+{
+    return decode_block(raw, b, h->coord_type, (int)h->version, h->axis, &h->attrs, attr_out, out, why, why_len);
+}
+
+/* Version 2: the coordinates of the block's vertices from their residuals
+ * against the predictions (the triangles are decoded by now). */
+static int decode_predicted(const raw_sections *s, const en_smz_block_header *b, epsnet_coord_type ct, int axis,
+                            const uint32_t *vrec, const uint64_t *tri, epsnet_record *out, char *why,
+                            size_t why_len)
+{
+    int w = coord_width(ct);
+    uint32_t nv = b->nverts;
+    double *pos = en_malloc(((size_t)nv * 3 + 1) * sizeof *pos);
+    pred_ref *ref = en_malloc(((size_t)nv + 1) * sizeof *ref);
+    if (!pos || !ref || predict_refs(tri, b->ntris, b->first_vertex, nv, ref)) {
+        en_free(pos);
+        en_free(ref);
+        set_why(why, why_len, "out of memory");
+        return -1;
+    }
+    for (uint32_t v = 0; v < nv; v++)
+        for (int k = 0; k < 3; k++) {
+            const uint8_t *pl = s->coords + (size_t)k * (size_t)w * nv;
+            uint64_t z = 0;
+            for (int j = 0; j < w; j++)
+                z |= (uint64_t)pl[(size_t)j * nv + v] << (8 * j);
+            uint64_t pred = coord_bits(predict_coord(pos, ref, v, k, axis), ct);
+            pos[3 * (size_t)v + (size_t)k] = bits_coord(unresidual(z, pred, w), ct);
+        }
+    for (uint32_t v = 0; v < nv; v++)
+        memcpy(out[vrec[v]].xyz, pos + 3 * (size_t)v, sizeof out->xyz);
+    en_free(pos);
+    en_free(ref);
+    return 0;
+}
+
+static int decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet_coord_type ct, int version,
+                        int axis, const epsnet_attr_layout *l, uint8_t *attr_out, epsnet_record *out, char *why,
+                        size_t why_len)
 {
     int width = coord_width(ct);
     uint32_t asz = l ? l->size : 0;
+    int predicted = version >= 2;
+    uint32_t *vrec = NULL;
+    uint64_t *tri = NULL;
+    if (predicted && (!(vrec = en_malloc(((size_t)b->nverts + 1) * sizeof *vrec)) ||
+                      !(tri = en_malloc(((size_t)b->ntris * 3 + 1) * sizeof *tri)))) {
+        en_free(vrec);
+        set_why(why, why_len, "out of memory");
+        return -1;
+    }
+    int rc = -1;
     raw_sections s;
     if (split_sections(raw, b, width, asz, &s, why, why_len))
-        return -1;
+        goto done;
     if (asz)
         decode_attrs(s.attrs, b->nverts, l, attr_out);
     const uint8_t *kp = s.kinds, *tp = s.tris, *fp = s.fins;
@@ -605,14 +778,14 @@ int en_smz_decode_block_attrs(const uint8_t *raw, const en_smz_block_header *b, 
         size_t used = get_varint(kp, s.coords, &run);
         if (!used || (run & 3) == 0) {
             set_why(why, why_len, "bad record-kind run");
-            return -1;
+            goto done;
         }
         kp += used;
         int kind = (int)(run & 3);
         uint64_t len = (run >> 2) + 1;
         if (len > b->records - rec) {
             set_why(why, why_len, "record-kind runs exceed the record count");
-            return -1;
+            goto done;
         }
         for (uint64_t i = 0; i < len; i++, rec++) {
             epsnet_record *r = out + rec;
@@ -621,7 +794,9 @@ int en_smz_decode_block_attrs(const uint8_t *raw, const en_smz_block_header *b, 
             if (kind == EPSNET_REC_VERTEX) {
                 if (vi == b->nverts)
                     goto counts;
-                for (int k = 0; k < 3; k++) {
+                if (predicted)
+                    vrec[vi] = rec;
+                for (int k = 0; k < 3 && !predicted; k++) {
                     const uint8_t *const *pl = plane[k];
                     uint64_t d = (uint64_t)pl[0][vi] | (uint64_t)pl[1][vi] << 8 | (uint64_t)pl[2][vi] << 16 |
                                  (uint64_t)pl[3][vi] << 24;
@@ -644,13 +819,15 @@ int en_smz_decode_block_attrs(const uint8_t *raw, const en_smz_block_header *b, 
                     size_t u = get_varint(tp, s.fins, &code);
                     if (!u) {
                         set_why(why, why_len, "triangle section ends early");
-                        return -1;
+                        goto done;
                     }
                     tp += u;
                     if (corner_decode(&recent, code, nv, &r->v[k])) {
                         set_why(why, why_len, "a triangle references a vertex that does not exist yet");
-                        return -1;
+                        goto done;
                     }
+                    if (predicted)
+                        tri[3 * nt + (uint64_t)k] = r->v[k];
                 }
                 nt++;
             } else {
@@ -658,12 +835,12 @@ int en_smz_decode_block_attrs(const uint8_t *raw, const en_smz_block_header *b, 
                 size_t u = get_varint(fp, s.end, &d);
                 if (!u || nf == b->nfinal) {
                     set_why(why, why_len, "finalization section ends early");
-                    return -1;
+                    goto done;
                 }
                 fp += u;
                 if (d >= nv) {
                     set_why(why, why_len, "a finalization names a vertex that does not exist yet");
-                    return -1;
+                    goto done;
                 }
                 r->v[0] = nv - 1 - d;
                 r->v[1] = r->v[2] = 0;
@@ -675,12 +852,16 @@ int en_smz_decode_block_attrs(const uint8_t *raw, const en_smz_block_header *b, 
         goto counts;
     if (kp != s.coords || tp != s.fins || fp != s.end) {
         set_why(why, why_len, "payload has unused bytes");
-        return -1;
+        goto done;
     }
-    return 0;
+    rc = predicted ? decode_predicted(&s, b, ct, axis, vrec, tri, out, why, why_len) : 0;
+    goto done;
 counts:
     set_why(why, why_len, "record kinds disagree with the block's counts");
-    return -1;
+done:
+    en_free(vrec);
+    en_free(tri);
+    return rc;
 }
 
 /* ---- encoder ---- */
@@ -697,6 +878,11 @@ static int buf_reserve(byte_buf *b, size_t more)
 
 struct en_smz_encoder {
     epsnet_coord_type ct;
+    int version;             /* 2: predicted coordinates (and attributes) */
+    int axis;                /* stream axis, -1 none */
+    uint64_t first_vertex;   /* of the block: vertices before its first record */
+    uint64_t *tri;           /* the block's triangles, 3 global corners each */
+    size_t tri_cap;          /* in triangles */
     epsnet_attr_layout attrs;
     uint8_t *abytes;         /* attrs.size per vertex, bits_cap vertices */
     byte_buf kinds, tris, fins;
@@ -710,19 +896,20 @@ struct en_smz_encoder {
 
 en_smz_encoder *en_smz_encoder_new(epsnet_coord_type ct)
 {
+    return en_smz_encoder_new_v2(ct, NULL, -1);
+}
+
+en_smz_encoder *en_smz_encoder_new_v2(epsnet_coord_type ct, const epsnet_attr_layout *l, int axis)
+{
     en_smz_encoder *e = en_calloc(1, sizeof *e);
     if (e) {
         e->ct = ct;
+        e->version = 2;
+        e->axis = axis >= 0 && axis < 3 ? axis : -1;
+        if (l)
+            e->attrs = *l;
         recent_reset(&e->recent);
     }
-    return e;
-}
-
-en_smz_encoder *en_smz_encoder_new_attrs(epsnet_coord_type ct, const epsnet_attr_layout *l)
-{
-    en_smz_encoder *e = en_smz_encoder_new(ct);
-    if (e && l)
-        e->attrs = *l;
     return e;
 }
 
@@ -736,6 +923,7 @@ void en_smz_encoder_free(en_smz_encoder **pe)
     en_free(e->fins.p);
     en_free(e->bits);
     en_free(e->abytes);
+    en_free(e->tri);
     en_free(e);
     *pe = NULL;
 }
@@ -754,6 +942,8 @@ static int close_run(en_smz_encoder *e)
 int en_smz_encoder_add(en_smz_encoder *e, const epsnet_record *rec, uint64_t nverts_before)
 {
     int kind = (int)rec->kind;
+    if (en_smz_encoder_records(e) == 0)
+        e->first_vertex = nverts_before;
     if (kind != e->run_kind && close_run(e))
         return -1;
     if (kind == EPSNET_REC_VERTEX) {
@@ -784,6 +974,9 @@ int en_smz_encoder_add(en_smz_encoder *e, const epsnet_record *rec, uint64_t nve
         for (int k = 0; k < 3; k++)
             n += put_varint(p + n, corner_code(&e->recent, rec->v[k], nverts_before));
         e->tris.len += n;
+        if (e->ntris == e->tri_cap && en_grow((void **)&e->tri, &e->tri_cap, (size_t)e->ntris + 1, 3 * sizeof *e->tri))
+            return -1;
+        memcpy(e->tri + 3 * (size_t)e->ntris, rec->v, 3 * sizeof *e->tri);
         e->ntris++;
     } else {
         if (buf_reserve(&e->fins, 10))
@@ -830,14 +1023,37 @@ int en_smz_encoder_flush(en_smz_encoder *e, void *cctx, uint8_t **out, size_t *o
      * split into byte planes: along the stream axis the differences are
      * small, so their high planes are nearly all zero and zstd packs them
      * to almost nothing (docs/smz.md "Coordinates"). */
-    for (int k = 0; k < 3; k++) {
-        uint64_t prev = 0;
-        for (uint32_t i = 0; i < e->nverts; i++) {
-            uint64_t cur = e->bits[3 * (size_t)i + (size_t)k];
-            uint64_t d = cur - prev;
-            prev = cur;
-            for (int j = 0; j < width; j++)
-                p[((size_t)k * (size_t)width + (size_t)j) * e->nverts + i] = (uint8_t)(d >> (8 * j));
+    if (e->version >= 2) {
+        /* version 2: residuals against the predictions (predict_coord) */
+        double *pos = en_malloc(((size_t)e->nverts * 3 + 1) * sizeof *pos);
+        pred_ref *ref = en_malloc(((size_t)e->nverts + 1) * sizeof *ref);
+        if (!pos || !ref || predict_refs(e->tri, e->ntris, e->first_vertex, e->nverts, ref)) {
+            en_free(pos);
+            en_free(ref);
+            en_free(raw);
+            return -1;
+        }
+        for (size_t i = 0; i < (size_t)e->nverts * 3; i++)
+            pos[i] = bits_coord(e->bits[i], e->ct);
+        for (uint32_t i = 0; i < e->nverts; i++)
+            for (int k = 0; k < 3; k++) {
+                uint64_t pred = coord_bits(predict_coord(pos, ref, i, k, e->axis), e->ct);
+                uint64_t z = residual(e->bits[3 * (size_t)i + (size_t)k], pred, width);
+                for (int j = 0; j < width; j++)
+                    p[((size_t)k * (size_t)width + (size_t)j) * e->nverts + i] = (uint8_t)(z >> (8 * j));
+            }
+        en_free(pos);
+        en_free(ref);
+    } else {
+        for (int k = 0; k < 3; k++) {
+            uint64_t prev = 0;
+            for (uint32_t i = 0; i < e->nverts; i++) {
+                uint64_t cur = e->bits[3 * (size_t)i + (size_t)k];
+                uint64_t d = cur - prev;
+                prev = cur;
+                for (int j = 0; j < width; j++)
+                    p[((size_t)k * (size_t)width + (size_t)j) * e->nverts + i] = (uint8_t)(d >> (8 * j));
+            }
         }
     }
     p += cb;

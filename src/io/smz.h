@@ -123,20 +123,22 @@ int en_smz_unpack(void *dctx, const uint8_t *payload, const en_smz_block_header 
  */
 int en_smz_decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet_coord_type ct,
                         epsnet_record *out, char *why, size_t why_len);
-/* The same for a version 2 stream with attributes l (NULL or count 0:
- * none): each vertex record's attr points into attr_out, which holds
- * b->nverts * l->size bytes. */
-int en_smz_decode_block_attrs(const uint8_t *raw, const en_smz_block_header *b, epsnet_coord_type ct,
-                              const epsnet_attr_layout *l, uint8_t *attr_out, epsnet_record *out, char *why,
-                              size_t why_len);
+/* en_smz_decode_block() decodes version 1 payloads only; this one any
+ * version, by the file's header h (version, axis, attributes): each vertex
+ * record's attr points into attr_out, which holds b->nverts *
+ * h->attrs.size bytes (NULL when there are none). */
+int en_smz_decode_block_h(const uint8_t *raw, const en_smz_block_header *b, const en_smz_header *h,
+                          uint8_t *attr_out, epsnet_record *out, char *why, size_t why_len);
 
 /* ---- encoder ---- */
 
 typedef struct en_smz_encoder en_smz_encoder;
 
+/* A version 2 encoder: coordinates predicted, the axis coordinate from
+ * the previous vertex (axis -1: none), vertex attributes l (copied; NULL:
+ * none). en_smz_encoder_new(ct) is en_smz_encoder_new_v2(ct, NULL, -1). */
 en_smz_encoder *en_smz_encoder_new(epsnet_coord_type ct);
-/* An encoder whose vertex records carry attributes l (copied). */
-en_smz_encoder *en_smz_encoder_new_attrs(epsnet_coord_type ct, const epsnet_attr_layout *l);
+en_smz_encoder *en_smz_encoder_new_v2(epsnet_coord_type ct, const epsnet_attr_layout *l, int axis);
 void en_smz_encoder_free(en_smz_encoder **e);
 /* Append one record; nverts_before is the global vertex count before it.
  * @return 0, or -1 out of memory. */
