@@ -518,16 +518,25 @@ int en_smz_unpack(void *dctx, const uint8_t *payload, const en_smz_block_header 
  * (it needs no coordinate), so a decoder knows every prediction before it
  * reads a coordinate. */
 
+/* Up to PRED_MAX parallelograms per vertex: averaging the predictions of
+ * several of its triangles beats any one of them (Cohen-Or, Cohen & Irony's
+ * multi-way prediction). */
+#define PRED_MAX 4
+
 typedef struct pred_ref {
-    int64_t a, b, c;            /* block-local vertices, -1 none */
+    int32_t a, b;               /* first triangle's other corners (block-local), -1 none */
+    int32_t n;                  /* parallelograms below */
+    int32_t p[PRED_MAX][3];     /* a, b, c of each: predicts a + b - c */
 } pred_ref;
 
 /* refs of the block's nverts vertices from its triangles (global corners,
  * in stream order). @return 0 or -1 out of memory. */
 static int predict_refs(const uint64_t *tri, size_t ntris, uint64_t first, uint32_t nverts, pred_ref *ref)
 {
-    for (uint32_t v = 0; v < nverts; v++)
-        ref[v] = (pred_ref){ -1, -1, -1 };
+    for (uint32_t v = 0; v < nverts; v++) {
+        ref[v].a = ref[v].b = -1;
+        ref[v].n = 0;
+    }
     size_t cap = 16;
     while (cap < 6 * ntris + 16)
         cap *= 2;
@@ -552,14 +561,21 @@ static int predict_refs(const uint64_t *tri, size_t ntris, uint64_t first, uint3
             continue;
         int m = l[0] > l[1] ? (l[0] > l[2] ? 0 : 2) : (l[1] > l[2] ? 1 : 2);
         int64_t v = l[m], a = l[(m + 1) % 3], b = l[(m + 2) % 3];
-        if (ref[v].a < 0) {
-            ref[v].a = a;
-            ref[v].b = b;
+        pred_ref *r = &ref[v];
+        if (r->a < 0) {
+            r->a = (int32_t)a;
+            r->b = (int32_t)b;
+        }
+        if (r->n < PRED_MAX) {
             uint64_t k = (uint64_t)(a < b ? a : b) << 32 | (uint64_t)(a < b ? b : a);
             for (size_t i = en_hash_slot(k, cap - 1); key[i] != UINT64_MAX; i = (i + 1) & (cap - 1))
                 if (key[i] == k) {
-                    if (val[i] < v)
-                        ref[v].c = val[i];
+                    if (val[i] < v) {
+                        r->p[r->n][0] = (int32_t)a;
+                        r->p[r->n][1] = (int32_t)b;
+                        r->p[r->n][2] = (int32_t)val[i];
+                        r->n++;
+                    }
                     break;
                 }
         }
@@ -598,12 +614,15 @@ static uint64_t unord_bits(uint64_t m, int w)
 static double predict_coord(const double *pos, const pred_ref *ref, uint32_t v, int k, int axis)
 {
     const pred_ref *r = &ref[v];
-    if (k != axis && r->a >= 0) {
-        double a = pos[3 * r->a + k], b = pos[3 * r->b + k];
-        if (r->c >= 0)
-            return a + b - pos[3 * r->c + k];
-        return (a + b) * 0.5;
+    if (k != axis && r->n > 0) {
+        double sum = 0;
+        for (int i = 0; i < r->n; i++)
+            sum += pos[3 * (size_t)r->p[i][0] + (size_t)k] + pos[3 * (size_t)r->p[i][1] + (size_t)k] -
+                   pos[3 * (size_t)r->p[i][2] + (size_t)k];
+        return sum / r->n;
     }
+    if (k != axis && r->a >= 0)
+        return (pos[3 * (size_t)r->a + (size_t)k] + pos[3 * (size_t)r->b + (size_t)k]) * 0.5;
     return v ? pos[3 * (size_t)(v - 1) + (size_t)k] : 0.0;
 }
 
@@ -622,6 +641,35 @@ static uint64_t unresidual(uint64_t z, uint64_t pred, int w)
     uint64_t mask = w == 8 ? UINT64_MAX : ((uint64_t)1 << (8 * w)) - 1;
     uint64_t r = ((z >> 1) ^ ((z & 1) ? mask : 0)) & mask;
     return unord_bits((ord_bits(pred, w) + r) & mask, w);
+}
+
+/* Version 2 attributes: each value is predicted by the same attribute of
+ * the vertex's first neighbour in the block (ref a), else of the previous
+ * vertex; float values are compared in value order (ord_bits), integers as
+ * they are. */
+static int64_t attr_ref(const pred_ref *ref, uint32_t v)
+{
+    return ref[v].a >= 0 ? ref[v].a : (int64_t)v - 1;
+}
+
+static uint64_t attr_residual(uint64_t cur, uint64_t pred, size_t w, int is_float)
+{
+    uint64_t mask = w == 8 ? UINT64_MAX : ((uint64_t)1 << (8 * w)) - 1;
+    uint64_t r = is_float ? (ord_bits(cur, (int)w) - ord_bits(pred, (int)w)) & mask : (cur - pred) & mask;
+    uint64_t neg = (r >> (8 * w - 1)) & 1;
+    return ((r << 1) ^ (neg ? mask : 0)) & mask;
+}
+
+static uint64_t attr_unresidual(uint64_t z, uint64_t pred, size_t w, int is_float)
+{
+    uint64_t mask = w == 8 ? UINT64_MAX : ((uint64_t)1 << (8 * w)) - 1;
+    uint64_t r = ((z >> 1) ^ ((z & 1) ? mask : 0)) & mask;
+    return is_float ? unord_bits((ord_bits(pred, (int)w) + r) & mask, (int)w) : (pred + r) & mask;
+}
+
+static int attr_is_float(epsnet_attr_type t)
+{
+    return t == EPSNET_ATTR_FLOAT32 || t == EPSNET_ATTR_FLOAT64;
 }
 
 /* Section layout of a raw payload, checked against the block header. */
@@ -676,19 +724,20 @@ static void attr_store(uint8_t *p, size_t w, uint64_t u)
 
 /* The attribute section into attr_out (nverts * l->size bytes): per
  * attribute, the byte planes of the differences of its values. */
-static void decode_attrs(const uint8_t *sec, uint32_t nverts, const epsnet_attr_layout *l, uint8_t *attr_out)
+static void decode_attrs(const uint8_t *sec, uint32_t nverts, const epsnet_attr_layout *l, const pred_ref *ref,
+                         uint8_t *attr_out)
 {
     const uint8_t *p = sec;
     for (uint32_t a = 0; a < l->count; a++) {
-        size_t w = epsnet_attr_type_size(l->attr[a].type);
-        uint64_t prev = 0;
-        uint64_t mask = w == 8 ? UINT64_MAX : ((uint64_t)1 << (8 * w)) - 1;
+        size_t w = epsnet_attr_type_size(l->attr[a].type), off = l->attr[a].offset;
+        int fl = attr_is_float(l->attr[a].type);
         for (uint32_t i = 0; i < nverts; i++) {
-            uint64_t d = 0;
+            uint64_t z = 0;
             for (size_t j = 0; j < w; j++)
-                d |= (uint64_t)p[j * nverts + i] << (8 * j);
-            prev = (prev + d) & mask;
-            attr_store(attr_out + (size_t)i * l->size + l->attr[a].offset, w, prev);
+                z |= (uint64_t)p[j * nverts + i] << (8 * j);
+            int64_t q = attr_ref(ref, i);
+            uint64_t pred = q >= 0 ? attr_load(attr_out + (size_t)q * l->size + off, w) : 0;
+            attr_store(attr_out + (size_t)i * l->size + off, w, attr_unresidual(z, pred, w, fl));
         }
         p += w * nverts;
     }
@@ -713,8 +762,8 @@ int en_smz_decode_block_h(const uint8_t *raw, const en_smz_block_header *b, cons
 /* Version 2: the coordinates of the block's vertices from their residuals
  * against the predictions (the triangles are decoded by now). */
 static int decode_predicted(const raw_sections *s, const en_smz_block_header *b, epsnet_coord_type ct, int axis,
-                            const uint32_t *vrec, const uint64_t *tri, epsnet_record *out, char *why,
-                            size_t why_len)
+                            const epsnet_attr_layout *l, uint8_t *attr_out, const uint32_t *vrec,
+                            const uint64_t *tri, epsnet_record *out, char *why, size_t why_len)
 {
     int w = coord_width(ct);
     uint32_t nv = b->nverts;
@@ -737,6 +786,8 @@ static int decode_predicted(const raw_sections *s, const en_smz_block_header *b,
         }
     for (uint32_t v = 0; v < nv; v++)
         memcpy(out[vrec[v]].xyz, pos + 3 * (size_t)v, sizeof out->xyz);
+    if (l && l->size)
+        decode_attrs(s->attrs, nv, l, ref, attr_out);
     en_free(pos);
     en_free(ref);
     return 0;
@@ -761,8 +812,6 @@ static int decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet
     raw_sections s;
     if (split_sections(raw, b, width, asz, &s, why, why_len))
         goto done;
-    if (asz)
-        decode_attrs(s.attrs, b->nverts, l, attr_out);
     const uint8_t *kp = s.kinds, *tp = s.tris, *fp = s.fins;
     const uint8_t *plane[3][8];
     for (int k = 0; k < 3; k++)
@@ -854,7 +903,7 @@ static int decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet
         set_why(why, why_len, "payload has unused bytes");
         goto done;
     }
-    rc = predicted ? decode_predicted(&s, b, ct, axis, vrec, tri, out, why, why_len) : 0;
+    rc = predicted ? decode_predicted(&s, b, ct, axis, l, attr_out, vrec, tri, out, why, why_len) : 0;
     goto done;
 counts:
     set_why(why, why_len, "record kinds disagree with the block's counts");
@@ -1023,10 +1072,11 @@ int en_smz_encoder_flush(en_smz_encoder *e, void *cctx, uint8_t **out, size_t *o
      * split into byte planes: along the stream axis the differences are
      * small, so their high planes are nearly all zero and zstd packs them
      * to almost nothing (docs/smz.md "Coordinates"). */
+    pred_ref *ref = NULL;
     if (e->version >= 2) {
         /* version 2: residuals against the predictions (predict_coord) */
         double *pos = en_malloc(((size_t)e->nverts * 3 + 1) * sizeof *pos);
-        pred_ref *ref = en_malloc(((size_t)e->nverts + 1) * sizeof *ref);
+        ref = en_malloc(((size_t)e->nverts + 1) * sizeof *ref);
         if (!pos || !ref || predict_refs(e->tri, e->ntris, e->first_vertex, e->nverts, ref)) {
             en_free(pos);
             en_free(ref);
@@ -1043,7 +1093,6 @@ int en_smz_encoder_flush(en_smz_encoder *e, void *cctx, uint8_t **out, size_t *o
                     p[((size_t)k * (size_t)width + (size_t)j) * e->nverts + i] = (uint8_t)(z >> (8 * j));
             }
         en_free(pos);
-        en_free(ref);
     } else {
         for (int k = 0; k < 3; k++) {
             uint64_t prev = 0;
@@ -1057,21 +1106,25 @@ int en_smz_encoder_flush(en_smz_encoder *e, void *cctx, uint8_t **out, size_t *o
         }
     }
     p += cb;
-    /* note: attributes the same way, one attribute at a time: neighbours
-     * in the stream tend to share colours and normals, so differences of
-     * their bits are mostly small (docs/smz.md "Attributes"). */
-    for (uint32_t a = 0; a < e->attrs.count; a++) {
-        size_t w = epsnet_attr_type_size(e->attrs.attr[a].type);
-        uint64_t prev = 0;
+    /* note: attributes one at a time, each value against the same
+     * attribute of a neighbour (attr_ref): neighbours on the surface tend
+     * to share colours, normals and confidence, so most residuals are
+     * small (docs/smz.md "Attributes"). Attributes exist in version 2
+     * only, so ref is set whenever there are some. */
+    for (uint32_t a = 0; a < e->attrs.count && ref; a++) {
+        size_t w = epsnet_attr_type_size(e->attrs.attr[a].type), off = e->attrs.attr[a].offset;
+        int fl = attr_is_float(e->attrs.attr[a].type);
         for (uint32_t i = 0; i < e->nverts; i++) {
-            uint64_t cur = attr_load(e->abytes + (size_t)i * e->attrs.size + e->attrs.attr[a].offset, w);
-            uint64_t d = cur - prev;
-            prev = cur;
+            uint64_t cur = attr_load(e->abytes + (size_t)i * e->attrs.size + off, w);
+            int64_t q = attr_ref(ref, i);
+            uint64_t pred = q >= 0 ? attr_load(e->abytes + (size_t)q * e->attrs.size + off, w) : 0;
+            uint64_t z = attr_residual(cur, pred, w, fl);
             for (size_t j = 0; j < w; j++)
-                p[j * e->nverts + i] = (uint8_t)(d >> (8 * j));
+                p[j * e->nverts + i] = (uint8_t)(z >> (8 * j));
         }
         p += w * e->nverts;
     }
+    en_free(ref);
     if (e->tris.len)
         memcpy(p, e->tris.p, e->tris.len);
     p += e->tris.len;
