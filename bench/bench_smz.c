@@ -62,7 +62,7 @@ static void *decode_blocks(void *arg)
         en_smz_block_header bh;
         if (en_smz_block_header_decode(j->file + e->offset, &bh, why, sizeof why) ||
             en_smz_unpack(dctx, j->file + e->offset + EN_SMZ_BLOCK_HEADER_BYTES, &bh, raw, why, sizeof why) ||
-            en_smz_decode_block(raw, &bh, j->idx->header.coord_type, recs, why, sizeof why)) {
+            en_smz_decode_block_h(raw, &bh, &j->idx->header, NULL, recs, why, sizeof why)) {
             fprintf(stderr, "block %llu: %s\n", (unsigned long long)b, why);
             j->failed = 1;
             break;

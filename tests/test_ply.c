@@ -294,12 +294,114 @@ static const char *dropped_of(const char *path, uint64_t *n, char *buf, size_t c
     return buf;
 }
 
+/* Every vertex scalar beyond x, y, z comes with its vertex, with its name
+ * and type, bit for bit, in every encoding (epsnet.h §2). */
+TEST(vertex_properties_are_carried_as_attributes)
+{
+    static const char *names[] = { "confidence", "red", "green", "blue", "nx", "ny", "nz", "intensity" };
+    static const epsnet_attr_type types[] = { EPSNET_ATTR_FLOAT64, EPSNET_ATTR_UINT8, EPSNET_ATTR_UINT8,
+                                              EPSNET_ATTR_UINT8, EPSNET_ATTR_FLOAT32, EPSNET_ATTR_FLOAT32,
+                                              EPSNET_ATTR_FLOAT32, EPSNET_ATTR_INT16 };
+    for (int enc = ASCII; enc <= BE; enc++) {
+        layout l = { 1, "uchar", "int" };
+        bytes b = make_ply(enc, &l);
+        const char *p = write_bytes("attrs.ply", &b);
+        epsnet_reader *r = NULL;
+        epsnet_error err;
+        CHECK_EQ_INT(epsnet_reader_open(&r, p, NULL, &err), 0);
+        if (!r)
+            continue;
+        const epsnet_attr_layout *al = &epsnet_reader_info(r)->vertex_attrs;
+        CHECK_EQ_U64(al->count, 8);
+        CHECK_EQ_U64(al->size, 8 + 3 + 12 + 2);
+        for (uint32_t i = 0; i < al->count && i < 8; i++) {
+            CHECK(strcmp(al->attr[i].name, names[i]) == 0);
+            CHECK_EQ_INT(al->attr[i].type, types[i]);
+        }
+        epsnet_record rec;
+        uint64_t nv = 0;
+        while (epsnet_reader_next(r, &rec, &err) == 1) {
+            if (rec.kind != EPSNET_REC_VERTEX) {
+                CHECK(rec.attr == NULL);
+                continue;
+            }
+            nv++;
+            CHECK(rec.attr != NULL);
+            if (!rec.attr)
+                break;
+            double conf;
+            float nz;
+            int16_t inten;
+            memcpy(&conf, rec.attr + al->attr[0].offset, 8);
+            memcpy(&nz, rec.attr + al->attr[6].offset, 4);
+            memcpy(&inten, rec.attr + al->attr[7].offset, 2);
+            CHECK(conf == 0.25);
+            CHECK(nz == 1.0f);
+            CHECK_EQ_INT(inten, -12);
+            CHECK_EQ_INT(rec.attr[al->attr[1].offset], 255);
+            CHECK_EQ_INT(rec.attr[al->attr[2].offset], 128);
+            CHECK_EQ_INT(rec.attr[al->attr[3].offset], 0);
+        }
+        CHECK_EQ_U64(nv, NV);
+        epsnet_reader_close(&r);
+    }
+}
+
+/* More vertex properties than a record carries, or a name no layout takes:
+ * the first EPSNET_ATTR_MAX are carried, the rest named as dropped; never
+ * an error, never a crash. */
+TEST(attributes_past_the_limit_are_named_as_dropped)
+{
+    char text[16384];
+    size_t n = (size_t)snprintf(text, sizeof text, "ply\nformat ascii 1.0\nelement vertex 2\n"
+                                                   "property float x\nproperty float y\nproperty float z\n");
+    for (int i = 0; i < EPSNET_ATTR_MAX + 3; i++)
+        n += (size_t)snprintf(text + n, sizeof text - n, "property uchar a%d\n", i);
+    n += (size_t)snprintf(text + n, sizeof text - n, "property short %s\nproperty list uchar int tags\n",
+                          "a_name_far_longer_than_the_forty_seven_bytes_a_layout_takes");
+    n += (size_t)snprintf(text + n, sizeof text - n,
+                          "element face 1\nproperty list uchar int vertex_indices\nend_header\n");
+    for (int v = 0; v < 2; v++) {
+        n += (size_t)snprintf(text + n, sizeof text - n, "%d 0 0", v);
+        for (int i = 0; i < EPSNET_ATTR_MAX + 3; i++)
+            n += (size_t)snprintf(text + n, sizeof text - n, " %d", (i + v) % 256);
+        n += (size_t)snprintf(text + n, sizeof text - n, " -7 2 1 2\n");
+    }
+    snprintf(text + n, sizeof text - n, "3 0 1 1\n");
+    bytes b = { 0 };
+    b_str(&b, text);
+    const char *p = write_bytes("many_attrs.ply", &b);
+    epsnet_reader *r = NULL;
+    epsnet_error err;
+    CHECK_EQ_INT(epsnet_reader_open(&r, p, NULL, &err), 0);
+    if (!r)
+        return;
+    const epsnet_attr_layout *l = &epsnet_reader_info(r)->vertex_attrs;
+    CHECK_EQ_U64(l->count, EPSNET_ATTR_MAX);
+    CHECK_EQ_U64(l->size, EPSNET_ATTR_MAX);
+    epsnet_record rec;
+    uint64_t nv = 0;
+    while (epsnet_reader_next(r, &rec, &err) == 1)
+        if (rec.kind == EPSNET_REC_VERTEX) {
+            for (uint32_t i = 0; i < l->count; i++)
+                CHECK_EQ_INT(rec.attr[i], (int)((i + nv) % 256));
+            nv++;
+        }
+    CHECK_EQ_U64(nv, 2);
+    uint64_t nd = 0;
+    const char *what = epsnet_reader_dropped(r, &nd);
+    CHECK(what && strstr(what, "vertex property a32, vertex property a33, vertex property a34, vertex property "
+                               "a_name_far_longer") != NULL);
+    CHECK(what && strstr(what, "vertex property tags") != NULL);
+    CHECK_EQ_U64(nd, 5);
+    epsnet_reader_close(&r);
+}
+
 TEST(unused_elements_and_properties_are_named_as_dropped)
 {
+    /* vertex scalars are carried as attributes (epsnet.h §2), not dropped */
     static const char *want =
-        "element camera (1), vertex property confidence, vertex property red, vertex property green, "
-        "vertex property blue, vertex property nx, vertex property ny, vertex property nz, "
-        "vertex property intensity, element edge (2), face property flags, face property texcoord, "
+        "element camera (1), element edge (2), face property flags, face property texcoord, "
         "element material (1)";
     for (int enc = ASCII; enc <= BE; enc++) {
         layout l = { 1, "uchar", "int" };
@@ -309,7 +411,7 @@ TEST(unused_elements_and_properties_are_named_as_dropped)
         uint64_t n;
         const char *what = dropped_of(p, &n, buf, sizeof buf);
         CHECK(strcmp(what, want) == 0);
-        CHECK_EQ_U64(n, 13);
+        CHECK_EQ_U64(n, 5);
         if (strcmp(what, want) != 0)
             fprintf(stderr, "  got: %s\n", what);
         l.with_extras = 0;
@@ -1111,6 +1213,8 @@ int main(void)
 {
     RUN(ascii_le_and_be_give_the_reference_records);
     RUN(extra_properties_and_elements_are_skipped);
+    RUN(vertex_properties_are_carried_as_attributes);
+    RUN(attributes_past_the_limit_are_named_as_dropped);
     RUN(unused_elements_and_properties_are_named_as_dropped);
     RUN(every_list_type_pair_reads_the_same_faces);
     RUN(double_coordinates_set_float64_and_stay_exact);

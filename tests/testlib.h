@@ -233,10 +233,12 @@ static inline int tl_write_mesh(const char *path, const tl_mesh *m,
     epsnet_mesh_info info = m->info;
     info.nverts = m->nv;
     info.nfaces = m->nt;
+    /* a tl_mesh holds positions only */
+    memset(&info.vertex_attrs, 0, sizeof info.vertex_attrs);
     int rc = epsnet_writer_open(&w, path, ws, &info, err);
     if (rc)
         return rc;
-    epsnet_record rec;
+    epsnet_record rec = { 0 };
     for (uint64_t i = 0; i < m->nv && rc == 0; i++) {
         rec.kind = EPSNET_REC_VERTEX;
         memcpy(rec.xyz, m->xyz + 3 * i, sizeof rec.xyz);

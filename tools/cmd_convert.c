@@ -69,18 +69,33 @@ int cmd_convert(int argc, char **argv)
         if ((++n & 0xffff) == 0)
             cli_progress_update(&p, epsnet_reader_bytes_read(r), epsnet_reader_file_size(r), n);
     }
+    /* the writer's text goes with the writer: keep a copy past the commit */
+    char *wdropped = NULL;
+    if (w && epsnet_writer_dropped(w, NULL)) {
+        const char *t = epsnet_writer_dropped(w, NULL);
+        if ((wdropped = malloc(strlen(t) + 1)))
+            memcpy(wdropped, t, strlen(t) + 1);
+    }
     if (rc == 0)
         rc = epsnet_writer_commit(&w, &err);
     cli_progress_end(&p);
+    /* One line for everything lost: what the reader did not carry, then
+     * the attributes the output format cannot hold (docs/architecture.md §5). */
     const char *dropped = rc == 0 ? epsnet_reader_dropped(r, NULL) : NULL;
-    if (dropped) {
-        size_t cap = strlen(in) + strlen(dropped) + 16;
+    const char *unheld = rc == 0 ? wdropped : NULL;
+    if (dropped || unheld) {
+        size_t cap = strlen(in) + strlen(out) + (dropped ? strlen(dropped) : 0) + (unheld ? strlen(unheld) : 0) + 64;
         char *msg = malloc(cap);
-        if (msg)
-            snprintf(msg, cap, "%s: dropped: %s", in, dropped);
-        cli_warning(NULL, msg ? msg : dropped);
+        if (msg) {
+            int len = snprintf(msg, cap, "%s: dropped: %s", in, dropped ? dropped : "");
+            if (unheld && len > 0 && (size_t)len < cap)
+                snprintf(msg + len, cap - (size_t)len, "%s%s (%s cannot hold them)", dropped ? ", " : "", unheld,
+                         out);
+        }
+        cli_warning(NULL, msg ? msg : dropped ? dropped : unheld);
         free(msg);
     }
+    free(wdropped);
     epsnet_writer_abort(&w);
     epsnet_reader_close(&r);
     return rc < 0 ? cli_fail(&err) : EXIT_OK;

@@ -119,6 +119,14 @@ done:
     printf("\ntriangles:   %" PRIu64 "\n", nt);
     if (degenerate)
         printf("degenerate:  %" PRIu64 " triangles repeat a corner\n", degenerate);
+    const epsnet_attr_layout *al = &hi->vertex_attrs;
+    if (al->count) {
+        printf("attributes: ");
+        for (uint32_t i = 0; i < al->count; i++)
+            printf(" %s %s%s", epsnet_attr_type_name(al->attr[i].type), al->attr[i].name,
+                   i + 1 < al->count ? "," : "");
+        printf(" (%u bytes per vertex)\n", al->size);
+    }
     /* docs/architecture.md §5: what the records do not carry, which every other command drops */
     const char *dropped = epsnet_reader_dropped(r, NULL);
     if (dropped)

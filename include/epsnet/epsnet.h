@@ -128,10 +128,76 @@ typedef enum epsnet_record_kind {
     EPSNET_REC_FINALIZE = 3, /* v[0]: no later triangle references this vertex */
 } epsnet_record_kind;
 
+/*
+ * Per-vertex attributes (colours, normals, texture coordinates, confidence,
+ * any scalar a file gives each vertex). A stream announces them once, as an
+ * epsnet_attr_layout in its epsnet_mesh_info (vertex_attrs); every vertex
+ * record then points at its own packed bytes (epsnet_record.attr).
+ *
+ * The packed bytes of a vertex: every attribute of the layout, in layout
+ * order, at its offset, with no padding; each value in the host's byte order
+ * and unaligned (read it with memcpy). Values are copied bit for bit from
+ * the file and written back bit for bit: nothing is converted, rounded or
+ * renamed on the way (a PLY uchar red stays a uchar red).
+ *
+ * Names are the file's: PLY property names as they are ("red", "nx",
+ * "texture_u", "quality", ...); OBJ vertex colours are "red", "green",
+ * "blue" (float32). Zero attributes (count 0) is the stream of earlier
+ * versions: rec.attr is then NULL and nothing else changes.
+ */
+typedef enum epsnet_attr_type {
+    EPSNET_ATTR_INT8 = 1,
+    EPSNET_ATTR_UINT8 = 2,
+    EPSNET_ATTR_INT16 = 3,
+    EPSNET_ATTR_UINT16 = 4,
+    EPSNET_ATTR_INT32 = 5,
+    EPSNET_ATTR_UINT32 = 6,
+    EPSNET_ATTR_FLOAT32 = 7,
+    EPSNET_ATTR_FLOAT64 = 8,
+} epsnet_attr_type;
+
+/* Most attributes a stream carries; a file with more keeps the first ones
+ * and names the rest as dropped (epsnet_reader_dropped()). */
+#define EPSNET_ATTR_MAX 32
+/* Longest attribute name, with its terminating NUL. */
+#define EPSNET_ATTR_NAME_MAX 48
+
+typedef struct epsnet_attr {
+    char name[EPSNET_ATTR_NAME_MAX]; /* NUL-terminated, non-empty, no white space */
+    epsnet_attr_type type;
+    uint32_t offset;                 /* byte offset in the vertex's packed bytes */
+} epsnet_attr;
+
+typedef struct epsnet_attr_layout {
+    uint32_t count;                  /* attributes, 0 .. EPSNET_ATTR_MAX */
+    uint32_t size;                   /* packed bytes per vertex: the sum of the types' sizes */
+    epsnet_attr attr[EPSNET_ATTR_MAX];
+} epsnet_attr_layout;
+
+/* Bytes of one value of type t (1, 2, 4 or 8), or 0 for an unknown type. */
+EPSNET_API size_t epsnet_attr_type_size(epsnet_attr_type t);
+/* The PLY name of t ("uchar", "float", ...), or NULL for an unknown type. */
+EPSNET_API const char *epsnet_attr_type_name(epsnet_attr_type t);
+/*
+ * Append an attribute to layout (offset = the current size). Start from a
+ * zeroed layout.
+ * @return 0, or EPSNET_EINVAL for a bad type or name (empty, too long, white
+ * space, a name already in the layout) and EPSNET_ELIMIT past
+ * EPSNET_ATTR_MAX.
+ */
+EPSNET_API int epsnet_attr_layout_add(epsnet_attr_layout *layout, const char *name, epsnet_attr_type type);
+/* Index of the attribute called name, or -1. */
+EPSNET_API int epsnet_attr_layout_find(const epsnet_attr_layout *layout, const char *name);
+
 typedef struct epsnet_record {
     epsnet_record_kind kind;
     uint64_t v[3];
     double xyz[3];
+    /* Vertex records of a stream with attributes: the vertex's packed bytes
+     * (vertex_attrs.size of them, see above). From a reader: valid until the
+     * next call on that reader. Into a writer: read during the put only.
+     * NULL for other records and for streams without attributes. */
+    const uint8_t *attr;
 } epsnet_record;
 
 typedef enum epsnet_coord_type {
@@ -153,6 +219,12 @@ typedef struct epsnet_mesh_info {
     epsnet_coord_type coord_type;
     int streaming;               /* 1 when the format carries finalization */
     int sorted_axis;             /* 0,1,2 when declared sorted along x,y,z; -1 otherwise */
+    /* Per-vertex attributes of every vertex record (see epsnet_attr_layout);
+     * all zero for none. A writer opened with a layout expects every vertex
+     * record to carry those bytes (rec.attr) and writes the attributes its
+     * format can hold (epsnet_writer_dropped() names the others). Zero the
+     * whole structure (memset) before filling it by hand. */
+    epsnet_attr_layout vertex_attrs;
 } epsnet_mesh_info;
 
 /* ------------------------------------------------------------------------
@@ -215,7 +287,9 @@ EPSNET_API uint64_t epsnet_reader_file_size(const epsnet_reader *r);
  * dropped without a word), as one line of text, e.g.
  *   "element camera (1), vertex property confidence, vertex property red"
  * PLY names every element and property it skips (an element with its record
- * count) and faces of fewer than 3 corners; OBJ every statement kind it
+ * count), vertex list properties, vertex properties past EPSNET_ATTR_MAX,
+ * and faces of fewer than 3 corners (scalar vertex properties are carried
+ * as attributes, epsnet_mesh_info.vertex_attrs); OBJ every statement kind it
  * skips, with how many it met ("usemtl (3), vt (120)"). Most of it is known
  * from the PLY header, the rest as the file is read: the text is complete
  * once epsnet_reader_next() has returned 0.
@@ -273,6 +347,8 @@ EPSNET_API int epsnet_writer_open(epsnet_writer **w, const char *path,
 
 /*
  * Append one record. Triangles must reference vertices already written.
+ * When info announced vertex attributes, every vertex record must carry its
+ * packed bytes in rec->attr (EPSNET_EINVAL when it is NULL).
  * @return 0, or a negative code with err filled (the writer must then be
  * aborted).
  */
@@ -285,6 +361,21 @@ EPSNET_API int epsnet_writer_put(epsnet_writer *w, const epsnet_record *rec,
  * the destination.
  */
 EPSNET_API int epsnet_writer_commit(epsnet_writer **w, epsnet_error *err);
+
+/*
+ * The vertex attributes announced at epsnet_writer_open() that the output
+ * format cannot hold and that the writer therefore leaves out, as one line
+ * in the style of epsnet_reader_dropped(): "vertex property red, vertex
+ * property green". PLY and .smz hold every attribute. OBJ holds vertex
+ * colours red, green, blue when all three are float32 (as its reader gives
+ * them; integer colours would need a conversion, which would not read back
+ * bit for bit, so they are left out and named); SMA, SMB, STL and OFF hold
+ * none. Known from the open.
+ * @return NULL when nothing is left out, else the text (owned by the
+ * writer, valid until it is committed or aborted). *count, when count is
+ * not NULL, receives the number of attributes named (0 with NULL).
+ */
+EPSNET_API const char *epsnet_writer_dropped(const epsnet_writer *w, uint64_t *count);
 
 /* Discard everything written and free the writer; sets *w to NULL.
  * Accepts NULL and *w == NULL. */
@@ -832,7 +923,10 @@ EPSNET_API int epsnet_hausdorff_write_json(const epsnet_hausdorff_result *r, con
  *   - triangles ordered by their last corner in that order, then by input
  *     order, each with its corners (and so its orientation) as in the input;
  *   - each vertex finalized right after the last triangle that uses it;
- *   - vertices that no triangle uses are dropped (and counted).
+ *   - vertices that no triangle uses are dropped (and counted);
+ *   - every vertex keeps its attributes, bit for bit, when the output
+ *     format holds them; those it cannot hold are named in the one
+ *     dropped warning (settings.warning) and counted in stats.dropped.
  * Input finalization records are ignored; a streaming input is still read
  * under the memory budget (a stream that never finalizes hits it: ELIMIT).
  * ------------------------------------------------------------------------ */
@@ -846,8 +940,8 @@ typedef struct epsnet_sort_settings {
      * below about 16M are honoured only approximately. The output's live
      * vertices (its width, about 64 bytes each) must fit in half of it, or
      * the sort fails with EPSNET_ELIMIT. When the whole mesh and the arrays
-     * that sort it (about 68 bytes per vertex and 36 per face) fit in half
-     * of it, it is sorted in memory with no temporary file at all; else,
+     * that sort it (about 68 bytes per vertex, plus twice the vertex's
+     * attribute bytes, and 36 per face) fit in half of it, it is sorted in memory with no temporary file at all; else,
      * when 8 bytes per input vertex fit in half of it, ranks are looked up
      * in memory instead of joined externally. The output is the same.
      * Default: 512M. */

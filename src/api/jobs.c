@@ -26,6 +26,9 @@ int en_job_load(epsnet_context *ctx, const char *in_path, en_slab *s, epsnet_coo
     double t0 = en_now();
     int rc = epsnet_reader_open(&r, in_path, &rs, err);
     if (rc == 0) {
+        /* note: the in-core jobs' outputs carry no attributes: named as
+         * dropped, never lost silently (docs/architecture.md §5) */
+        en_reader_keep_attrs(r, NULL);
         *ct = epsnet_reader_info(r)->coord_type;
         rc = en_slab_read_all(s, r, in_path, err);
     }

@@ -4,17 +4,23 @@
  * Reader: `v x y z [w | r g b [a]]` and `f` with corners `a`, `a/b`, `a/b/c`
  * or `a//c`; indices are 1-based, or negative and relative to the newest
  * vertex (-1 = newest). Polygons are fan-triangulated around their first
- * corner. Faces may come between vertices, as OBJ allows. Every other
- * statement (vt, vn, vp, o, g, s, usemtl, mtllib, l, p, unknown ones) is
- * skipped and named by epsnet_reader_dropped(), as are the w and colours of
- * `v`; the numbers of a `v` or `f` statement must all parse. A
- * trailing backslash continues a statement on the next line.
+ * corner. Faces may come between vertices, as OBJ allows. Vertex colours
+ * become the attributes red, green, blue (float32, epsnet.h §2) when the
+ * first `v` line of the file's first 64 KiB has them (OBJ has no header:
+ * the attributes must be known before the first record); a later `v`
+ * without colours then gets 0 0 0 and is counted as dropped ("vertex
+ * without colour"). Every other statement (vt, vn, vp, o, g, s, usemtl,
+ * mtllib, l, p, unknown ones) is skipped and named by
+ * epsnet_reader_dropped(), as are w, alpha, and colours in a file whose
+ * first `v` has none; the numbers of a `v` or `f` statement must all parse.
+ * A trailing backslash continues a statement on the next line.
  *
  * note: OBJ has no header, so info.coord_type is decided by looking ahead at
  * the `v` lines, by the rule of src/io/text_scan.h.
  *
  * Writer: `v` lines in the shortest exact text for the writer's coordinate
- * type and `f a b c` lines with 1-based absolute indices, in stream order
+ * type (with `r g b` when the stream has float32 red, green and blue, in
+ * the shortest text that reads back to the same bits) and `f a b c` lines with 1-based absolute indices, in stream order
  * (OBJ allows interleaving, so nothing is buffered). FINALIZE records have no
  * OBJ form and are dropped.
  */
@@ -37,6 +43,7 @@
 typedef struct obj_reader {
     char *joined;                    /* backslash-continued statement */
     size_t joined_cap;
+    int colours;                     /* the records carry red, green, blue */
 } obj_reader;
 
 /* ---- reader ---- */
@@ -87,12 +94,28 @@ static int next_statement(epsnet_reader *r, obj_reader *st, char **stmt)
     return 1;
 }
 
-static int parse_vertex(epsnet_reader *r, char *p)
+static int parse_vertex(epsnet_reader *r, obj_reader *st, char *p)
 {
     double val[OBJ_MAX_VERTEX_VALUES];
+    float rgb[3] = { 0, 0, 0 };
     int n = 0;
     for (;;) {
         double d;
+        /* note: a colour is read as a float directly (strtof), so the bits
+         * are those of the text, as a float32 PLY reader would give them */
+        if (st->colours && n >= 3 && n < 6) {
+            char *q = en_text_skip_blanks(p);
+            if (*q && *q != '#') {
+                char *e;
+                rgb[n - 3] = strtof(q, &e);
+                if (e != q && en_text_ends_token(*e)) {
+                    p = e;
+                    val[n] = rgb[n - 3];
+                    n++;
+                    continue;
+                }
+            }
+        }
         /* w and colours are not kept: plain strtod is enough for them */
         int rc = en_text_scan_coord(&p, n < 3 ? r->info.coord_type : EPSNET_COORD_FLOAT64, &d);
         if (rc == 0)
@@ -108,9 +131,53 @@ static int parse_vertex(epsnet_reader *r, char *p)
     if (n < 3)
         return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu has %d coordinates, expected 3",
                               (unsigned long long)r->nverts + 1, n);
+    if (st->colours) {
+        if (n == 4 || n == 5)
+            return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu has %d values, expected 3 or 6 (x y z r g b)",
+                                  (unsigned long long)r->nverts + 1, n);
+        if (n == 3)
+            en_reader_drop(r, "vertex without colour", 1, 1);
+        if (n == 7)
+            en_reader_drop(r, "vertex colour alpha", 1, 1);
+        uint8_t attr[12];
+        memcpy(attr, rgb, sizeof attr);
+        return en_reader_push_vertex_attr(r, val[0], val[1], val[2], attr);
+    }
     if (n > 3)
         en_reader_drop(r, n == 4 ? "vertex w" : "vertex colour", 1, 1);
     return en_reader_push_vertex(r, val[0], val[1], val[2]);
+}
+
+/* Whether the first `v` line in the first EN_TEXT_PEEK_BYTES has colours
+ * (6 or 7 numbers), without consuming anything. */
+static int peek_colours(en_source *src)
+{
+    size_t avail = en_source_fill(src, EN_TEXT_PEEK_BYTES);
+    if (avail > EN_TEXT_PEEK_BYTES)
+        avail = EN_TEXT_PEEK_BYTES;
+    const char *p = (const char *)src->cur, *end = p + avail;
+    while (p < end) {
+        const char *eol = memchr(p, '\n', (size_t)(end - p));
+        if (!eol)
+            return 0;
+        while (p < eol && (*p == ' ' || *p == '\t'))
+            p++;
+        if (eol - p > 2 && p[0] == 'v' && (p[1] == ' ' || p[1] == '\t')) {
+            int n = 0;
+            for (const char *q = p + 1; q < eol && *q != '#';) {
+                while (q < eol && (*q == ' ' || *q == '\t' || *q == '\r'))
+                    q++;
+                if (q == eol || *q == '#')
+                    break;
+                n++;
+                while (q < eol && *q != ' ' && *q != '\t' && *q != '\r')
+                    q++;
+            }
+            return n == 6 || n == 7;
+        }
+        p = eol + 1;
+    }
+    return 0;
 }
 
 /* OBJ index -> 0-based global index; the front end checks the upper bound. */
@@ -207,7 +274,7 @@ static int parse_statement(epsnet_reader *r, char *stmt)
 {
     char *p = en_text_skip_blanks(stmt);
     if (p[0] == 'v' && en_text_ends_token(p[1]))
-        return parse_vertex(r, p + 1);
+        return parse_vertex(r, r->state, p + 1);
     if (p[0] == 'f' && en_text_ends_token(p[1]))
         return parse_face(r, p + 1);
     if (p[0] != '\0' && p[0] != '#')
@@ -226,6 +293,13 @@ static int obj_open_reader(epsnet_reader *r)
     r->info.coord_type = en_text_peek_coord_type(r->src, "v", UINT64_MAX);
     if (r->src->failed)
         return source_failed(r, en_source_error(r->src, &r->err));
+    st->colours = peek_colours(r->src);
+    if (r->src->failed)
+        return source_failed(r, en_source_error(r->src, &r->err));
+    if (st->colours)
+        for (int k = 0; k < 3; k++)
+            if (en_reader_add_attr(r, k == 0 ? "red" : k == 1 ? "green" : "blue", EPSNET_ATTR_FLOAT32) < 0)
+                return r->err.code;
     return 0;
 }
 
@@ -317,9 +391,24 @@ static int obj_open_writer(epsnet_writer *w)
     return 0;
 }
 
+/* OBJ holds vertex colours as `v x y z r g b`: red, green and blue, all
+ * three float32 (epsnet.h epsnet_writer_dropped()). */
+static int obj_holds_attr(const epsnet_attr_layout *l, uint32_t i)
+{
+    static const char *rgb[3] = { "red", "green", "blue" };
+    int is_rgb = 0;
+    for (int k = 0; k < 3; k++) {
+        int at = epsnet_attr_layout_find(l, rgb[k]);
+        if (at < 0 || l->attr[at].type != EPSNET_ATTR_FLOAT32)
+            return 0;
+        is_rgb |= (uint32_t)at == i;
+    }
+    return is_rgb;
+}
+
 static int obj_put(epsnet_writer *w, const epsnet_record *rec)
 {
-    char line[3 * 33 + 8];
+    char line[6 * 33 + 8];
     size_t n = 0;
     if (rec->kind == EPSNET_REC_VERTEX) {
         int rc = check_coord_range(w, rec->xyz, w->nverts);
@@ -329,6 +418,15 @@ static int obj_put(epsnet_writer *w, const epsnet_record *rec)
         for (int k = 0; k < 3; k++) {
             line[n++] = ' ';
             n += (size_t)en_format_coord(line + n, rec->xyz[k], w->coord_type);
+        }
+        if (w->attrs.count == 3) {
+            static const char *rgb[3] = { "red", "green", "blue" };
+            for (int k = 0; k < 3; k++) {
+                float c;
+                memcpy(&c, rec->attr + w->attrs.attr[epsnet_attr_layout_find(&w->attrs, rgb[k])].offset, 4);
+                line[n++] = ' ';
+                n += (size_t)en_format_coord(line + n, c, EPSNET_COORD_FLOAT32);
+            }
         }
     } else if (rec->kind == EPSNET_REC_TRIANGLE) {
         line[n++] = 'f';
@@ -359,4 +457,5 @@ const en_format en_format_obj = {
     .open_writer = obj_open_writer,
     .put = obj_put,
     .finish = obj_finish,
+    .holds_attr = obj_holds_attr,
 };

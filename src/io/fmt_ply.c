@@ -168,6 +168,7 @@ typedef enum ply_role {
     ROLE_SKIP = -1,
     ROLE_X = 0, ROLE_Y = 1, ROLE_Z = 2,
     ROLE_INDICES = 3,
+    ROLE_ATTR = 4,          /* a vertex attribute the records carry (epsnet.h §2) */
 } ply_role;
 
 typedef struct ply_property {
@@ -175,6 +176,7 @@ typedef struct ply_property {
     ply_type type;          /* scalar type, or the item type of a list */
     ply_type count_type;    /* PLY_NONE for scalars */
     ply_role role;
+    uint32_t attr_offset;   /* ROLE_ATTR: where its bytes go in the vertex's packed bytes */
 } ply_property;
 
 /* ELEM_STRIPS: the Stanford tools' `tristrips` element (see strip_index()). */
@@ -211,6 +213,8 @@ typedef struct ply_reader ply_reader;
 typedef int (*ply_records_fn)(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_t n);
 
 struct ply_reader {
+    uint8_t attr[EPSNET_ATTR_MAX * 8]; /* one vertex's packed attribute bytes */
+    int swap;                    /* binary file order differs from the host's */
     ply_element *elems;
     size_t nelems, cap;
     ply_encoding encoding;
@@ -531,6 +535,21 @@ static int header_finish(epsnet_reader *r, ply_reader *p)
         if (!have[0] || !have[1] || !have[2])
             return en_reader_fail(r, EPSNET_EFORMAT, "element 'vertex' lacks property '%s'",
                                   !have[0] ? "x" : !have[1] ? "y" : "z");
+        /* note: every scalar vertex property beyond x, y, z travels with
+         * its vertex, bit for bit (epsnet.h §2); the PLY type numbers are
+         * epsnet_attr_type's. Lists stay dropped (named by note_dropped). */
+        for (size_t k = 0; k < vertex->nprops; k++) {
+            ply_property *pr = &vertex->props[k];
+            if (pr->role != ROLE_SKIP || pr->count_type != PLY_NONE)
+                continue;
+            int rc = en_reader_add_attr(r, pr->name, (epsnet_attr_type)pr->type);
+            if (rc < 0)
+                return rc;
+            if (rc == 1) {
+                pr->role = ROLE_ATTR;
+                pr->attr_offset = r->file_attrs.attr[r->file_attrs.count - 1].offset;
+            }
+        }
     }
     r->info.nfaces = 0;
     for (int f = 0; f < 2; f++) {
@@ -553,9 +572,9 @@ static int header_finish(epsnet_reader *r, ply_reader *p)
     return 0;
 }
 
-/* docs/architecture.md §5: every element and property the records do not carry is named.
- * note: per-vertex attributes (colours, normals, ...) are among them until
- * records carry attributes. Elements without records hold nothing. */
+/* docs/architecture.md §5: every element and property the records do not carry is named
+ * (vertex lists, face properties, other elements; vertex scalars travel as
+ * attributes). Elements without records hold nothing. */
 static void note_dropped(epsnet_reader *r, const ply_reader *p)
 {
     char name[EN_DROP_NAME];
@@ -910,6 +929,35 @@ static int ascii_strips(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_
     return 0;
 }
 
+/* An attribute's value from its (already validated) token, in host order.
+ * note: float32 goes through strtof, not a double, so the bits are the
+ * nearest float to the text, as a float reader would give them. */
+static void ascii_attr(uint8_t *dst, ply_type t, const char *tok, double v)
+{
+    switch (t) {
+    case PLY_INT8: { int8_t x = (int8_t)v; memcpy(dst, &x, 1); break; }
+    case PLY_UINT8: { uint8_t x = (uint8_t)v; memcpy(dst, &x, 1); break; }
+    case PLY_INT16: { int16_t x = (int16_t)v; memcpy(dst, &x, 2); break; }
+    case PLY_UINT16: { uint16_t x = (uint16_t)v; memcpy(dst, &x, 2); break; }
+    case PLY_INT32: { int32_t x = (int32_t)v; memcpy(dst, &x, 4); break; }
+    case PLY_UINT32: { uint32_t x = (uint32_t)v; memcpy(dst, &x, 4); break; }
+    case PLY_FLOAT32: { float x = strtof(tok, NULL); memcpy(dst, &x, 4); break; }
+    case PLY_FLOAT64: { double x = strtod(tok, NULL); memcpy(dst, &x, 8); break; }
+    default: break;
+    }
+}
+
+/* An attribute's file bytes in host order. */
+static void binary_attr(uint8_t *dst, const uint8_t *src, size_t size, int swap)
+{
+    if (!swap) {
+        memcpy(dst, src, size);
+        return;
+    }
+    for (size_t i = 0; i < size; i++)
+        dst[i] = src[size - 1 - i];
+}
+
 static int ascii_records(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_t n)
 {
     if (e->kind == ELEM_STRIPS)
@@ -933,12 +981,14 @@ static int ascii_records(epsnet_reader *r, ply_reader *p, ply_element *e, uint64
                 return ascii_bad_value(r, e, p->record, pr, tok);
             if (pr->role >= ROLE_X && pr->role <= ROLE_Z)
                 xyz[pr->role] = v;
+            else if (pr->role == ROLE_ATTR)
+                ascii_attr(p->attr + pr->attr_offset, pr->type, tok, v);
         }
         char *extra = next_token(&line);
         if (extra)
             return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": unexpected extra value '%s'",
                                   e->name, p->record + 1, extra);
-        if (e->kind == ELEM_VERTEX && (rc = en_reader_push_vertex(r, xyz[0], xyz[1], xyz[2])))
+        if (e->kind == ELEM_VERTEX && (rc = en_reader_push_vertex_attr(r, xyz[0], xyz[1], xyz[2], p->attr)))
             return rc;
     }
     return 0;
@@ -948,13 +998,13 @@ static int ascii_records(epsnet_reader *r, ply_reader *p, ply_element *e, uint64
  * Binary body: decoders from the codec table, straight out of the window
  * ------------------------------------------------------------------------ */
 
-static int binary_vertex_checked(epsnet_reader *r, uint64_t offset, const double xyz[3])
+static int binary_vertex_checked(epsnet_reader *r, uint64_t offset, const double xyz[3], const uint8_t *attr)
 {
     if (!isfinite(xyz[0]) || !isfinite(xyz[1]) || !isfinite(xyz[2]))
         return en_reader_fail_at(r, EPSNET_EFORMAT, offset,
                                  "vertex %" PRIu64 " has a non-finite coordinate (%g %g %g)",
                                  r->nverts + 1, xyz[0], xyz[1], xyz[2]);
-    return en_reader_push_vertex(r, xyz[0], xyz[1], xyz[2]);
+    return en_reader_push_vertex_attr(r, xyz[0], xyz[1], xyz[2], attr);
 }
 
 /* Vertices whose records have a fixed size: the common scanner layout. */
@@ -964,12 +1014,17 @@ static int binary_fixed_vertices(epsnet_reader *r, ply_reader *p, ply_element *e
     const size_t size = e->fixed_size;
     size_t offset[3] = { 0, 0, 0 };
     double (*get[3])(const uint8_t *) = { NULL, NULL, NULL };
-    size_t at = 0;
+    size_t at = 0, na = 0;
+    struct { size_t from, to, size; } attrs[EPSNET_ATTR_MAX];
     for (size_t k = 0; k < e->nprops; k++) {
         const ply_property *pr = &e->props[k];
         if (pr->role >= ROLE_X && pr->role <= ROLE_Z) {
             offset[pr->role] = at;
             get[pr->role] = p->codec->get_real[pr->type];
+        } else if (pr->role == ROLE_ATTR && na < EPSNET_ATTR_MAX) {
+            attrs[na].from = at;
+            attrs[na].to = pr->attr_offset;
+            attrs[na++].size = ply_type_size[pr->type];
         }
         at += ply_type_size[pr->type];
     }
@@ -988,8 +1043,10 @@ static int binary_fixed_vertices(epsnet_reader *r, ply_reader *p, ply_element *e
         for (size_t i = 0; i < k; i++) {
             const uint8_t *rec = base + i * size;
             double xyz[3] = { get[0](rec + offset[0]), get[1](rec + offset[1]), get[2](rec + offset[2]) };
+            for (size_t a = 0; a < na; a++)
+                binary_attr(p->attr + attrs[a].to, rec + attrs[a].from, attrs[a].size, p->swap);
             s->cur = rec;
-            int rc = binary_vertex_checked(r, en_source_offset(s), xyz);
+            int rc = binary_vertex_checked(r, en_source_offset(s), xyz, p->attr);
             if (rc)
                 return rc;
         }
@@ -1070,6 +1127,8 @@ static int binary_record(epsnet_reader *r, ply_reader *p, ply_element *e)
                 return truncated_binary(r, e, p->record);
             if (pr->role >= ROLE_X && pr->role <= ROLE_Z)
                 xyz[pr->role] = p->codec->get_real[pr->type](q);
+            else if (pr->role == ROLE_ATTR)
+                binary_attr(p->attr + pr->attr_offset, q, size, p->swap);
             s->cur += size;
             continue;
         }
@@ -1091,7 +1150,7 @@ static int binary_record(epsnet_reader *r, ply_reader *p, ply_element *e)
             p->short_polygons++;
     }
     if (e->kind == ELEM_VERTEX)
-        return binary_vertex_checked(r, start, xyz);
+        return binary_vertex_checked(r, start, xyz, p->attr);
     return 0;
 }
 
@@ -1316,6 +1375,7 @@ static int ply_open_reader(epsnet_reader *r)
         p->read_records = ascii_records;
     } else {
         p->codec = p->encoding == ENC_LE ? &ply_codec_le : &ply_codec_be;
+        p->swap = (p->encoding == ENC_BE) != PLY_HOST_BE;
         p->read_records = binary_records;
         r->text = 0;
     }
@@ -1367,6 +1427,8 @@ static int ply_probe(const uint8_t *head, size_t n)
  * Writer
  * ------------------------------------------------------------------------ */
 
+/* The largest header written: fixed lines and one line per attribute. */
+#define PLY_WRITE_HEADER_MAX (1024 + EPSNET_ATTR_MAX * (EPSNET_ATTR_NAME_MAX + 24))
 /* Faces are written as "3 a b c": uchar count, then int (or uint) indices. */
 #define PLY_FACE_BYTES 13
 /* Largest vertex index an int32 list can hold; above it the header says uint. */
@@ -1383,6 +1445,7 @@ typedef enum ply_write_mode {
 } ply_write_mode;
 
 typedef struct ply_writer {
+    const epsnet_attr_layout *attrs; /* the writer's w->attrs */
     ply_write_mode mode;
     int ascii;
     int coord64;
@@ -1418,13 +1481,25 @@ static size_t build_header(char *buf, size_t cap, const ply_writer *p, uint64_t 
     const char *coord = p->coord64 ? "double" : "float";
     int n = snprintf(buf, cap,
                      "ply\nformat %s 1.0\ncomment written by epsnet %s\n"
-                     "element vertex %" PRIu64 "\nproperty %s x\nproperty %s y\nproperty %s z\n"
-                     "element face %" PRIu64 "\nproperty list uchar %s vertex_indices\n",
+                     "element vertex %" PRIu64 "\nproperty %s x\nproperty %s y\nproperty %s z\n",
                      p->ascii ? "ascii" : "binary_little_endian", EPSNET_VERSION_STRING, nv, coord,
-                     coord, coord, nf, uint_index ? "uint" : "int");
+                     coord, coord);
     if (n < 0 || (size_t)n >= cap)
         return 0;
     size_t len = (size_t)n;
+    /* every attribute with its own name and type (epsnet.h §2) */
+    for (uint32_t i = 0; i < p->attrs->count; i++) {
+        const epsnet_attr *a = &p->attrs->attr[i];
+        n = snprintf(buf + len, cap - len, "property %s %s\n", epsnet_attr_type_name(a->type), a->name);
+        if (n < 0 || (size_t)n >= cap - len)
+            return 0;
+        len += (size_t)n;
+    }
+    n = snprintf(buf + len, cap - len, "element face %" PRIu64 "\nproperty list uchar %s vertex_indices\n", nf,
+                 uint_index ? "uint" : "int");
+    if (n < 0 || (size_t)n >= cap - len)
+        return 0;
+    len += (size_t)n;
     static const char end[] = "end_header\n";
     if (pad_to) {
         static const char pad[] = "comment";
@@ -1442,33 +1517,77 @@ static size_t build_header(char *buf, size_t cap, const ply_writer *p, uint64_t 
     return len + sizeof end - 1;
 }
 
-static int emit_vertex(epsnet_writer *w, const ply_writer *p, const double xyz[3])
+/* Text of one attribute value (host-order bytes at src) into buf (at
+ * least 32 bytes): integers in decimal, floats in the shortest text that
+ * reads back to the same bits. @return the length. */
+static size_t format_attr(char *buf, const uint8_t *src, epsnet_attr_type t)
 {
+    int n = 0;
+    switch (t) {
+    case EPSNET_ATTR_INT8: { int8_t x; memcpy(&x, src, 1); n = snprintf(buf, 32, "%d", x); break; }
+    case EPSNET_ATTR_UINT8: { uint8_t x; memcpy(&x, src, 1); n = snprintf(buf, 32, "%u", x); break; }
+    case EPSNET_ATTR_INT16: { int16_t x; memcpy(&x, src, 2); n = snprintf(buf, 32, "%d", x); break; }
+    case EPSNET_ATTR_UINT16: { uint16_t x; memcpy(&x, src, 2); n = snprintf(buf, 32, "%u", x); break; }
+    case EPSNET_ATTR_INT32: { int32_t x; memcpy(&x, src, 4); n = snprintf(buf, 32, "%" PRId32, x); break; }
+    case EPSNET_ATTR_UINT32: { uint32_t x; memcpy(&x, src, 4); n = snprintf(buf, 32, "%" PRIu32, x); break; }
+    case EPSNET_ATTR_FLOAT32: {
+        float x;
+        memcpy(&x, src, 4);
+        n = en_format_coord(buf, x, EPSNET_COORD_FLOAT32);
+        break;
+    }
+    case EPSNET_ATTR_FLOAT64: {
+        double x;
+        memcpy(&x, src, 8);
+        n = en_format_coord(buf, x, EPSNET_COORD_FLOAT64);
+        break;
+    }
+    }
+    return n > 0 ? (size_t)n : 0;
+}
+
+static int emit_vertex(epsnet_writer *w, const ply_writer *p, const double xyz[3], const uint8_t *attr)
+{
+    const epsnet_attr_layout *l = p->attrs;
     if (p->ascii) {
-        char line[112];
+        char line[112 + EPSNET_ATTR_MAX * 34];
         size_t len = 0;
         for (int k = 0; k < 3; k++) {
             len += (size_t)en_format_coord(line + len, xyz[k], w->coord_type);
-            line[len++] = k < 2 ? ' ' : '\n';
+            line[len++] = k < 2 || l->count ? ' ' : '\n';
+        }
+        for (uint32_t i = 0; i < l->count; i++) {
+            len += format_attr(line + len, attr + l->attr[i].offset, l->attr[i].type);
+            line[len++] = i + 1 < l->count ? ' ' : '\n';
         }
         return en_writer_bytes(w, line, len);
     }
-    uint8_t rec[24];
+    uint8_t rec[24 + EPSNET_ATTR_MAX * 8];
+    size_t len;
     if (p->coord64) {
         for (int k = 0; k < 3; k++) {
             uint64_t u;
             memcpy(&u, &xyz[k], 8);
             store_le64(rec + 8 * k, u);
         }
-        return en_writer_bytes(w, rec, 24);
+        len = 24;
+    } else {
+        for (int k = 0; k < 3; k++) {
+            float f = (float)xyz[k];
+            uint32_t u;
+            memcpy(&u, &f, 4);
+            store_le32(rec + 4 * k, u);
+        }
+        len = 12;
     }
-    for (int k = 0; k < 3; k++) {
-        float f = (float)xyz[k];
-        uint32_t u;
-        memcpy(&u, &f, 4);
-        store_le32(rec + 4 * k, u);
+    /* the body is little-endian: each value's host bytes, reversed on a
+     * big-endian host */
+    for (uint32_t i = 0; i < l->count; i++) {
+        size_t size = epsnet_attr_type_size(l->attr[i].type);
+        binary_attr(rec + len, attr + l->attr[i].offset, size, PLY_HOST_BE);
+        len += size;
     }
-    return en_writer_bytes(w, rec, 12);
+    return en_writer_bytes(w, rec, len);
 }
 
 static int emit_face(epsnet_writer *w, const ply_writer *p, const uint32_t v[3])
@@ -1514,9 +1633,10 @@ static int ply_open_writer(epsnet_writer *w)
         return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "out of memory");
     w->state = p;
+    p->attrs = &w->attrs;
     p->ascii = w->settings.ascii != 0;
     p->coord64 = w->coord_type == EPSNET_COORD_FLOAT64;
-    char hdr[1024];
+    char hdr[PLY_WRITE_HEADER_MAX];
     if (en_sink_can_patch(w->sink)) {
         p->mode = WRITE_PATCH;
         /* note: room for the widest counts and "uint", so the final header
@@ -1539,21 +1659,26 @@ static int ply_open_writer(epsnet_writer *w)
     return 0;
 }
 
-static int put_vertex(epsnet_writer *w, ply_writer *p, const double xyz[3])
+static int put_vertex(epsnet_writer *w, ply_writer *p, const double xyz[3], const uint8_t *attr)
 {
     if (p->faces_direct)
         return en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "vertex %" PRIu64 " arrives after the %" PRIu64 " vertices announced",
                             w->nverts, w->info.nverts);
     if (p->mode != WRITE_SPILL_ALL)
-        return emit_vertex(w, p, xyz);
+        return emit_vertex(w, p, xyz, attr);
     int rc = open_spill(w, &p->verts);
     if (rc)
         return rc;
     if (p->coord64)
-        return en_spill_write(p->verts, xyz, 3 * sizeof(double), &w->err);
-    float f[3] = { (float)xyz[0], (float)xyz[1], (float)xyz[2] };
-    return en_spill_write(p->verts, f, sizeof f, &w->err);
+        rc = en_spill_write(p->verts, xyz, 3 * sizeof(double), &w->err);
+    else {
+        float f[3] = { (float)xyz[0], (float)xyz[1], (float)xyz[2] };
+        rc = en_spill_write(p->verts, f, sizeof f, &w->err);
+    }
+    if (rc == 0 && p->attrs->size)
+        rc = en_spill_write(p->verts, attr, p->attrs->size, &w->err);
+    return rc;
 }
 
 static int put_triangle(epsnet_writer *w, ply_writer *p, const uint64_t v[3])
@@ -1584,7 +1709,7 @@ static int ply_put(epsnet_writer *w, const epsnet_record *rec)
 {
     ply_writer *p = w->state;
     if (rec->kind == EPSNET_REC_VERTEX)
-        return put_vertex(w, p, rec->xyz);
+        return put_vertex(w, p, rec->xyz, rec->attr);
     if (rec->kind == EPSNET_REC_TRIANGLE)
         return put_triangle(w, p, rec->v);
     return 0;
@@ -1598,10 +1723,11 @@ static int replay(epsnet_writer *w, ply_writer *p, en_spill *sp, int vertices)
     int rc = en_spill_rewind(sp, &w->err);
     if (rc)
         return rc;
-    const size_t rec = vertices ? (p->coord64 ? 3 * sizeof(double) : 3 * sizeof(float)) : 3 * sizeof(uint32_t);
+    const size_t rec = vertices ? (p->coord64 ? 3 * sizeof(double) : 3 * sizeof(float)) + p->attrs->size
+                                : 3 * sizeof(uint32_t);
     union {
         double d[3 * 2048];
-        float f[3 * 4096];
+        uint8_t b[3 * 2048 * sizeof(double)];
         uint32_t u[3 * 4096];
     } buf;
     for (;;) {
@@ -1615,11 +1741,19 @@ static int replay(epsnet_writer *w, ply_writer *p, en_spill *sp, int vertices)
                                 "temporary file ended in the middle of a record");
         size_t n = (size_t)got / rec;
         for (size_t i = 0; i < n; i++) {
-            if (vertices && p->coord64) {
-                rc = emit_vertex(w, p, buf.d + 3 * i);
-            } else if (vertices) {
-                double xyz[3] = { buf.f[3 * i], buf.f[3 * i + 1], buf.f[3 * i + 2] };
-                rc = emit_vertex(w, p, xyz);
+            if (vertices) {
+                const uint8_t *at = buf.b + i * rec;
+                double xyz[3];
+                for (int k = 0; k < 3; k++) {
+                    if (p->coord64) {
+                        memcpy(&xyz[k], at + 8 * k, 8);
+                    } else {
+                        float f;
+                        memcpy(&f, at + 4 * k, 4);
+                        xyz[k] = f;
+                    }
+                }
+                rc = emit_vertex(w, p, xyz, at + (p->coord64 ? 24 : 12));
             } else {
                 rc = emit_face(w, p, buf.u + 3 * i);
             }
@@ -1633,7 +1767,7 @@ static int ply_finish(epsnet_writer *w)
 {
     ply_writer *p = w->state;
     int uint_index = p->max_index > PLY_INT_INDEX_MAX;
-    char hdr[1024];
+    char hdr[PLY_WRITE_HEADER_MAX];
     int rc;
     switch (p->mode) {
     case WRITE_PATCH: {
@@ -1684,4 +1818,5 @@ const en_format en_format_ply = {
     .put = ply_put,
     .finish = ply_finish,
     .close_writer = ply_close_writer,
+    .holds_attr = en_format_holds_every_attr,
 };

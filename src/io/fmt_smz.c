@@ -19,6 +19,7 @@
  */
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <zstd.h>
 
@@ -39,6 +40,8 @@ typedef struct smz_reader {
     size_t raw_cap;
     epsnet_record *recs;
     size_t recs_cap;
+    uint8_t *attrs;                /* the current block's vertex attribute bytes */
+    size_t attrs_cap;
     uint32_t nrecs, pos;           /* decoded records of the current block */
     uint64_t block_no;             /* blocks read so far */
     uint64_t block_offset;         /* of the current block */
@@ -54,6 +57,36 @@ static int source_failed(epsnet_reader *r)
 {
     r->failed = 1;
     return en_source_error(r->src, &r->err);
+}
+
+/* Version 2: the attribute table after the header (docs/smz.md). */
+static int read_attr_table(epsnet_reader *r, smz_reader *st)
+{
+    uint8_t tab[EN_SMZ_MAX_TABLE_BYTES];
+    int rc = en_source_read(r->src, tab, 4, "the attribute table", &r->err);
+    if (rc) {
+        r->failed = 1;
+        return rc;
+    }
+    uint32_t body = (uint32_t)tab[0] | (uint32_t)tab[1] << 8 | (uint32_t)tab[2] << 16 | (uint32_t)tab[3] << 24;
+    if (body > EN_SMZ_MAX_TABLE_BYTES - 8)
+        return en_reader_fail_at(r, EPSNET_EFORMAT, EN_SMZ_HEADER_BYTES,
+                                 "attribute table of %u bytes is longer than %d", body, EN_SMZ_MAX_TABLE_BYTES - 8);
+    if ((rc = en_source_read(r->src, tab + 4, body + 4, "the attribute table", &r->err))) {
+        r->failed = 1;
+        return rc;
+    }
+    const uint8_t *c = tab + 4 + body;
+    uint32_t crc = (uint32_t)c[0] | (uint32_t)c[1] << 8 | (uint32_t)c[2] << 16 | (uint32_t)c[3] << 24;
+    char why[200];
+    epsnet_attr_layout l;
+    if (en_smz_attr_table_decode(tab + 4, body, crc, &l, why, sizeof why))
+        return en_reader_fail_at(r, EPSNET_EFORMAT, EN_SMZ_HEADER_BYTES, "%s", why);
+    for (uint32_t i = 0; i < l.count; i++)
+        if ((rc = en_reader_add_attr(r, l.attr[i].name, l.attr[i].type)) < 0)
+            return rc;
+    st->header.attrs = l;
+    return 0;
 }
 
 static int smz_open_reader(epsnet_reader *r)
@@ -76,6 +109,8 @@ static int smz_open_reader(epsnet_reader *r)
     int bad = en_smz_header_decode(hb, &st->header, why, sizeof why);
     if (bad)
         return en_reader_fail_at(r, EPSNET_EFORMAT, bad < 0 ? 0 : (uint64_t)bad, "%s", why);
+    if (st->header.version >= 2 && (rc = read_attr_table(r, st)))
+        return rc;
     const en_smz_header *h = &st->header;
     if ((h->nverts != EPSNET_COUNT_UNKNOWN && (rc = en_reader_check_count(r, h->nverts, "vertex count"))) ||
         (h->nfaces != EPSNET_COUNT_UNKNOWN && (rc = en_reader_check_count(r, h->nfaces, "face count"))))
@@ -129,13 +164,17 @@ static int read_block(epsnet_reader *r, smz_reader *st)
         grow_to(&rp, &st->raw_cap, b.raw_bytes, 1) || (st->raw = rp, 0) ||
         grow_to(&qp, &st->recs_cap, b.records, sizeof *st->recs) || (st->recs = qp, 0))
         return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    void *ap = st->attrs;
+    if (st->header.attrs.size &&
+        (grow_to(&ap, &st->attrs_cap, (size_t)b.nverts * st->header.attrs.size, 1) || (st->attrs = ap, 0)))
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
     rc = en_source_read(r->src, st->payload, b.compressed_bytes, what, &r->err);
     if (rc) {
         r->failed = 1;
         return rc;
     }
     if (en_smz_unpack(st->dctx, st->payload, &b, st->raw, why, sizeof why) ||
-        en_smz_decode_block(st->raw, &b, st->header.coord_type, st->recs, why, sizeof why))
+        en_smz_decode_block_h(st->raw, &b, &st->header, st->attrs, st->recs, why, sizeof why))
         return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset, "block %llu is corrupt: %s",
                                  (unsigned long long)st->block_no, why);
     en_smz_index_entry e = {
@@ -183,7 +222,7 @@ static int push_one(epsnet_reader *r, smz_reader *st, const epsnet_record *rec)
             if (rec->xyz[k] > st->hi[k])
                 st->hi[k] = rec->xyz[k];
         }
-        return en_reader_push_vertex(r, rec->xyz[0], rec->xyz[1], rec->xyz[2]);
+        return en_reader_push_vertex_attr(r, rec->xyz[0], rec->xyz[1], rec->xyz[2], rec->attr);
     case EPSNET_REC_TRIANGLE:
         return en_reader_push_triangle(r, rec->v[0], rec->v[1], rec->v[2]);
     default:
@@ -311,6 +350,7 @@ static void smz_close_reader(epsnet_reader *r)
     en_free(st->payload);
     en_free(st->raw);
     en_free(st->recs);
+    en_free(st->attrs);
     en_free(st);
     r->state = NULL;
 }
@@ -351,7 +391,8 @@ static int smz_open_writer(epsnet_writer *w)
     if (!st)
         return wfail_nomem(w);
     w->state = st;
-    st->enc = en_smz_encoder_new(w->coord_type);
+    st->axis = w->info.sorted_axis >= 0 && w->info.sorted_axis < 3 ? w->info.sorted_axis : -1;
+    st->enc = en_smz_encoder_new_v2(w->coord_type, &w->attrs, st->axis);
     st->cctx = ZSTD_createCCtx();
     if (!st->enc || !st->cctx)
         return wfail_nomem(w);
@@ -359,7 +400,6 @@ static int smz_open_writer(epsnet_writer *w)
     ZSTD_CCtx_setParameter(st->cctx, ZSTD_c_compressionLevel, level);
     ZSTD_CCtx_setParameter(st->cctx, ZSTD_c_checksumFlag, 1);
     ZSTD_CCtx_setParameter(st->cctx, ZSTD_c_contentSizeFlag, 1);
-    st->axis = w->info.sorted_axis >= 0 && w->info.sorted_axis < 3 ? w->info.sorted_axis : -1;
     st->sorted_ok = 1;
     st->prev_axis = -INFINITY;
     st->block_min = INFINITY;
@@ -369,6 +409,8 @@ static int smz_open_writer(epsnet_writer *w)
         st->hi[k] = -INFINITY;
     }
     en_smz_header *h = &st->announced;
+    h->version = EN_SMZ_VERSION;
+    h->attrs = w->attrs;
     h->coord_type = w->coord_type;
     h->axis = st->axis;
     h->sorted = st->axis >= 0;
@@ -380,7 +422,12 @@ static int smz_open_writer(epsnet_writer *w)
     st->header_offset = en_sink_offset(w->sink);
     uint8_t hb[EN_SMZ_HEADER_BYTES];
     en_smz_header_encode(h, hb);
-    return en_writer_bytes(w, hb, sizeof hb);
+    int rc = en_writer_bytes(w, hb, sizeof hb);
+    if (rc == 0) {
+        uint8_t tab[EN_SMZ_MAX_TABLE_BYTES];
+        rc = en_writer_bytes(w, tab, en_smz_attr_table_encode(&h->attrs, tab));
+    }
+    return rc;
 }
 
 static int flush_block(epsnet_writer *w, smz_writer *st)
@@ -545,4 +592,5 @@ const en_format en_format_smz = {
     .put = smz_put,
     .finish = smz_finish,
     .close_writer = smz_close_writer,
+    .holds_attr = en_format_holds_every_attr,
 };

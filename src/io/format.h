@@ -45,9 +45,22 @@ struct epsnet_reader {
     char *path;
     int text;                        /* 1: positions are lines, 0: byte offsets */
 
-    /* Records pushed by the driver and not yet returned. */
+    /* Records pushed by the driver and not yet returned; the vertex
+     * attributes of queue[i] are qattr[i * info.vertex_attrs.size ...]
+     * (epsnet_reader_next() points rec->attr there). */
     epsnet_record *queue;
     size_t qlen, qpos, qcap;
+    uint8_t *qattr;
+    size_t qattr_cap;                /* records qattr has room for */
+
+    /* Vertex attributes: the driver declares every attribute the file has
+     * in file_attrs (en_reader_add_attr) and pushes their packed bytes;
+     * info.vertex_attrs is what the records carry: the same, unless
+     * en_reader_keep_attrs() left some out (attr_from[i] is the offset in
+     * the driver's bytes of info.vertex_attrs.attr[i]). */
+    epsnet_attr_layout file_attrs;
+    uint32_t attr_from[EPSNET_ATTR_MAX];
+    int attrs_subset;                /* info.vertex_attrs != file_attrs */
 
     uint64_t nverts;                 /* vertex records pushed so far */
     uint64_t ntris;                  /* triangle records pushed so far */
@@ -78,6 +91,17 @@ struct epsnet_writer {
     uint64_t ntris;
     int failed;
     epsnet_error err;
+
+    /* Vertex attributes: info.vertex_attrs is what the caller announced,
+     * attrs what the driver writes (those its format holds, see
+     * en_format.holds_attr); attr_from[i] is the offset of attrs.attr[i] in
+     * the caller's bytes, abuf the repacked bytes of one vertex. */
+    epsnet_attr_layout attrs;
+    uint32_t attr_from[EPSNET_ATTR_MAX];
+    int attrs_subset;
+    uint8_t abuf[EPSNET_ATTR_MAX * 8];
+    char *drop_text;                 /* epsnet_writer_dropped() */
+    uint64_t ndrop;
 };
 
 struct en_format {
@@ -95,7 +119,17 @@ struct en_format {
     int (*put)(epsnet_writer *w, const epsnet_record *rec);
     int (*finish)(epsnet_writer *w);
     void (*close_writer)(epsnet_writer *w);
+    /* Whether the writer holds attribute i of layout l (it then gets it in
+     * w->attrs); NULL: it holds none. */
+    int (*holds_attr)(const epsnet_attr_layout *l, uint32_t i);
 };
+
+/* holds_attr of formats that keep every attribute (PLY, .smz). */
+int en_format_holds_every_attr(const epsnet_attr_layout *l, uint32_t i);
+
+/* Check a layout a caller built (epsnet_writer_open, the push API):
+ * types, names, offsets and size agree. @return 0 or -1 with why filled. */
+int en_attr_layout_check(const epsnet_attr_layout *l, char *why, size_t why_len);
 
 /* The table (src/io/formats.c). */
 extern const en_format *const en_formats[];
@@ -111,8 +145,25 @@ int en_reader_fail(epsnet_reader *r, int code, const char *fmt, ...) EN_PRINTF(3
 /* Same, at an explicit byte offset (binary formats pointing at a record). */
 int en_reader_fail_at(epsnet_reader *r, int code, uint64_t offset, const char *fmt, ...) EN_PRINTF(4, 5);
 
-/* Push a vertex: rejects NaN/Inf. */
+/* Push a vertex: rejects NaN/Inf. A file with attributes gives them as
+ * attr (file_attrs.size packed bytes); NULL gives zeros. */
 int en_reader_push_vertex(epsnet_reader *r, double x, double y, double z);
+int en_reader_push_vertex_attr(epsnet_reader *r, double x, double y, double z, const uint8_t *attr);
+/* Declare the file's next vertex attribute (open_reader only). @return 1
+ * when it is carried, 0 when it is not (past EPSNET_ATTR_MAX: then it is
+ * named as dropped, "vertex property NAME"), or a negative code for a name
+ * the layout refuses. */
+int en_reader_add_attr(epsnet_reader *r, const char *name, epsnet_attr_type type);
+
+/* ---- for library stages that read a user's file ---- */
+
+/*
+ * Before the first epsnet_reader_next(): keep only the attributes that a
+ * writer of format out (NULL: no format, so none) holds, naming the others
+ * as dropped ("vertex property red"), so that one warning line tells every
+ * loss (docs/architecture.md §5). info.vertex_attrs changes accordingly.
+ */
+void en_reader_keep_attrs(epsnet_reader *r, const en_format *out);
 /* Push a triangle of 0-based global indices: rejects out-of-range and
  * finalized references. */
 int en_reader_push_triangle(epsnet_reader *r, uint64_t a, uint64_t b, uint64_t c);

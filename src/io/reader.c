@@ -138,7 +138,87 @@ static int queue_push(epsnet_reader *r, const epsnet_record *rec)
     return 0;
 }
 
+int en_reader_add_attr(epsnet_reader *r, const char *name, epsnet_attr_type type)
+{
+    if (epsnet_attr_layout_find(&r->file_attrs, name) >= 0)
+        return en_reader_fail(r, EPSNET_EFORMAT, "vertex property '%s' appears twice", name);
+    int rc = epsnet_attr_layout_add(&r->file_attrs, name, type);
+    if (rc) {
+        /* note: past EPSNET_ATTR_MAX, or a name a layout refuses (too long,
+         * unprintable bytes): skipped and named, as before attributes were
+         * carried (docs/architecture.md §5) */
+        char what[EN_DROP_NAME];
+        snprintf(what, sizeof what, "vertex property %s", name);
+        for (char *c = what; *c; c++)
+            if ((unsigned char)*c < 0x20 || (unsigned char)*c == 0x7f)
+                *c = '?';
+        en_reader_drop(r, what, 0, 0);
+        return 0;
+    }
+    r->info.vertex_attrs = r->file_attrs;
+    return 1;
+}
+
+void en_reader_keep_attrs(epsnet_reader *r, const en_format *out)
+{
+    const epsnet_attr_layout *f = &r->file_attrs;
+    epsnet_attr_layout kept;
+    memset(&kept, 0, sizeof kept);
+    for (uint32_t i = 0; i < f->count; i++) {
+        if (out && out->holds_attr && out->holds_attr(f, i)) {
+            r->attr_from[kept.count] = f->attr[i].offset;
+            (void)epsnet_attr_layout_add(&kept, f->attr[i].name, f->attr[i].type);
+            continue;
+        }
+        char what[EN_DROP_NAME];
+        snprintf(what, sizeof what, "vertex property %s", f->attr[i].name);
+        en_reader_drop(r, what, 0, 0);
+    }
+    r->attrs_subset = kept.count != f->count;
+    r->info.vertex_attrs = kept;
+}
+
+/* The queue's attribute bytes have room for qcap records. */
+static int attr_room(epsnet_reader *r)
+{
+    size_t asz = r->info.vertex_attrs.size;
+    if (r->qattr_cap >= r->qcap)
+        return 0;
+    uint8_t *p = en_realloc(r->qattr, r->qcap * asz);
+    if (!p)
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    r->qattr = p;
+    r->qattr_cap = r->qcap;
+    return 0;
+}
+
+static int push_xyz(epsnet_reader *r, double x, double y, double z);
+
 int en_reader_push_vertex(epsnet_reader *r, double x, double y, double z)
+{
+    return en_reader_push_vertex_attr(r, x, y, z, NULL);
+}
+
+int en_reader_push_vertex_attr(epsnet_reader *r, double x, double y, double z, const uint8_t *attr)
+{
+    int rc = push_xyz(r, x, y, z);
+    const epsnet_attr_layout *l = &r->info.vertex_attrs;
+    if (rc || l->size == 0)
+        return rc;
+    if ((rc = attr_room(r)))
+        return rc;
+    uint8_t *dst = r->qattr + (r->qlen - 1) * (size_t)l->size;
+    if (!attr)
+        memset(dst, 0, l->size);
+    else if (!r->attrs_subset)
+        memcpy(dst, attr, l->size);
+    else
+        for (uint32_t i = 0; i < l->count; i++)
+            memcpy(dst + l->attr[i].offset, attr + r->attr_from[i], epsnet_attr_type_size(l->attr[i].type));
+    return 0;
+}
+
+static int push_xyz(epsnet_reader *r, double x, double y, double z)
 {
     if (!isfinite(x) || !isfinite(y) || !isfinite(z))
         return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu has a non-finite coordinate (%g %g %g)",
@@ -305,7 +385,11 @@ int epsnet_reader_next(epsnet_reader *r, epsnet_record *rec, epsnet_error *err)
         if (rc == 0)
             r->done = 1;
     }
-    *rec = r->queue[r->qpos++];
+    *rec = r->queue[r->qpos];
+    rec->attr = NULL;
+    if (rec->kind == EPSNET_REC_VERTEX && r->info.vertex_attrs.size)
+        rec->attr = r->qattr + r->qpos * (size_t)r->info.vertex_attrs.size;
+    r->qpos++;
     return 1;
 }
 
@@ -329,6 +413,7 @@ void epsnet_reader_close(epsnet_reader **pr)
     en_u64set_free(&r->live);
     en_source_close(&r->src);
     en_free(r->queue);
+    en_free(r->qattr);
     en_free(r->drop_text);
     en_free(r->path);
     en_free(r);

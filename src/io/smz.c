@@ -7,6 +7,7 @@
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -15,6 +16,7 @@
 
 #include "common/alloc.h"
 #include "common/error.h"
+#include "common/hash64.h"
 
 const uint8_t en_smz_magic[8] = { 0x89, 'S', 'M', 'Z', '\r', '\n', 0x1a, '\n' };
 const uint8_t en_smz_end_magic[8] = { 'S', 'M', 'Z', 'I', 'N', 'D', 'E', 'X' };
@@ -93,8 +95,8 @@ void en_smz_header_encode(const en_smz_header *h, uint8_t out[EN_SMZ_HEADER_BYTE
 {
     memset(out, 0, EN_SMZ_HEADER_BYTES);
     memcpy(out, en_smz_magic, 8);
-    out[8] = EN_SMZ_VERSION & 0xff;
-    out[9] = EN_SMZ_VERSION >> 8;
+    out[8] = (uint8_t)(h->version ? h->version : EN_SMZ_VERSION);
+    out[9] = 0;
     out[10] = h->coord_type == EPSNET_COORD_FLOAT64 ? 1 : 0;
     out[11] = (uint8_t)((h->sorted && h->axis >= 0 ? FLAG_SORTED : 0) | (h->has_bbox ? FLAG_BBOX : 0));
     out[12] = h->axis >= 0 && h->axis < 3 ? (uint8_t)h->axis : (uint8_t)AXIS_NONE;
@@ -113,8 +115,8 @@ int en_smz_header_decode(const uint8_t in[EN_SMZ_HEADER_BYTES], en_smz_header *h
         return -1;
     }
     unsigned version = (unsigned)in[8] | (unsigned)in[9] << 8;
-    if (version != EN_SMZ_VERSION) {
-        snprintf(why, why_len, "unsupported .smz version %u (this build reads %u)", version, EN_SMZ_VERSION);
+    if (version < 1 || version > EN_SMZ_VERSION) {
+        snprintf(why, why_len, "unsupported .smz version %u (this build reads 1 to %u)", version, EN_SMZ_VERSION);
         return 8;
     }
     if (get32(in + 92) != en_smz_crc32(0, in, 92)) {
@@ -133,6 +135,7 @@ int en_smz_header_decode(const uint8_t in[EN_SMZ_HEADER_BYTES], en_smz_header *h
         snprintf(why, why_len, "stream axis %u is not 0, 1, 2 or 255", in[12]);
         return 12;
     }
+    h->version = version;
     h->coord_type = in[10] ? EPSNET_COORD_FLOAT64 : EPSNET_COORD_FLOAT32;
     h->axis = in[12] == AXIS_NONE ? -1 : in[12];
     h->sorted = (in[11] & FLAG_SORTED) && h->axis >= 0;
@@ -147,6 +150,60 @@ int en_smz_header_decode(const uint8_t in[EN_SMZ_HEADER_BYTES], en_smz_header *h
                 set_why(why, why_len, "bounding box is not finite or has min > max");
                 return 32;
             }
+    return 0;
+}
+
+/* ---- attribute table (version 2) ---- */
+
+size_t en_smz_attr_table_encode(const epsnet_attr_layout *l, uint8_t *out)
+{
+    size_t n = 8;
+    put32(out + 4, l->count);
+    for (uint32_t i = 0; i < l->count; i++) {
+        size_t len = strlen(l->attr[i].name);
+        out[n++] = (uint8_t)l->attr[i].type;
+        out[n++] = (uint8_t)len;
+        memcpy(out + n, l->attr[i].name, len);
+        n += len;
+    }
+    put32(out, (uint32_t)(n - 4));
+    put32(out + n, en_smz_crc32(0, out + 4, n - 4));
+    return n + 4;
+}
+
+int en_smz_attr_table_decode(const uint8_t *body, uint32_t body_len, uint32_t crc, epsnet_attr_layout *l,
+                             char *why, size_t why_len)
+{
+    memset(l, 0, sizeof *l);
+    if (en_smz_crc32(0, body, body_len) != crc) {
+        set_why(why, why_len, "attribute table checksum mismatch");
+        return -1;
+    }
+    if (body_len < 4 || get32(body) > EPSNET_ATTR_MAX) {
+        set_why(why, why_len, "attribute table has a bad attribute count");
+        return -1;
+    }
+    uint32_t n = get32(body), at = 4;
+    for (uint32_t i = 0; i < n; i++) {
+        if (body_len - at < 2 || body[at + 1] == 0 || body[at + 1] >= EPSNET_ATTR_NAME_MAX ||
+            body_len - at - 2 < body[at + 1]) {
+            snprintf(why, why_len, "attribute %u of the table is cut short or has a bad name length", i + 1);
+            return -1;
+        }
+        char name[EPSNET_ATTR_NAME_MAX];
+        memcpy(name, body + at + 2, body[at + 1]);
+        name[body[at + 1]] = '\0';
+        if (strlen(name) != body[at + 1] ||
+            epsnet_attr_layout_add(l, name, (epsnet_attr_type)body[at]) != 0) {
+            snprintf(why, why_len, "attribute %u of the table has a bad type (%u) or name", i + 1, body[at]);
+            return -1;
+        }
+        at += 2u + body[at + 1];
+    }
+    if (at != body_len) {
+        set_why(why, why_len, "attribute table has unused bytes");
+        return -1;
+    }
     return 0;
 }
 
@@ -448,13 +505,180 @@ int en_smz_unpack(void *dctx, const uint8_t *payload, const en_smz_block_header 
     return 0;
 }
 
+/* ---- coordinate prediction (version 2, docs/smz.md "Coordinates") ----
+ *
+ * note: in a sorted stream the previous vertex is close along the stream
+ * axis only; across it consecutive vertices jump about the slab, so the
+ * other two coordinates of version 1 hardly compress (docs/smz.md "Why").
+ * Version 2 predicts them from the vertex's neighbours in the block, the
+ * classic parallelogram rule (Touma & Gotsman; Isenburg & Lindstrom use it
+ * for streaming meshes): a vertex's first triangle in the block whose other
+ * two corners a, b come before it, and the vertex c across the edge ab in
+ * an earlier triangle, give a + b - c. The connectivity is decoded first
+ * (it needs no coordinate), so a decoder knows every prediction before it
+ * reads a coordinate. */
+
+/* Up to PRED_MAX parallelograms per vertex: averaging the predictions of
+ * several of its triangles beats any one of them (Cohen-Or, Cohen & Irony's
+ * multi-way prediction). */
+#define PRED_MAX 4
+
+typedef struct pred_ref {
+    int32_t a, b;               /* first triangle's other corners (block-local), -1 none */
+    int32_t n;                  /* parallelograms below */
+    int32_t p[PRED_MAX][3];     /* a, b, c of each: predicts a + b - c */
+} pred_ref;
+
+/* refs of the block's nverts vertices from its triangles (global corners,
+ * in stream order). @return 0 or -1 out of memory. */
+static int predict_refs(const uint64_t *tri, size_t ntris, uint64_t first, uint32_t nverts, pred_ref *ref)
+{
+    for (uint32_t v = 0; v < nverts; v++) {
+        ref[v].a = ref[v].b = -1;
+        ref[v].n = 0;
+    }
+    size_t cap = 16;
+    while (cap < 6 * ntris + 16)
+        cap *= 2;
+    uint64_t *key = en_malloc(cap * sizeof *key);
+    int64_t *val = en_malloc(cap * sizeof *val);
+    if (!key || !val) {
+        en_free(key);
+        en_free(val);
+        return -1;
+    }
+    for (size_t i = 0; i < cap; i++)
+        key[i] = UINT64_MAX;
+    for (size_t t = 0; t < ntris; t++) {
+        int64_t l[3];
+        int inside = 1;
+        for (int k = 0; k < 3; k++) {
+            uint64_t g = tri[3 * t + (size_t)k];
+            l[k] = g >= first && g - first < nverts ? (int64_t)(g - first) : -1;
+            inside &= l[k] >= 0;
+        }
+        if (!inside || l[0] == l[1] || l[1] == l[2] || l[0] == l[2])
+            continue;
+        int m = l[0] > l[1] ? (l[0] > l[2] ? 0 : 2) : (l[1] > l[2] ? 1 : 2);
+        int64_t v = l[m], a = l[(m + 1) % 3], b = l[(m + 2) % 3];
+        pred_ref *r = &ref[v];
+        if (r->a < 0) {
+            r->a = (int32_t)a;
+            r->b = (int32_t)b;
+        }
+        if (r->n < PRED_MAX) {
+            uint64_t k = (uint64_t)(a < b ? a : b) << 32 | (uint64_t)(a < b ? b : a);
+            for (size_t i = en_hash_slot(k, cap - 1); key[i] != UINT64_MAX; i = (i + 1) & (cap - 1))
+                if (key[i] == k) {
+                    if (val[i] < v) {
+                        r->p[r->n][0] = (int32_t)a;
+                        r->p[r->n][1] = (int32_t)b;
+                        r->p[r->n][2] = (int32_t)val[i];
+                        r->n++;
+                    }
+                    break;
+                }
+        }
+        for (int e = 0; e < 3; e++) {
+            int64_t p = l[e], q = l[(e + 1) % 3], o = l[(e + 2) % 3];
+            uint64_t k = (uint64_t)(p < q ? p : q) << 32 | (uint64_t)(p < q ? q : p);
+            size_t i = en_hash_slot(k, cap - 1);
+            while (key[i] != UINT64_MAX && key[i] != k)
+                i = (i + 1) & (cap - 1);
+            key[i] = k;
+            val[i] = o;
+        }
+    }
+    en_free(key);
+    en_free(val);
+    return 0;
+}
+
+/* Coordinate bits (width w bytes) to an integer in the order of the values,
+ * and back: -0 and +0 stay apart, so the map is one to one. */
+static uint64_t ord_bits(uint64_t u, int w)
+{
+    uint64_t sign = (uint64_t)1 << (8 * w - 1), mask = w == 8 ? UINT64_MAX : (sign << 1) - 1;
+    return (u & sign) ? ~(u & ~sign) & mask : u;
+}
+
+static uint64_t unord_bits(uint64_t m, int w)
+{
+    uint64_t sign = (uint64_t)1 << (8 * w - 1), mask = w == 8 ? UINT64_MAX : (sign << 1) - 1;
+    return (m & sign) ? (~m & mask) | sign : m;
+}
+
+/* The predicted value of coordinate k of local vertex v from the values
+ * already known (pos: 3 per local vertex). axis: the stream axis, whose
+ * coordinate the previous vertex predicts (it is close along it). */
+static double predict_coord(const double *pos, const pred_ref *ref, uint32_t v, int k, int axis)
+{
+    const pred_ref *r = &ref[v];
+    if (k != axis && r->n > 0) {
+        double sum = 0;
+        for (int i = 0; i < r->n; i++)
+            sum += pos[3 * (size_t)r->p[i][0] + (size_t)k] + pos[3 * (size_t)r->p[i][1] + (size_t)k] -
+                   pos[3 * (size_t)r->p[i][2] + (size_t)k];
+        return sum / r->n;
+    }
+    if (k != axis && r->a >= 0)
+        return (pos[3 * (size_t)r->a + (size_t)k] + pos[3 * (size_t)r->b + (size_t)k]) * 0.5;
+    return v ? pos[3 * (size_t)(v - 1) + (size_t)k] : 0.0;
+}
+
+/* Residual of bits against the prediction, zigzagged so that small
+ * differences of either sign have zero high bytes; and back. */
+static uint64_t residual(uint64_t bits, uint64_t pred, int w)
+{
+    uint64_t mask = w == 8 ? UINT64_MAX : ((uint64_t)1 << (8 * w)) - 1;
+    uint64_t r = (ord_bits(bits, w) - ord_bits(pred, w)) & mask;
+    uint64_t neg = (r >> (8 * w - 1)) & 1;
+    return ((r << 1) ^ (neg ? mask : 0)) & mask;
+}
+
+static uint64_t unresidual(uint64_t z, uint64_t pred, int w)
+{
+    uint64_t mask = w == 8 ? UINT64_MAX : ((uint64_t)1 << (8 * w)) - 1;
+    uint64_t r = ((z >> 1) ^ ((z & 1) ? mask : 0)) & mask;
+    return unord_bits((ord_bits(pred, w) + r) & mask, w);
+}
+
+/* Version 2 attributes: each value is predicted by the same attribute of
+ * the vertex's first neighbour in the block (ref a), else of the previous
+ * vertex; float values are compared in value order (ord_bits), integers as
+ * they are. */
+static int64_t attr_ref(const pred_ref *ref, uint32_t v)
+{
+    return ref[v].a >= 0 ? ref[v].a : (int64_t)v - 1;
+}
+
+static uint64_t attr_residual(uint64_t cur, uint64_t pred, size_t w, int is_float)
+{
+    uint64_t mask = w == 8 ? UINT64_MAX : ((uint64_t)1 << (8 * w)) - 1;
+    uint64_t r = is_float ? (ord_bits(cur, (int)w) - ord_bits(pred, (int)w)) & mask : (cur - pred) & mask;
+    uint64_t neg = (r >> (8 * w - 1)) & 1;
+    return ((r << 1) ^ (neg ? mask : 0)) & mask;
+}
+
+static uint64_t attr_unresidual(uint64_t z, uint64_t pred, size_t w, int is_float)
+{
+    uint64_t mask = w == 8 ? UINT64_MAX : ((uint64_t)1 << (8 * w)) - 1;
+    uint64_t r = ((z >> 1) ^ ((z & 1) ? mask : 0)) & mask;
+    return is_float ? unord_bits((ord_bits(pred, (int)w) + r) & mask, (int)w) : (pred + r) & mask;
+}
+
+static int attr_is_float(epsnet_attr_type t)
+{
+    return t == EPSNET_ATTR_FLOAT32 || t == EPSNET_ATTR_FLOAT64;
+}
+
 /* Section layout of a raw payload, checked against the block header. */
 typedef struct raw_sections {
-    const uint8_t *kinds, *coords, *tris, *fins, *end;
+    const uint8_t *kinds, *coords, *attrs, *tris, *fins, *end;
 } raw_sections;
 
-static int split_sections(const uint8_t *raw, const en_smz_block_header *b, int width, raw_sections *s,
-                          char *why, size_t why_len)
+static int split_sections(const uint8_t *raw, const en_smz_block_header *b, int width, uint32_t asz,
+                          raw_sections *s, char *why, size_t why_len)
 {
     if (b->raw_bytes < RAW_PREFIX_BYTES) {
         set_why(why, why_len, "payload too short");
@@ -462,25 +686,132 @@ static int split_sections(const uint8_t *raw, const en_smz_block_header *b, int 
     }
     uint64_t kb = get32(raw), tb = get32(raw + 4), fb = get32(raw + 8);
     uint64_t cb = (uint64_t)b->nverts * 3 * (uint64_t)width;
-    if (RAW_PREFIX_BYTES + kb + cb + tb + fb != b->raw_bytes) {
+    uint64_t ab = (uint64_t)b->nverts * asz;
+    if (RAW_PREFIX_BYTES + kb + cb + ab + tb + fb != b->raw_bytes) {
         set_why(why, why_len, "payload section sizes do not add up");
         return -1;
     }
     s->kinds = raw + RAW_PREFIX_BYTES;
     s->coords = s->kinds + kb;
-    s->tris = s->coords + cb;
+    s->attrs = s->coords + cb;
+    s->tris = s->attrs + ab;
     s->fins = s->tris + tb;
     s->end = s->fins + fb;
     return 0;
 }
 
+/* An attribute value's bits as an unsigned integer of its width, from (and
+ * to) the host-order bytes records carry (docs/smz.md "Attributes"). */
+static uint64_t attr_load(const uint8_t *p, size_t w)
+{
+    switch (w) {
+    case 1: return p[0];
+    case 2: { uint16_t v; memcpy(&v, p, 2); return v; }
+    case 4: { uint32_t v; memcpy(&v, p, 4); return v; }
+    default: { uint64_t v; memcpy(&v, p, 8); return v; }
+    }
+}
+
+static void attr_store(uint8_t *p, size_t w, uint64_t u)
+{
+    switch (w) {
+    case 1: p[0] = (uint8_t)u; break;
+    case 2: { uint16_t v = (uint16_t)u; memcpy(p, &v, 2); break; }
+    case 4: { uint32_t v = (uint32_t)u; memcpy(p, &v, 4); break; }
+    default: memcpy(p, &u, 8); break;
+    }
+}
+
+/* The attribute section into attr_out (nverts * l->size bytes): per
+ * attribute, the byte planes of the differences of its values. */
+static void decode_attrs(const uint8_t *sec, uint32_t nverts, const epsnet_attr_layout *l, const pred_ref *ref,
+                         uint8_t *attr_out)
+{
+    const uint8_t *p = sec;
+    for (uint32_t a = 0; a < l->count; a++) {
+        size_t w = epsnet_attr_type_size(l->attr[a].type), off = l->attr[a].offset;
+        int fl = attr_is_float(l->attr[a].type);
+        for (uint32_t i = 0; i < nverts; i++) {
+            uint64_t z = 0;
+            for (size_t j = 0; j < w; j++)
+                z |= (uint64_t)p[j * nverts + i] << (8 * j);
+            int64_t q = attr_ref(ref, i);
+            uint64_t pred = q >= 0 ? attr_load(attr_out + (size_t)q * l->size + off, w) : 0;
+            attr_store(attr_out + (size_t)i * l->size + off, w, attr_unresidual(z, pred, w, fl));
+        }
+        p += w * nverts;
+    }
+}
+
+static int decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet_coord_type ct, int version,
+                        int axis, const epsnet_attr_layout *l, uint8_t *attr_out, epsnet_record *out, char *why,
+                        size_t why_len);
+
 int en_smz_decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet_coord_type ct,
                         epsnet_record *out, char *why, size_t why_len)
 {
-    int width = coord_width(ct);
-    raw_sections s;
-    if (split_sections(raw, b, width, &s, why, why_len))
+    return decode_block(raw, b, ct, 1, -1, NULL, NULL, out, why, why_len);
+}
+
+int en_smz_decode_block_h(const uint8_t *raw, const en_smz_block_header *b, const en_smz_header *h,
+                          uint8_t *attr_out, epsnet_record *out, char *why, size_t why_len)
+{
+    return decode_block(raw, b, h->coord_type, (int)h->version, h->axis, &h->attrs, attr_out, out, why, why_len);
+}
+
+/* Version 2: the coordinates of the block's vertices from their residuals
+ * against the predictions (the triangles are decoded by now). */
+static int decode_predicted(const raw_sections *s, const en_smz_block_header *b, epsnet_coord_type ct, int axis,
+                            const epsnet_attr_layout *l, uint8_t *attr_out, const uint32_t *vrec,
+                            const uint64_t *tri, epsnet_record *out, char *why, size_t why_len)
+{
+    int w = coord_width(ct);
+    uint32_t nv = b->nverts;
+    double *pos = en_malloc(((size_t)nv * 3 + 1) * sizeof *pos);
+    pred_ref *ref = en_malloc(((size_t)nv + 1) * sizeof *ref);
+    if (!pos || !ref || predict_refs(tri, b->ntris, b->first_vertex, nv, ref)) {
+        en_free(pos);
+        en_free(ref);
+        set_why(why, why_len, "out of memory");
         return -1;
+    }
+    for (uint32_t v = 0; v < nv; v++)
+        for (int k = 0; k < 3; k++) {
+            const uint8_t *pl = s->coords + (size_t)k * (size_t)w * nv;
+            uint64_t z = 0;
+            for (int j = 0; j < w; j++)
+                z |= (uint64_t)pl[(size_t)j * nv + v] << (8 * j);
+            uint64_t pred = coord_bits(predict_coord(pos, ref, v, k, axis), ct);
+            pos[3 * (size_t)v + (size_t)k] = bits_coord(unresidual(z, pred, w), ct);
+        }
+    for (uint32_t v = 0; v < nv; v++)
+        memcpy(out[vrec[v]].xyz, pos + 3 * (size_t)v, sizeof out->xyz);
+    if (l && l->size)
+        decode_attrs(s->attrs, nv, l, ref, attr_out);
+    en_free(pos);
+    en_free(ref);
+    return 0;
+}
+
+static int decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet_coord_type ct, int version,
+                        int axis, const epsnet_attr_layout *l, uint8_t *attr_out, epsnet_record *out, char *why,
+                        size_t why_len)
+{
+    int width = coord_width(ct);
+    uint32_t asz = l ? l->size : 0;
+    int predicted = version >= 2;
+    uint32_t *vrec = NULL;
+    uint64_t *tri = NULL;
+    if (predicted && (!(vrec = en_malloc(((size_t)b->nverts + 1) * sizeof *vrec)) ||
+                      !(tri = en_malloc(((size_t)b->ntris * 3 + 1) * sizeof *tri)))) {
+        en_free(vrec);
+        set_why(why, why_len, "out of memory");
+        return -1;
+    }
+    int rc = -1;
+    raw_sections s;
+    if (split_sections(raw, b, width, asz, &s, why, why_len))
+        goto done;
     const uint8_t *kp = s.kinds, *tp = s.tris, *fp = s.fins;
     const uint8_t *plane[3][8];
     for (int k = 0; k < 3; k++)
@@ -496,22 +827,25 @@ int en_smz_decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet
         size_t used = get_varint(kp, s.coords, &run);
         if (!used || (run & 3) == 0) {
             set_why(why, why_len, "bad record-kind run");
-            return -1;
+            goto done;
         }
         kp += used;
         int kind = (int)(run & 3);
         uint64_t len = (run >> 2) + 1;
         if (len > b->records - rec) {
             set_why(why, why_len, "record-kind runs exceed the record count");
-            return -1;
+            goto done;
         }
         for (uint64_t i = 0; i < len; i++, rec++) {
             epsnet_record *r = out + rec;
             r->kind = (epsnet_record_kind)kind;
+            r->attr = NULL;
             if (kind == EPSNET_REC_VERTEX) {
                 if (vi == b->nverts)
                     goto counts;
-                for (int k = 0; k < 3; k++) {
+                if (predicted)
+                    vrec[vi] = rec;
+                for (int k = 0; k < 3 && !predicted; k++) {
                     const uint8_t *const *pl = plane[k];
                     uint64_t d = (uint64_t)pl[0][vi] | (uint64_t)pl[1][vi] << 8 | (uint64_t)pl[2][vi] << 16 |
                                  (uint64_t)pl[3][vi] << 24;
@@ -523,6 +857,7 @@ int en_smz_decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet
                         prev[k] &= 0xffffffffu;
                     r->xyz[k] = bits_coord(prev[k], ct);
                 }
+                r->attr = asz ? attr_out + vi * asz : NULL;
                 vi++;
                 nv++;
             } else if (kind == EPSNET_REC_TRIANGLE) {
@@ -533,13 +868,15 @@ int en_smz_decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet
                     size_t u = get_varint(tp, s.fins, &code);
                     if (!u) {
                         set_why(why, why_len, "triangle section ends early");
-                        return -1;
+                        goto done;
                     }
                     tp += u;
                     if (corner_decode(&recent, code, nv, &r->v[k])) {
                         set_why(why, why_len, "a triangle references a vertex that does not exist yet");
-                        return -1;
+                        goto done;
                     }
+                    if (predicted)
+                        tri[3 * nt + (uint64_t)k] = r->v[k];
                 }
                 nt++;
             } else {
@@ -547,12 +884,12 @@ int en_smz_decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet
                 size_t u = get_varint(fp, s.end, &d);
                 if (!u || nf == b->nfinal) {
                     set_why(why, why_len, "finalization section ends early");
-                    return -1;
+                    goto done;
                 }
                 fp += u;
                 if (d >= nv) {
                     set_why(why, why_len, "a finalization names a vertex that does not exist yet");
-                    return -1;
+                    goto done;
                 }
                 r->v[0] = nv - 1 - d;
                 r->v[1] = r->v[2] = 0;
@@ -564,12 +901,16 @@ int en_smz_decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet
         goto counts;
     if (kp != s.coords || tp != s.fins || fp != s.end) {
         set_why(why, why_len, "payload has unused bytes");
-        return -1;
+        goto done;
     }
-    return 0;
+    rc = predicted ? decode_predicted(&s, b, ct, axis, l, attr_out, vrec, tri, out, why, why_len) : 0;
+    goto done;
 counts:
     set_why(why, why_len, "record kinds disagree with the block's counts");
-    return -1;
+done:
+    en_free(vrec);
+    en_free(tri);
+    return rc;
 }
 
 /* ---- encoder ---- */
@@ -586,6 +927,13 @@ static int buf_reserve(byte_buf *b, size_t more)
 
 struct en_smz_encoder {
     epsnet_coord_type ct;
+    int version;             /* 2: predicted coordinates (and attributes) */
+    int axis;                /* stream axis, -1 none */
+    uint64_t first_vertex;   /* of the block: vertices before its first record */
+    uint64_t *tri;           /* the block's triangles, 3 global corners each */
+    size_t tri_cap;          /* in triangles */
+    epsnet_attr_layout attrs;
+    uint8_t *abytes;         /* attrs.size per vertex, bits_cap vertices */
     byte_buf kinds, tris, fins;
     uint64_t *bits;          /* 3 per vertex */
     size_t bits_cap;         /* in vertices */
@@ -597,9 +945,18 @@ struct en_smz_encoder {
 
 en_smz_encoder *en_smz_encoder_new(epsnet_coord_type ct)
 {
+    return en_smz_encoder_new_v2(ct, NULL, -1);
+}
+
+en_smz_encoder *en_smz_encoder_new_v2(epsnet_coord_type ct, const epsnet_attr_layout *l, int axis)
+{
     en_smz_encoder *e = en_calloc(1, sizeof *e);
     if (e) {
         e->ct = ct;
+        e->version = 2;
+        e->axis = axis >= 0 && axis < 3 ? axis : -1;
+        if (l)
+            e->attrs = *l;
         recent_reset(&e->recent);
     }
     return e;
@@ -614,6 +971,8 @@ void en_smz_encoder_free(en_smz_encoder **pe)
     en_free(e->tris.p);
     en_free(e->fins.p);
     en_free(e->bits);
+    en_free(e->abytes);
+    en_free(e->tri);
     en_free(e);
     *pe = NULL;
 }
@@ -632,6 +991,8 @@ static int close_run(en_smz_encoder *e)
 int en_smz_encoder_add(en_smz_encoder *e, const epsnet_record *rec, uint64_t nverts_before)
 {
     int kind = (int)rec->kind;
+    if (en_smz_encoder_records(e) == 0)
+        e->first_vertex = nverts_before;
     if (kind != e->run_kind && close_run(e))
         return -1;
     if (kind == EPSNET_REC_VERTEX) {
@@ -641,8 +1002,16 @@ int en_smz_encoder_add(en_smz_encoder *e, const epsnet_record *rec, uint64_t nve
             if (en_grow(&p, &cap, (size_t)e->nverts + 1, 3 * sizeof *e->bits))
                 return -1;
             e->bits = p;
+            if (e->attrs.size) {
+                uint8_t *a = en_realloc(e->abytes, cap * e->attrs.size);
+                if (!a)
+                    return -1;
+                e->abytes = a;
+            }
             e->bits_cap = cap;
         }
+        if (e->attrs.size)
+            memcpy(e->abytes + (size_t)e->nverts * e->attrs.size, rec->attr, e->attrs.size);
         for (int k = 0; k < 3; k++)
             e->bits[3 * (size_t)e->nverts + (size_t)k] = coord_bits(rec->xyz[k], e->ct);
         e->nverts++;
@@ -654,6 +1023,9 @@ int en_smz_encoder_add(en_smz_encoder *e, const epsnet_record *rec, uint64_t nve
         for (int k = 0; k < 3; k++)
             n += put_varint(p + n, corner_code(&e->recent, rec->v[k], nverts_before));
         e->tris.len += n;
+        if (e->ntris == e->tri_cap && en_grow((void **)&e->tri, &e->tri_cap, (size_t)e->ntris + 1, 3 * sizeof *e->tri))
+            return -1;
+        memcpy(e->tri + 3 * (size_t)e->ntris, rec->v, 3 * sizeof *e->tri);
         e->ntris++;
     } else {
         if (buf_reserve(&e->fins, 10))
@@ -673,8 +1045,8 @@ uint32_t en_smz_encoder_records(const en_smz_encoder *e)
 
 size_t en_smz_encoder_raw_bytes(const en_smz_encoder *e)
 {
-    return RAW_PREFIX_BYTES + e->kinds.len + 10 + (size_t)e->nverts * 3 * (size_t)coord_width(e->ct) +
-           e->tris.len + e->fins.len;
+    return RAW_PREFIX_BYTES + e->kinds.len + 10 +
+           (size_t)e->nverts * (3 * (size_t)coord_width(e->ct) + e->attrs.size) + e->tris.len + e->fins.len;
 }
 
 int en_smz_encoder_flush(en_smz_encoder *e, void *cctx, uint8_t **out, size_t *out_cap,
@@ -684,7 +1056,8 @@ int en_smz_encoder_flush(en_smz_encoder *e, void *cctx, uint8_t **out, size_t *o
         return -1;
     int width = coord_width(e->ct);
     size_t cb = (size_t)e->nverts * 3 * (size_t)width;
-    size_t raw_len = RAW_PREFIX_BYTES + e->kinds.len + cb + e->tris.len + e->fins.len;
+    size_t ab = (size_t)e->nverts * e->attrs.size;
+    size_t raw_len = RAW_PREFIX_BYTES + e->kinds.len + cb + ab + e->tris.len + e->fins.len;
     uint8_t *raw = en_malloc(raw_len);
     if (!raw)
         return -1;
@@ -699,17 +1072,59 @@ int en_smz_encoder_flush(en_smz_encoder *e, void *cctx, uint8_t **out, size_t *o
      * split into byte planes: along the stream axis the differences are
      * small, so their high planes are nearly all zero and zstd packs them
      * to almost nothing (docs/smz.md "Coordinates"). */
-    for (int k = 0; k < 3; k++) {
-        uint64_t prev = 0;
-        for (uint32_t i = 0; i < e->nverts; i++) {
-            uint64_t cur = e->bits[3 * (size_t)i + (size_t)k];
-            uint64_t d = cur - prev;
-            prev = cur;
-            for (int j = 0; j < width; j++)
-                p[((size_t)k * (size_t)width + (size_t)j) * e->nverts + i] = (uint8_t)(d >> (8 * j));
+    pred_ref *ref = NULL;
+    if (e->version >= 2) {
+        /* version 2: residuals against the predictions (predict_coord) */
+        double *pos = en_malloc(((size_t)e->nverts * 3 + 1) * sizeof *pos);
+        ref = en_malloc(((size_t)e->nverts + 1) * sizeof *ref);
+        if (!pos || !ref || predict_refs(e->tri, e->ntris, e->first_vertex, e->nverts, ref)) {
+            en_free(pos);
+            en_free(ref);
+            en_free(raw);
+            return -1;
+        }
+        for (size_t i = 0; i < (size_t)e->nverts * 3; i++)
+            pos[i] = bits_coord(e->bits[i], e->ct);
+        for (uint32_t i = 0; i < e->nverts; i++)
+            for (int k = 0; k < 3; k++) {
+                uint64_t pred = coord_bits(predict_coord(pos, ref, i, k, e->axis), e->ct);
+                uint64_t z = residual(e->bits[3 * (size_t)i + (size_t)k], pred, width);
+                for (int j = 0; j < width; j++)
+                    p[((size_t)k * (size_t)width + (size_t)j) * e->nverts + i] = (uint8_t)(z >> (8 * j));
+            }
+        en_free(pos);
+    } else {
+        for (int k = 0; k < 3; k++) {
+            uint64_t prev = 0;
+            for (uint32_t i = 0; i < e->nverts; i++) {
+                uint64_t cur = e->bits[3 * (size_t)i + (size_t)k];
+                uint64_t d = cur - prev;
+                prev = cur;
+                for (int j = 0; j < width; j++)
+                    p[((size_t)k * (size_t)width + (size_t)j) * e->nverts + i] = (uint8_t)(d >> (8 * j));
+            }
         }
     }
     p += cb;
+    /* note: attributes one at a time, each value against the same
+     * attribute of a neighbour (attr_ref): neighbours on the surface tend
+     * to share colours, normals and confidence, so most residuals are
+     * small (docs/smz.md "Attributes"). Attributes exist in version 2
+     * only, so ref is set whenever there are some. */
+    for (uint32_t a = 0; a < e->attrs.count && ref; a++) {
+        size_t w = epsnet_attr_type_size(e->attrs.attr[a].type), off = e->attrs.attr[a].offset;
+        int fl = attr_is_float(e->attrs.attr[a].type);
+        for (uint32_t i = 0; i < e->nverts; i++) {
+            uint64_t cur = attr_load(e->abytes + (size_t)i * e->attrs.size + off, w);
+            int64_t q = attr_ref(ref, i);
+            uint64_t pred = q >= 0 ? attr_load(e->abytes + (size_t)q * e->attrs.size + off, w) : 0;
+            uint64_t z = attr_residual(cur, pred, w, fl);
+            for (size_t j = 0; j < w; j++)
+                p[j * e->nverts + i] = (uint8_t)(z >> (8 * j));
+        }
+        p += w * e->nverts;
+    }
+    en_free(ref);
     if (e->tris.len)
         memcpy(p, e->tris.p, e->tris.len);
     p += e->tris.len;
@@ -799,6 +1214,20 @@ int en_smz_read_index(int fd, const char *path, uint64_t file_size, en_smz_index
         rc = en_error_set(err, EPSNET_EFORMAT, path, EPSNET_POS_NONE, t->index_offset,
                           "index is corrupt (bad tag or checksum)");
     uint64_t expect = EN_SMZ_HEADER_BYTES;
+    if (rc == 0 && idx->header.version >= 2) {
+        /* the attribute table sits between the header and block 0 */
+        uint8_t tab[EN_SMZ_MAX_TABLE_BYTES];
+        uint32_t body = 0;
+        if (pread_all(fd, tab, 4, EN_SMZ_HEADER_BYTES) || (body = get32(tab)) > EN_SMZ_MAX_TABLE_BYTES - 8 ||
+            EN_SMZ_HEADER_BYTES + 8 + (uint64_t)body > t->index_offset ||
+            pread_all(fd, tab + 4, body + 4, EN_SMZ_HEADER_BYTES + 4))
+            rc = en_error_set(err, EPSNET_EFORMAT, path, EPSNET_POS_NONE, EN_SMZ_HEADER_BYTES,
+                              "attribute table is cut short or too long");
+        else if (en_smz_attr_table_decode(tab + 4, body, get32(tab + 4 + body), &idx->header.attrs, why,
+                                          sizeof why))
+            rc = en_error_set(err, EPSNET_EFORMAT, path, EPSNET_POS_NONE, EN_SMZ_HEADER_BYTES, "%s", why);
+        expect += 8 + (uint64_t)body;
+    }
     for (uint64_t i = 0; rc == 0 && i < t->blocks; i++) {
         en_smz_index_entry *e = &idx->entries[i];
         en_smz_index_entry_decode(ib + EN_SMZ_INDEX_HEAD_BYTES + i * EN_SMZ_INDEX_ENTRY_BYTES, e);

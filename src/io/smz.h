@@ -19,7 +19,14 @@
 #define EN_SMZ_INDEX_HEAD_BYTES 8
 #define EN_SMZ_INDEX_ENTRY_BYTES 48
 #define EN_SMZ_TRAILER_BYTES 112
-#define EN_SMZ_VERSION 1
+/* Version 1: positions only. Version 2 adds the attribute table after the
+ * header and an attribute section to every block (docs/smz.md); the writer
+ * writes version 1 for a stream without attributes, so such files keep
+ * their bytes. */
+#define EN_SMZ_VERSION 2
+/* Largest attribute table: length, count, CRC, and each attribute's type,
+ * name length and name. */
+#define EN_SMZ_MAX_TABLE_BYTES (12 + EPSNET_ATTR_MAX * (2 + EPSNET_ATTR_NAME_MAX))
 
 /* Limits a reader enforces before allocating (docs/smz.md "Limits"). */
 #define EN_SMZ_MAX_RAW_BYTES ((uint32_t)4 << 20)
@@ -32,6 +39,8 @@ extern const uint8_t en_smz_magic[8];
 extern const uint8_t en_smz_end_magic[8];
 
 typedef struct en_smz_header {
+    unsigned version;           /* 1 or 2; encode writes 2 exactly when attrs.count > 0 */
+    epsnet_attr_layout attrs;   /* version 2: from the attribute table */
     epsnet_coord_type coord_type;
     int sorted;                 /* vertices non-decreasing along axis */
     int axis;                   /* 0..2, or -1 */
@@ -77,6 +86,14 @@ void en_smz_header_encode(const en_smz_header *h, uint8_t out[EN_SMZ_HEADER_BYTE
 int en_smz_header_decode(const uint8_t in[EN_SMZ_HEADER_BYTES], en_smz_header *h, char *why,
                          size_t why_len);
 
+/* The version 2 attribute table (docs/smz.md "Attribute table") into out
+ * (EN_SMZ_MAX_TABLE_BYTES). @return its length. */
+size_t en_smz_attr_table_encode(const epsnet_attr_layout *l, uint8_t *out);
+/* Decode a table's body (the body_len bytes after its length field) and
+ * check its CRC (crc, the u32 after the body). @return 0 or -1 with why. */
+int en_smz_attr_table_decode(const uint8_t *body, uint32_t body_len, uint32_t crc, epsnet_attr_layout *l,
+                             char *why, size_t why_len);
+
 void en_smz_block_header_encode(const en_smz_block_header *b, uint8_t out[EN_SMZ_BLOCK_HEADER_BYTES]);
 /* Checks the tag, the CRC and the limits. @return 0 or -1 with why filled. */
 int en_smz_block_header_decode(const uint8_t in[EN_SMZ_BLOCK_HEADER_BYTES], en_smz_block_header *b,
@@ -106,12 +123,22 @@ int en_smz_unpack(void *dctx, const uint8_t *payload, const en_smz_block_header 
  */
 int en_smz_decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet_coord_type ct,
                         epsnet_record *out, char *why, size_t why_len);
+/* en_smz_decode_block() decodes version 1 payloads only; this one any
+ * version, by the file's header h (version, axis, attributes): each vertex
+ * record's attr points into attr_out, which holds b->nverts *
+ * h->attrs.size bytes (NULL when there are none). */
+int en_smz_decode_block_h(const uint8_t *raw, const en_smz_block_header *b, const en_smz_header *h,
+                          uint8_t *attr_out, epsnet_record *out, char *why, size_t why_len);
 
 /* ---- encoder ---- */
 
 typedef struct en_smz_encoder en_smz_encoder;
 
+/* A version 2 encoder: coordinates predicted, the axis coordinate from
+ * the previous vertex (axis -1: none), vertex attributes l (copied; NULL:
+ * none). en_smz_encoder_new(ct) is en_smz_encoder_new_v2(ct, NULL, -1). */
 en_smz_encoder *en_smz_encoder_new(epsnet_coord_type ct);
+en_smz_encoder *en_smz_encoder_new_v2(epsnet_coord_type ct, const epsnet_attr_layout *l, int axis);
 void en_smz_encoder_free(en_smz_encoder **e);
 /* Append one record; nverts_before is the global vertex count before it.
  * @return 0, or -1 out of memory. */

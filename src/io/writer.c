@@ -42,6 +42,40 @@ int en_format_coord(char *buf, double v, epsnet_coord_type t)
     return en_text_format_coord(buf, v, t);
 }
 
+/* The attributes the format holds go to the driver (w->attrs); the others
+ * are named for epsnet_writer_dropped(). @return 0 or -1 out of memory. */
+static int choose_attrs(epsnet_writer *w)
+{
+    const epsnet_attr_layout *in = &w->info.vertex_attrs;
+    memset(&w->attrs, 0, sizeof w->attrs);
+    size_t cap = 1, len = 0;
+    for (uint32_t i = 0; i < in->count; i++)
+        cap += strlen(in->attr[i].name) + 24;
+    for (uint32_t i = 0; i < in->count; i++) {
+        if (w->fmt->holds_attr && w->fmt->holds_attr(in, i)) {
+            w->attr_from[w->attrs.count] = in->attr[i].offset;
+            (void)epsnet_attr_layout_add(&w->attrs, in->attr[i].name, in->attr[i].type);
+            continue;
+        }
+        if (!w->drop_text && !(w->drop_text = en_malloc(cap)))
+            return -1;
+        int n = snprintf(w->drop_text + len, cap - len, "%svertex property %s", len ? ", " : "",
+                         in->attr[i].name);
+        if (n > 0)
+            len += (size_t)n;
+        w->ndrop++;
+    }
+    w->attrs_subset = w->attrs.count != in->count;
+    return 0;
+}
+
+const char *epsnet_writer_dropped(const epsnet_writer *w, uint64_t *count)
+{
+    if (count)
+        *count = w ? w->ndrop : 0;
+    return w ? w->drop_text : NULL;
+}
+
 int epsnet_writer_open(epsnet_writer **out, const char *path,
                        const epsnet_writer_settings *settings,
                        const epsnet_mesh_info *info, epsnet_error *err)
@@ -85,6 +119,18 @@ int epsnet_writer_open(epsnet_writer **out, const char *path,
         epsnet_writer_abort(&w);
         return rc;
     }
+    if (info) {
+        char why[256];
+        if (en_attr_layout_check(&w->info.vertex_attrs, why, sizeof why)) {
+            int rc = en_error_set(err, EPSNET_EINVAL, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "%s", why);
+            epsnet_writer_abort(&w);
+            return rc;
+        }
+    }
+    if (choose_attrs(w)) {
+        epsnet_writer_abort(&w);
+        return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    }
     int zl = en_path_has_zst(path) ? (w->settings.zstd_level > 0 ? w->settings.zstd_level : 3) : 0;
     int rc = en_sink_open(&w->sink, path, zl, err);
     if (rc == 0) {
@@ -104,8 +150,28 @@ int epsnet_writer_put(epsnet_writer *w, const epsnet_record *rec, epsnet_error *
 {
     if (w->failed)
         goto fail;
+    epsnet_record repacked;
     switch (rec->kind) {
     case EPSNET_REC_VERTEX:
+        if (w->info.vertex_attrs.count && !rec->attr) {
+            en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                         "vertex %llu has no attribute bytes, but the stream announced %u attributes",
+                         (unsigned long long)w->nverts + 1, w->info.vertex_attrs.count);
+            w->failed = 1;
+            goto fail;
+        }
+        if (w->attrs_subset) {
+            repacked = *rec;
+            for (uint32_t i = 0; i < w->attrs.count; i++)
+                memcpy(w->abuf + w->attrs.attr[i].offset, rec->attr + w->attr_from[i],
+                       epsnet_attr_type_size(w->attrs.attr[i].type));
+            repacked.attr = w->attrs.count ? w->abuf : NULL;
+            rec = &repacked;
+        } else if (!w->attrs.count) {
+            repacked = *rec;
+            repacked.attr = NULL;
+            rec = &repacked;
+        }
         w->nverts++;
         break;
     case EPSNET_REC_TRIANGLE:
@@ -171,6 +237,7 @@ void epsnet_writer_abort(epsnet_writer **pw)
     if (w->fmt && w->fmt->close_writer)
         w->fmt->close_writer(w);
     en_sink_abort(&w->sink);
+    en_free(w->drop_text);
     en_free(w->tmpdir);
     en_free(w->path);
     en_free(w);

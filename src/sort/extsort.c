@@ -149,7 +149,7 @@ static void radix_sort(uint64_t *items, uint64_t *tmp, size_t n, size_t words, s
 int en_extsort_open(en_extsort **out, const en_extsort_config *cfg, epsnet_error *err)
 {
     *out = NULL;
-    if (cfg->item_words < 1 || cfg->item_words > 8 || cfg->key_words < 1 || cfg->key_words > cfg->item_words)
+    if (cfg->item_words < 1 || cfg->item_words > EN_EXTSORT_MAX_WORDS || cfg->key_words < 1 || cfg->key_words > cfg->item_words)
         return en_error_set(err, EPSNET_EINTERNAL, cfg->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "external sort: bad item layout");
     en_extsort *es = en_calloc(1, sizeof *es);

@@ -24,8 +24,12 @@ typedef struct en_mem_account {
 void en_mem_take(en_mem_account *m, uint64_t bytes);
 void en_mem_give(en_mem_account *m, uint64_t bytes);
 
+/* Widest item: a vertex with its key, id, two coordinates and
+ * EPSNET_ATTR_MAX * 8 bytes of attributes (sort.c pass_order). */
+#define EN_EXTSORT_MAX_WORDS (4 + EPSNET_ATTR_MAX)
+
 typedef struct en_extsort_config {
-    size_t item_words;        /* 2 .. 8 */
+    size_t item_words;        /* 1 .. EN_EXTSORT_MAX_WORDS */
     size_t key_words;         /* 1 .. item_words */
     uint64_t mem;             /* bytes for the run buffer and the merge */
     const char *tmpdir;       /* NULL = $TMPDIR or /tmp */

@@ -149,6 +149,8 @@ struct en_sort {
     size_t xyz_n, xyz_cap;       /* vertices */
     size_t tri_n, tri_cap;       /* faces */
     double *sxyz;                /* whole: the vertices in rank order, 3 each */
+    uint8_t *attr;               /* whole: input vertices' attribute bytes, asz each */
+    uint8_t *sattr;              /* whole: the same in rank order */
     uint32_t *fend;              /* whole: rank -> end of its faces in fitems */
     uint64_t *fitems;            /* whole: faces by (last corner, input order): see whole_faces */
     uint32_t *out_id, *fin;      /* whole: see whole_emit */
@@ -165,7 +167,14 @@ struct en_sort {
     int axis;
     epsnet_coord_type ct;
     int phase;
-    double *vbuf;                /* BATCH xyz triples */
+    /* Vertex attributes travel with their vertex, bit for bit
+     * (epsnet.h §2): in every vertex record of the spills (xyz, then asz
+     * bytes: vrec bytes), in sorter V's items (aw words after the four) and
+     * in the whole path's arrays. */
+    epsnet_attr_layout attrs;
+    size_t asz, aw, vrec;
+    int keep_attrs;              /* 0: the consumer carries none (named as dropped) */
+    uint8_t *vbuf;               /* BATCH vertex records of vrec bytes */
     uint64_t *fbuf;              /* BATCH faces */
     uint64_t *group;             /* faces of one last corner: 5 words each */
     size_t group_cap;
@@ -277,14 +286,34 @@ static double bitsd(uint64_t u)
  * then the coordinates, the faces' items and their radix copy (16 bytes
  * each), fend and last_of. Pass 6 holds less: the coordinates, the items,
  * and four arrays over the ranks. */
-static uint64_t whole_bytes(uint64_t nv, uint64_t nf)
+static uint64_t whole_bytes(uint64_t nv, uint64_t nf, uint64_t asz)
 {
-    return 68 * nv + 36 * nf;
+    /* attributes: the input's and, while they are gathered, the ranked copy */
+    return (68 + 2 * asz) * nv + 36 * nf;
 }
 
 static int whole_fits(const sort_job *j, uint64_t nv, uint64_t nf)
 {
-    return nv < UINT32_MAX && nf < UINT32_MAX && whole_bytes(nv, nf) <= j->set.mem / 2;
+    return nv < UINT32_MAX && nf < UINT32_MAX && whole_bytes(nv, nf, j->asz) <= j->set.mem / 2;
+}
+
+/* Vertex record i of vbuf: xyz, then its attribute bytes. */
+static uint8_t *vrec_at(const sort_job *j, size_t i)
+{
+    return j->vbuf + i * j->vrec;
+}
+
+static void vrec_put(sort_job *j, size_t i, const double xyz[3], const uint8_t *attr)
+{
+    uint8_t *p = vrec_at(j, i);
+    memcpy(p, xyz, 3 * sizeof *xyz);
+    if (j->asz)
+        memcpy(p + 3 * sizeof *xyz, attr, j->asz);
+}
+
+static void vrec_get(const sort_job *j, size_t i, double xyz[3])
+{
+    memcpy(xyz, vrec_at(j, i), 3 * sizeof *xyz);
 }
 
 /* No longer whole: what was read goes to the spills, in input order. */
@@ -292,7 +321,14 @@ static int whole_spill(sort_job *j, epsnet_error *err)
 {
     int rc = 0;
     j->whole = 0;
-    if (j->xyz_n && (rc = en_spill_write(j->vraw, j->xyz, j->xyz_n * 3 * sizeof *j->xyz, err)))
+    for (size_t v = 0; v < j->xyz_n && rc == 0;) {
+        size_t n = j->xyz_n - v < BATCH ? j->xyz_n - v : BATCH;
+        for (size_t i = 0; i < n; i++)
+            vrec_put(j, i, j->xyz + 3 * (v + i), j->asz ? j->attr + (v + i) * j->asz : NULL);
+        rc = en_spill_write(j->vraw, j->vbuf, n * j->vrec, err);
+        v += n;
+    }
+    if (rc)
         return rc;
     for (size_t f = 0; f < j->tri_n && rc == 0;) {
         size_t n = j->tri_n - f < BATCH ? j->tri_n - f : BATCH;
@@ -303,8 +339,10 @@ static int whole_spill(sort_job *j, epsnet_error *err)
     }
     en_free(j->xyz);
     en_free(j->tri);
+    en_free(j->attr);
     j->xyz = NULL;
     j->tri = NULL;
+    j->attr = NULL;
     j->xyz_cap = j->tri_cap = j->xyz_n = j->tri_n = 0;
     en_mem_give(&j->mem, j->whole_bytes);
     j->whole_bytes = 0;
@@ -338,12 +376,18 @@ static int whole_grow(sort_job *j, int vertices)
         return 1; /* note: the spills need far less memory: try them */
     if (vertices) {
         j->xyz = p;
+        if (j->asz) {
+            uint8_t *a = en_realloc(j->attr, want * j->asz);
+            if (!a)
+                return 1;
+            j->attr = a;
+        }
         j->xyz_cap = want;
     } else {
         j->tri = p;
         j->tri_cap = want;
     }
-    uint64_t b = (uint64_t)j->xyz_cap * 3 * sizeof *j->xyz + (uint64_t)j->tri_cap * 3 * sizeof *j->tri;
+    uint64_t b = (uint64_t)j->xyz_cap * (3 * sizeof *j->xyz + j->asz) + (uint64_t)j->tri_cap * 3 * sizeof *j->tri;
     en_mem_give(&j->mem, j->whole_bytes);
     j->whole_bytes = b;
     en_mem_take(&j->mem, b);
@@ -352,12 +396,14 @@ static int whole_grow(sort_job *j, int vertices)
 
 /* @return 0 when kept, 1 when the path is no longer whole (the caller
  * spills the record), or < 0. */
-static int whole_vertex(sort_job *j, const double p[3], epsnet_error *err)
+static int whole_vertex(sort_job *j, const double p[3], const uint8_t *attr, epsnet_error *err)
 {
     if (j->xyz_n == j->xyz_cap && whole_grow(j, 1)) {
         int rc = whole_spill(j, err);
         return rc ? rc : 1;
     }
+    if (j->asz)
+        memcpy(j->attr + j->xyz_n * j->asz, attr, j->asz);
     memcpy(j->xyz + 3 * j->xyz_n++, p, 3 * sizeof *p);
     return 0;
 }
@@ -462,6 +508,8 @@ static int piece_ranks(void *arg)
         uint32_t id = (uint32_t)p->src[2 * r + 1];
         j->rank_of[id] = (uint32_t)r;
         memcpy(j->sxyz + 3 * r, j->xyz + 3 * (size_t)id, 3 * sizeof *j->xyz);
+        if (j->asz)
+            memcpy(j->sattr + r * j->asz, j->attr + (size_t)id * j->asz, j->asz);
     }
     return 0;
 }
@@ -554,7 +602,9 @@ static int whole_order(sort_job *j, epsnet_error *err)
         rc = progress(j, 1, 1, err);
     if (rc == 0 && (rc = whole_alloc(j, (void **)&j->sxyz, 3 * nv, sizeof *j->sxyz, err)) == 0)
         rc = whole_alloc(j, (void **)&j->rank_of, nv, sizeof *j->rank_of, err);
-    en_mem_take(&j->mem, 28 * nv);
+    if (rc == 0 && j->asz)
+        rc = whole_alloc(j, (void **)&j->sattr, nv, j->asz, err);
+    en_mem_take(&j->mem, (28 + j->asz) * nv);
     if (rc == 0) {
         cut_pieces(j, pc, nv);
         for (size_t c = 0; c < j->chunks; c++)
@@ -566,8 +616,10 @@ static int whole_order(sort_job *j, epsnet_error *err)
     en_free(b);
     en_free(pc);
     en_free(j->xyz);
+    en_free(j->attr);
     j->xyz = NULL;
-    en_mem_give(&j->mem, temp + 24 * nv);
+    j->attr = NULL;
+    en_mem_give(&j->mem, temp + (24 + j->asz) * nv);
     return rc;
 }
 
@@ -647,16 +699,15 @@ static int pass_read(sort_job *j, epsnet_error *err)
             }
             j->st.vertices++;
             if (j->whole) {
-                if ((rc = whole_vertex(j, rec.xyz, err)) < 0)
+                if ((rc = whole_vertex(j, rec.xyz, rec.attr, err)) < 0)
                     return rc;
                 if (rc == 0)
                     continue;
                 nb = 0; /* no longer whole: the vertex goes to the spill */
             }
-            for (int k = 0; k < 3; k++)
-                j->vbuf[3 * nb + (size_t)k] = rec.xyz[k];
+            vrec_put(j, nb, rec.xyz, rec.attr);
             if (++nb == BATCH) {
-                if ((rc = en_spill_write(j->vraw, j->vbuf, nb * 3 * sizeof *j->vbuf, err)))
+                if ((rc = en_spill_write(j->vraw, j->vbuf, nb * j->vrec, err)))
                     return rc;
                 nb = 0;
             }
@@ -681,7 +732,7 @@ static int pass_read(sort_job *j, epsnet_error *err)
         return rc;
     if (j->whole)
         return 0;
-    if ((nb && (rc = en_spill_write(j->vraw, j->vbuf, nb * 3 * sizeof *j->vbuf, err))) ||
+    if ((nb && (rc = en_spill_write(j->vraw, j->vbuf, nb * j->vrec, err))) ||
         (nf && (rc = en_spill_write(j->fraw, j->fbuf, nf * 3 * sizeof *j->fbuf, err))) ||
         (rc = en_spill_rewind(j->fraw, err)))
         return rc;
@@ -700,13 +751,13 @@ static int read_faces(sort_job *j, size_t want, epsnet_error *err)
     return 0;
 }
 
-/* Read exactly want vertices' xyz from sp into j->vbuf. */
+/* Read exactly want vertex records from sp into j->vbuf. */
 static int read_vertices(sort_job *j, en_spill *sp, size_t want, epsnet_error *err)
 {
-    int64_t got = en_spill_read(sp, j->vbuf, want * 3 * sizeof *j->vbuf, err);
+    int64_t got = en_spill_read(sp, j->vbuf, want * j->vrec, err);
     if (got < 0)
         return (int)got;
-    if ((size_t)got != want * 3 * sizeof *j->vbuf)
+    if ((size_t)got != want * j->vrec)
         return en_error_set(err, EPSNET_EINTERNAL, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "temporary vertex file is short");
     return 0;
@@ -724,8 +775,11 @@ static int pass_order(sort_job *j, epsnet_error *err)
         if ((rc = read_vertices(j, j->vraw, n, err)))
             return rc;
         for (size_t i = 0; i < n; i++, v++) {
-            const double *p = j->vbuf + 3 * i;
-            uint64_t item[4] = { order_key(p[a]), v, dbits(p[o1]), dbits(p[o2]) };
+            double p[3];
+            vrec_get(j, i, p);
+            uint64_t item[EN_EXTSORT_MAX_WORDS] = { order_key(p[a]), v, dbits(p[o1]), dbits(p[o2]) };
+            if (j->asz)
+                memcpy(item + 4, vrec_at(j, i) + 3 * sizeof(double), j->asz);
             if ((rc = en_extsort_add(j->verts, item, err)))
                 return rc;
         }
@@ -741,22 +795,23 @@ static int pass_order(sort_job *j, epsnet_error *err)
 static int pass_rank(sort_job *j, epsnet_error *err)
 {
     int a = j->axis, o1 = (a + 1) % 3, o2 = (a + 2) % 3;
-    uint64_t item[4];
+    uint64_t item[EN_EXTSORT_MAX_WORDS];
     size_t nb = 0;
     uint64_t rank = 0;
     int rc;
     while ((rc = en_extsort_next(j->verts, item, err)) > 0) {
-        double *p = j->vbuf + 3 * nb;
+        double p[3];
         p[a] = order_value(item[0]);
         p[o1] = bitsd(item[2]);
         p[o2] = bitsd(item[3]);
+        vrec_put(j, nb, p, (const uint8_t *)(item + 4));
         uint64_t m[2] = { item[1], rank++ };
         if (j->in_core)
             j->rank_of[item[1]] = (uint32_t)m[1];
         else if ((rc = en_extsort_add(j->map, m, err)))
             return rc;
         if (++nb == BATCH) {
-            if ((rc = en_spill_write(j->vsorted, j->vbuf, nb * 3 * sizeof *j->vbuf, err)) ||
+            if ((rc = en_spill_write(j->vsorted, j->vbuf, nb * j->vrec, err)) ||
                 (rc = progress(j, rank, j->st.vertices, err)))
                 return rc;
             nb = 0;
@@ -764,7 +819,7 @@ static int pass_rank(sort_job *j, epsnet_error *err)
     }
     if (rc < 0)
         return rc;
-    if (nb && (rc = en_spill_write(j->vsorted, j->vbuf, nb * 3 * sizeof *j->vbuf, err)))
+    if (nb && (rc = en_spill_write(j->vsorted, j->vbuf, nb * j->vrec, err)))
         return rc;
     close_sorter(j, &j->verts);
     if ((rc = en_spill_rewind(j->vsorted, err)))
@@ -956,9 +1011,9 @@ static int put_record(sort_job *j, epsnet_record_kind kind, uint64_t a, uint64_t
  * type, as a .smz of it would give them back: float32 values rounded (and
  * refused when they do not fit, as the .smz writer refuses them), so that a
  * consumer fed directly sees what it would read from the sorted file. */
-static int emit_vertex(sort_job *j, const double xyz[3], uint64_t id, epsnet_error *err)
+static int emit_vertex(sort_job *j, const double xyz[3], const uint8_t *attr, uint64_t id, epsnet_error *err)
 {
-    epsnet_record rec = { .kind = EPSNET_REC_VERTEX };
+    epsnet_record rec = { .kind = EPSNET_REC_VERTEX, .attr = j->asz ? attr : NULL };
     memcpy(rec.xyz, xyz, sizeof rec.xyz);
     if (j->ct == EPSNET_COORD_FLOAT32)
         for (int k = 0; k < 3; k++) {
@@ -1030,7 +1085,7 @@ static int whole_emit(sort_job *j, epsnet_error *err)
             j->st.unreferenced++;
             continue;
         }
-        if ((rc = emit_vertex(j, j->sxyz + 3 * rank, next_id, err)))
+        if ((rc = emit_vertex(j, j->sxyz + 3 * rank, j->asz ? j->sattr + rank * j->asz : NULL, next_id, err)))
             return rc;
         id[rank] = next_id++;
         fin[rank] = UINT32_MAX;
@@ -1082,7 +1137,9 @@ static int pass_emit(sort_job *j, epsnet_error *err)
                 j->st.unreferenced++;
                 continue;
             }
-            if ((rc = emit_vertex(j, j->vbuf + 3 * b, next_id, err)))
+            double p[3];
+            vrec_get(j, b, p);
+            if ((rc = emit_vertex(j, p, vrec_at(j, b) + 3 * sizeof(double), next_id, err)))
                 return rc;
             if (live_add(&j->live, rank, next_id++, last))
                 return nomem(j, err);
@@ -1139,9 +1196,8 @@ static char *dir_of(const char *path)
 static int open_job(sort_job *j, epsnet_error *err)
 {
     j->tmpdir = j->set.tmpdir ? en_strdup(j->set.tmpdir) : dir_of(j->owner);
-    j->vbuf = en_malloc(BATCH * 3 * sizeof *j->vbuf);
     j->fbuf = en_malloc(BATCH * 3 * sizeof *j->fbuf);
-    if (!j->tmpdir || !j->vbuf || !j->fbuf)
+    if (!j->tmpdir || !j->fbuf)
         return nomem(j, err);
     epsnet_reader_settings rs;
     epsnet_reader_default_settings(&rs);
@@ -1151,6 +1207,19 @@ static int open_job(sort_job *j, epsnet_error *err)
     int rc = epsnet_reader_open(&j->r, j->in_path, &rs, err);
     if (rc)
         return rc;
+    /* note: only what the consumer can hold is sorted; the rest is named
+     * in the reader's one warning line (docs/architecture.md §5). */
+    const en_format *out = NULL;
+    if (j->keep_attrs)
+        out = j->set.format ? en_format_by_name(j->set.format) : en_format_by_path(j->owner);
+    en_reader_keep_attrs(j->r, out);
+    j->attrs = epsnet_reader_info(j->r)->vertex_attrs;
+    j->asz = j->attrs.size;
+    j->aw = (j->asz + 7) / 8;
+    j->vrec = 3 * sizeof(double) + j->asz;
+    j->vbuf = en_malloc(BATCH * j->vrec);
+    if (!j->vbuf)
+        return nomem(j, err);
     j->ct = epsnet_reader_info(j->r)->coord_type;
     const epsnet_mesh_info *in = epsnet_reader_info(j->r);
     int counted = in->nverts != EPSNET_COUNT_UNKNOWN && in->nfaces != EPSNET_COUNT_UNKNOWN;
@@ -1161,17 +1230,18 @@ static int open_job(sort_job *j, epsnet_error *err)
         /* note: the header's counts are only a hint; growth still checks */
         j->xyz = en_malloc(in->nverts ? (size_t)in->nverts * 3 * sizeof *j->xyz : 1);
         j->tri = en_malloc(in->nfaces ? (size_t)in->nfaces * 3 * sizeof *j->tri : 1);
-        if (!j->xyz || !j->tri)
+        j->attr = j->asz ? en_malloc(in->nverts ? (size_t)in->nverts * j->asz : 1) : NULL;
+        if (!j->xyz || !j->tri || (j->asz && !j->attr))
             return nomem(j, err);
         j->xyz_cap = (size_t)in->nverts;
         j->tri_cap = (size_t)in->nfaces;
-        j->whole_bytes = 24 * in->nverts + 12 * in->nfaces;
+        j->whole_bytes = (24 + j->asz) * in->nverts + 12 * in->nfaces;
         en_mem_take(&j->mem, j->whole_bytes);
     }
     if ((rc = en_spill_open(&j->vraw, j->tmpdir, j->owner, err)) ||
         (rc = en_spill_open(&j->fraw, j->tmpdir, j->owner, err)) ||
         (rc = en_spill_open(&j->vsorted, j->tmpdir, j->owner, err)) ||
-        (rc = open_sorter(j, &j->corners, 2, 1, err)) || (rc = open_sorter(j, &j->verts, 4, 1, err)) ||
+        (rc = open_sorter(j, &j->corners, 2, 1, err)) || (rc = open_sorter(j, &j->verts, 4 + j->aw, 1, err)) ||
         (rc = open_sorter(j, &j->map, 2, 1, err)) || (rc = open_sorter(j, &j->joined, 2, 1, err)) ||
         (rc = open_sorter(j, &j->lastuse, 2, 1, err)))
         return rc;
@@ -1198,6 +1268,8 @@ static void close_job(sort_job *j)
     en_free(j->last_of);
     en_free(j->xyz);
     en_free(j->tri);
+    en_free(j->attr);
+    en_free(j->sattr);
     en_free(j->sxyz);
     en_free(j->fend);
     en_free(j->fitems);
@@ -1289,7 +1361,7 @@ static int run_passes(sort_job *j, epsnet_error *err)
 }
 
 int en_sort_open(en_sort **out, const char *in_path, const char *owner, const epsnet_sort_settings *settings,
-                 epsnet_error *err)
+                 int keep_attrs, epsnet_error *err)
 {
     *out = NULL;
     if (!in_path || !owner)
@@ -1312,6 +1384,7 @@ int en_sort_open(en_sort **out, const char *in_path, const char *owner, const ep
     if (j->set.mem == 0)
         j->set.mem = (uint64_t)512 << 20;
     j->axis = j->set.axis;
+    j->keep_attrs = keep_attrs;
     *out = j;
     return run_passes(j, err);
 }
@@ -1326,6 +1399,7 @@ void en_sort_info(const en_sort *j, epsnet_mesh_info *info)
     info->coord_type = j->ct;
     info->streaming = 1;
     info->sorted_axis = j->axis;
+    info->vertex_attrs = j->attrs;
 }
 
 int en_sort_emit(en_sort *j, en_sort_emit_fn emit, void *opaque, epsnet_error *err)
@@ -1366,7 +1440,7 @@ int epsnet_sort_file(const char *in_path, const char *out_path, const epsnet_sor
                             "epsnet_sort_file: NULL path");
     en_sort *j = NULL;
     epsnet_writer *w = NULL;
-    int rc = en_sort_open(&j, in_path, out_path, settings, err);
+    int rc = en_sort_open(&j, in_path, out_path, settings, 1, err);
     if (rc == 0) {
         epsnet_writer_settings ws;
         epsnet_writer_default_settings(&ws);

@@ -56,11 +56,15 @@ typedef int (*en_sort_emit_fn)(void *opaque, const epsnet_record *rec, epsnet_er
 
 /* owner: the output the sort serves, named in messages (and whose folder
  * holds the runs when settings->tmpdir is NULL). settings may be NULL.
+ * keep_attrs: 1 to carry the vertex attributes that owner's format
+ * (settings->format, else owner's extension) holds, 0 to carry none; those
+ * left out are named in the reader's dropped warning.
  * @return 0 or a negative code; *s is set in both cases (NULL only when
  * nothing was allocated) and en_sort_close() frees it. */
 int en_sort_open(en_sort **s, const char *in_path, const char *owner, const epsnet_sort_settings *settings,
-                 epsnet_error *err);
-/* What the output stream will be: coord_type, streaming, sorted_axis, nfaces. */
+                 int keep_attrs, epsnet_error *err);
+/* What the output stream will be: coord_type, streaming, sorted_axis, nfaces,
+ * vertex_attrs. */
 void en_sort_info(const en_sort *s, epsnet_mesh_info *info);
 /* Pass 6; once per en_sort. emit's non-zero return stops it and is returned. */
 int en_sort_emit(en_sort *s, en_sort_emit_fn emit, void *opaque, epsnet_error *err);
