@@ -309,7 +309,7 @@ static int draw_simplified(epsnet_context *ctx, const char *in, const char *out_
 {
     en_slab slab;
     en_slab_init(&slab);
-    int rc = en_simplify_streamed(ctx, in, out_png, open_collector, &slab, err);
+    int rc = en_simplify_streamed(ctx, in, out_png, NULL, open_collector, &slab, err);
     if (rc == 0)
         draw_slab(&slab, img, p, style);
     en_slab_free(&slab);

@@ -162,6 +162,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         .max_normal_dev = set->max_normal_dev,
         .target = target ? &run->target : NULL,
         .finish = run->passes == 2 ? &run->finish : NULL,
+        .attr_size = mode == EN_SLAB_SIMPLIFY && in ? in->vertex_attrs.size : 0,
         .slab_vertices = slab_vertices,
         .mem_budget = en_run_mem_budget(set),
         /* note: two slabs per worker keep every worker busy while the

@@ -137,18 +137,18 @@ static void temp_folder(const epsnet_context *ctx, const char *out_path, char *d
  * itself stops at half of its share. With no --mem the sort keeps its
  * default (512M) and the chain its own limits.
  */
-static int open_input(epsnet_context *ctx, const char *in_path, const char *out_path, en_input *in,
-                      double *sort_seconds, epsnet_error *err)
+static int open_input(epsnet_context *ctx, const char *in_path, const char *out_path, const en_format *keep,
+                      en_input *in, double *sort_seconds, epsnet_error *err)
 {
     epsnet_reader_settings rs;
     epsnet_reader_default_settings(&rs);
     rs.mem_limit = en_run_mem_budget(&ctx->settings);
     int rc = epsnet_reader_open(&in->r, in_path, &rs, err);
-    /* note: the chain does not carry vertex attributes yet
-     * (docs/architecture.md §15): they are named in the one dropped
-     * warning, never lost silently (§5). */
+    /* note: the chain carries the vertex attributes the output's format
+     * holds (keep; NULL: none, e.g. a picture or sample points); the
+     * others are named in the one dropped warning (docs/architecture.md §5). */
     if (rc == 0)
-        en_reader_keep_attrs(in->r, NULL);
+        en_reader_keep_attrs(in->r, keep);
     if (rc == 0)
         in->info = *epsnet_reader_info(in->r);
     if (rc || in->info.streaming)
@@ -171,15 +171,15 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
     ss.warning_opaque = ctx->settings.warning_opaque;
     in->was_sorted = 1;
     double t0 = en_now();
-    rc = en_sort_open(&in->sort, in_path, out_path, &ss, 0, err);
+    rc = en_sort_open(&in->sort, in_path, out_path, &ss, keep != NULL, err);
     *sort_seconds = en_now() - t0;
     if (rc == 0)
         en_sort_info(in->sort, &in->info);
     return rc;
 }
 
-int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *near_path, en_open_out_fn open_out,
-                         void *opaque, epsnet_error *err)
+int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *near_path, const en_format *keep,
+                         en_open_out_fn open_out, void *opaque, epsnet_error *err)
 {
     double t0 = en_now();
     en_input in;
@@ -188,7 +188,7 @@ int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *n
     memset(&run, 0, sizeof run);
     double sort_seconds = 0;
     en_stage out = { 0 };
-    int rc = open_input(ctx, in_path, near_path, &in, &sort_seconds, err);
+    int rc = open_input(ctx, in_path, near_path, keep, &in, &sort_seconds, err);
     if (rc == 0)
         rc = open_out(opaque, &in.info, &out, err);
     if (rc == 0)
@@ -232,6 +232,7 @@ static int open_writer(void *opaque, const epsnet_mesh_info *in, en_stage *out, 
     info.coord_type = in->coord_type;
     info.streaming = 1;
     info.sorted_axis = in->sorted_axis; /* output vertices keep the input's order */
+    info.vertex_attrs = in->vertex_attrs; /* kept vertices keep their bytes */
     int rc = epsnet_writer_open(&f->w, f->path, &ws, &info, err);
     *out = (en_stage){ writer_put, NULL, f->w };
     return rc;
@@ -244,7 +245,7 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
                             "epsnet_simplify_file: NULL argument");
     snprintf(ctx->command, sizeof ctx->command, "simplify");
     file_out f = { ctx, out_path, NULL };
-    int rc = en_simplify_streamed(ctx, in_path, out_path, open_writer, &f, err);
+    int rc = en_simplify_streamed(ctx, in_path, out_path, en_format_by_path(out_path), open_writer, &f, err);
     if (rc == 0)
         rc = epsnet_writer_commit(&f.w, err);
     else
@@ -294,7 +295,7 @@ int en_sample_points_streamed(epsnet_context *ctx, const char *in_path, const ch
     sample_list l = { 0 };
     epsnet_coord_type ct = EPSNET_COORD_FLOAT32;
     double sort_seconds = 0;
-    int rc = open_input(ctx, in_path, out_path, &in, &sort_seconds, err);
+    int rc = open_input(ctx, in_path, out_path, NULL, &in, &sort_seconds, err);
     if (rc == 0) {
         ct = in.info.coord_type;
         rc = en_run_open(&run, ctx, EN_SLAB_SAMPLE, in_path, &in.info, (en_stage){ 0 }, collect, &l, err);

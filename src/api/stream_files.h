@@ -3,6 +3,7 @@
 #define EN_API_STREAM_FILES_H
 
 #include "common/stage.h"
+#include "io/format.h"
 #include "epsnet/epsnet.h"
 
 /* epsnet_sample_file() with EPSNET_SAMPLES_POINTS, streamed: the samples
@@ -15,9 +16,10 @@ typedef int (*en_open_out_fn)(void *opaque, const epsnet_mesh_info *in, en_stage
 
 /* Simplify in_path through the stage chain (sorting it first when it is not
  * a stream; temporaries go beside near_path or in ctx's tmpdir) into the
- * stage open_out gives. Fills ctx->stats but peak_rss. The output stage is
+ * stage open_out gives. keep: the format whose vertex attributes are
+ * carried (NULL: none; the others are named as dropped). Fills ctx->stats but peak_rss. The output stage is
  * the caller's to commit or abort, also when this fails. */
-int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *near_path, en_open_out_fn open_out,
-                         void *opaque, epsnet_error *err);
+int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *near_path, const en_format *keep,
+                         en_open_out_fn open_out, void *opaque, epsnet_error *err);
 
 #endif

@@ -316,6 +316,7 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             en_jobring_new(&p->ring, pool, cfg->ring_capacity))
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         p->ch.read_marks = finish;
+        p->ch.attr_size = p->st.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? cfg->attr_size : 0;
         p->st.keep_seams = p->st.mark_samples = p->target && p->target->mode == EN_TARGET_THIN;
     }
     if (rc) {

@@ -36,6 +36,7 @@ typedef struct en_chain_config {
      * NULL: none. finish: a last pass that takes a THIN pass's output to
      * the target, as one slab; NULL: none. */
     const en_target *target, *finish;
+    uint32_t attr_size;           /* SIMPLIFY: vertex attribute bytes per record (0: none) */
     uint32_t slab_vertices;
     uint64_t mem_budget;          /* bytes the chain may hold beyond the reader's; 0: none */
     size_t ring_capacity;         /* slabs in flight per pass */

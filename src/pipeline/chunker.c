@@ -32,6 +32,7 @@ void en_chunker_free(en_chunker *c)
     en_free(c->spare);
     en_free(c->pool_of);
     en_free(c->sort_tmp);
+    en_free(c->attr);
     memset(c, 0, sizeof *c);
 }
 
@@ -62,6 +63,24 @@ static int new_vertex(en_chunker *c, const epsnet_record *rec, epsnet_error *err
             return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                                 "out of memory: %zu live vertices", c->v_len);
         i = (uint32_t)c->v_len++;
+    }
+    if (c->attr_size) {
+        /* the slot's attribute bytes: copied now, since rec->attr lives
+         * only until the producer's next record */
+        if (c->attr_cap <= i &&
+            en_grow((void **)&c->attr, &c->attr_cap, (size_t)i + 1, c->attr_size)) {
+            if (i + 1 == c->v_len)
+                c->v_len--;
+            else
+                c->free_list[c->free_len++] = i;
+            return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "out of memory: %zu live vertices with attributes", c->v_len);
+        }
+        uint8_t *to = c->attr + (size_t)i * c->attr_size;
+        if (rec->attr)
+            memcpy(to, rec->attr, c->attr_size);
+        else
+            memset(to, 0, c->attr_size);
     }
     en_chunk_vertex *v = &c->v[i];
     v->gid = c->next_gid;
@@ -141,6 +160,13 @@ static int add_local(en_chunker *c, en_slab_work *w, uint32_t i, uint8_t flags)
     if (l < 0 || en_grow((void **)&c->pool_of, &c->pool_of_cap, (size_t)l + 1, sizeof *c->pool_of))
         return -1;
     c->pool_of[l] = i;
+    if (c->attr_size) {
+        size_t need = (size_t)l + 1;
+        if (w->cap.attr < need && en_grow((void **)&w->attr, &w->cap.attr, need, c->attr_size))
+            return -1;
+        memcpy(w->attr + (size_t)l * c->attr_size, c->attr + (size_t)i * c->attr_size, c->attr_size);
+    }
+    w->attr_size = c->attr_size;
     v->local = (uint32_t)l;
     v->local_slab = w->index;
     return 0;
@@ -308,5 +334,5 @@ int en_chunker_finish(en_chunker *c, en_slab_work **out, epsnet_error *err)
 uint64_t en_chunker_bytes(const en_chunker *c)
 {
     return (uint64_t)c->v_cap * sizeof *c->v + c->free_cap * sizeof *c->free_list + en_idmap_bytes(&c->map) +
-           3 * c->faces_cap * sizeof *c->faces + c->fin_cap * sizeof *c->fin;
+           3 * c->faces_cap * sizeof *c->faces + c->fin_cap * sizeof *c->fin + c->attr_cap * c->attr_size;
 }

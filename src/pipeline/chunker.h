@@ -38,6 +38,9 @@ typedef struct en_chunk_vertex {
 typedef struct en_chunker {
     uint32_t slab_vertices;
     int read_marks;            /* take EN_MARK_SKELETON into EN_V_SKELETON */
+    uint32_t attr_size;        /* vertex attribute bytes per record (0: none) */
+    uint8_t *attr;             /* attr_size bytes per pool slot, beside v */
+    size_t attr_cap;           /* slots */
     const char *path;          /* for messages, may be NULL */
     en_chunk_vertex *v;        /* pool, reused through free_list */
     size_t v_len, v_cap;

@@ -32,6 +32,7 @@ void en_slab_work_free(en_slab_work *w)
     en_free(w->fnormal);
     en_free(w->ftri);
     en_free(w->removable);
+    en_free(w->attr);
     en_slab_work_init(w);
 }
 
@@ -44,6 +45,7 @@ void en_slab_work_reset(en_slab_work *w)
 #define KEEP(field) w->field = keep.field
     KEEP(owner), KEEP(fflags), KEEP(vclass), KEEP(vgvertex), KEEP(q), KEEP(ref), KEEP(tri), KEEP(falive);
     KEEP(valive), KEEP(border), KEEP(future), KEEP(degree), KEEP(band), KEEP(fnormal), KEEP(ftri), KEEP(removable);
+    KEEP(attr);
     KEEP(cap);
 #undef KEEP
 }

@@ -73,6 +73,11 @@ typedef struct en_slab_work {
     uint8_t *fflags;              /* EN_F_* per face */
     uint64_t frontier;            /* every global id below was finalized in a slab <= k */
     uint64_t live_vertices, live_faces; /* chunker's active set at the cut */
+    /* Vertex attributes (docs/architecture.md §7): attr_size bytes per
+     * local vertex, copied by the chunker, carried untouched (a kept vertex
+     * is an input vertex) and read by the stitcher. */
+    uint32_t attr_size;
+    uint8_t *attr;
 
     /* Settings (shared, read only). */
     const gauss_sphere *g;
@@ -114,7 +119,7 @@ typedef struct en_slab_work {
     uint8_t *removable;
     struct {
         size_t owner, fflags, vclass, vgvertex, q, ref, tri, falive, valive, border, future, degree, band, fnormal,
-            ftri, removable;
+            ftri, removable, attr;
     } cap;
 } en_slab_work;
 

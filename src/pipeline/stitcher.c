@@ -62,6 +62,7 @@ void en_stitcher_free(en_stitcher *st)
     en_free(st->fheap);
     en_free(st->local);
     en_slab_free(&st->ws);
+    en_free(st->attr);
     memset(st, 0, sizeof *st);
 }
 
@@ -84,6 +85,8 @@ static int sv_new(en_stitcher *st, uint32_t *idx)
         return 0;
     }
     if (st->v_len >= UINT32_MAX - 1 || en_grow((void **)&st->v, &st->v_cap, st->v_len + 1, sizeof *st->v))
+        return -1;
+    if (st->attr_size && en_grow((void **)&st->attr, &st->attr_cap, st->v_len + 1, st->attr_size))
         return -1;
     *idx = (uint32_t)st->v_len++;
     return 0;
@@ -332,11 +335,12 @@ static int settle(en_stitcher *st)
 }
 
 static int put(en_stitcher *st, epsnet_record_kind kind, uint64_t a, uint64_t b, uint64_t c, const double *xyz,
-               epsnet_error *err)
+               const uint8_t *attr, epsnet_error *err)
 {
     epsnet_record rec;
     memset(&rec, 0, sizeof rec);
     rec.kind = kind;
+    rec.attr = attr;
     rec.v[0] = a, rec.v[1] = b, rec.v[2] = c;
     if (xyz)
         memcpy(rec.xyz, xyz, sizeof rec.xyz);
@@ -364,7 +368,8 @@ static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
                 st->stats.inner_left++;
         }
         uint64_t mark = st->mark_samples && (x->state & S_FIXED) ? EN_MARK_SKELETON : 0;
-        int rc = put(st, EPSNET_REC_VERTEX, mark, 0, 0, x->xyz, err);
+        int rc = put(st, EPSNET_REC_VERTEX, mark, 0, 0, x->xyz,
+                     st->attr_size ? st->attr + (size_t)e.idx * st->attr_size : NULL, err);
         if (rc)
             return rc;
         while (st->nfheap && st->fheap[0].key <= e.gid) {
@@ -375,13 +380,13 @@ static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
                 if (o[j] == UINT64_MAX || f.key < e.gid)
                     return internal(err, "a face came before its vertices");
             }
-            if ((rc = put(st, EPSNET_REC_TRIANGLE, o[0], o[1], o[2], NULL, err)) != 0)
+            if ((rc = put(st, EPSNET_REC_TRIANGLE, o[0], o[1], o[2], NULL, NULL, err)) != 0)
                 return rc;
             st->stats.out_faces++;
             for (int j = 0; j < 3; j++) {
                 en_stitch_vertex *y = &st->v[f.v[j]];
                 if (--y->remaining == 0 && !(y->state & S_IN_W)) {
-                    if ((rc = put(st, EPSNET_REC_FINALIZE, y->out, 0, 0, NULL, err)) != 0)
+                    if ((rc = put(st, EPSNET_REC_FINALIZE, y->out, 0, 0, NULL, NULL, err)) != 0)
                         return rc;
                     sv_free(st, f.v[j]);
                 }
@@ -405,6 +410,8 @@ static int take_vertices(en_stitcher *st, const en_slab_work *w, epsnet_error *e
         en_stitch_vertex *x = &st->v[idx];
         x->gid = w->s.gid[l];
         memcpy(x->xyz, w->s.pos + 3 * (size_t)l, sizeof x->xyz);
+        if (st->attr_size)
+            memcpy(st->attr + (size_t)idx * st->attr_size, w->attr + (size_t)l * st->attr_size, st->attr_size);
         x->q = w->q[l];
         x->out = UINT64_MAX;
         x->remaining = w->degree[l];
@@ -506,7 +513,7 @@ uint64_t en_stitcher_bytes(const en_stitcher *st)
 {
     return (uint64_t)st->v_cap * sizeof *st->v + st->free_cap * sizeof *st->free_list + en_u64map_bytes(&st->map) +
            st->wv_cap * sizeof *st->wv + st->wf_cap * sizeof *st->wf + st->vheap_cap * sizeof *st->vheap +
-           st->fheap_cap * sizeof *st->fheap + st->local_cap * sizeof *st->local;
+           st->fheap_cap * sizeof *st->fheap + st->local_cap * sizeof *st->local + st->attr_cap * st->attr_size;
 }
 
 int en_stitcher_finish(en_stitcher *st, epsnet_error *err)

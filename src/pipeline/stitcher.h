@@ -70,6 +70,11 @@ typedef struct en_stitcher {
     /* The first pass of a streamed target (docs/method.md §13): seams are
      * left for the one-slab pass after it, and samples leave marked. */
     int keep_seams, mark_samples;
+    /* Vertex attributes: attr_size bytes per pool slot (beside v), from
+     * the slab works, into the vertex records it emits. */
+    uint32_t attr_size;
+    uint8_t *attr;
+    size_t attr_cap;
     en_stitch_stats stats;
 } en_stitcher;
 

@@ -1,0 +1,190 @@
+#!/usr/bin/env python3
+"""simplify keeps every output vertex's attributes bit for bit
+(docs/architecture.md §7): a kept vertex is an input vertex, so its colour,
+normal and any other per-vertex value come out exactly as they went in, for
+any thread count, slab size and target, through PLY and OBJ."""
+import os
+import struct
+import subprocess
+import sys
+import tempfile
+
+EPSNET = sys.argv[1] if len(sys.argv) > 1 else os.environ["EPSNET_BIN"]
+TMP = tempfile.mkdtemp(prefix="epsnet-attrs-")
+failures = 0
+
+
+def run(*args):
+    p = subprocess.run([EPSNET, *args], capture_output=True, text=True, timeout=300)
+    return p.returncode, p.stdout, p.stderr
+
+
+def path(name):
+    return os.path.join(TMP, name)
+
+
+def case(fn):
+    global failures
+    try:
+        fn()
+        print("ok  ", fn.__name__)
+    except AssertionError as e:
+        failures += 1
+        print("FAIL", fn.__name__, "-", e)
+    return fn
+
+
+def f32(text):
+    """The float32 bits a decimal text stands for."""
+    return struct.pack("<f", float(text))
+
+
+def read_ascii_ply(p):
+    with open(p) as f:
+        lines = f.read().split("\n")
+    i, props, counts, order = 0, {}, {}, []
+    while lines[i] != "end_header":
+        w = lines[i].split()
+        if w and w[0] == "element":
+            order.append(w[1])
+            counts[w[1]] = int(w[2])
+            props[w[1]] = []
+        elif w and w[0] == "property" and w[1] != "list":
+            props[order[-1]].append((w[2], w[1]))
+        i += 1
+    i += 1
+    verts, faces = [], []
+    for el in order:
+        for _ in range(counts[el]):
+            w = lines[i].split()
+            i += 1
+            if el == "vertex":
+                verts.append(dict(zip([n for n, _ in props[el]], w)))
+            elif el == "face":
+                faces.append([int(x) for x in w[1:]])
+    return props["vertex"], verts, faces
+
+
+def coloured_mesh():
+    """A generated bumpy mesh with uchar colours, float normals and a float
+    quality per vertex, all different."""
+    p = path("coloured.ply")
+    if os.path.exists(p):
+        return p
+    src = path("plain.ply")
+    rc, _, err = run("gen", "bumpy", "--faces", "20000", "--shuffle", "--ascii", "-o", src, "-q")
+    assert rc == 0, err
+    _, verts, faces = read_ascii_ply(src)
+    with open(p, "w") as f:
+        f.write("ply\nformat ascii 1.0\nelement vertex %d\n" % len(verts))
+        for a in "xyz":
+            f.write("property float %s\n" % a)
+        for a in ("red", "green", "blue"):
+            f.write("property uchar %s\n" % a)
+        for a in ("nx", "ny", "nz", "quality"):
+            f.write("property float %s\n" % a)
+        f.write("element face %d\nproperty list uchar int vertex_indices\nend_header\n" % len(faces))
+        for i, v in enumerate(verts):
+            f.write("%s %s %s %d %d %d %.7g %.7g %.7g %.7g\n" % (
+                v["x"], v["y"], v["z"], i % 251, (i * 7) % 256, (i * 13) % 256,
+                float(v["x"]), float(v["y"]), float(v["z"]), i * 0.001 + 0.5))
+        for t in faces:
+            f.write("3 %d %d %d\n" % tuple(t))
+    return p
+
+
+def key(v):
+    return tuple(f32(v[a]) for a in "xyz")
+
+
+def check_attributes_kept(src, out, names):
+    _, vin, _ = read_ascii_ply(src)
+    props, vout, fout = read_ascii_ply(out)
+    got = [n for n, _ in props]
+    for n in names:
+        assert n in got, f"{out}: property {n} missing from {got}"
+    by_pos = {}
+    for v in vin:
+        by_pos.setdefault(key(v), []).append(v)
+    assert vout and fout, f"{out}: empty"
+    for v in vout:
+        cands = by_pos.get(key(v))
+        assert cands, f"{out}: a vertex at {v['x']} {v['y']} {v['z']} is not an input vertex"
+        want = [tuple(c[n] if c[n].lstrip("-").isdigit() else f32(c[n]) for n in names) for c in cands]
+        have = tuple(v[n] if v[n].lstrip("-").isdigit() else f32(v[n]) for n in names)
+        assert have in want, f"{out}: attributes {have} not those of its input vertex {want}"
+
+
+@case
+def coloured_ply_keeps_every_attribute_for_any_threads_and_slab():
+    src = coloured_mesh()
+    names = ("red", "green", "blue", "nx", "ny", "nz", "quality")
+    outs = {}
+    for opts in (("-j", "1"), ("-j", "2"), ("--slab", "1024", "-j", "2"), ("--slab", "4096", "-j", "1"),
+                 ("--ratio", "0.2"), ("--ratio", "0.2", "--slab", "2048")):
+        out = path("simplified_%s.ply" % "_".join(o.strip("-") for o in opts))
+        rc, _, err = run("simplify", src, "-o", out, "--ascii", "-q", *opts)
+        assert rc == 0, err
+        assert "dropped" not in err, f"{opts}: {err}"
+        check_attributes_kept(src, out, names)
+        outs[opts] = open(out, "rb").read()
+    assert outs[("-j", "1")] == outs[("-j", "2")], "-j1 and -j2 differ"
+
+
+@case
+def binary_ply_and_smz_in_between_keep_them_too():
+    src = coloured_mesh()
+    smz = path("coloured.smz")
+    rc, _, err = run("sort", src, "-o", smz, "-q")
+    assert rc == 0, err
+    out_bin = path("from_smz.ply")
+    rc, _, err = run("simplify", smz, "-o", out_bin, "-q")
+    assert rc == 0, err
+    out = path("from_smz_ascii.ply")
+    rc, _, err = run("convert", out_bin, "-o", out, "--ascii", "-q")
+    assert rc == 0, err
+    check_attributes_kept(src, out, ("red", "green", "blue", "nx", "ny", "nz", "quality"))
+
+
+@case
+def a_format_without_attributes_names_them_once():
+    src = coloured_mesh()
+    out = path("plain.smb")
+    rc, _, err = run("simplify", src, "-o", out)
+    assert rc == 0, err
+    lines = [l for l in err.splitlines() if "dropped" in l]
+    assert len(lines) == 1 and "red" in lines[0] and "quality" in lines[0], lines
+
+
+@case
+def obj_vertex_colours_survive_simplify():
+    src = coloured_mesh()
+    obj = path("coloured.obj")
+    # OBJ holds float colours: take the PLY's floats (normals) as colours
+    _, verts, faces = read_ascii_ply(src)
+    with open(obj, "w") as f:
+        for v in verts:
+            f.write("v %s %s %s %s %s %s\n" % (v["x"], v["y"], v["z"], v["nx"], v["ny"], v["nz"]))
+        for t in faces:
+            f.write("f %d %d %d\n" % (t[0] + 1, t[1] + 1, t[2] + 1))
+    want = {}
+    for v in verts:
+        want[key(v)] = (f32(v["nx"]), f32(v["ny"]), f32(v["nz"]))
+    for opts in (("-j", "1"), ("-j", "2", "--slab", "1024")):
+        out = path("simplified.obj")
+        rc, _, err = run("simplify", obj, "-o", out, "-q", *opts)
+        assert rc == 0, err
+        n = 0
+        with open(out) as f:
+            for line in f:
+                w = line.split()
+                if w and w[0] == "v":
+                    assert len(w) == 7, f"{opts}: vertex without colour: {line!r}"
+                    k = tuple(f32(x) for x in w[1:4])
+                    assert want.get(k) == tuple(f32(x) for x in w[4:7]), f"{opts}: colour changed: {line!r}"
+                    n += 1
+        assert n > 0
+
+
+print(f"{failures} failed")
+sys.exit(1 if failures else 0)
