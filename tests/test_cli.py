@@ -618,18 +618,16 @@ def what_an_input_holds_beyond_the_mesh_is_named_in_one_warning_line():
                 "property float confidence\nproperty short intensity\n"
                 "element face 2\nproperty list uchar int vertex_indices\nend_header\n"
                 "0.5\n0 0 0 1 7\n1 0 0 1 7\n0 1 0 1 7\n1 1 1 1 7\n3 0 1 2\n3 1 3 2\n")
-    # vertex attributes travel where the output holds them (PLY, .smz); simplify does not
-    # carry them yet, so it names them (docs/architecture.md §15)
-    full = f"warning: {ply}: dropped: element camera (1), vertex property confidence, vertex property intensity"
+    # vertex attributes travel where the output holds them (PLY, .smz), simplify included
     camera = f"warning: {ply}: dropped: element camera (1)"
-    for cmd, extra, want in (("simplify", ["--stats", path("extras.json")], full), ("sort", [], camera),
+    for cmd, extra, want in (("simplify", ["--stats", path("extras.json")], camera), ("sort", [], camera),
                              ("convert", [], camera)):
         out = path(f"extras_{cmd}.ply" if cmd != "sort" else "extras_sort.smz")
         rc, _, err = run(cmd, ply, "-o", out, "-q", *extra)
         assert rc == 0, (cmd, err)
         assert err.splitlines() == [want], (cmd, err)
     st = json.load(open(path("extras.json")))
-    assert st["dropped"] == 3 and st["faces"] == 2, st
+    assert st["dropped"] == 1 and st["faces"] == 2, st
     rc, text, err = run("info", ply)
     assert rc == 0 and "not read:    element camera (1)\n" in text, text
     assert "attributes:  float confidence, short intensity (6 bytes per vertex)" in text, text
@@ -832,8 +830,11 @@ def attributes_round_trip_bit_for_bit():
     assert open(s1, "rb").read() == open(s3p, "rb").read(), "sort through .smz differs"
     rc, text, _ = run("info", s3)
     assert rc == 0 and "uchar red, uchar green" in text and "(44 bytes per vertex)" in text, text
-    # simplify does not carry them yet: it names every one of them in its one warning line
+    # simplify carries them (tests/test_simplify_attrs.py checks the values); into SMB,
+    # which holds none, it names every one of them in its one warning line
     rc, _, err = run("simplify", src, "-o", path("attr_simp.ply"), "-q")
+    assert rc == 0 and err == "", err
+    rc, _, err = run("simplify", src, "-o", path("attr_simp.smb"), "-q")
     assert rc == 0, err
     names = ", ".join(f"vertex property {n}" for n, _ in props[3:])
     assert err.splitlines() == [f"warning: {src}: dropped: {names}"], err
