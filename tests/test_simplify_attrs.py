@@ -186,5 +186,43 @@ def obj_vertex_colours_survive_simplify():
         assert n > 0
 
 
+@case
+def locked_vertices_stay_in_every_mode():
+    """--lock PROPERTY keeps every vertex whose property is non-zero, in the
+    ε-net pass, with seams, and under a target (below the skeleton too)."""
+    src = coloured_mesh()
+    props, verts, faces = read_ascii_ply(src)
+    p = path("locked.ply")
+    with open(p, "w") as f:
+        f.write("ply\nformat ascii 1.0\nelement vertex %d\n" % len(verts))
+        for a in "xyz":
+            f.write("property float %s\n" % a)
+        f.write("property uchar lock\nproperty float quality\n")
+        f.write("element face %d\nproperty list uchar int vertex_indices\nend_header\n" % len(faces))
+        for i, v in enumerate(verts):
+            f.write("%s %s %s %d %s\n" % (v["x"], v["y"], v["z"], 1 if i % 37 == 0 else 0,
+                                          "1" if i % 53 == 0 else "0"))
+        for t in faces:
+            f.write("3 %d %d %d\n" % tuple(t))
+    for prop, every in (("lock", 37), ("quality", 53)):
+        locked = {key(v) for i, v in enumerate(verts) if i % every == 0}
+        for opts in ((), ("--slab", "1024", "-j", "2"), ("--ratio", "0.02"), ("--faces", "200"),
+                     ("--ratio", "0.05", "--slab", "2048")):
+            out = path("locked_out.ply")
+            rc, _, err = run("simplify", p, "-o", out, "--ascii", "-q", "--lock", prop, *opts)
+            assert rc == 0, err
+            _, vout, _ = read_ascii_ply(out)
+            have = {key(v) for v in vout}
+            missing = locked - have
+            assert not missing, f"--lock {prop} {opts}: {len(missing)} of {len(locked)} locked vertices gone"
+    # an output that cannot hold the lock names it; a missing property is one error line, exit 1
+    rc, _, err = run("simplify", p, "-o", path("locked.smb"), "--lock", "lock")
+    lines = [l for l in err.splitlines() if "dropped" in l]
+    assert rc == 0 and len(lines) == 1 and "lock" in lines[0], err
+    rc, _, err = run("simplify", p, "-o", path("nolock.ply"), "-q", "--lock", "selected")
+    assert rc == 1 and len(err.strip().splitlines()) == 1 and "selected" in err, (rc, err)
+    assert not os.path.exists(path("nolock.ply"))
+
+
 print(f"{failures} failed")
 sys.exit(1 if failures else 0)

@@ -20,6 +20,9 @@ static void simplify_help(void)
            "      --max-normal-dev D  refuse collapses that turn a face normal by more\n"
            "                          than D degrees (default 60)\n"
            "      --ascii             ASCII output where the format has both\n"
+           "      --lock PROPERTY     keep every vertex whose per-vertex PROPERTY is\n"
+           "                          non-zero (a PLY uchar 'lock', MeshLab's exported\n"
+           "                          'quality' selection); by every mode\n"
            "\n"
            "To a size or an error bound (docs/method.md §13): the samples of one ε-net\n"
            "pass are kept as a feature skeleton, every other vertex may go, smallest\n"
@@ -49,6 +52,7 @@ int cmd_simplify(int argc, char **argv)
         { "quiet", no_argument, NULL, 'q' },         { "help", no_argument, NULL, 'h' },
         { "faces", required_argument, NULL, 'F' },   { "ratio", required_argument, NULL, 'R' },
         { "vertices", required_argument, NULL, 'V' }, { "error", required_argument, NULL, 'E' },
+        { "lock", required_argument, NULL, 'L' },
         CLI_METHOD_OPTIONS,                          { 0, 0, 0, 0 },
     };
     cli_method m;
@@ -104,6 +108,11 @@ int cmd_simplify(int argc, char **argv)
             if (!(x > 0 && x < 1e300))
                 return cli_usage_error("simplify", "--error must be a positive number");
             m.settings.target_error = x;
+            break;
+        case 'L':
+            if (!*optarg)
+                return cli_usage_error("simplify", "--lock needs a property name");
+            m.settings.lock_property = optarg;
             break;
         case 'a': m.settings.ascii = 1; break;
         case 'q': cli_quiet = 1; break;

@@ -587,7 +587,15 @@ typedef struct epsnet_settings {
     uint64_t target_vertices;
     double target_error;
     int target_level_given;
-    uint8_t reserved[56];
+    /* Simplification: keep every vertex whose per-vertex property of this
+     * name (epsnet_mesh_info.vertex_attrs) is non-zero, e.g. a PLY uchar
+     * "lock", or a selection MeshLab exported as vertex "quality". Such a
+     * vertex is never removed, by the ε-net pass or a target (it may still
+     * receive collapses). The property travels with its vertex; when the
+     * output format cannot hold it, a warning names it. An input without
+     * it is an error (EPSNET_EINVAL). NULL: none. Default: NULL. */
+    const char *lock_property;
+    uint8_t reserved[48];
 } epsnet_settings;
 
 EPSNET_API void epsnet_default_settings(epsnet_settings *s);

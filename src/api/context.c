@@ -96,6 +96,12 @@ int epsnet_context_new(epsnet_context **out, const epsnet_settings *settings, ep
             rc = en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     }
     c->settings.tmpdir = c->tmpdir;
+    if (rc == 0 && c->settings.lock_property) {
+        c->lock_property = en_strdup(c->settings.lock_property);
+        if (!c->lock_property)
+            rc = en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    }
+    c->settings.lock_property = c->lock_property;
     if (rc) {
         epsnet_context_free(&c);
         return rc;
@@ -109,6 +115,7 @@ void epsnet_context_free(epsnet_context **pc)
     if (!pc || !*pc)
         return;
     en_free((*pc)->tmpdir);
+    en_free((*pc)->lock_property);
     en_free(*pc);
     *pc = NULL;
 }

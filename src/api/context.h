@@ -8,6 +8,7 @@
 struct epsnet_context {
     epsnet_settings settings;   /* copied; tmpdir points at our own copy */
     char *tmpdir;
+    char *lock_property;        /* our own copy */
     gauss_sphere sphere;        /* G with the settings' level and rotation */
     gauss_sphere run_sphere;    /* G of the last run: the skeleton's, when a target chose it */
     epsnet_stats stats;         /* of the last run */

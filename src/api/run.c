@@ -146,6 +146,18 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
     int rc = target ? plan_target(run, set, path, in, &slab_vertices, err) : 0;
     if (rc)
         return rc;
+    uint32_t lock_offset = 0;
+    int lock_type = 0;
+    if (mode == EN_SLAB_SIMPLIFY && set->lock_property) {
+        int i = in ? epsnet_attr_layout_find(&in->vertex_attrs, set->lock_property) : -1;
+        if (i < 0)
+            return en_error_set(err, EPSNET_EINVAL, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "no vertex property '%s' to lock by (the input has %u vertex properties "
+                                "beyond x, y, z; 'epsnet info' lists them)",
+                                set->lock_property, in ? in->vertex_attrs.count : 0);
+        lock_offset = in->vertex_attrs.attr[i].offset;
+        lock_type = (int)in->vertex_attrs.attr[i].type;
+    }
     int workers = en_run_workers(set);
     rc = en_pool_new(&run->pool, workers);
     if (rc == EPSNET_ENOMEM)
@@ -163,6 +175,8 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         .target = target ? &run->target : NULL,
         .finish = run->passes == 2 ? &run->finish : NULL,
         .attr_size = mode == EN_SLAB_SIMPLIFY && in ? in->vertex_attrs.size : 0,
+        .lock_offset = lock_offset,
+        .lock_type = lock_type,
         .slab_vertices = slab_vertices,
         .mem_budget = en_run_mem_budget(set),
         /* note: two slabs per worker keep every worker busy while the

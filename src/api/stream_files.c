@@ -147,7 +147,8 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
     /* note: the chain carries the vertex attributes the output's format
      * holds (keep; NULL: none, e.g. a picture or sample points); the
      * others are named in the one dropped warning (docs/architecture.md §5). */
-    if (rc == 0)
+    int all = keep && ctx->settings.lock_property; /* the lock travels even where the output drops it */
+    if (rc == 0 && !all)
         en_reader_keep_attrs(in->r, keep);
     if (rc == 0)
         in->info = *epsnet_reader_info(in->r);
@@ -171,7 +172,7 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
     ss.warning_opaque = ctx->settings.warning_opaque;
     in->was_sorted = 1;
     double t0 = en_now();
-    rc = en_sort_open(&in->sort, in_path, out_path, &ss, keep != NULL, err);
+    rc = en_sort_open(&in->sort, in_path, out_path, &ss, all ? 2 : keep != NULL, err);
     *sort_seconds = en_now() - t0;
     if (rc == 0)
         en_sort_info(in->sort, &in->info);
@@ -246,6 +247,16 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
     snprintf(ctx->command, sizeof ctx->command, "simplify");
     file_out f = { ctx, out_path, NULL };
     int rc = en_simplify_streamed(ctx, in_path, out_path, en_format_by_path(out_path), open_writer, &f, err);
+    /* what the writer leaves out (only the lock property can get this far
+     * unfiltered: the reader kept every attribute for it) */
+    uint64_t left_out = 0;
+    const char *dropped = rc == 0 && f.w ? epsnet_writer_dropped(f.w, &left_out) : NULL;
+    if (dropped && ctx->settings.warning) {
+        char msg[PATH_MAX + 512];
+        snprintf(msg, sizeof msg, "%s: dropped: %s", out_path, dropped);
+        ctx->settings.warning(ctx->settings.warning_opaque, msg);
+    }
+    ctx->stats.dropped += left_out;
     if (rc == 0)
         rc = epsnet_writer_commit(&f.w, err);
     else

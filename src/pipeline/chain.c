@@ -170,6 +170,8 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     w->g = &p->g;
     w->mode = c->cfg.mode;
     w->max_normal_dev = c->cfg.max_normal_dev;
+    w->lock_offset = c->cfg.lock_offset;
+    w->lock_type = c->cfg.mode == EN_SLAB_SIMPLIFY ? c->cfg.lock_type : 0;
     int choosing = p->density_pending;
     w->target = !p->target || c->cfg.mode != EN_SLAB_SIMPLIFY ? NULL
                 : p->target->mode == EN_TARGET_THIN && !choosing ? &p->fixed

@@ -37,6 +37,8 @@ typedef struct en_chain_config {
      * the target, as one slab; NULL: none. */
     const en_target *target, *finish;
     uint32_t attr_size;           /* SIMPLIFY: vertex attribute bytes per record (0: none) */
+    uint32_t lock_offset;         /* the lock property's bytes in them, */
+    int lock_type;                /* and its epsnet_attr_type (0: no lock) */
     uint32_t slab_vertices;
     uint64_t mem_budget;          /* bytes the chain may hold beyond the reader's; 0: none */
     size_t ring_capacity;         /* slabs in flight per pass */

@@ -260,6 +260,35 @@ static int skeleton_from_marks(en_slab_work *w)
     return 0;
 }
 
+/* Is local vertex v's lock property non-zero (settings.lock_property)? */
+static int user_locked(const en_slab_work *w, uint32_t v)
+{
+    const uint8_t *p = w->attr + (size_t)v * w->attr_size + w->lock_offset;
+    switch (w->lock_type) {
+    case EPSNET_ATTR_INT8:
+    case EPSNET_ATTR_UINT8: return p[0] != 0;
+    case EPSNET_ATTR_INT16:
+    case EPSNET_ATTR_UINT16: { uint16_t x; memcpy(&x, p, 2); return x != 0; }
+    case EPSNET_ATTR_INT32:
+    case EPSNET_ATTR_UINT32: { uint32_t x; memcpy(&x, p, 4); return x != 0; }
+    case EPSNET_ATTR_FLOAT32: { float x; memcpy(&x, p, 4); return x != 0; } /* NaN too; -0 is zero */
+    case EPSNET_ATTR_FLOAT64: { double x; memcpy(&x, p, 8); return x != 0; }
+    default: return 0;
+    }
+}
+
+/* The user's locks join the topology's: an owned vertex whose lock property
+ * is non-zero is EN_C_LOCKED, kept by every mode (never a collapse's v,
+ * still a target) and handed to the stitcher as fixed. */
+static void apply_user_locks(en_slab_work *w)
+{
+    if (!w->lock_type || !w->attr)
+        return;
+    for (uint32_t v = 0; v < w->nowned; v++)
+        if (user_locked(w, v))
+            w->vclass[v] |= EN_C_LOCKED;
+}
+
 static int owned_here(const en_slab_work *w, uint32_t v)
 {
     return v < w->nowned;
@@ -346,7 +375,8 @@ static int simplify(en_slab_work *w)
     for (uint32_t v = 0; v < s->nv; v++) {
         en_vertex_kind k = EN_VK_OPEN;
         if (owned_here(w, v))
-            k = en_vertex_kind_of(w->border[v] == EN_BORDER_INNER, 0, en_seam_locked(s->vflags[v]),
+            k = en_vertex_kind_of(w->border[v] == EN_BORDER_INNER, 0,
+                                  en_seam_locked(s->vflags[v]) || (w->vclass[v] & EN_C_LOCKED),
                                   (w->vclass[v] & EN_C_SAMPLE) != 0);
         removable[v] = (uint8_t)en_removable(k);
         /* under a target, samples are the second tier (en_collapse_slab) */
@@ -408,8 +438,10 @@ int en_slab_work_run(void *arg)
         w->rc = choose_density(w);
     else
         w->rc = classify(w);
-    if (w->rc == 0 && w->mode == EN_SLAB_SIMPLIFY)
+    if (w->rc == 0 && w->mode == EN_SLAB_SIMPLIFY) {
+        apply_user_locks(w);
         w->rc = simplify(w);
+    }
     w->seconds = en_now() - t0;
     return w->rc;
 }

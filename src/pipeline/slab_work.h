@@ -78,6 +78,10 @@ typedef struct en_slab_work {
      * is an input vertex) and read by the stitcher. */
     uint32_t attr_size;
     uint8_t *attr;
+    /* The user's lock (settings.lock_property): the offset of that
+     * attribute in a vertex's bytes and its type; lock_type 0: none. */
+    uint32_t lock_offset;
+    int lock_type;
 
     /* Settings (shared, read only). */
     const gauss_sphere *g;

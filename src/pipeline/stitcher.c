@@ -417,7 +417,7 @@ static int take_vertices(en_stitcher *st, const en_slab_work *w, epsnet_error *e
         x->remaining = w->degree[l];
         x->future = w->future[l];
         x->border = w->border[l];
-        x->state = (uint8_t)(((w->vclass[l] & EN_C_SAMPLE) ? S_FIXED : 0) | (w->band[l] ? S_BAND : 0));
+        x->state = (uint8_t)(((w->vclass[l] & (EN_C_SAMPLE | EN_C_LOCKED)) ? S_FIXED : 0) | (w->band[l] ? S_BAND : 0));
         st->local[l] = idx;
         if (x->border == EN_BORDER_INNER) {
             x->state |= S_COMPLETE | S_SETTLED;

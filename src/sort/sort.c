@@ -1212,7 +1212,8 @@ static int open_job(sort_job *j, epsnet_error *err)
     const en_format *out = NULL;
     if (j->keep_attrs)
         out = j->set.format ? en_format_by_name(j->set.format) : en_format_by_path(j->owner);
-    en_reader_keep_attrs(j->r, out);
+    if (j->keep_attrs != 2) /* 2: every attribute (a lock property the output may not hold) */
+        en_reader_keep_attrs(j->r, out);
     j->attrs = epsnet_reader_info(j->r)->vertex_attrs;
     j->asz = j->attrs.size;
     j->aw = (j->asz + 7) / 8;

@@ -57,7 +57,8 @@ typedef int (*en_sort_emit_fn)(void *opaque, const epsnet_record *rec, epsnet_er
 /* owner: the output the sort serves, named in messages (and whose folder
  * holds the runs when settings->tmpdir is NULL). settings may be NULL.
  * keep_attrs: 1 to carry the vertex attributes that owner's format
- * (settings->format, else owner's extension) holds, 0 to carry none; those
+ * (settings->format, else owner's extension) holds, 2 to carry all of them
+ * (the consumer names what its output drops), 0 to carry none; those
  * left out are named in the reader's dropped warning.
  * @return 0 or a negative code; *s is set in both cases (NULL only when
  * nothing was allocated) and en_sort_close() frees it. */
