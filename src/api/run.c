@@ -127,9 +127,21 @@ static int plan_target(en_run *run, const epsnet_settings *set, const char *path
     return 0;
 }
 
+int en_run_pool_new(en_pool **pool, const epsnet_settings *set, const char *path, epsnet_error *err)
+{
+    int workers = en_run_workers(set);
+    int rc = en_pool_new(pool, workers);
+    if (rc == EPSNET_ENOMEM)
+        return en_error_set(err, rc, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    if (rc)
+        return en_error_set(err, rc, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "cannot start %d worker threads",
+                            workers);
+    return 0;
+}
+
 int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char *path,
-                const epsnet_mesh_info *in, en_stage out, en_sample_fn on_sample, void *sample_opaque,
-                epsnet_error *err)
+                const epsnet_mesh_info *in, en_pool *pool, en_stage out, en_sample_fn on_sample,
+                void *sample_opaque, epsnet_error *err)
 {
     memset(run, 0, sizeof *run);
     run->ctx = ctx;
@@ -158,13 +170,13 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         lock_offset = in->vertex_attrs.attr[i].offset;
         lock_type = (int)in->vertex_attrs.attr[i].type;
     }
-    int workers = en_run_workers(set);
-    rc = en_pool_new(&run->pool, workers);
-    if (rc == EPSNET_ENOMEM)
-        return en_error_set(err, rc, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
-    if (rc)
-        return en_error_set(err, rc, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "cannot start %d worker threads",
-                            workers);
+    if (pool) {
+        run->pool = pool;
+        run->borrowed_pool = 1;
+    } else if ((rc = en_run_pool_new(&run->pool, set, path, err)) != 0) {
+        return rc;
+    }
+    int workers = en_pool_threads(run->pool);
     en_chain_config cfg = {
         .mode = mode,
         .path = path,
@@ -294,5 +306,7 @@ int en_run_end(en_run *run, epsnet_error *err)
 void en_run_close(en_run *run)
 {
     en_chain_free(&run->chain);
-    en_pool_free(&run->pool);
+    if (!run->borrowed_pool)
+        en_pool_free(&run->pool);
+    run->pool = NULL;
 }
