@@ -608,6 +608,26 @@ def deeply_nonmanifold_and_huge_fans_are_handled():
 
 
 @case
+def off_and_stl_extras_are_named():
+    """OFF colours, normals, texture values and face colours, and STL facet
+    attribute bytes are not carried: one warning line names them."""
+    off = write("extras.off", "COFF\n4 2 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n0 1 0 0 0 255 255\n"
+                              "1 1 1 9 9 9 255\n3 0 1 2\n3 1 3 2 200 0 0\n")
+    rc, _, err = run("convert", off, "-o", path("extras_off.ply"))
+    assert rc == 0, err
+    assert err.splitlines() == [f"warning: {off}: dropped: vertex values past x y z (colour, normal, texture) (4), "
+                                "face colour (1)"], err
+    plain = write("plain.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+    rc, _, err = run("convert", plain, "-o", path("plain_off.ply"))
+    assert rc == 0 and err == "", err
+    facet = struct.pack("<12fH", 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0x7c00)
+    stl = write("coloured.stl", b"\0" * 80 + struct.pack("<I", 2) + facet + facet[:-2] + b"\0\0")
+    rc, _, err = run("convert", stl, "-o", path("coloured_stl.ply"))
+    assert rc == 0, err
+    assert err.splitlines() == [f"warning: {stl}: dropped: facet attribute (colour) bytes (1)"], err
+
+
+@case
 def what_an_input_holds_beyond_the_mesh_is_named_in_one_warning_line():
     """docs/architecture.md §5: every element, property or statement the output does not carry
     is named in one warning line per run, and counted in the stats."""
