@@ -23,10 +23,6 @@ int en_run_workers(const epsnet_settings *set);
 /* Does set ask for a size or an error target? */
 int en_run_has_target(const epsnet_settings *set);
 
-/* Bytes a one-slab run holds per input vertex, all arrays of the slab work
- * and the collapse core counted (measured: docs/architecture.md §12). */
-#define EN_RUN_ONE_SLAB_BYTES_PER_VERTEX 640
-
 typedef struct en_run {
     epsnet_context *ctx;
     en_pool *pool;

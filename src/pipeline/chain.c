@@ -100,8 +100,12 @@ static int check_budget(en_chain *c, epsnet_error *err)
     int waiting = 0; /* the worst is the chunker's (1) or the stitcher's (0) */
     for (int i = 0; i < c->cfg.passes; i++) {
         const en_pass *p = &c->pass[i];
-        uint64_t cut = en_chunker_bytes(&p->ch),
-                 held = c->cfg.mode == EN_SLAB_SIMPLIFY ? en_stitcher_bytes(&p->st) : 0;
+        uint64_t cut = en_chunker_bytes(&p->ch);
+        /* a target's one slab: what the cut will hold, not just the chunker */
+        if (p->target && p->target->mode != EN_TARGET_THIN &&
+            cut < p->ch.map.count * (uint64_t)EN_ONE_SLAB_BYTES_PER_VERTEX)
+            cut = p->ch.map.count * (uint64_t)EN_ONE_SLAB_BYTES_PER_VERTEX;
+        uint64_t held = c->cfg.mode == EN_SLAB_SIMPLIFY ? en_stitcher_bytes(&p->st) : 0;
         total += cut + held;
         if (!wp || cut > worst || held > worst) {
             wp = p;
@@ -111,6 +115,12 @@ static int check_budget(en_chain *c, epsnet_error *err)
     }
     if (!c->cfg.mem_budget || total <= c->cfg.mem_budget)
         return 0;
+    if (waiting && wp->target && wp->target->mode != EN_TARGET_THIN)
+        return en_error_set(err, EPSNET_ELIMIT, c->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "pass %d holds the whole mesh as one slab to meet its target: %llu vertices so far, "
+                            "about %llu bytes in all, over the memory budget of %llu bytes (give more --mem)",
+                            wp->index + 1, (unsigned long long)wp->ch.map.count, (unsigned long long)total,
+                            (unsigned long long)c->cfg.mem_budget);
     if (waiting)
         return en_error_set(err, EPSNET_ELIMIT, c->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "pass %d: %llu vertices and %llu faces wait for vertices to be finalized (%llu bytes "
