@@ -189,7 +189,10 @@ int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *n
     if (rc == 0)
         rc = en_run_open(&run, ctx, EN_SLAB_SIMPLIFY, in_path, out, NULL, NULL, err);
     if (rc == 0)
+        en_reader_use_pool(in.r, run.pool); /* ENOMEM: it decodes alone, as before */
+    if (rc == 0)
         rc = feed(ctx, &run, &in, in_path, err);
+    en_reader_use_pool(in.r, NULL); /* before the pool goes */
     en_run_close(&run);
     input_close(&in);
     ctx->stats.seconds_sort = sort_seconds;
@@ -295,7 +298,10 @@ int en_sample_points_streamed(epsnet_context *ctx, const char *in_path, const ch
         rc = en_run_open(&run, ctx, EN_SLAB_SAMPLE, in_path, (en_stage){ 0 }, collect, &l, err);
     }
     if (rc == 0)
+        en_reader_use_pool(in.r, run.pool); /* ENOMEM: it decodes alone, as before */
+    if (rc == 0)
         rc = feed(ctx, &run, &in, in_path, err);
+    en_reader_use_pool(in.r, NULL); /* before the pool goes */
     en_run_close(&run);
     input_close(&in);
     ctx->stats.seconds_sort = sort_seconds;

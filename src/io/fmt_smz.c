@@ -23,6 +23,7 @@
 #include <zstd.h>
 
 #include "common/alloc.h"
+#include "common/pool.h"
 #include "io/format.h"
 #include "io/smz.h"
 
@@ -30,7 +31,36 @@
 
 /* ---- reader ---- */
 
-typedef struct smz_reader {
+typedef struct smz_reader smz_reader;
+
+/*
+ * A block read ahead by the caller's thread and decompressed and decoded on
+ * a worker (docs/architecture.md §10, docs/smz.md: blocks are independent).
+ * The caller's thread writes everything up to `payload` before submitting;
+ * the worker writes raw, recs, bad and why; the caller reads them after its
+ * ring retires the job, in block order, and makes every check that depends
+ * on the stream (vertices before the block, sortedness, finalizations)
+ * then, exactly where the one-thread reader makes them.
+ */
+typedef struct smz_job {
+    en_smz_block_header b;
+    uint64_t offset;               /* of the block's tag */
+    uint64_t block_no;
+    epsnet_coord_type ct;
+    int read_rc;                   /* the payload could not be read: raised at the block's turn */
+    epsnet_error read_err;
+    ZSTD_DCtx *dctx;
+    uint8_t *payload;
+    size_t payload_cap;
+    uint8_t *raw;                  /* worker */
+    size_t raw_cap;
+    epsnet_record *recs;           /* worker */
+    size_t recs_cap;
+    int bad;                       /* worker: corrupt, why says how */
+    char why[200];
+} smz_job;
+
+struct smz_reader {
     en_smz_header header;
     ZSTD_DCtx *dctx;
     uint8_t *payload;
@@ -39,6 +69,7 @@ typedef struct smz_reader {
     size_t raw_cap;
     epsnet_record *recs;
     size_t recs_cap;
+    const epsnet_record *cur;      /* the current block's records: recs, or a job's */
     uint32_t nrecs, pos;           /* decoded records of the current block */
     uint64_t block_no;             /* blocks read so far */
     uint64_t block_offset;         /* of the current block */
@@ -48,7 +79,14 @@ typedef struct smz_reader {
     double prev_axis;
     double lo[3], hi[3];
     int finished;
-} smz_reader;
+    /* Decoding on the pool (smz_use_pool); ring NULL: on the caller's thread. */
+    en_jobring *ring;
+    smz_job *jobs;                 /* ring capacity + 1: the current block's job stays untouched */
+    size_t njobs;
+    uint64_t submitted;            /* jobs ever submitted */
+    uint64_t ahead_no;             /* number of the next block to read ahead */
+    int ahead_stop;                /* the index, the end or anything odd: the one-thread path takes over */
+};
 
 static int source_failed(epsnet_reader *r)
 {
@@ -104,6 +142,46 @@ static int grow_to(void **p, size_t *cap, size_t need, size_t elem)
     return need <= *cap ? 0 : en_grow(p, cap, need, elem);
 }
 
+static int first_vertex_check(epsnet_reader *r, smz_reader *st, const en_smz_block_header *b)
+{
+    if (b->first_vertex != r->nverts)
+        return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset,
+                                 "block %llu is corrupt: it says %llu vertices precede it, but %llu do",
+                                 (unsigned long long)st->block_no, (unsigned long long)b->first_vertex,
+                                 (unsigned long long)r->nverts);
+    return 0;
+}
+
+/* The block's records are decoded into recs: note its index entry and make
+ * them the current block. */
+static void block_decoded(epsnet_reader *r, smz_reader *st, const en_smz_block_header *b,
+                          const epsnet_record *recs)
+{
+    en_smz_index_entry e = {
+        .offset = st->block_offset, .first_vertex = b->first_vertex, .first_triangle = r->ntris,
+        .records = b->records, .compressed_bytes = b->compressed_bytes, .axis_min = INFINITY, .axis_max = -INFINITY,
+    };
+    int axis = st->header.axis >= 0 ? st->header.axis : 0;
+    for (uint32_t i = 0; i < b->records; i++) {
+        const epsnet_record *rec = &recs[i];
+        if (rec->kind != EPSNET_REC_VERTEX)
+            continue;
+        double a = rec->xyz[axis];
+        if (a < e.axis_min)
+            e.axis_min = a;
+        if (a > e.axis_max)
+            e.axis_max = a;
+    }
+    uint8_t eb[EN_SMZ_INDEX_ENTRY_BYTES];
+    en_smz_index_entry_encode(&e, eb);
+    st->index_crc = en_smz_crc32(st->index_crc, eb, sizeof eb);
+    st->cur = recs;
+    st->nrecs = b->records;
+    st->pos = 0;
+    st->ntris_before = r->ntris;
+    st->block_no++;
+}
+
 /* Read, check and decode the block whose tag starts at st->block_offset. */
 static int read_block(epsnet_reader *r, smz_reader *st)
 {
@@ -119,11 +197,8 @@ static int read_block(epsnet_reader *r, smz_reader *st)
     if (en_smz_block_header_decode(bh, &b, why, sizeof why))
         return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset, "block %llu is corrupt: %s",
                                  (unsigned long long)st->block_no, why);
-    if (b.first_vertex != r->nverts)
-        return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset,
-                                 "block %llu is corrupt: it says %llu vertices precede it, but %llu do",
-                                 (unsigned long long)st->block_no, (unsigned long long)b.first_vertex,
-                                 (unsigned long long)r->nverts);
+    if ((rc = first_vertex_check(r, st, &b)))
+        return rc;
     void *pp = st->payload, *rp = st->raw, *qp = st->recs;
     if (grow_to(&pp, &st->payload_cap, b.compressed_bytes, 1) || (st->payload = pp, 0) ||
         grow_to(&rp, &st->raw_cap, b.raw_bytes, 1) || (st->raw = rp, 0) ||
@@ -138,28 +213,146 @@ static int read_block(epsnet_reader *r, smz_reader *st)
         en_smz_decode_block(st->raw, &b, st->header.coord_type, st->recs, why, sizeof why))
         return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset, "block %llu is corrupt: %s",
                                  (unsigned long long)st->block_no, why);
-    en_smz_index_entry e = {
-        .offset = st->block_offset, .first_vertex = b.first_vertex, .first_triangle = r->ntris,
-        .records = b.records, .compressed_bytes = b.compressed_bytes, .axis_min = INFINITY, .axis_max = -INFINITY,
-    };
-    int axis = st->header.axis >= 0 ? st->header.axis : 0;
-    for (uint32_t i = 0; i < b.records; i++) {
-        const epsnet_record *rec = &st->recs[i];
-        if (rec->kind != EPSNET_REC_VERTEX)
-            continue;
-        double a = rec->xyz[axis];
-        if (a < e.axis_min)
-            e.axis_min = a;
-        if (a > e.axis_max)
-            e.axis_max = a;
+    block_decoded(r, st, &b, st->recs);
+    return 0;
+}
+
+/* ---- decoding on the pool ---- */
+
+static int decode_job(void *job)
+{
+    smz_job *j = job;
+    if (j->read_rc == 0)
+        j->bad = en_smz_unpack(j->dctx, j->payload, &j->b, j->raw, j->why, sizeof j->why) ||
+                 en_smz_decode_block(j->raw, &j->b, j->ct, j->recs, j->why, sizeof j->why);
+    return 0;
+}
+
+/*
+ * Read blocks ahead while the ring has room, and submit each for decoding.
+ * Anything but a well-formed block header (the index, the end, a corrupt
+ * or truncated header, no memory) stops the reading ahead for good, before
+ * that header is consumed: the one-thread path reaches it once the blocks
+ * in flight are used up, and says what it says today.
+ */
+static void read_ahead(epsnet_reader *r, smz_reader *st)
+{
+    en_source *s = r->src;
+    while (!st->ahead_stop && !en_jobring_full(st->ring)) {
+        size_t n = en_source_fill(s, EN_SMZ_BLOCK_HEADER_BYTES);
+        en_smz_block_header b;
+        char why[200];
+        if (s->failed || n < EN_SMZ_BLOCK_HEADER_BYTES || memcmp(s->cur, "SMZB", 4) != 0 ||
+            en_smz_block_header_decode(s->cur, &b, why, sizeof why)) {
+            st->ahead_stop = 1;
+            break;
+        }
+        smz_job *j = &st->jobs[st->submitted % st->njobs];
+        void *pp = j->payload, *rp = j->raw, *qp = j->recs;
+        if (grow_to(&pp, &j->payload_cap, b.compressed_bytes, 1) || (j->payload = pp, 0) ||
+            grow_to(&rp, &j->raw_cap, b.raw_bytes, 1) || (j->raw = rp, 0) ||
+            grow_to(&qp, &j->recs_cap, b.records, sizeof *j->recs) || (j->recs = qp, 0)) {
+            st->ahead_stop = 1;
+            break;
+        }
+        char what[64];
+        snprintf(what, sizeof what, "block %llu", (unsigned long long)st->ahead_no);
+        j->b = b;
+        j->offset = en_source_offset(s);
+        j->block_no = st->ahead_no++;
+        j->ct = st->header.coord_type;
+        j->bad = 0;
+        uint8_t bh[EN_SMZ_BLOCK_HEADER_BYTES];
+        j->read_rc = en_source_read(s, bh, sizeof bh, what, &j->read_err); /* in the window: cannot fail */
+        if (j->read_rc == 0)
+            j->read_rc = en_source_read(s, j->payload, b.compressed_bytes, what, &j->read_err);
+        if (j->read_rc)
+            st->ahead_stop = 1; /* raised at its turn (next_block_pooled) */
+        if (en_jobring_submit(st->ring, decode_job, j)) {
+            st->ahead_stop = 1; /* cannot happen: the ring had room */
+            break;
+        }
+        st->submitted++;
     }
-    uint8_t eb[EN_SMZ_INDEX_ENTRY_BYTES];
-    en_smz_index_entry_encode(&e, eb);
-    st->index_crc = en_smz_crc32(st->index_crc, eb, sizeof eb);
-    st->nrecs = b.records;
-    st->pos = 0;
-    st->ntris_before = r->ntris;
-    st->block_no++;
+}
+
+/* next_block() with the blocks decoded on the pool: the oldest block read
+ * ahead, checked in the order read_block() checks. */
+static int next_block(epsnet_reader *r, smz_reader *st);
+
+static int next_block_pooled(epsnet_reader *r, smz_reader *st)
+{
+    read_ahead(r, st);
+    void *job;
+    int result;
+    if (!en_jobring_retire(st->ring, &job, &result))
+        return next_block(r, st);
+    smz_job *j = job;
+    st->block_offset = j->offset;
+    int rc = first_vertex_check(r, st, &j->b);
+    if (rc)
+        return rc;
+    if (j->read_rc) {
+        r->err = j->read_err;
+        r->failed = 1;
+        return j->read_rc;
+    }
+    if (j->bad)
+        return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset, "block %llu is corrupt: %s",
+                                 (unsigned long long)st->block_no, j->why);
+    block_decoded(r, st, &j->b, j->recs);
+    read_ahead(r, st); /* decode the next ones while this one is pushed */
+    return 1;
+}
+
+static void jobs_free(smz_reader *st)
+{
+    en_jobring_free(&st->ring, NULL);
+    for (size_t i = 0; i < st->njobs; i++) {
+        ZSTD_freeDCtx(st->jobs[i].dctx);
+        en_free(st->jobs[i].payload);
+        en_free(st->jobs[i].raw);
+        en_free(st->jobs[i].recs);
+    }
+    en_free(st->jobs);
+    st->jobs = NULL;
+    st->njobs = 0;
+}
+
+/*
+ * From now on decode blocks on pool (NULL: on the caller's thread again).
+ * Blocks already read ahead are given back in order first, so stopping
+ * mid-stream loses nothing.
+ */
+static int smz_use_pool(epsnet_reader *r, en_pool *pool)
+{
+    smz_reader *st = r->state;
+    if (!pool || en_pool_threads(pool) == 0) {
+        int lost = st->ring && en_jobring_in_flight(st->ring);
+        jobs_free(st); /* waits for the blocks in flight: the pool may go next */
+        if (lost && !r->failed) /* read ahead and now dropped: this reader cannot go on */
+            return en_reader_fail(r, EPSNET_EINTERNAL, "blocks read ahead were dropped (a bug)"), 0;
+        return 0;
+    }
+    if (st->ring)
+        return 0;
+    size_t cap = 2 * (size_t)en_pool_threads(pool);
+    if (en_jobring_new(&st->ring, pool, cap))
+        return EPSNET_ENOMEM;
+    st->njobs = cap + 1;
+    st->jobs = en_calloc(st->njobs, sizeof *st->jobs);
+    int rc = st->jobs ? 0 : EPSNET_ENOMEM;
+    for (size_t i = 0; i < st->njobs && rc == 0; i++)
+        if (!(st->jobs[i].dctx = ZSTD_createDCtx()))
+            rc = EPSNET_ENOMEM;
+    if (rc) {
+        if (!st->jobs)
+            st->njobs = 0;
+        jobs_free(st);
+        return rc;
+    }
+    st->ahead_no = st->block_no;
+    st->ahead_stop = st->finished;
     return 0;
 }
 
@@ -287,14 +480,14 @@ static int smz_fill(epsnet_reader *r)
         if (st->pos == st->nrecs) {
             if (st->finished)
                 break;
-            int rc = next_block(r, st);
+            int rc = st->ring ? next_block_pooled(r, st) : next_block(r, st);
             if (rc < 0)
                 return rc;
             if (rc == 0)
                 break;
             continue;
         }
-        int rc = push_one(r, st, &st->recs[st->pos]);
+        int rc = push_one(r, st, &st->cur[st->pos]);
         if (rc)
             return rc;
         st->pos++;
@@ -307,6 +500,7 @@ static void smz_close_reader(epsnet_reader *r)
     smz_reader *st = r->state;
     if (!st)
         return;
+    jobs_free(st); /* waits for the blocks in flight */
     ZSTD_freeDCtx(st->dctx);
     en_free(st->payload);
     en_free(st->raw);
@@ -541,6 +735,7 @@ const en_format en_format_smz = {
     .open_reader = smz_open_reader,
     .fill = smz_fill,
     .close_reader = smz_close_reader,
+    .use_pool = smz_use_pool,
     .open_writer = smz_open_writer,
     .put = smz_put,
     .finish = smz_finish,
