@@ -201,7 +201,10 @@ int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *n
         rc = en_run_open(&run, ctx, EN_SLAB_SIMPLIFY, in_path, &in.info, pool, out, NULL, NULL, err);
     run.cpu_start = cpu0;
     if (rc == 0)
+        en_reader_use_pool(in.r, run.pool); /* ENOMEM: it decodes alone, as before */
+    if (rc == 0)
         rc = feed(ctx, &run, &in, in_path, err);
+    en_reader_use_pool(in.r, NULL); /* before the pool goes */
     en_run_close(&run);
     input_close(&in);
     en_pool_free(&pool);
@@ -323,7 +326,10 @@ int en_sample_points_streamed(epsnet_context *ctx, const char *in_path, const ch
     }
     run.cpu_start = cpu0;
     if (rc == 0)
+        en_reader_use_pool(in.r, run.pool); /* ENOMEM: it decodes alone, as before */
+    if (rc == 0)
         rc = feed(ctx, &run, &in, in_path, err);
+    en_reader_use_pool(in.r, NULL); /* before the pool goes */
     en_run_close(&run);
     input_close(&in);
     en_pool_free(&pool);

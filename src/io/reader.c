@@ -425,3 +425,10 @@ void epsnet_reader_close(epsnet_reader **pr)
     en_free(r);
     *pr = NULL;
 }
+
+int en_reader_use_pool(epsnet_reader *r, struct en_pool *pool)
+{
+    if (!r || !r->fmt->use_pool || !r->state)
+        return 0;
+    return r->fmt->use_pool(r, pool);
+}
