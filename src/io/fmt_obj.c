@@ -30,6 +30,7 @@
 #include <string.h>
 
 #include "common/alloc.h"
+#include "common/hash64.h"
 #include "io/format.h"
 #include "io/text_scan.h"
 
@@ -40,10 +41,46 @@
 /* Beyond x y z: w, or r g b, or r g b a. */
 #define OBJ_MAX_VERTEX_VALUES 7
 
+/* Bytes a face corner adds to its position: texture_u, texture_v and nx,
+ * ny, nz, all float32. */
+#define OBJ_KEY_MAX 20
+/* Indices of the corner tables are uint32 (they are held in memory). */
+#define OBJ_TABLE_MAX ((size_t)UINT32_MAX - 1)
+
+/* A `v` statement of a file whose records are corners. */
+typedef struct obj_position {
+    double xyz[3];
+    float rgb[3];
+    uint32_t first;                  /* newest record at this position + 1; 0: none yet */
+} obj_position;
+
+/* A vertex record of such a file: one distinct (position, vt, vn). */
+typedef struct obj_corner {
+    uint32_t next;                   /* older record at the same position + 1; 0: none */
+    uint8_t key[OBJ_KEY_MAX];        /* its texture_u texture_v nx ny nz bytes */
+} obj_corner;
+
 typedef struct obj_reader {
     char *joined;                    /* backslash-continued statement */
     size_t joined_cap;
     int colours;                     /* the records carry red, green, blue */
+
+    /* Corners (docs/architecture.md §13): the records carry texture_u,
+     * texture_v (uv) and/or nx, ny, nz (normals), one record per distinct
+     * (position, vt values, vn values); key_size is 0 in a file without. */
+    int uv, normals;
+    size_t key_size;
+    obj_position *pos;
+    size_t npos, pos_cap;
+    float *vt;                       /* u v of each vt */
+    size_t nvt, vt_cap;
+    float *vn;                       /* x y z of each vn */
+    size_t nvn, vn_cap;
+    obj_corner *rec;
+    size_t nrec, rec_cap;
+    size_t bytes;                    /* of the four tables, held to settings.mem_limit */
+    int at_end;                      /* the statements are all read */
+    size_t tail;                     /* next position to check for a record at the end */
 } obj_reader;
 
 /* ---- reader ---- */
@@ -94,10 +131,54 @@ static int next_statement(epsnet_reader *r, obj_reader *st, char **stmt)
     return 1;
 }
 
+/* Grow one of the corner tables to hold need elements, keeping all four
+ * within the reader's memory budget (they live until the end of the file). */
+static int table_grow(epsnet_reader *r, obj_reader *st, void **buf, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap)
+        return 0;
+    size_t ncap = *cap ? *cap : 1024;
+    while (ncap < need)
+        ncap *= 2;
+    if (need > OBJ_TABLE_MAX || ncap > SIZE_MAX / elem)
+        return en_reader_fail(r, EPSNET_ELIMIT, "more than %zu v, vt, vn or corner vertices", OBJ_TABLE_MAX);
+    size_t bytes = st->bytes - *cap * elem + ncap * elem;
+    if (r->settings.mem_limit && bytes > r->settings.mem_limit)
+        return en_reader_fail(r, EPSNET_ELIMIT,
+                              "an OBJ with vt/vn is held in memory until its faces are read: %zu v, %zu vt, "
+                              "%zu vn and %zu corner vertices need %zu bytes, over the memory budget of %llu bytes",
+                              st->npos, st->nvt, st->nvn, st->nrec, bytes,
+                              (unsigned long long)r->settings.mem_limit);
+    void *p = en_realloc(*buf, ncap * elem);
+    if (!p)
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    *buf = p;
+    *cap = ncap;
+    st->bytes = bytes;
+    return 0;
+}
+
+/* A position of a file whose records are corners: kept until faces name it. */
+static int store_position(epsnet_reader *r, obj_reader *st, const double xyz[3], const float rgb[3])
+{
+    if (!isfinite(xyz[0]) || !isfinite(xyz[1]) || !isfinite(xyz[2]))
+        return en_reader_fail(r, EPSNET_EFORMAT, "vertex %zu has a non-finite coordinate (%g %g %g)",
+                              st->npos + 1, xyz[0], xyz[1], xyz[2]);
+    int rc = table_grow(r, st, (void **)&st->pos, &st->pos_cap, st->npos + 1, sizeof *st->pos);
+    if (rc)
+        return rc;
+    obj_position *p = &st->pos[st->npos++];
+    memcpy(p->xyz, xyz, sizeof p->xyz);
+    memcpy(p->rgb, rgb, sizeof p->rgb);
+    p->first = 0;
+    return 0;
+}
+
 static int parse_vertex(epsnet_reader *r, obj_reader *st, char *p)
 {
     double val[OBJ_MAX_VERTEX_VALUES];
     float rgb[3] = { 0, 0, 0 };
+    unsigned long long label = (unsigned long long)(st->key_size ? st->npos : r->nverts) + 1;
     int n = 0;
     for (;;) {
         double d;
@@ -121,31 +202,352 @@ static int parse_vertex(epsnet_reader *r, obj_reader *st, char *p)
         if (rc == 0)
             break;
         if (rc < 0)
-            return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu: '%.*s' is not a number",
-                                  (unsigned long long)r->nverts + 1, en_text_quoted_len(p), p);
+            return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu: '%.*s' is not a number", label,
+                                  en_text_quoted_len(p), p);
         if (n == OBJ_MAX_VERTEX_VALUES)
-            return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu has more than %d values",
-                                  (unsigned long long)r->nverts + 1, OBJ_MAX_VERTEX_VALUES);
+            return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu has more than %d values", label,
+                                  OBJ_MAX_VERTEX_VALUES);
         val[n++] = d;
     }
     if (n < 3)
-        return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu has %d coordinates, expected 3",
-                              (unsigned long long)r->nverts + 1, n);
+        return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu has %d coordinates, expected 3", label, n);
     if (st->colours) {
         if (n == 4 || n == 5)
             return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu has %d values, expected 3 or 6 (x y z r g b)",
-                                  (unsigned long long)r->nverts + 1, n);
+                                  label, n);
         if (n == 3)
             en_reader_drop(r, "vertex without colour", 1, 1);
         if (n == 7)
             en_reader_drop(r, "vertex colour alpha", 1, 1);
+    } else if (n > 3) {
+        en_reader_drop(r, n == 4 ? "vertex w" : "vertex colour", 1, 1);
+    }
+    if (st->key_size)
+        return store_position(r, st, val, rgb);
+    if (st->colours) {
         uint8_t attr[12];
         memcpy(attr, rgb, sizeof attr);
         return en_reader_push_vertex_attr(r, val[0], val[1], val[2], attr);
     }
-    if (n > 3)
-        en_reader_drop(r, n == 4 ? "vertex w" : "vertex colour", 1, 1);
     return en_reader_push_vertex(r, val[0], val[1], val[2]);
+}
+
+/* Up to max float32 values read as floats (strtof: the bits of the text, as
+ * for colours). @return how many, or -1 with *pp at a token that is not a
+ * number, or max + 1 when there are more. */
+static int scan_floats(char **pp, float *out, int max)
+{
+    int n = 0;
+    char *p = *pp;
+    for (;;) {
+        p = en_text_skip_blanks(p);
+        if (*p == '\0' || *p == '#')
+            break;
+        char *e;
+        float f = strtof(p, &e);
+        if (e == p || !en_text_ends_token(*e)) {
+            *pp = p;
+            return -1;
+        }
+        if (n == max)
+            return max + 1;
+        out[n++] = f;
+        p = e;
+    }
+    *pp = p;
+    return n;
+}
+
+/* `vt u [v [w]]`: v is 0 when absent (as OBJ defines it); w, the depth of
+ * a 3D texture, has no attribute and is named as dropped. */
+static int parse_texcoord(epsnet_reader *r, obj_reader *st, char *p)
+{
+    float uvw[3] = { 0, 0, 0 };
+    int n = scan_floats(&p, uvw, 3);
+    if (n < 0)
+        return en_reader_fail(r, EPSNET_EFORMAT, "vt %zu: '%.*s' is not a number", st->nvt + 1,
+                              en_text_quoted_len(p), p);
+    if (n == 0 || n > 3)
+        return en_reader_fail(r, EPSNET_EFORMAT, "vt %zu has %s values, expected 1 to 3 (u [v [w]])",
+                              st->nvt + 1, n ? "more than 3" : "no");
+    if (n == 3)
+        en_reader_drop(r, "vt w", 1, 1);
+    int rc = table_grow(r, st, (void **)&st->vt, &st->vt_cap, st->nvt + 1, 2 * sizeof *st->vt);
+    if (rc)
+        return rc;
+    memcpy(st->vt + 2 * st->nvt++, uvw, 2 * sizeof *uvw);
+    return 0;
+}
+
+static int parse_normal(epsnet_reader *r, obj_reader *st, char *p)
+{
+    float xyz[3];
+    int n = scan_floats(&p, xyz, 3);
+    if (n < 0)
+        return en_reader_fail(r, EPSNET_EFORMAT, "vn %zu: '%.*s' is not a number", st->nvn + 1,
+                              en_text_quoted_len(p), p);
+    if (n != 3)
+        return en_reader_fail(r, EPSNET_EFORMAT, "vn %zu has %s values, expected 3 (x y z)", st->nvn + 1,
+                              n > 3 ? "more than 3" : n == 2 ? "2" : n == 1 ? "1" : "no");
+    int rc = table_grow(r, st, (void **)&st->vn, &st->vn_cap, st->nvn + 1, 3 * sizeof *st->vn);
+    if (rc)
+        return rc;
+    memcpy(st->vn + 3 * st->nvn++, xyz, sizeof xyz);
+    return 0;
+}
+
+/* What the three index spaces of a face corner are called in messages. */
+static const char *const index_one[3] = { "vertex", "vt", "vn" };
+static const char *const index_many[3] = { "vertices", "vt", "vn" };
+
+/* OBJ index k of space s (0 v, 1 vt, 2 vn) -> 0-based, with count items so
+ * far; check_upper: say so when k is past them (for positions of a plain
+ * file the front end checks that). */
+static int resolve_index(epsnet_reader *r, int s, int64_t k, uint64_t count, int check_upper, uint64_t *out)
+{
+    if (k > 0) {
+        *out = (uint64_t)k - 1;
+        if (check_upper && *out >= count)
+            return en_reader_fail(r, EPSNET_EFORMAT, "face %llu: %s index %lld, but only %llu %s precede it",
+                                  (unsigned long long)r->ntris + 1, index_one[s], (long long)k,
+                                  (unsigned long long)count, index_many[s]);
+        return 0;
+    }
+    if (k == 0)
+        return en_reader_fail(r, EPSNET_EFORMAT, "face %llu: %s index 0 (OBJ indices start at 1)",
+                              (unsigned long long)r->ntris + 1, index_one[s]);
+    uint64_t back = (uint64_t)(-(k + 1)) + 1;
+    if (back > count)
+        return en_reader_fail(r, EPSNET_EFORMAT,
+                              "face %llu: relative %sindex %lld reaches before the first %s "
+                              "(%llu %s so far)",
+                              (unsigned long long)r->ntris + 1, s ? (s == 1 ? "vt " : "vn ") : "", (long long)k,
+                              index_one[s], (unsigned long long)count, index_many[s]);
+    *out = count - back;
+    return 0;
+}
+
+/* One corner `a`, `a/b`, `a/b/c` or `a//c`: idx[0..2] and has[1], has[2]
+ * (whether b and c are given). All given indices must be integers. */
+static int scan_corner(char **pp, int64_t idx[3], int has[3])
+{
+    char *p = *pp;
+    has[0] = 1;
+    has[1] = has[2] = 0;
+    if (en_text_scan_int64(&p, &idx[0]))
+        return -1;
+    if (*p == '/') {
+        p++;
+        if (*p != '/') {
+            if (en_text_scan_int64(&p, &idx[1]))
+                return -1;
+            has[1] = 1;
+        }
+        if (*p == '/') {
+            p++;
+            if (en_text_scan_int64(&p, &idx[2]))
+                return -1;
+            has[2] = 1;
+        }
+    }
+    if (!en_text_ends_token(*p))
+        return -1;
+    *pp = p;
+    return 0;
+}
+
+/* The record of position v with the corner bytes key: an earlier one with
+ * the same bytes (so a position keeps one record wherever its vt and vn
+ * agree, bit for bit), or a new record pushed now. */
+static int corner_record(epsnet_reader *r, obj_reader *st, uint64_t v, const uint8_t *key, uint64_t *out)
+{
+    for (uint32_t k = st->pos[v].first; k; k = st->rec[k - 1].next)
+        if (memcmp(st->rec[k - 1].key, key, st->key_size) == 0) {
+            *out = k - 1;
+            return 0;
+        }
+    int rc = table_grow(r, st, (void **)&st->rec, &st->rec_cap, st->nrec + 1, sizeof *st->rec);
+    if (rc)
+        return rc;
+    obj_position *p = &st->pos[v];
+    uint8_t attr[12 + OBJ_KEY_MAX];
+    size_t at = 0;
+    if (st->colours) {
+        memcpy(attr, p->rgb, 12);
+        at = 12;
+    }
+    memcpy(attr + at, key, st->key_size);
+    if ((rc = en_reader_push_vertex_attr(r, p->xyz[0], p->xyz[1], p->xyz[2], attr)))
+        return rc;
+    obj_corner *c = &st->rec[st->nrec];
+    memset(c->key, 0, sizeof c->key);
+    memcpy(c->key, key, st->key_size);
+    c->next = p->first;
+    p->first = (uint32_t)++st->nrec;
+    *out = st->nrec - 1;
+    return 0;
+}
+
+/* The record a corner names: in a plain file the position itself; in a file
+ * whose records are corners, the record of (position, vt, vn). */
+static int corner_vertex(epsnet_reader *r, obj_reader *st, const int64_t idx[3], const int has[3], uint64_t *v)
+{
+    if (!st->key_size)
+        return resolve_index(r, 0, idx[0], r->nverts, 0, v);
+    uint64_t at[3];
+    int rc = resolve_index(r, 0, idx[0], st->npos, 1, &at[0]);
+    uint8_t key[OBJ_KEY_MAX];
+    memset(key, 0, sizeof key);
+    size_t o = 0;
+    if (!rc && st->uv) {
+        if (!has[1])
+            en_reader_drop(r, "face corner without vt", 1, 1);
+        else if (!(rc = resolve_index(r, 1, idx[1], st->nvt, 1, &at[1])))
+            memcpy(key, st->vt + 2 * at[1], 8);
+        o = 8;
+    }
+    if (!rc && st->normals) {
+        if (!has[2])
+            en_reader_drop(r, "face corner without vn", 1, 1);
+        else if (!(rc = resolve_index(r, 2, idx[2], st->nvn, 1, &at[2])))
+            memcpy(key + o, st->vn + 3 * at[2], 12);
+    }
+    return rc ? rc : corner_record(r, st, at[0], key, v);
+}
+
+static int parse_face(epsnet_reader *r, obj_reader *st, char *p)
+{
+    uint64_t first = 0, prev = 0;
+    int ncorners = 0;
+    for (;;) {
+        p = en_text_skip_blanks(p);
+        if (*p == '\0')
+            break;
+        int64_t idx[3];
+        int has[3];
+        uint64_t v = 0;
+        if (scan_corner(&p, idx, has))
+            return en_reader_fail(r, EPSNET_EFORMAT, "face %llu: bad corner '%.*s'",
+                                  (unsigned long long)r->ntris + 1, en_text_quoted_len(p), p);
+        int rc = corner_vertex(r, st, idx, has, &v);
+        if (rc)
+            return rc;
+        if (ncorners == 0)
+            first = v;
+        else if (ncorners >= 2 && (rc = en_reader_push_triangle(r, first, prev, v)))
+            return rc;
+        prev = v;
+        if (ncorners < 3)
+            ncorners++;
+    }
+    if (ncorners < 3)
+        return en_reader_fail(r, EPSNET_EFORMAT, "face %llu has %d corners, needs at least 3",
+                              (unsigned long long)r->ntris + 1, ncorners);
+    return 0;
+}
+
+/* docs/architecture.md §5: a statement kind the records do not carry is named, by its
+ * keyword, with how many there were. Keywords are printed, so bytes that
+ * are not printable ASCII are shown as '?'. */
+static void drop_statement(epsnet_reader *r, const char *p)
+{
+    char kw[33];
+    size_t n = 0;
+    while (n < sizeof kw - 1 && !en_text_ends_token(p[n])) {
+        unsigned char c = (unsigned char)p[n];
+        kw[n++] = c > 0x20 && c < 0x7f ? (char)c : '?';
+    }
+    kw[n] = '\0';
+    en_reader_drop(r, kw, 1, 1);
+}
+
+static int parse_statement(epsnet_reader *r, char *stmt)
+{
+    obj_reader *st = r->state;
+    char *p = en_text_skip_blanks(stmt);
+    if (p[0] == 'v' && en_text_ends_token(p[1]))
+        return parse_vertex(r, st, p + 1);
+    if (p[0] == 'f' && en_text_ends_token(p[1]))
+        return parse_face(r, st, p + 1);
+    if (st->uv && p[0] == 'v' && p[1] == 't' && en_text_ends_token(p[2]))
+        return parse_texcoord(r, st, p + 2);
+    if (st->normals && p[0] == 'v' && p[1] == 'n' && en_text_ends_token(p[2]))
+        return parse_normal(r, st, p + 2);
+    if (p[0] != '\0' && p[0] != '#')
+        drop_statement(r, p);
+    return 0;
+}
+
+/* Prescan of one line: notes vt and vn statements until the first `f`,
+ * then whether that face's first corner names a vt and a vn.
+ * @return 1 at the first face (the scan ends), else 0. */
+static int prescan_line(const char *p, const char *eol, int seen[2], int *uv, int *normals)
+{
+    while (p < eol && en_text_is_blank(*p))
+        p++;
+    if (eol - p >= 2 && p[0] == 'v' && (p[1] == 't' || p[1] == 'n') && (eol - p == 2 || en_text_is_blank(p[2])))
+        seen[p[1] == 'n'] = 1;
+    if (eol - p < 2 || p[0] != 'f' || !en_text_is_blank(p[1]))
+        return 0;
+    p += 2;
+    while (p < eol && en_text_is_blank(*p))
+        p++;
+    while (p < eol && (*p == '-' || *p == '+' || (*p >= '0' && *p <= '9')))
+        p++;
+    int has_vt = 0, has_vn = 0;
+    if (p < eol && *p == '/') {
+        p++;
+        has_vt = p < eol && *p != '/' && !en_text_is_blank(*p);
+        while (p < eol && *p != '/' && !en_text_is_blank(*p))
+            p++;
+        has_vn = p + 1 < eol && *p == '/' && !en_text_is_blank(p[1]);
+    }
+    *uv = seen[0] && has_vt;
+    *normals = seen[1] && has_vn;
+    return 1;
+}
+
+/*
+ * Whether the records are corners (docs/architecture.md §13): OBJ gives vt
+ * and vn only at the faces, after the positions, so the layout is decided
+ * before the first record by reading ahead to the first `f`. texture_u and
+ * texture_v are carried when vt statements come before it and its first
+ * corner names one, nx ny nz likewise for vn. A regular file is read ahead
+ * through a second source (the v lines before the first face are scanned,
+ * not parsed); a pipe only in the window of src.
+ */
+static int prescan_corners(epsnet_reader *r, int *uv, int *normals)
+{
+    int seen[2] = { 0, 0 };
+    *uv = *normals = 0;
+    if (r->src->file_size == 0) {
+        size_t avail = en_source_fill(r->src, EN_TEXT_PEEK_BYTES);
+        if (r->src->failed)
+            return source_failed(r, en_source_error(r->src, &r->err));
+        const char *p = (const char *)r->src->cur, *end = p + avail;
+        while (p < end) {
+            const char *eol = memchr(p, '\n', (size_t)(end - p));
+            if (!eol || prescan_line(p, eol, seen, uv, normals))
+                break;
+            p = eol + 1;
+        }
+        return 0;
+    }
+    en_source *s = NULL;
+    int rc = en_source_open(&s, r->path, &r->err);
+    if (rc)
+        return source_failed(r, rc);
+    for (;;) {
+        char *line;
+        size_t len;
+        rc = en_source_line(s, &line, &len, OBJ_MAX_LINE, &r->err);
+        if (rc < 0)
+            r->failed = 1;
+        if (rc <= 0 || prescan_line(line, line + len, seen, uv, normals))
+            break;
+    }
+    en_source_close(&s);
+    return rc < 0 ? rc : 0;
 }
 
 /* Whether the first `v` line in the first EN_TEXT_PEEK_BYTES has colours
@@ -180,108 +582,6 @@ static int peek_colours(en_source *src)
     return 0;
 }
 
-/* OBJ index -> 0-based global index; the front end checks the upper bound. */
-static int resolve_index(epsnet_reader *r, int64_t k, uint64_t *out)
-{
-    if (k > 0) {
-        *out = (uint64_t)k - 1;
-        return 0;
-    }
-    if (k == 0)
-        return en_reader_fail(r, EPSNET_EFORMAT, "face %llu: vertex index 0 (OBJ indices start at 1)",
-                              (unsigned long long)r->ntris + 1);
-    uint64_t back = (uint64_t)(-(k + 1)) + 1;
-    if (back > r->nverts)
-        return en_reader_fail(r, EPSNET_EFORMAT,
-                              "face %llu: relative index %lld reaches before the first vertex "
-                              "(%llu vertices so far)",
-                              (unsigned long long)r->ntris + 1, (long long)k,
-                              (unsigned long long)r->nverts);
-    *out = r->nverts - back;
-    return 0;
-}
-
-/* One corner `a`, `a/b`, `a/b/c` or `a//c`; b and c must be integers too,
- * though only a is used. */
-static int scan_corner(char **pp, int64_t *vertex)
-{
-    char *p = *pp;
-    int64_t ignored;
-    if (en_text_scan_int64(&p, vertex))
-        return -1;
-    if (*p == '/') {
-        p++;
-        if (*p != '/' && en_text_scan_int64(&p, &ignored))
-            return -1;
-        if (*p == '/') {
-            p++;
-            if (en_text_scan_int64(&p, &ignored))
-                return -1;
-        }
-    }
-    if (!en_text_ends_token(*p))
-        return -1;
-    *pp = p;
-    return 0;
-}
-
-static int parse_face(epsnet_reader *r, char *p)
-{
-    uint64_t first = 0, prev = 0;
-    int ncorners = 0;
-    for (;;) {
-        p = en_text_skip_blanks(p);
-        if (*p == '\0')
-            break;
-        int64_t k;
-        uint64_t v = 0;
-        if (scan_corner(&p, &k))
-            return en_reader_fail(r, EPSNET_EFORMAT, "face %llu: bad corner '%.*s'",
-                                  (unsigned long long)r->ntris + 1, en_text_quoted_len(p), p);
-        int rc = resolve_index(r, k, &v);
-        if (rc)
-            return rc;
-        if (ncorners == 0)
-            first = v;
-        else if (ncorners >= 2 && (rc = en_reader_push_triangle(r, first, prev, v)))
-            return rc;
-        prev = v;
-        if (ncorners < 3)
-            ncorners++;
-    }
-    if (ncorners < 3)
-        return en_reader_fail(r, EPSNET_EFORMAT, "face %llu has %d corners, needs at least 3",
-                              (unsigned long long)r->ntris + 1, ncorners);
-    return 0;
-}
-
-/* docs/architecture.md §5: a statement kind the records do not carry is named, by its
- * keyword, with how many there were. Keywords are printed, so bytes that
- * are not printable ASCII are shown as '?'. */
-static void drop_statement(epsnet_reader *r, const char *p)
-{
-    char kw[33];
-    size_t n = 0;
-    while (n < sizeof kw - 1 && !en_text_ends_token(p[n])) {
-        unsigned char c = (unsigned char)p[n];
-        kw[n++] = c > 0x20 && c < 0x7f ? (char)c : '?';
-    }
-    kw[n] = '\0';
-    en_reader_drop(r, kw, 1, 1);
-}
-
-static int parse_statement(epsnet_reader *r, char *stmt)
-{
-    char *p = en_text_skip_blanks(stmt);
-    if (p[0] == 'v' && en_text_ends_token(p[1]))
-        return parse_vertex(r, r->state, p + 1);
-    if (p[0] == 'f' && en_text_ends_token(p[1]))
-        return parse_face(r, p + 1);
-    if (p[0] != '\0' && p[0] != '#')
-        drop_statement(r, p);
-    return 0;
-}
-
 static int obj_open_reader(epsnet_reader *r)
 {
     obj_reader *st = en_calloc(1, sizeof *st);
@@ -296,9 +596,26 @@ static int obj_open_reader(epsnet_reader *r)
     st->colours = peek_colours(r->src);
     if (r->src->failed)
         return source_failed(r, en_source_error(r->src, &r->err));
+    int rc = prescan_corners(r, &st->uv, &st->normals);
+    if (rc)
+        return rc;
+    st->key_size = (size_t)(8 * st->uv + 12 * st->normals);
     if (st->colours)
         for (int k = 0; k < 3; k++)
             if (en_reader_add_attr(r, k == 0 ? "red" : k == 1 ? "green" : "blue", EPSNET_ATTR_FLOAT32) < 0)
+                return r->err.code;
+    /* note: texture_u and texture_v are the per-vertex texture coordinate
+     * names that MeshLab writes and reads in PLY, and that Blender's and
+     * trimesh's PLY readers also accept, so an OBJ converted to PLY keeps
+     * its texture coordinates in those tools too (u/v and s/t are each
+     * read by fewer of them); nx ny nz are the normal names all of them
+     * use. */
+    if (st->uv && (en_reader_add_attr(r, "texture_u", EPSNET_ATTR_FLOAT32) < 0 ||
+                   en_reader_add_attr(r, "texture_v", EPSNET_ATTR_FLOAT32) < 0))
+        return r->err.code;
+    if (st->normals)
+        for (int k = 0; k < 3; k++)
+            if (en_reader_add_attr(r, k == 0 ? "nx" : k == 1 ? "ny" : "nz", EPSNET_ATTR_FLOAT32) < 0)
                 return r->err.code;
     return 0;
 }
@@ -306,11 +623,26 @@ static int obj_open_reader(epsnet_reader *r)
 static int obj_fill(epsnet_reader *r)
 {
     obj_reader *st = r->state;
+    static const uint8_t none[OBJ_KEY_MAX];
     while (r->qlen < OBJ_FILL_BATCH) {
+        int rc;
+        if (st->at_end) {
+            /* positions that no face names are vertices all the same, as
+             * in a plain file; they come last, with zero vt and vn */
+            if (st->tail == st->npos)
+                return r->qlen > 0;
+            uint64_t ignored;
+            if (st->pos[st->tail].first == 0 && (rc = corner_record(r, st, st->tail, none, &ignored)))
+                return rc;
+            st->tail++;
+            continue;
+        }
         char *stmt = NULL;
-        int rc = next_statement(r, st, &stmt);
-        if (rc == 0)
-            return r->qlen > 0;
+        rc = next_statement(r, st, &stmt);
+        if (rc == 0) {
+            st->at_end = 1;
+            continue;
+        }
         if (rc > 0)
             rc = parse_statement(r, stmt);
         if (rc < 0)
@@ -324,6 +656,10 @@ static void obj_close_reader(epsnet_reader *r)
     obj_reader *st = r->state;
     if (st) {
         en_free(st->joined);
+        en_free(st->pos);
+        en_free(st->vt);
+        en_free(st->vn);
+        en_free(st->rec);
         en_free(st);
     }
     r->state = NULL;
@@ -385,54 +721,335 @@ static size_t format_u64(char *buf, uint64_t v)
     return n;
 }
 
-static int obj_open_writer(epsnet_writer *w)
+/*
+ * The writer's tables for files whose records are corners (texture
+ * coordinates or normals): an exact map from fixed-size byte keys to
+ * indices, open addressing, grown at half full.
+ */
+typedef struct key_table {
+    uint8_t *slots;                  /* per slot: uint64 value + 1 (0: free), then the key */
+    size_t cap, used, key_size, slot_size;
+} key_table;
+
+static size_t key_hash(const uint8_t *k, size_t n)
 {
-    (void)w;
+    uint64_t h = 0xcbf29ce484222325ull;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ k[i]) * 0x100000001b3ull;
+    return en_hash_slot(h, SIZE_MAX);
+}
+
+static int key_grow(key_table *t)
+{
+    size_t cap = t->cap ? t->cap * 2 : 1024;
+    uint8_t *slots = en_calloc(cap, t->slot_size);
+    if (!slots)
+        return -1;
+    for (size_t i = 0; i < t->cap; i++) {
+        const uint8_t *s = t->slots + i * t->slot_size;
+        uint64_t v;
+        memcpy(&v, s, 8);
+        if (!v)
+            continue;
+        size_t j = key_hash(s + 8, t->key_size) & (cap - 1);
+        while (memcpy(&v, slots + j * t->slot_size, 8), v)
+            j = (j + 1) & (cap - 1);
+        memcpy(slots + j * t->slot_size, s, t->slot_size);
+    }
+    en_free(t->slots);
+    t->slots = slots;
+    t->cap = cap;
     return 0;
 }
 
-/* OBJ holds vertex colours as `v x y z r g b`: red, green and blue, all
- * three float32 (epsnet.h epsnet_writer_dropped()). */
-static int obj_holds_attr(const epsnet_attr_layout *l, uint32_t i)
+/* The value of key, or its new value when absent (*added = 1); value
+ * UINT64_MAX leaves an absent key out. @return 0 or -1 out of memory. */
+static int key_find(key_table *t, const uint8_t *key, uint64_t value, uint64_t *found, int *added)
 {
-    static const char *rgb[3] = { "red", "green", "blue" };
-    int is_rgb = 0;
-    for (int k = 0; k < 3; k++) {
-        int at = epsnet_attr_layout_find(l, rgb[k]);
-        if (at < 0 || l->attr[at].type != EPSNET_ATTR_FLOAT32)
+    *added = 0;
+    if ((t->used + 1) * 2 > t->cap && key_grow(t))
+        return -1;
+    size_t j = key_hash(key, t->key_size) & (t->cap - 1);
+    for (;; j = (j + 1) & (t->cap - 1)) {
+        uint8_t *s = t->slots + j * t->slot_size;
+        uint64_t v;
+        memcpy(&v, s, 8);
+        if (!v)
+            break;
+        if (memcmp(s + 8, key, t->key_size) == 0) {
+            *found = v - 1;
             return 0;
-        is_rgb |= (uint32_t)at == i;
+        }
     }
-    return is_rgb;
+    *found = value;
+    if (value == UINT64_MAX)
+        return 0;
+    uint8_t *s = t->slots + j * t->slot_size;
+    uint64_t v = value + 1;
+    memcpy(s, &v, 8);
+    memcpy(s + 8, key, t->key_size);
+    t->used++;
+    *added = 1;
+    return 0;
 }
 
-static int obj_put(epsnet_writer *w, const epsnet_record *rec)
+/* Overwrite the value of a key that is present. */
+static void key_set(key_table *t, const uint8_t *key, uint64_t value)
 {
-    char line[6 * 33 + 8];
+    size_t j = key_hash(key, t->key_size) & (t->cap - 1);
+    for (;; j = (j + 1) & (t->cap - 1)) {
+        uint8_t *s = t->slots + j * t->slot_size;
+        if (memcmp(s + 8, key, t->key_size) == 0) {
+            uint64_t v = value + 1;
+            memcpy(s, &v, 8);
+            return;
+        }
+    }
+}
+
+static void key_init(key_table *t, size_t key_size)
+{
+    memset(t, 0, sizeof *t);
+    t->key_size = key_size;
+    t->slot_size = 8 + key_size;
+}
+
+/* The texture coordinate names the OBJ writer takes for `vt`, in order of
+ * preference: what the OBJ reader gives, then the other common PLY names. */
+static const char *const uv_names[][2] = { { "texture_u", "texture_v" }, { "s", "t" }, { "u", "v" } };
+
+/* Index in l of each of n names, all float32; @return 1 when all are. */
+static int find_float32(const epsnet_attr_layout *l, const char *const *names, int n, int *at)
+{
+    for (int k = 0; k < n; k++) {
+        at[k] = epsnet_attr_layout_find(l, names[k]);
+        if (at[k] < 0 || l->attr[at[k]].type != EPSNET_ATTR_FLOAT32)
+            return 0;
+    }
+    return 1;
+}
+
+/* The attributes of l that go to `vt` (uv[0..1]) and `vn` (n[0..2]);
+ * @return bit 1 for vt, bit 2 for vn. */
+static int corner_attrs(const epsnet_attr_layout *l, int uv[2], int n[3])
+{
+    static const char *const normal[3] = { "nx", "ny", "nz" };
+    int found = 0;
+    for (size_t k = 0; k < sizeof uv_names / sizeof *uv_names && !found; k++)
+        found = find_float32(l, uv_names[k], 2, uv);
+    return found | (find_float32(l, normal, 3, n) ? 2 : 0);
+}
+
+typedef struct obj_writer {
+    int rgb[3];                      /* attributes of `v x y z r g b`; -1: none */
+    int uv[2], n[3];                 /* of `vt` and `vn`; uv[0] / n[0] -1: none */
+    int corners;                     /* vt or vn are written */
+    /* Weld (docs/architecture.md §13): records at the same position (xyz
+     * and colour bits) share one `v` line unless that line already has a
+     * record with the same vt and vn, so reading the file back gives the
+     * same records. */
+    key_table vline;                 /* v line text bits -> newest v line */
+    key_table used;                  /* v line + vt/vn bits -> present */
+    key_table vts, vns;              /* vt / vn bits -> their line */
+    uint64_t nv, nvt, nvn;
+    uint64_t (*corner)[3];           /* per record: its v, vt, vn lines */
+    size_t corner_cap;
+} obj_writer;
+
+static int obj_open_writer(epsnet_writer *w)
+{
+    obj_writer *st = en_calloc(1, sizeof *st);
+    if (!st)
+        return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    w->state = st;
+    static const char *const rgb[3] = { "red", "green", "blue" };
+    if (!find_float32(&w->attrs, rgb, 3, st->rgb))
+        st->rgb[0] = -1;
+    int which = corner_attrs(&w->attrs, st->uv, st->n);
+    if (!(which & 1))
+        st->uv[0] = -1;
+    if (!(which & 2))
+        st->n[0] = -1;
+    st->corners = which != 0;
+    key_init(&st->vline, 3 * 8 + 3 * 4);
+    key_init(&st->used, 8 + 5 * 4);
+    key_init(&st->vts, 2 * 4);
+    key_init(&st->vns, 3 * 4);
+    return 0;
+}
+
+static void obj_close_writer(epsnet_writer *w)
+{
+    obj_writer *st = w->state;
+    if (st) {
+        en_free(st->vline.slots);
+        en_free(st->used.slots);
+        en_free(st->vts.slots);
+        en_free(st->vns.slots);
+        en_free(st->corner);
+        en_free(st);
+    }
+    w->state = NULL;
+}
+
+/* OBJ holds vertex colours as `v x y z r g b` (red, green and blue, all
+ * three float32), texture coordinates as `vt u v` (texture_u and
+ * texture_v, else s and t, else u and v, float32) and normals as `vn`
+ * (nx, ny, nz, float32): see epsnet.h epsnet_writer_dropped(). */
+static int obj_holds_attr(const epsnet_attr_layout *l, uint32_t i)
+{
+    static const char *const rgb[3] = { "red", "green", "blue" };
+    int at[3], uv[2], n[3];
+    if (find_float32(l, rgb, 3, at) && ((uint32_t)at[0] == i || (uint32_t)at[1] == i || (uint32_t)at[2] == i))
+        return 1;
+    int which = corner_attrs(l, uv, n);
+    if ((which & 1) && ((uint32_t)uv[0] == i || (uint32_t)uv[1] == i))
+        return 1;
+    return (which & 2) && ((uint32_t)n[0] == i || (uint32_t)n[1] == i || (uint32_t)n[2] == i);
+}
+
+static int writer_nomem(epsnet_writer *w)
+{
+    return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+}
+
+/* Copy the 4-byte values of attributes at[0..n) of rec into key. */
+static void attr_bits(const epsnet_writer *w, const epsnet_record *rec, const int *at, int n, uint8_t *key)
+{
+    for (int k = 0; k < n; k++)
+        memcpy(key + 4 * k, rec->attr + w->attrs.attr[at[k]].offset, 4);
+}
+
+/* `keyword a b c` of n float32 attributes of rec, appended at line + *len. */
+static void put_floats(char *line, size_t *len, const char *keyword, const epsnet_writer *w,
+                       const epsnet_record *rec, const int *at, int n)
+{
+    size_t m = *len;
+    if (keyword) {
+        size_t kl = strlen(keyword);
+        memcpy(line + m, keyword, kl);
+        m += kl;
+    }
+    for (int k = 0; k < n; k++) {
+        float f;
+        memcpy(&f, rec->attr + w->attrs.attr[at[k]].offset, 4);
+        line[m++] = ' ';
+        m += (size_t)en_format_coord(line + m, f, EPSNET_COORD_FLOAT32);
+    }
+    if (keyword)
+        line[m++] = '\n';
+    *len = m;
+}
+
+/* A vertex record of a file with vt or vn: its `v` line unless it welds
+ * into an earlier one, its `vt` and `vn` lines unless the same values have
+ * one already; the face corners then name those lines. */
+static int put_corner_vertex(epsnet_writer *w, obj_writer *st, const epsnet_record *rec, char *line, size_t *len)
+{
+    if (en_grow((void **)&st->corner, &st->corner_cap, w->nverts, sizeof *st->corner))
+        return writer_nomem(w);
+    uint64_t *c = st->corner[w->nverts - 1];
+    uint8_t vkey[36], ukey[28];
+    memset(vkey, 0, sizeof vkey);
+    memset(ukey, 0, sizeof ukey);
+    memcpy(vkey, rec->xyz, 24);
+    if (st->rgb[0] >= 0)
+        attr_bits(w, rec, st->rgb, 3, vkey + 24);
+    if (st->uv[0] >= 0)
+        attr_bits(w, rec, st->uv, 2, ukey + 8);
+    if (st->n[0] >= 0)
+        attr_bits(w, rec, st->n, 3, ukey + 16);
+    int added;
+    if (key_find(&st->vline, vkey, st->nv, &c[0], &added))
+        return writer_nomem(w);
+    memcpy(ukey, &c[0], 8);
+    uint64_t ignored;
+    int fresh;
+    if (key_find(&st->used, ukey, 0, &ignored, &fresh))
+        return writer_nomem(w);
+    if (!added && !fresh) {
+        /* the v line has a record with these vt and vn bits already: a
+         * distinct vertex at the same place gets a line of its own */
+        c[0] = st->nv;
+        key_set(&st->vline, vkey, c[0]);
+        memcpy(ukey, &c[0], 8);
+        if (key_find(&st->used, ukey, 0, &ignored, &fresh))
+            return writer_nomem(w);
+        added = 1;
+    }
     size_t n = 0;
-    if (rec->kind == EPSNET_REC_VERTEX) {
-        int rc = check_coord_range(w, rec->xyz, w->nverts);
-        if (rc)
-            return rc;
+    if (added) {
+        st->nv++;
         line[n++] = 'v';
         for (int k = 0; k < 3; k++) {
             line[n++] = ' ';
             n += (size_t)en_format_coord(line + n, rec->xyz[k], w->coord_type);
         }
-        if (w->attrs.count == 3) {
-            static const char *rgb[3] = { "red", "green", "blue" };
-            for (int k = 0; k < 3; k++) {
-                float c;
-                memcpy(&c, rec->attr + w->attrs.attr[epsnet_attr_layout_find(&w->attrs, rgb[k])].offset, 4);
-                line[n++] = ' ';
-                n += (size_t)en_format_coord(line + n, c, EPSNET_COORD_FLOAT32);
-            }
+        if (st->rgb[0] >= 0)
+            put_floats(line, &n, NULL, w, rec, st->rgb, 3);
+        line[n++] = '\n';
+    }
+    c[1] = c[2] = 0;
+    if (st->uv[0] >= 0) {
+        if (key_find(&st->vts, ukey + 8, st->nvt, &c[1], &added))
+            return writer_nomem(w);
+        if (added) {
+            st->nvt++;
+            put_floats(line, &n, "vt", w, rec, st->uv, 2);
         }
+    }
+    if (st->n[0] >= 0) {
+        if (key_find(&st->vns, ukey + 16, st->nvn, &c[2], &added))
+            return writer_nomem(w);
+        if (added) {
+            st->nvn++;
+            put_floats(line, &n, "vn", w, rec, st->n, 3);
+        }
+    }
+    *len = n;
+    return 0;
+}
+
+static int obj_put(epsnet_writer *w, const epsnet_record *rec)
+{
+    obj_writer *st = w->state;
+    /* v with colours, vt and vn lines, or f with three v/vt/vn corners */
+    char line[3 * (6 * 33 + 8)];
+    size_t n = 0;
+    if (rec->kind == EPSNET_REC_VERTEX) {
+        int rc = check_coord_range(w, rec->xyz, w->nverts);
+        if (rc)
+            return rc;
+        if (st->corners) {
+            if ((rc = put_corner_vertex(w, st, rec, line, &n)))
+                return rc;
+            return n ? en_writer_bytes(w, line, n) : 0;
+        }
+        line[n++] = 'v';
+        for (int k = 0; k < 3; k++) {
+            line[n++] = ' ';
+            n += (size_t)en_format_coord(line + n, rec->xyz[k], w->coord_type);
+        }
+        if (st->rgb[0] >= 0)
+            put_floats(line, &n, NULL, w, rec, st->rgb, 3);
     } else if (rec->kind == EPSNET_REC_TRIANGLE) {
         line[n++] = 'f';
         for (int k = 0; k < 3; k++) {
             line[n++] = ' ';
-            n += format_u64(line + n, rec->v[k] + 1);
+            if (!st->corners) {
+                n += format_u64(line + n, rec->v[k] + 1);
+                continue;
+            }
+            const uint64_t *c = st->corner[rec->v[k]];
+            n += format_u64(line + n, c[0] + 1);
+            if (st->uv[0] >= 0 || st->n[0] >= 0)
+                line[n++] = '/';
+            if (st->uv[0] >= 0)
+                n += format_u64(line + n, c[1] + 1);
+            if (st->n[0] >= 0) {
+                line[n++] = '/';
+                n += format_u64(line + n, c[2] + 1);
+            }
         }
     } else {
         return 0;
@@ -457,5 +1074,6 @@ const en_format en_format_obj = {
     .open_writer = obj_open_writer,
     .put = obj_put,
     .finish = obj_finish,
+    .close_writer = obj_close_writer,
     .holds_attr = obj_holds_attr,
 };
