@@ -1,28 +1,44 @@
 /*
- * Wavefront OBJ (docs/architecture.md §13, ordinary formats): geometry only.
+ * Wavefront OBJ (docs/architecture.md §13, ordinary formats).
  *
- * Reader: `v x y z [w | r g b [a]]` and `f` with corners `a`, `a/b`, `a/b/c`
- * or `a//c`; indices are 1-based, or negative and relative to the newest
- * vertex (-1 = newest). Polygons are fan-triangulated around their first
- * corner. Faces may come between vertices, as OBJ allows. Vertex colours
- * become the attributes red, green, blue (float32, epsnet.h §2) when the
- * first `v` line of the file's first 64 KiB has them (OBJ has no header:
- * the attributes must be known before the first record); a later `v`
- * without colours then gets 0 0 0 and is counted as dropped ("vertex
- * without colour"). Every other statement (vt, vn, vp, o, g, s, usemtl,
- * mtllib, l, p, unknown ones) is skipped and named by
- * epsnet_reader_dropped(), as are w, alpha, and colours in a file whose
- * first `v` has none; the numbers of a `v` or `f` statement must all parse.
- * A trailing backslash continues a statement on the next line.
+ * Reader: `v x y z [w | r g b [a]]`, `vt`, `vn` and `f` with corners `a`,
+ * `a/b`, `a/b/c` or `a//c`; indices are 1-based, or negative and relative
+ * to the newest v, vt or vn (-1 = newest). Polygons are fan-triangulated
+ * around their first corner. Faces may come between vertices, as OBJ
+ * allows. Vertex colours become the attributes red, green, blue (float32,
+ * epsnet.h §2) when the first `v` line of the file's first 64 KiB has them
+ * (OBJ has no header: the attributes must be known before the first
+ * record); a later `v` without colours then gets 0 0 0 and is counted as
+ * dropped ("vertex without colour").
+ *
+ * Texture coordinates and normals are given per face corner. When the
+ * faces name them (decided by reading ahead to the first `f`, see
+ * prescan_corners()), a record is one distinct (position, vt, vn) with the
+ * attributes texture_u, texture_v and/or nx, ny, nz: a position that faces
+ * use with different values (a seam) becomes several records at the same
+ * coordinates, which cuts the mesh open along the seam
+ * (docs/architecture.md §13, docs/method.md §6). The v, vt and vn tables
+ * are then held to the end of the file, within settings.mem_limit, and a
+ * record is pushed when a face first names it.
+ *
+ * Every other statement (vp, o, g, s, usemtl, mtllib, l, p, unknown ones,
+ * and vt or vn that no face names) is skipped and named by
+ * epsnet_reader_dropped(), as are w, alpha, a vt's w, and colours in a file
+ * whose first `v` has none; the numbers of a `v`, `vt`, `vn` or `f`
+ * statement must all parse. A trailing backslash continues a statement on
+ * the next line.
  *
  * note: OBJ has no header, so info.coord_type is decided by looking ahead at
  * the `v` lines, by the rule of src/io/text_scan.h.
  *
  * Writer: `v` lines in the shortest exact text for the writer's coordinate
  * type (with `r g b` when the stream has float32 red, green and blue, in
- * the shortest text that reads back to the same bits) and `f a b c` lines with 1-based absolute indices, in stream order
- * (OBJ allows interleaving, so nothing is buffered). FINALIZE records have no
- * OBJ form and are dropped.
+ * the shortest text that reads back to the same bits) and `f a b c` lines
+ * with 1-based absolute indices, in stream order (OBJ allows interleaving,
+ * so nothing is buffered). A stream with texture coordinates or normals
+ * also gets `vt` and `vn` lines and `f a/b/c` corners, and its records at
+ * one position are welded into one `v` line (put_corner_vertex()).
+ * FINALIZE records have no OBJ form and are dropped.
  */
 #include <math.h>
 #include <stdio.h>

@@ -205,8 +205,15 @@ int en_reader_push_vertex_attr(epsnet_reader *r, double x, double y, double z, c
     const epsnet_attr_layout *l = &r->info.vertex_attrs;
     if (rc || l->size == 0)
         return rc;
-    if ((rc = attr_room(r)))
+    if ((rc = attr_room(r))) {
+        /* note: queued records are delivered before the error (format.h):
+         * this one has no attribute bytes, so it must not be */
+        r->qlen--;
+        r->nverts--;
+        if (r->live)
+            en_u64set_remove(r->live, r->nverts);
         return rc;
+    }
     uint8_t *dst = r->qattr + (r->qlen - 1) * (size_t)l->size;
     if (!attr)
         memset(dst, 0, l->size);
