@@ -7,6 +7,7 @@ open boundary, which is locked (docs/method.md §6). Values are compared as
 float32 bits."""
 import math
 import os
+import shutil
 import struct
 import subprocess
 import sys
@@ -257,6 +258,44 @@ def texture_coordinates_alone_and_through_ply():
     assert all(c[2] is None and (c[0], c[1]) in pairs for t in tout for c in t)
 
 
+@case
+def sort_and_smz_keep_the_corners():
+    src = textured("seams.obj", seams=True)
+    tin, counts = read_obj(src)
+    smz = path("seams.smz")
+    rc, _, err = run("sort", src, "-o", smz, "-q")
+    assert rc == 0, err
+    o = path("seams_smz.obj")
+    rc, _, err = run("convert", smz, "-o", o, "-q")
+    assert rc == 0, err
+    tout, counts_out = read_obj(o)
+    assert sorted(map(rotated, tout)) == sorted(map(rotated, tin)), "sort and .smz changed a corner"
+    assert counts_out[0] == counts[0], (counts_out, counts)
+    corners = {c for t in tin for c in t}
+    s = path("seams_smz_simp.obj")
+    rc, _, err = run("simplify", smz, "-o", s, "-q", "-j2", "--slab", "1024")
+    assert rc == 0, err
+    tout, _ = read_obj(s)
+    assert tout and all(c in corners for t in tout for c in t), "simplify of the .smz changed a corner"
+
+
+@case
+def a_pipe_is_read_ahead_in_its_window():
+    text = ("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 0.5 0.5\nvn 0 0 1\n"
+            "f 1/1/1 2/2/1 3/3/1\nf 1/5/1 3/3/1 4/4/1\n")
+    o = path("pipe.obj")
+    p = subprocess.run([EPSNET, "convert", "-", "-o", o, "-q"], input=text, capture_output=True, text=True,
+                       timeout=60)
+    assert p.returncode == 0, p.stderr
+    src = path("pipe_in.obj")
+    with open(src, "w") as f:
+        f.write(text)
+    tin, _ = read_obj(src)
+    tout, counts = read_obj(o)
+    assert sorted(map(rotated, tout)) == sorted(map(rotated, tin)), (tin, tout)
+    assert counts == (4, 5, 1), counts
+
+
 def expect_bad(name, text, line, reason):
     src = path(name)
     with open(src, "w") as f:
@@ -301,4 +340,5 @@ def what_is_not_carried_is_named_and_vt_vn_are_not():
     assert "texture_u" in err and "nz" in err and "usemtl" in err, err
 
 
+shutil.rmtree(TMP, ignore_errors=True)
 sys.exit(1 if failures else 0)
