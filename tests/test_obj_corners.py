@@ -296,6 +296,20 @@ def a_pipe_is_read_ahead_in_its_window():
     assert counts == (4, 5, 1), counts
 
 
+@case
+def an_output_without_vt_and_vn_gets_the_mesh_uncut():
+    """simplify to a format that holds neither: the positions are the
+    vertices, so no seam copies (vertices at the same place) come out."""
+    src = textured("seams.obj", seams=True)
+    o = path("seams.sma")
+    rc, _, err = run("simplify", src, "-o", o, "-j2", "--ratio", "0.2")
+    assert rc == 0, err
+    assert "vertex property texture_u" in err and "vertex property nz" in err, err
+    with open(o) as f:
+        xyz = [tuple(line.split()[1:4]) for line in f if line.startswith("v ")]
+    assert xyz and len(set(xyz)) == len(xyz), f"{len(xyz) - len(set(xyz))} vertices share a place: a cut mesh"
+
+
 def expect_bad(name, text, line, reason):
     src = path(name)
     with open(src, "w") as f:

@@ -83,8 +83,15 @@ typedef struct obj_reader {
 
     /* Corners (docs/architecture.md §13): the records carry texture_u,
      * texture_v (uv) and/or nx, ny, nz (normals), one record per distinct
-     * (position, vt values, vn values); key_size is 0 in a file without. */
+     * (position, vt values, vn values); key_size is 0 in a file without.
+     * file_uv, file_normals: the attributes declared; uv, normals: those
+     * whose values are read (see follow_kept_attrs()); mute_vt, mute_vn:
+     * vt or vn statements skipped without a word, as their attributes are
+     * named already. */
+    int file_uv, file_normals;
     int uv, normals;
+    int mute_vt, mute_vn;
+    int started;
     size_t key_size;
     obj_position *pos;
     size_t npos, pos_cap;
@@ -414,13 +421,12 @@ static int corner_vertex(epsnet_reader *r, obj_reader *st, const int64_t idx[3],
     int rc = resolve_index(r, 0, idx[0], st->npos, 1, &at[0]);
     uint8_t key[OBJ_KEY_MAX];
     memset(key, 0, sizeof key);
-    size_t o = 0;
+    size_t o = st->file_uv ? 8 : 0;
     if (!rc && st->uv) {
         if (!has[1])
             en_reader_drop(r, "face corner without vt", 1, 1);
         else if (!(rc = resolve_index(r, 1, idx[1], st->nvt, 1, &at[1])))
             memcpy(key, st->vt + 2 * at[1], 8);
-        o = 8;
     }
     if (!rc && st->normals) {
         if (!has[2])
@@ -489,6 +495,8 @@ static int parse_statement(epsnet_reader *r, char *stmt)
         return parse_texcoord(r, st, p + 2);
     if (st->normals && p[0] == 'v' && p[1] == 'n' && en_text_ends_token(p[2]))
         return parse_normal(r, st, p + 2);
+    if (p[0] == 'v' && ((st->mute_vt && p[1] == 't') || (st->mute_vn && p[1] == 'n')) && en_text_ends_token(p[2]))
+        return 0;
     if (p[0] != '\0' && p[0] != '#')
         drop_statement(r, p);
     return 0;
@@ -615,6 +623,8 @@ static int obj_open_reader(epsnet_reader *r)
     int rc = prescan_corners(r, &st->uv, &st->normals);
     if (rc)
         return rc;
+    st->file_uv = st->uv;
+    st->file_normals = st->normals;
     st->key_size = (size_t)(8 * st->uv + 12 * st->normals);
     if (st->colours)
         for (int k = 0; k < 3; k++)
@@ -636,10 +646,43 @@ static int obj_open_reader(epsnet_reader *r)
     return 0;
 }
 
+/*
+ * Before the first record: the corner attributes that the consumer keeps
+ * (en_reader_keep_attrs() may have left some out, and named them). Values
+ * no one keeps are not read, so they split no position; when neither vt
+ * nor vn is kept, positions are the records, as in a file without them:
+ * an output that cannot hold texture coordinates gets the mesh uncut.
+ */
+static void follow_kept_attrs(epsnet_reader *r, obj_reader *st)
+{
+    static const char *const uv[2] = { "texture_u", "texture_v" };
+    static const char *const n[3] = { "nx", "ny", "nz" };
+    const epsnet_attr_layout *kept = &r->info.vertex_attrs;
+    int keeps_uv = 0, keeps_n = 0;
+    for (int k = 0; k < 2; k++)
+        keeps_uv |= epsnet_attr_layout_find(kept, uv[k]) >= 0;
+    for (int k = 0; k < 3; k++)
+        keeps_n |= epsnet_attr_layout_find(kept, n[k]) >= 0;
+    if (st->uv && !keeps_uv) {
+        st->uv = 0;
+        st->mute_vt = 1;
+    }
+    if (st->normals && !keeps_n) {
+        st->normals = 0;
+        st->mute_vn = 1;
+    }
+    if (!st->uv && !st->normals)
+        st->key_size = 0;
+}
+
 static int obj_fill(epsnet_reader *r)
 {
     obj_reader *st = r->state;
     static const uint8_t none[OBJ_KEY_MAX];
+    if (!st->started) {
+        st->started = 1;
+        follow_kept_attrs(r, st);
+    }
     while (r->qlen < OBJ_FILL_BATCH) {
         int rc;
         if (st->at_end) {
