@@ -608,6 +608,26 @@ def deeply_nonmanifold_and_huge_fans_are_handled():
 
 
 @case
+def off_and_stl_extras_are_named():
+    """OFF colours, normals, texture values and face colours, and STL facet
+    attribute bytes are not carried: one warning line names them."""
+    off = write("extras.off", "COFF\n4 2 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n0 1 0 0 0 255 255\n"
+                              "1 1 1 9 9 9 255\n3 0 1 2\n3 1 3 2 200 0 0\n")
+    rc, _, err = run("convert", off, "-o", path("extras_off.ply"))
+    assert rc == 0, err
+    assert err.splitlines() == [f"warning: {off}: dropped: vertex values past x y z (colour, normal, texture) (4), "
+                                "face colour (1)"], err
+    plain = write("plain.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+    rc, _, err = run("convert", plain, "-o", path("plain_off.ply"))
+    assert rc == 0 and err == "", err
+    facet = struct.pack("<12fH", 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0x7c00)
+    stl = write("coloured.stl", b"\0" * 80 + struct.pack("<I", 2) + facet + facet[:-2] + b"\0\0")
+    rc, _, err = run("convert", stl, "-o", path("coloured_stl.ply"))
+    assert rc == 0, err
+    assert err.splitlines() == [f"warning: {stl}: dropped: facet attribute (colour) bytes (1)"], err
+
+
+@case
 def what_an_input_holds_beyond_the_mesh_is_named_in_one_warning_line():
     """docs/architecture.md §5: every element, property or statement the output does not carry
     is named in one warning line per run, and counted in the stats."""
@@ -641,7 +661,7 @@ def what_an_input_holds_beyond_the_mesh_is_named_in_one_warning_line():
                               "usemtl red\nf 1/1 2/1 3/1\ng b\n")
     rc, _, err = run("simplify", obj, "-o", path("extras_obj.ply"), "-q", "--stats", path("extras_obj.json"))
     assert rc == 0, err
-    # the faces name the vt: it is carried (texture_u, texture_v), not dropped
+    # the faces name the vt: it is carried (texture_u, texture_v), through simplify too
     assert err.splitlines() == [f"warning: {obj}: dropped: mtllib (1), g (2), usemtl (1)"], err
     assert json.load(open(path("extras_obj.json")))["dropped"] == 3
     # a mesh that carries nothing more says nothing
@@ -899,6 +919,71 @@ def obj_colours_round_trip_through_ply_sort_and_smz():
     mixed = write("col_mixed.obj", "v 0 0 0 1 1 1\nv 1 0 0\nv 0 1 0 0.5 0.5 0.5\nf 1 2 3\n")
     rc, _, err = run("convert", mixed, "-o", path("col_mixed.ply"), "-q")
     assert rc == 0 and err.splitlines() == [f"warning: {mixed}: dropped: vertex without colour (1)"], err
+
+
+@case
+def obj_vt_and_vn_of_one_per_position_round_trip():
+    """OBJ vt/vn when each position has exactly one: carried as texture_u, texture_v, nx, ny, nz
+    through PLY, sort and .smz, and written back as vt/vn with f v/vt/vn; a seam splits its
+    position (tests/test_obj_corners.py has the rest)."""
+    text = ("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 1 1 1\n"
+            "vt 0 0\nvt 1 0\nvt 0 1\nvt 0.5 0.5\nvt 0.25 0.75\n"
+            "vn 0 0 1\nvn 1 0 0\nvn 0 1 0\nvn 0.57735026 0.57735026 0.57735026\nvn 0 -1 0\n"
+            "f 1/1/1 3/3/3 2/2/2\nf 1/1/1 2/2/2 4/4/4\nf -5/-5/-5 -2/-2/-2 -3/-3/-3\nf 2/2/2 3/3/3 4/4/4\n"
+            "f 2/2/2 5/5/5 3/3/3\n")
+    src = write("uv.obj", text)
+    rc, info, err = run("info", src)
+    assert rc == 0 and "attributes:  float texture_u, float texture_v, float nx, float ny, float nz" in info, info
+    assert "not read" not in info, info
+    a, b = path("uv_a.ply"), path("uv_b.obj")
+    for args in (("convert", src, "-o", a), ("convert", a, "-o", b)):
+        rc, _, err = run(*args, "-q")
+        assert rc == 0 and err == "", (args, err)
+    out = open(b).read()
+    vs = [ln for ln in out.splitlines() if ln[:2] in ("v ", "vt", "vn")]
+    assert vs[:3] == ["v 0 0 0", "vt 0 0", "vn 0 0 1"] and len(vs) == 15, out
+    # records come in the order the faces first name them: 1 3 2 4 5
+    assert "f 1/1/1 2/2/2 3/3/3" in out, out
+    z, zo = path("uv.smz"), path("uv_z.obj")
+    for args in (("sort", src, "-o", z), ("convert", z, "-o", zo)):
+        rc, _, err = run(*args, "-q")
+        assert rc == 0 and err == "", (args, err)
+    # every vertex keeps its own vt and vn through the sort: (v, vt, vn) triples are the same
+    def triples(t):
+        ls = [ln for ln in t.splitlines() if ln[:2] in ("v ", "vt", "vn")]
+        return sorted(tuple(ls[i:i + 3]) for i in range(0, len(ls), 3))
+    assert triples(open(zo).read()) == triples(out), open(zo).read()
+    # an OBJ has no counts: the in-memory sort starts, outgrows a small budget and moves what it
+    # holds (attributes included) to the spills; the bytes are those of the roomy run
+    base = path("uv_big.ply")
+    rc, _, err = run("gen", "bumpy", "--faces", "20000", "--seed", "5", "--shuffle", "-o", base, "-q")
+    assert rc == 0, err
+    _, verts, faces = read_ply(base)
+    lines = []
+    for i, v in enumerate(verts):
+        x, y, zz = struct.unpack("<3f", v)
+        lines.append(f"v {x!r} {y!r} {zz!r} {i % 7 / 7!r} 0.5 {1 - i % 3 / 3!r}")
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in faces]
+    big = write("uv_big.obj", "\n".join(lines) + "\n")
+    s1, s2 = path("uv_big1.ply"), path("uv_big2.ply")
+    for args in (("sort", big, "-o", s1), ("sort", big, "-o", s2, "--mem", "1M")):
+        rc, _, err = run(*args, "-q")
+        assert rc == 0 and err == "", (args, err)
+    assert open(s1, "rb").read() == open(s2, "rb").read(), "a sort that spills mid-read differs"
+    assert read_ply(s1)[0][3:] == [("red", "float"), ("green", "float"), ("blue", "float")]
+    # a position with two different vt is a seam: it becomes one vertex per vt
+    seam = write("uv_seam.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvt 1 0\nvt 0 1\nvt 0.5 0.5\n"
+                 "f 1/1 3/3 2/2\nf 1/4 2/2 4/4\n")
+    rc, _, err = run("convert", seam, "-o", path("uv_seam.ply"), "-q")
+    assert rc == 0 and err == "", err
+    assert len(read_ply(path("uv_seam.ply"))[1]) == 5
+    # a vt index out of range is an error naming the file and line; a corner without vt gets zeros
+    odd = write("uv_odd.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 1 1\nf 1/9 2/1 3\n")
+    rc, _, err = run("convert", odd, "-o", path("uv_odd.ply"), "-q")
+    assert rc == 2 and f"{odd}:5:" in err and "vt index 9" in err, err
+    odd = write("uv_odd2.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 1 1\nf 1/1 2/1 3\n")
+    rc, _, err = run("convert", odd, "-o", path("uv_odd2.ply"), "-q")
+    assert rc == 0 and err.splitlines() == [f"warning: {odd}: dropped: face corner without vt (1)"], err
 
 
 subprocess.run(["rm", "-rf", TMP])

@@ -136,6 +136,26 @@ def main():
     # Threads that cannot start: every one of the 3 x 2 pool threads in turn.
     walk("simplify_thread_creation", lambda o: ["simplify", smz, "-o", o + ".smz", "--slab", "200", "-j", "3",
                                                 "--passes", "2", "-q"], what="EPSNET_FAIL_THREAD")
+    # Targets: one slab, and streamed (a thinning pass, then one slab).
+    walk("simplify_target_one_slab", lambda o: ["simplify", smz, "-o", o + ".smz", "--ratio", "0.1", "-q"],
+         max_points=600, stride=5)
+    walk("simplify_target_streamed", lambda o: ["simplify", smz, "-o", o + ".smz", "--ratio", "0.1", "--slab", "300",
+                                                "-j", "3", "-q"], max_points=600, stride=7)
+    # Vertex attributes through the chain, and a lock by one of them.
+    coloured = os.path.join(TMP, "coloured.ply")
+    plain = os.path.join(TMP, "plain_ascii.ply")
+    p = run(["gen", "bumpy", "--faces", "3000", "--ascii", "-o", plain, "-q"])
+    assert p.returncode == 0, p.stderr
+    lines = open(plain).read().split("\n")
+    end = lines.index("end_header")
+    nv = int([l for l in lines if l.startswith("element vertex")][0].split()[2])
+    head = [l for l in lines[:end] if not l.startswith("element face") and "vertex_indices" not in l]
+    head += ["property uchar red", "property uchar lock", "element face %d" % (len(lines) - end - 2 - nv),
+             "property list uchar int vertex_indices", "end_header"]
+    body = ["%s %d %d" % (l, i % 256, i % 9 == 0) for i, l in enumerate(lines[end + 1:end + 1 + nv])]
+    open(coloured, "w").write("\n".join(head + body + lines[end + 1 + nv:]))
+    walk("simplify_attributes_locked", lambda o: ["simplify", coloured, "-o", o + ".ply", "--slab", "200", "-j", "3",
+                                                  "--lock", "lock", "-q"], max_points=600, stride=7)
     hausdorff_without_threads(smz, sma)
     # sort with a budget small enough to spill sorted runs to temporary
     # files (src/sort/extsort.c), then merge them.

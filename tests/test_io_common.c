@@ -306,6 +306,63 @@ TEST(format_coord_is_shortest_exact)
     CHECK(strtof(buf, NULL) == hf);
 }
 
+/* epsnet.h §2: layouts are built and checked by the library; a writer
+ * refuses a layout that does not add up, and a vertex without its bytes. */
+TEST(attribute_layouts_are_built_and_checked)
+{
+    epsnet_attr_layout l;
+    memset(&l, 0, sizeof l);
+    CHECK_EQ_INT(epsnet_attr_layout_add(&l, "red", EPSNET_ATTR_UINT8), 0);
+    CHECK_EQ_INT(epsnet_attr_layout_add(&l, "nx", EPSNET_ATTR_FLOAT32), 0);
+    CHECK_EQ_INT(epsnet_attr_layout_add(&l, "conf", EPSNET_ATTR_FLOAT64), 0);
+    CHECK_EQ_U64(l.size, 13);
+    CHECK_EQ_U64(l.attr[2].offset, 5);
+    CHECK_EQ_INT(epsnet_attr_layout_find(&l, "nx"), 1);
+    CHECK_EQ_INT(epsnet_attr_layout_find(&l, "ny"), -1);
+    CHECK_EQ_INT(epsnet_attr_layout_add(&l, "red", EPSNET_ATTR_UINT8), EPSNET_EINVAL);
+    CHECK_EQ_INT(epsnet_attr_layout_add(&l, "", EPSNET_ATTR_UINT8), EPSNET_EINVAL);
+    CHECK_EQ_INT(epsnet_attr_layout_add(&l, "a b", EPSNET_ATTR_UINT8), EPSNET_EINVAL);
+    CHECK_EQ_INT(epsnet_attr_layout_add(&l, "t", (epsnet_attr_type)9), EPSNET_EINVAL);
+    CHECK_EQ_U64(epsnet_attr_type_size(EPSNET_ATTR_INT16), 2);
+    CHECK(strcmp(epsnet_attr_type_name(EPSNET_ATTR_UINT32), "uint") == 0);
+    CHECK(epsnet_attr_type_name((epsnet_attr_type)0) == NULL);
+    epsnet_attr_layout full;
+    memset(&full, 0, sizeof full);
+    char name[16];
+    for (int i = 0; i < EPSNET_ATTR_MAX; i++) {
+        snprintf(name, sizeof name, "a%d", i);
+        CHECK_EQ_INT(epsnet_attr_layout_add(&full, name, EPSNET_ATTR_INT8), 0);
+    }
+    CHECK_EQ_INT(epsnet_attr_layout_add(&full, "one_more", EPSNET_ATTR_INT8), EPSNET_ELIMIT);
+
+    epsnet_mesh_info info;
+    memset(&info, 0, sizeof info);
+    info.nverts = info.nfaces = EPSNET_COUNT_UNKNOWN;
+    info.vertex_attrs = l;
+    info.vertex_attrs.attr[1].offset = 2; /* not packed */
+    epsnet_writer *w = NULL;
+    epsnet_error err;
+    const char *p = tl_path("bad_layout.ply");
+    CHECK_EQ_INT(epsnet_writer_open(&w, p, NULL, &info, &err), EPSNET_EINVAL);
+    CHECK_STR_CONTAINS(err.reason, "offset");
+    info.vertex_attrs = l;
+    info.vertex_attrs.size = 12;
+    CHECK_EQ_INT(epsnet_writer_open(&w, p, NULL, &info, &err), EPSNET_EINVAL);
+    info.vertex_attrs = l;
+    CHECK_EQ_INT(epsnet_writer_open(&w, p, NULL, &info, &err), 0);
+    epsnet_record rec = { .kind = EPSNET_REC_VERTEX };
+    CHECK_EQ_INT(epsnet_writer_put(w, &rec, &err), EPSNET_EINVAL);
+    CHECK_STR_CONTAINS(err.reason, "no attribute bytes");
+    epsnet_writer_abort(&w);
+    /* SMB holds none: it names them all */
+    CHECK_EQ_INT(epsnet_writer_open(&w, tl_path("names.smb"), NULL, &info, &err), 0);
+    uint64_t n = 0;
+    const char *what = epsnet_writer_dropped(w, &n);
+    CHECK(what && strcmp(what, "vertex property red, vertex property nx, vertex property conf") == 0);
+    CHECK_EQ_U64(n, 3);
+    epsnet_writer_abort(&w);
+}
+
 int main(void)
 {
     RUN(source_lines_handle_crlf_and_missing_final_newline);
@@ -322,6 +379,7 @@ int main(void)
     RUN(error_messages_name_file_and_position);
     RUN(records_before_a_bad_line_arrive_before_the_error);
     RUN(format_coord_is_shortest_exact);
+    RUN(attribute_layouts_are_built_and_checked);
     tl_cleanup();
     return tl_finish();
 }

@@ -194,12 +194,13 @@ TEST(skipped_statements_are_named_with_their_counts)
     while ((rc = epsnet_reader_next(r, &rec, &err)) > 0)
         ;
     CHECK_EQ_INT(rc, 0);
-    const char *what = epsnet_reader_dropped(r, &n);
     /* vt and vn are carried (the faces name them): not dropped */
+    const char *what = epsnet_reader_dropped(r, &n);
     CHECK(what && strcmp(what, "mtllib (1), o (1), usemtl (2), vertex w (1), vertex colour (2), ?bad (1)") == 0);
     if (what && strcmp(what, "mtllib (1), o (1), usemtl (2), vertex w (1), vertex colour (2), ?bad (1)") != 0)
         fprintf(stderr, "  got: %s\n", what);
     CHECK_EQ_U64(n, 6);
+    CHECK_EQ_U64(epsnet_reader_info(r)->vertex_attrs.count, 5);
     epsnet_reader_close(&r);
 
     /* vt and vn that no face names are not carried, and so named */

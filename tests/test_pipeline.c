@@ -82,7 +82,7 @@ static int stream_samples(const char *path, uint32_t slab, int threads, gid_list
     epsnet_error err;
     epsnet_record rec;
     memset(out, 0, sizeof *out);
-    int rc = en_run_open(&run, ctx, EN_SLAB_SAMPLE, path, NULL, (en_stage){ 0 }, collect_gid, out, &err);
+    int rc = en_run_open(&run, ctx, EN_SLAB_SAMPLE, path, NULL, NULL, (en_stage){ 0 }, collect_gid, out, &err);
     if (rc == 0)
         rc = epsnet_reader_open(&r, path, NULL, &err);
     while (rc == 0 && (rc = epsnet_reader_next(r, &rec, &err)) == 1)
@@ -174,6 +174,114 @@ TEST(same_bytes_for_threads_1_2_3_8)
             }
             free(first);
         }
+}
+
+/* docs/architecture.md §10: each pass's stitcher takes its slabs as pool
+ * jobs, one at a time, and the caller hands their records on when it
+ * retires them. Small slabs on shapes with features put most of the work in
+ * seams, so takes overlap the slabs still running; the bytes must not move
+ * with the thread count, for one pass and for chained passes (whose input is
+ * the handed-on records). */
+TEST(seam_jobs_give_the_same_bytes_for_any_thread_count)
+{
+    char in[512], out[512];
+    static const char *shapes[] = { "cad", "torus" };
+    static const uint32_t slabs[] = { 64, 300 };
+    static const int threads[] = { 1, 2, 8 };
+    epsnet_error err;
+    for (int sh = 0; sh < 2; sh++) {
+        snprintf(in, sizeof in, "%s", tl_path("seam_in.smz"));
+        snprintf(out, sizeof out, "%s", tl_path("seam_out.smz"));
+        CHECK_EQ_INT(tl_gen_file(in, shapes[sh], 20000, NAN, 5, 0, &err), 0);
+        for (int k = 0; k < 2; k++)
+            for (int passes = 1; passes <= 2; passes++) {
+                unsigned char *first = NULL;
+                size_t nfirst = 0;
+                for (int t = 0; t < 3; t++) {
+                    epsnet_stats st;
+                    CHECK_EQ_INT(simplify_file(in, out, slabs[k], threads[t], passes, &st, &err), 0);
+                    CHECK(st.seam_collapses > 0);
+                    size_t n;
+                    unsigned char *b = tl_read_file(out, &n);
+                    CHECK(b != NULL && n > 100);
+                    if (!first) {
+                        first = b;
+                        nfirst = n;
+                        continue;
+                    }
+                    int same = b && n == nfirst && memcmp(b, first, n) == 0;
+                    if (!same)
+                        fprintf(stderr, "  %s, slab %u, passes %d, %d threads: bytes differ\n", shapes[sh],
+                                slabs[k], passes, threads[t]);
+                    CHECK(same);
+                    free(b);
+                }
+                free(first);
+            }
+    }
+}
+
+/* docs/architecture.md §10: with workers, .smz blocks are read ahead and
+ * decoded on the pool, and every check still happens at the block's turn:
+ * a damaged block, a damaged header or a cut file fails with the same code
+ * and message for every thread count, and a sound file gives the same
+ * bytes (same_bytes_for_threads_1_2_3_8 reads .smz too). */
+TEST(damaged_smz_fails_alike_for_any_thread_count)
+{
+    char in[512], bad[512], out[512];
+    snprintf(in, sizeof in, "%s", tl_path("blocks.smz"));
+    snprintf(out, sizeof out, "%s", tl_path("blocks_out.smz"));
+    epsnet_error err;
+    CHECK_EQ_INT(tl_gen_file(in, "bumpy", 120000, NAN, 3, 0, &err), 0); /* several blocks */
+    size_t n;
+    unsigned char *data = tl_read_file(in, &n);
+    CHECK(data != NULL && n > 4096);
+    if (!data)
+        return;
+    /* Late in the file (a later block's payload), at a block header's tag,
+     * and the file cut short. */
+    size_t tag = 0;
+    for (size_t i = n / 2; i + 4 < n && !tag; i++)
+        if (memcmp(data + i, "SMZB", 4) == 0)
+            tag = i;
+    CHECK(tag > 0);
+    static const char *kinds[] = { "payload", "header", "cut" };
+    for (int k = 0; k < 3; k++) {
+        unsigned char *copy = malloc(n);
+        CHECK(copy != NULL);
+        if (!copy)
+            break;
+        memcpy(copy, data, n);
+        size_t len = n;
+        if (k == 0)
+            copy[n * 3 / 4] ^= 0x5a;
+        else if (k == 1)
+            copy[tag + 8] ^= 0x01; /* a field under the header's CRC */
+        else
+            len = n * 2 / 3;
+        snprintf(bad, sizeof bad, "%s", tl_write("blocks_bad.smz", copy, len));
+        free(copy);
+        int first_rc = 0;
+        char first_msg[1200] = "";
+        for (int t = 0; t < 3; t++) {
+            static const int threads[] = { 1, 2, 8 };
+            epsnet_error e;
+            memset(&e, 0, sizeof e);
+            int rc = simplify_file(bad, out, 3000, threads[t], 1, NULL, &e);
+            CHECK(rc < 0);
+            if (t == 0) {
+                first_rc = rc;
+                snprintf(first_msg, sizeof first_msg, "%s", epsnet_error_message(&e));
+                continue;
+            }
+            int same = rc == first_rc && strcmp(first_msg, epsnet_error_message(&e)) == 0;
+            if (!same)
+                fprintf(stderr, "  %s, %d threads: %d '%s' vs %d '%s'\n", kinds[k], threads[t], rc,
+                        epsnet_error_message(&e), first_rc, first_msg);
+            CHECK(same);
+        }
+    }
+    free(data);
 }
 
 typedef struct stream_check {
@@ -747,6 +855,8 @@ int main(void)
 {
     RUN(samples_equal_one_slab_for_any_slab_size);
     RUN(same_bytes_for_threads_1_2_3_8);
+    RUN(seam_jobs_give_the_same_bytes_for_any_thread_count);
+    RUN(damaged_smz_fails_alike_for_any_thread_count);
     RUN(output_is_a_valid_sorted_stream_keeping_samples_and_genus);
     RUN(seams_are_simplified_like_the_rest);
     RUN(active_set_grows_with_width_not_length);

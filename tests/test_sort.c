@@ -438,7 +438,7 @@ TEST(emitted_records_are_those_of_the_sorted_file)
     CHECK_EQ_INT(sort_with(obj, smz, (uint64_t)64 << 20, -1, NULL, &err), 0);
     record_list got = { 0 };
     en_sort *s = NULL;
-    CHECK_EQ_INT(en_sort_open(&s, obj, smz, NULL, 1, &err), 0);
+    CHECK_EQ_INT(en_sort_open(&s, obj, smz, NULL, 1, NULL, &err), 0);
     CHECK_EQ_INT(en_sort_emit(s, collect_record, &got, &err), 0);
     en_sort_close(&s, NULL);
     epsnet_reader *r = NULL;

@@ -1,4 +1,5 @@
 #include <getopt.h>
+#include <math.h>
 #include <string.h>
 
 #include "cli.h"
@@ -167,6 +168,17 @@ int cmd_simplify(int argc, char **argv)
                 secs > 0 ? (double)s->faces / secs / 1e6 : 0.0, (double)s->peak_rss / (1 << 20), s->cpu_main,
                 s->cpu_workers,
                 s->cpu_main + s->cpu_workers > 0 ? 100.0 * s->cpu_main / (s->cpu_main + s->cpu_workers) : 0.0);
+        if (targets || m.settings.target_error > 0) {
+            /* G has 4 n^2 + 2 vertices at frequency n */
+            unsigned n = (unsigned)(sqrt((double)(s->gaussian_vertices - 2) / 4) + 0.5);
+            fprintf(stderr,
+                    "  target: %llu %s; skeleton at frequency %u: %llu vertices (%.1f%% of the output), "
+                    "%llu samples given up\n",
+                    (unsigned long long)(s->target_faces ? s->target_faces : m.settings.target_vertices),
+                    s->target_faces || !m.settings.target_vertices ? "faces" : "vertices", n, (unsigned long long)s->skeleton_vertices,
+                    s->output_vertices ? 100.0 * (double)s->skeleton_vertices / (double)s->output_vertices : 0.0,
+                    (unsigned long long)s->samples_given_up);
+        }
     }
     epsnet_context_free(&ctx);
     return rc < 0 ? cli_fail(&err) : EXIT_OK;

@@ -378,7 +378,7 @@ EPSNET_API int epsnet_writer_commit(epsnet_writer **w, epsnet_error *err);
  * them; integer colours would need a conversion, which would not read back
  * bit for bit, so they are left out and named), texture coordinates
  * texture_u, texture_v (else s, t, else u, v) and normals nx, ny, nz, all
- * float32, as `vt`, `vn` and `f v/vt/vn`; SMA, SMB, STL and OFF hold
+ * float32 and each group only whole, as `vt`, `vn` and `f v/vt/vn`; SMA, SMB, STL and OFF hold
  * none. Known from the open.
  * @return NULL when nothing is left out, else the text (owned by the
  * writer, valid until it is committed or aborted). *count, when count is

@@ -56,7 +56,11 @@ static int plan_streamed(en_run *run, const char *path, uint64_t nv, uint64_t nf
     en_target *t = &run->target, *f = &run->finish;
     uint64_t n_faces = t->faces ? t->faces : t->ratio > 0 ? (uint64_t)llround(t->ratio * (double)nf) : 0;
     double share = t->vertices ? (double)t->vertices / (double)nv : (double)n_faces / (double)nf;
-    double fits = budget ? 0.8 * (double)(budget / EN_RUN_ONE_SLAB_BYTES_PER_VERTEX) / (double)nv : 1;
+    /* note: 0.4 of the budget for the thinned interiors; the seams the thin
+     * pass leaves whole come on top (at the budget's own slab sizes about a
+     * tenth to a fifth of the mesh). Thinning the seams too was tried: it
+     * over-thinned them, below the target at small slabs (RESULTS.md). */
+    double fits = budget ? 0.4 * (double)(budget / EN_ONE_SLAB_BYTES_PER_VERTEX) / (double)nv : 1;
     double keep = 1.5 * share + 0.01;
     keep = keep < fits ? keep : fits;
     if (keep < 1.02 * share)
@@ -64,7 +68,7 @@ static int plan_streamed(en_run *run, const char *path, uint64_t nv, uint64_t nf
                             "a target of %.1f%% of %llu vertices is more than one slab holds in the memory budget "
                             "of %llu MB (about %d bytes a vertex); give more --mem or a smaller target",
                             100 * share, (unsigned long long)nv, (unsigned long long)(budget >> 20),
-                            EN_RUN_ONE_SLAB_BYTES_PER_VERTEX);
+                            EN_ONE_SLAB_BYTES_PER_VERTEX);
     *f = *t;
     f->mode = EN_TARGET_FINISH;
     f->faces = n_faces;
@@ -111,25 +115,37 @@ static int plan_target(en_run *run, const epsnet_settings *set, const char *path
                             (unsigned long long)t->vertices, (unsigned long long)known_v);
     uint64_t budget = en_run_mem_budget(set);
     /* streamed: over the budget, or over the slab size the user asked for */
-    int over = known_v != EPSNET_COUNT_UNKNOWN && budget && known_v > budget / EN_RUN_ONE_SLAB_BYTES_PER_VERTEX;
+    int over = known_v != EPSNET_COUNT_UNKNOWN && budget && known_v > budget / EN_ONE_SLAB_BYTES_PER_VERTEX;
     if (known_v != EPSNET_COUNT_UNKNOWN && known_f != EPSNET_COUNT_UNKNOWN && known_f > 0 && t->max_error < 0 &&
         (over || (set->slab_vertices && known_v > set->slab_vertices)))
         return plan_streamed(run, path, known_v, known_f, budget, err);
-    if (known_v != EPSNET_COUNT_UNKNOWN && budget && known_v > budget / EN_RUN_ONE_SLAB_BYTES_PER_VERTEX)
+    if (known_v != EPSNET_COUNT_UNKNOWN && budget && known_v > budget / EN_ONE_SLAB_BYTES_PER_VERTEX)
         return en_error_set(err, EPSNET_ELIMIT, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "this target needs the whole mesh in one slab: %llu vertices take about %llu MB, over "
                             "the memory budget of %llu MB (an error bound, or an input whose face count is not "
                             "known ahead, is not streamed)",
                             (unsigned long long)known_v,
-                            (unsigned long long)(known_v * EN_RUN_ONE_SLAB_BYTES_PER_VERTEX >> 20),
+                            (unsigned long long)(known_v * EN_ONE_SLAB_BYTES_PER_VERTEX >> 20),
                             (unsigned long long)(budget >> 20));
     *slab_vertices = UINT32_MAX - 1;
     return 0;
 }
 
+int en_run_pool_new(en_pool **pool, const epsnet_settings *set, const char *path, epsnet_error *err)
+{
+    int workers = en_run_workers(set);
+    int rc = en_pool_new(pool, workers);
+    if (rc == EPSNET_ENOMEM)
+        return en_error_set(err, rc, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    if (rc)
+        return en_error_set(err, rc, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "cannot start %d worker threads",
+                            workers);
+    return 0;
+}
+
 int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char *path,
-                const epsnet_mesh_info *in, en_stage out, en_sample_fn on_sample, void *sample_opaque,
-                epsnet_error *err)
+                const epsnet_mesh_info *in, en_pool *pool, en_stage out, en_sample_fn on_sample,
+                void *sample_opaque, epsnet_error *err)
 {
     memset(run, 0, sizeof *run);
     run->ctx = ctx;
@@ -158,13 +174,13 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         lock_offset = in->vertex_attrs.attr[i].offset;
         lock_type = (int)in->vertex_attrs.attr[i].type;
     }
-    int workers = en_run_workers(set);
-    rc = en_pool_new(&run->pool, workers);
-    if (rc == EPSNET_ENOMEM)
-        return en_error_set(err, rc, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
-    if (rc)
-        return en_error_set(err, rc, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "cannot start %d worker threads",
-                            workers);
+    if (pool) {
+        run->pool = pool;
+        run->borrowed_pool = 1;
+    } else if ((rc = en_run_pool_new(&run->pool, set, path, err)) != 0) {
+        return rc;
+    }
+    int workers = en_pool_threads(run->pool);
     en_chain_config cfg = {
         .mode = mode,
         .path = path,
@@ -294,5 +310,7 @@ int en_run_end(en_run *run, epsnet_error *err)
 void en_run_close(en_run *run)
 {
     en_chain_free(&run->chain);
-    en_pool_free(&run->pool);
+    if (!run->borrowed_pool)
+        en_pool_free(&run->pool);
+    run->pool = NULL;
 }

@@ -23,10 +23,6 @@ int en_run_workers(const epsnet_settings *set);
 /* Does set ask for a size or an error target? */
 int en_run_has_target(const epsnet_settings *set);
 
-/* Bytes a one-slab run holds per input vertex, all arrays of the slab work
- * and the collapse core counted (measured: docs/architecture.md §12). */
-#define EN_RUN_ONE_SLAB_BYTES_PER_VERTEX 640
-
 typedef struct en_run {
     epsnet_context *ctx;
     en_pool *pool;
@@ -35,6 +31,7 @@ typedef struct en_run {
     en_target target, finish;     /* SIMPLIFY with a target; the chain points here */
     int passes;                   /* 2 for a streamed target (THIN, FINISH) */
     int has_target;
+    int borrowed_pool;
     const char *path;
     double cpu_start;             /* calling thread's CPU clock at open */
     double wall_start;
@@ -43,13 +40,21 @@ typedef struct en_run {
 /*
  * Start a run in `mode` on ctx's settings: resets ctx->stats, starts the
  * workers. in: what is known of the input (counts, bbox; NULL: nothing).
+ * pool: the workers to run on (the caller's, when the sort before the run
+ * used them too; it must outlive the run, and the caller then sets
+ * cpu_start to where its own CPU count began), or NULL for a pool of the
+ * run's own.
  * out: SIMPLIFY's output stage; on_sample: SAMPLE's sample sink.
  * @return 0, or a negative code with err filled (then nothing is left
  * running and run_close() is still safe).
  */
 int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char *path,
-                const epsnet_mesh_info *in, en_stage out, en_sample_fn on_sample, void *sample_opaque,
-                epsnet_error *err);
+                const epsnet_mesh_info *in, en_pool *pool, en_stage out, en_sample_fn on_sample,
+                void *sample_opaque, epsnet_error *err);
+
+/* The run's one pool of -j workers (en_run_workers), made before the run
+ * when the sort must share it. @return 0 or a negative code with err. */
+int en_run_pool_new(en_pool **pool, const epsnet_settings *set, const char *path, epsnet_error *err);
 
 /* Push one input record (counts it for progress in ctx->stats.faces). */
 int en_run_put(en_run *run, const epsnet_record *rec, epsnet_error *err);

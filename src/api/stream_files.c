@@ -138,7 +138,7 @@ static void temp_folder(const epsnet_context *ctx, const char *out_path, char *d
  * default (512M) and the chain its own limits.
  */
 static int open_input(epsnet_context *ctx, const char *in_path, const char *out_path, const en_format *keep,
-                      en_input *in, double *sort_seconds, epsnet_error *err)
+                      en_pool *pool, en_input *in, double *sort_seconds, epsnet_error *err)
 {
     epsnet_reader_settings rs;
     epsnet_reader_default_settings(&rs);
@@ -172,7 +172,7 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
     ss.warning_opaque = ctx->settings.warning_opaque;
     in->was_sorted = 1;
     double t0 = en_now();
-    rc = en_sort_open(&in->sort, in_path, out_path, &ss, all ? 2 : keep != NULL, err);
+    rc = en_sort_open(&in->sort, in_path, out_path, &ss, all ? 2 : keep != NULL, pool, err);
     *sort_seconds = en_now() - t0;
     if (rc == 0)
         en_sort_info(in->sort, &in->info);
@@ -187,17 +187,27 @@ int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *n
     memset(&in, 0, sizeof in);
     en_run run;
     memset(&run, 0, sizeof run);
-    double sort_seconds = 0;
+    double sort_seconds = 0, cpu0 = en_thread_cpu_seconds();
     en_stage out = { 0 };
-    int rc = open_input(ctx, in_path, near_path, keep, &in, &sort_seconds, err);
+    /* one pool for the whole chain, the sort's passes included
+     * (docs/architecture.md §10) */
+    en_pool *pool = NULL;
+    int rc = en_run_pool_new(&pool, &ctx->settings, in_path, err);
+    if (rc == 0)
+        rc = open_input(ctx, in_path, near_path, keep, pool, &in, &sort_seconds, err);
     if (rc == 0)
         rc = open_out(opaque, &in.info, &out, err);
     if (rc == 0)
-        rc = en_run_open(&run, ctx, EN_SLAB_SIMPLIFY, in_path, &in.info, out, NULL, NULL, err);
+        rc = en_run_open(&run, ctx, EN_SLAB_SIMPLIFY, in_path, &in.info, pool, out, NULL, NULL, err);
+    run.cpu_start = cpu0;
+    if (rc == 0)
+        en_reader_use_pool(in.r, run.pool); /* ENOMEM: it decodes alone, as before */
     if (rc == 0)
         rc = feed(ctx, &run, &in, in_path, err);
+    en_reader_use_pool(in.r, NULL); /* before the pool goes */
     en_run_close(&run);
     input_close(&in);
+    en_pool_free(&pool);
     ctx->stats.seconds_sort = sort_seconds;
     ctx->stats.dropped += in.sorted.dropped;
     /* note: the sort passes on only referenced vertices, so a mesh without
@@ -305,16 +315,24 @@ int en_sample_points_streamed(epsnet_context *ctx, const char *in_path, const ch
     memset(&run, 0, sizeof run);
     sample_list l = { 0 };
     epsnet_coord_type ct = EPSNET_COORD_FLOAT32;
-    double sort_seconds = 0;
-    int rc = open_input(ctx, in_path, out_path, NULL, &in, &sort_seconds, err);
+    double sort_seconds = 0, cpu0 = en_thread_cpu_seconds();
+    en_pool *pool = NULL;
+    int rc = en_run_pool_new(&pool, &ctx->settings, in_path, err);
+    if (rc == 0)
+        rc = open_input(ctx, in_path, out_path, NULL, pool, &in, &sort_seconds, err);
     if (rc == 0) {
         ct = in.info.coord_type;
-        rc = en_run_open(&run, ctx, EN_SLAB_SAMPLE, in_path, &in.info, (en_stage){ 0 }, collect, &l, err);
+        rc = en_run_open(&run, ctx, EN_SLAB_SAMPLE, in_path, &in.info, pool, (en_stage){ 0 }, collect, &l, err);
     }
+    run.cpu_start = cpu0;
+    if (rc == 0)
+        en_reader_use_pool(in.r, run.pool); /* ENOMEM: it decodes alone, as before */
     if (rc == 0)
         rc = feed(ctx, &run, &in, in_path, err);
+    en_reader_use_pool(in.r, NULL); /* before the pool goes */
     en_run_close(&run);
     input_close(&in);
+    en_pool_free(&pool);
     ctx->stats.seconds_sort = sort_seconds;
     ctx->stats.dropped += in.sorted.dropped;
     ctx->stats.seconds_classify = en_now() - t0;

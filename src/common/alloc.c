@@ -45,7 +45,7 @@ char *en_strdup(const char *s)
     return d;
 }
 
-int en_grow(void **buf, size_t *cap, size_t need, size_t elem)
+int en_grow_slow(void **buf, size_t *cap, size_t need, size_t elem)
 {
     if (need <= *cap)
         return 0;

@@ -19,6 +19,14 @@ char *en_strdup(const char *s);
  * doubling. @return 0, or -1 on overflow or allocation failure (then *buf is
  * unchanged).
  */
-int en_grow(void **buf, size_t *cap, size_t need, size_t elem);
+int en_grow_slow(void **buf, size_t *cap, size_t need, size_t elem);
+
+/* note: inline for the common case (room left): the chunker and the reader
+ * call it once per record on the calling thread, where a call each was a
+ * measurable share of the serial time (docs/architecture.md §10). */
+static inline int en_grow(void **buf, size_t *cap, size_t need, size_t elem)
+{
+    return need <= *cap ? 0 : en_grow_slow(buf, cap, need, elem);
+}
 
 #endif /* EN_COMMON_ALLOC_H */

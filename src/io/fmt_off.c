@@ -195,15 +195,21 @@ static int missing_record(epsnet_reader *r, const char *what, uint64_t index, ui
 }
 
 /* Extra values after a record (colours, normals, texture coordinates) must
- * still be numbers: anything else is garbage. */
+ * still be numbers: anything else is garbage. They are not carried: each
+ * record that has some is counted under one name in the dropped warning
+ * (docs/architecture.md §5: nothing is dropped without a word). */
 static int check_extras(epsnet_reader *r, const char *what, uint64_t index, char **cursor)
 {
-    for (char *tok; (tok = next_token(cursor));) {
+    int any = 0;
+    for (char *tok; (tok = next_token(cursor)); any = 1) {
         double ignored;
         if (parse_number(tok, EPSNET_COORD_FLOAT64, &ignored))
             return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": '%s' is not a number", what,
                                   index + 1, tok);
     }
+    if (any)
+        en_reader_drop(r, what[0] == 'v' ? "vertex values past x y z (colour, normal, texture)" : "face colour", 1,
+                       1);
     return 0;
 }
 

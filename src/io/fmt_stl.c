@@ -239,6 +239,10 @@ static int binary_fill(epsnet_reader *r, stl_reader *st)
         int rc = weld_facet(r, &st->weld, corner);
         if (rc)
             return rc;
+        /* the 16-bit "attribute byte count", which some writers fill with a
+         * facet colour: not carried, so named (docs/architecture.md §5) */
+        if (rec[48] | rec[49])
+            en_reader_drop(r, "facet attribute (colour) bytes", 1, 1);
         s->cur += STL_RECORD;
         st->facets++;
     }

@@ -25,6 +25,7 @@
 #include "io/source.h"
 
 typedef struct en_format en_format;
+struct en_pool;
 
 /* Distinct dropped items a reader names; beyond them it only counts. */
 #define EN_DROP_MAX 64
@@ -113,6 +114,11 @@ struct en_format {
     int (*open_reader)(epsnet_reader *r);
     int (*fill)(epsnet_reader *r);
     void (*close_reader)(epsnet_reader *r);
+    /* NULL when the driver decodes only on the caller's thread. Otherwise:
+     * decode on pool's workers from now on (pool NULL: stop, waiting for
+     * what is in flight). @return 0 or EPSNET_ENOMEM (then it decodes
+     * alone, as before). */
+    int (*use_pool)(epsnet_reader *r, struct en_pool *pool);
 
     /* NULL for read-only formats. */
     int (*open_writer)(epsnet_writer *w);
@@ -178,6 +184,12 @@ int en_reader_check_count(epsnet_reader *r, uint64_t n, const char *what);
 void en_reader_drop(epsnet_reader *r, const char *name, uint64_t n, int counted);
 
 /* ---- for library stages that read a user's file ---- */
+
+/* Let r's driver decode on pool's workers, if it can (en_format.use_pool);
+ * the caller's thread stays the ring's owner and the records come in the
+ * same order. Call with NULL before the pool is freed. @return 0 or
+ * EPSNET_ENOMEM (r still reads, on the caller's thread). */
+int en_reader_use_pool(epsnet_reader *r, struct en_pool *pool);
 
 /* Pass what r dropped (epsnet_reader_dropped()) to a warning callback as
  * one line "PATH: dropped: ...": nothing when nothing is dropped or warning

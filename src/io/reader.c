@@ -178,17 +178,23 @@ void en_reader_keep_attrs(epsnet_reader *r, const en_format *out)
     r->info.vertex_attrs = kept;
 }
 
-/* The queue's attribute bytes have room for qcap records. */
-static int attr_room(epsnet_reader *r)
+/* The queue's attribute bytes have room for `need` records.
+ * note: made before the vertex is queued, so that a vertex the queue holds
+ * always has its bytes: records queued before a failure are delivered. */
+static int attr_room(epsnet_reader *r, size_t need)
 {
     size_t asz = r->info.vertex_attrs.size;
-    if (r->qattr_cap >= r->qcap)
+    if (r->qattr_cap >= need)
         return 0;
-    uint8_t *p = en_realloc(r->qattr, r->qcap * asz);
+    if (need < 2 * r->qattr_cap)
+        need = 2 * r->qattr_cap;
+    if (need < 64)
+        need = 64;
+    uint8_t *p = en_realloc(r->qattr, need * asz);
     if (!p)
         return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
     r->qattr = p;
-    r->qattr_cap = r->qcap;
+    r->qattr_cap = need;
     return 0;
 }
 
@@ -201,19 +207,12 @@ int en_reader_push_vertex(epsnet_reader *r, double x, double y, double z)
 
 int en_reader_push_vertex_attr(epsnet_reader *r, double x, double y, double z, const uint8_t *attr)
 {
-    int rc = push_xyz(r, x, y, z);
     const epsnet_attr_layout *l = &r->info.vertex_attrs;
+    int rc = l->size ? attr_room(r, r->qlen + 1) : 0;
+    if (rc == 0)
+        rc = push_xyz(r, x, y, z);
     if (rc || l->size == 0)
         return rc;
-    if ((rc = attr_room(r))) {
-        /* note: queued records are delivered before the error (format.h):
-         * this one has no attribute bytes, so it must not be */
-        r->qlen--;
-        r->nverts--;
-        if (r->live)
-            en_u64set_remove(r->live, r->nverts);
-        return rc;
-    }
     uint8_t *dst = r->qattr + (r->qlen - 1) * (size_t)l->size;
     if (!attr)
         memset(dst, 0, l->size);
@@ -425,4 +424,11 @@ void epsnet_reader_close(epsnet_reader **pr)
     en_free(r->path);
     en_free(r);
     *pr = NULL;
+}
+
+int en_reader_use_pool(epsnet_reader *r, struct en_pool *pool)
+{
+    if (!r || !r->fmt->use_pool || !r->state)
+        return 0;
+    return r->fmt->use_pool(r, pool);
 }

@@ -530,67 +530,69 @@ typedef struct pred_ref {
 } pred_ref;
 
 /* refs of the block's nverts vertices from its triangles (global corners,
- * in stream order). @return 0 or -1 out of memory. */
+ * in stream order). @return 0 or -1 out of memory.
+ * note: the edge table of docs/smz.md is kept as a list of edges per
+ * vertex (each edge under its smaller end, newest first): the first match
+ * is the edge's latest third corner, as a table that replaces would give,
+ * and a sorted stream's lists are short and recently touched, which makes
+ * this several times faster than hashing every edge. */
 static int predict_refs(const uint64_t *tri, size_t ntris, uint64_t first, uint32_t nverts, pred_ref *ref)
 {
     for (uint32_t v = 0; v < nverts; v++) {
         ref[v].a = ref[v].b = -1;
         ref[v].n = 0;
     }
-    size_t cap = 16;
-    while (cap < 6 * ntris + 16)
-        cap *= 2;
-    uint64_t *key = en_malloc(cap * sizeof *key);
-    int64_t *val = en_malloc(cap * sizeof *val);
-    if (!key || !val) {
-        en_free(key);
-        en_free(val);
+    int32_t *head = en_malloc(((size_t)nverts + 1) * sizeof *head);
+    struct edge {
+        int32_t next, nb, opp;
+    } *edge = en_malloc((3 * ntris + 1) * sizeof *edge);
+    if (!head || !edge) {
+        en_free(head);
+        en_free(edge);
         return -1;
     }
-    for (size_t i = 0; i < cap; i++)
-        key[i] = UINT64_MAX;
+    for (uint32_t v = 0; v < nverts; v++)
+        head[v] = -1;
+    int32_t nedge = 0;
     for (size_t t = 0; t < ntris; t++) {
-        int64_t l[3];
+        int32_t l[3];
         int inside = 1;
         for (int k = 0; k < 3; k++) {
             uint64_t g = tri[3 * t + (size_t)k];
-            l[k] = g >= first && g - first < nverts ? (int64_t)(g - first) : -1;
+            l[k] = g >= first && g - first < nverts ? (int32_t)(g - first) : -1;
             inside &= l[k] >= 0;
         }
         if (!inside || l[0] == l[1] || l[1] == l[2] || l[0] == l[2])
             continue;
         int m = l[0] > l[1] ? (l[0] > l[2] ? 0 : 2) : (l[1] > l[2] ? 1 : 2);
-        int64_t v = l[m], a = l[(m + 1) % 3], b = l[(m + 2) % 3];
+        int32_t v = l[m], a = l[(m + 1) % 3], b = l[(m + 2) % 3];
         pred_ref *r = &ref[v];
         if (r->a < 0) {
-            r->a = (int32_t)a;
-            r->b = (int32_t)b;
+            r->a = a;
+            r->b = b;
         }
         if (r->n < PRED_MAX) {
-            uint64_t k = (uint64_t)(a < b ? a : b) << 32 | (uint64_t)(a < b ? b : a);
-            for (size_t i = en_hash_slot(k, cap - 1); key[i] != UINT64_MAX; i = (i + 1) & (cap - 1))
-                if (key[i] == k) {
-                    if (val[i] < v) {
-                        r->p[r->n][0] = (int32_t)a;
-                        r->p[r->n][1] = (int32_t)b;
-                        r->p[r->n][2] = (int32_t)val[i];
+            int32_t lo = a < b ? a : b, hi = a < b ? b : a;
+            for (int32_t e = head[lo]; e >= 0; e = edge[e].next)
+                if (edge[e].nb == hi) {
+                    if (edge[e].opp < v) {
+                        r->p[r->n][0] = a;
+                        r->p[r->n][1] = b;
+                        r->p[r->n][2] = edge[e].opp;
                         r->n++;
                     }
                     break;
                 }
         }
-        for (int e = 0; e < 3; e++) {
-            int64_t p = l[e], q = l[(e + 1) % 3], o = l[(e + 2) % 3];
-            uint64_t k = (uint64_t)(p < q ? p : q) << 32 | (uint64_t)(p < q ? q : p);
-            size_t i = en_hash_slot(k, cap - 1);
-            while (key[i] != UINT64_MAX && key[i] != k)
-                i = (i + 1) & (cap - 1);
-            key[i] = k;
-            val[i] = o;
+        for (int k = 0; k < 3; k++) {
+            int32_t p = l[k], q = l[(k + 1) % 3];
+            int32_t lo = p < q ? p : q;
+            edge[nedge] = (struct edge){ head[lo], p < q ? q : p, l[(k + 2) % 3] };
+            head[lo] = nedge++;
         }
     }
-    en_free(key);
-    en_free(val);
+    en_free(head);
+    en_free(edge);
     return 0;
 }
 

@@ -5,9 +5,15 @@
  * finishes the seams and hands its records to the next pass (paper §5:
  * passes re-sample the previous result under a new rotation), or to `out`.
  *
- * Threads: everything here runs on the caller's thread; only
- * en_slab_work_run() runs on the workers, on a slab nobody else touches
- * until its ring hands it back, in submission order.
+ * Threads (docs/architecture.md §10): the chunkers, the budget checks and
+ * the hand-over of records between passes run on the caller's thread. Two
+ * kinds of job run on the workers: en_slab_work_run() on a slab nobody else
+ * touches until its ring hands it back, in submission order; and each
+ * pass's stitcher, one take at a time (stitch_job), so that the seam
+ * collapses, most of the serial work, leave the caller's thread. A take's
+ * records are buffered in the job and handed on by the caller when it
+ * retires the job, in slab order, so the records, and the bytes, are the
+ * same for every thread count.
  */
 #include "pipeline/chain.h"
 
@@ -19,7 +25,21 @@
 #include "pipeline/chunker.h"
 #include "pipeline/stitcher.h"
 
-typedef struct en_pass {
+typedef struct en_pass en_pass;
+
+/*
+ * One stitcher take as a pool job. Ownership: the caller's thread fills w
+ * and submits; from then until the ring retires the job, only the worker
+ * running it touches the job, the pass's stitcher (st) and its record
+ * buffer (out); after the retire only the caller's thread does.
+ */
+typedef struct stitch_job {
+    en_pass *p;                    /* caller writes at submit; worker reads */
+    en_slab_work *w;               /* caller writes at submit; worker reads; caller recycles after retire */
+    epsnet_error err;              /* worker writes on failure; caller reads after retire */
+} stitch_job;
+
+struct en_pass {
     en_chain *chain;
     int index;
     gauss_sphere g;
@@ -31,10 +51,17 @@ typedef struct en_pass {
     int density_pending;
     en_chunker ch;
     en_jobring *ring;
-    en_stitcher st;
+    en_stitcher st;                /* between submit and retire of job: the worker's (see stitch_job) */
+    en_jobring *stitch_ring;       /* one stitcher take in flight at most (simplify mode) */
+    stitch_job job;
+    epsnet_record *out;            /* records of the take in flight, handed on at its retire */
+    size_t nout, out_cap;
+    /* What the caller's thread knows of the stitcher, copied at each
+     * retire, for the budget checks while a take runs. */
+    uint64_t st_bytes, st_active, st_frontier;
     int ended;
     uint64_t in_flight_elements;   /* vertices + faces of slabs in the ring */
-} en_pass;
+};
 
 struct en_chain {
     en_chain_config cfg;
@@ -61,13 +88,20 @@ static void free_work(void *job)
     en_free(job);
 }
 
+static void drop_stitch(void *job)
+{
+    stitch_job *j = job;
+    if (j->w)
+        free_work(j->w);
+    j->w = NULL;
+}
+
 static void note_active(en_chain *c)
 {
     uint64_t total = 0;
     for (int i = 0; i < c->cfg.passes; i++) {
         const en_pass *p = &c->pass[i];
-        total += p->ch.map.count + p->ch.nfaces + p->in_flight_elements + p->st.nwv + p->st.nwf + p->st.nvheap +
-                 p->st.nfheap;
+        total += p->ch.map.count + p->ch.nfaces + p->in_flight_elements + p->st_active;
     }
     if (total > c->stats.max_active)
         c->stats.max_active = total;
@@ -100,8 +134,12 @@ static int check_budget(en_chain *c, epsnet_error *err)
     int waiting = 0; /* the worst is the chunker's (1) or the stitcher's (0) */
     for (int i = 0; i < c->cfg.passes; i++) {
         const en_pass *p = &c->pass[i];
-        uint64_t cut = en_chunker_bytes(&p->ch),
-                 held = c->cfg.mode == EN_SLAB_SIMPLIFY ? en_stitcher_bytes(&p->st) : 0;
+        uint64_t cut = en_chunker_bytes(&p->ch);
+        /* a target's one slab: what the cut will hold, not just the chunker */
+        if (p->target && p->target->mode != EN_TARGET_THIN &&
+            cut < p->ch.map.count * (uint64_t)EN_ONE_SLAB_BYTES_PER_VERTEX)
+            cut = p->ch.map.count * (uint64_t)EN_ONE_SLAB_BYTES_PER_VERTEX;
+        uint64_t held = c->cfg.mode == EN_SLAB_SIMPLIFY ? p->st_bytes : 0;
         total += cut + held;
         if (!wp || cut > worst || held > worst) {
             wp = p;
@@ -111,6 +149,12 @@ static int check_budget(en_chain *c, epsnet_error *err)
     }
     if (!c->cfg.mem_budget || total <= c->cfg.mem_budget)
         return 0;
+    if (waiting && wp->target && wp->target->mode != EN_TARGET_THIN)
+        return en_error_set(err, EPSNET_ELIMIT, c->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "pass %d holds the whole mesh as one slab to meet its target: %llu vertices so far, "
+                            "about %llu bytes in all, over the memory budget of %llu bytes (give more --mem)",
+                            wp->index + 1, (unsigned long long)wp->ch.map.count, (unsigned long long)total,
+                            (unsigned long long)c->cfg.mem_budget);
     if (waiting)
         return en_error_set(err, EPSNET_ELIMIT, c->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "pass %d: %llu vertices and %llu faces wait for vertices to be finalized (%llu bytes "
@@ -120,8 +164,90 @@ static int check_budget(en_chain *c, epsnet_error *err)
     return en_error_set(err, EPSNET_ELIMIT, c->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                         "pass %d: the output waits for vertex %llu, still open, and holds %llu bytes in all, "
                         "over the memory budget of %llu bytes (is a vertex used again far later in the stream?)",
-                        wp->index + 1, (unsigned long long)wp->st.frontier, (unsigned long long)total,
+                        wp->index + 1, (unsigned long long)wp->st_frontier, (unsigned long long)total,
                         (unsigned long long)c->cfg.mem_budget);
+}
+
+/* The stitcher's output stage while a take runs: the take's records wait
+ * in the job's buffer (worker's thread). */
+static int buffer_put(void *self, const epsnet_record *rec, epsnet_error *err)
+{
+    en_pass *p = self;
+    (void)err;
+    if (en_grow((void **)&p->out, &p->out_cap, p->nout + 1, sizeof *p->out))
+        return en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "out of memory holding a stitched slab's output");
+    /* note: a vertex record's attr points into the stitcher's pool slot;
+     * it stays valid until the flush, since slots are freed but not
+     * reused or moved until the next take, which starts after it */
+    p->out[p->nout++] = *rec;
+    return 0;
+}
+
+static int buffer_end(void *self, epsnet_error *err)
+{
+    (void)self;
+    (void)err;
+    return 0; /* the pass's end ends the next stage (pass_end) */
+}
+
+/* The take on a worker (see stitch_job). */
+static int stitch_run(void *job)
+{
+    stitch_job *j = job;
+    return en_stitcher_take(&j->p->st, j->w, &j->err);
+}
+
+/* Caller's thread, nothing in flight: hand the buffered records on, in order. */
+static int flush(en_pass *p, epsnet_error *err)
+{
+    en_stage next = downstream(p->chain, p->index);
+    int rc = 0;
+    for (size_t i = 0; i < p->nout && rc == 0; i++)
+        rc = en_stage_put(&next, &p->out[i], err);
+    p->nout = 0;
+    p->st_bytes = en_stitcher_bytes(&p->st) + p->out_cap * sizeof *p->out;
+    p->st_active = p->st.nwv + p->st.nwf + p->st.nvheap + p->st.nfheap;
+    p->st_frontier = p->st.frontier;
+    return rc;
+}
+
+/* Wait for pass p's take in flight, if any, recycle its slab and hand its
+ * records on. */
+static int stitch_retire(en_pass *p, epsnet_error *err)
+{
+    void *job;
+    int result;
+    if (!en_jobring_retire(p->stitch_ring, &job, &result))
+        return 0;
+    stitch_job *j = job;
+    en_chunker_recycle(&p->ch, j->w);
+    j->w = NULL;
+    if (result) {
+        *err = j->err;
+        return result;
+    }
+    return flush(p, err);
+}
+
+/* Stitch slab w on the pool, after the take before it (one in flight). */
+static int stitch_submit(en_pass *p, en_slab_work *w, epsnet_error *err)
+{
+    int rc = stitch_retire(p, err);
+    if (rc) {
+        en_chunker_recycle(&p->ch, w);
+        return rc;
+    }
+    p->job.p = p;
+    p->job.w = w;
+    memset(&p->job.err, 0, sizeof p->job.err);
+    rc = en_jobring_submit(p->stitch_ring, stitch_run, &p->job);
+    if (rc) {
+        p->job.w = NULL;
+        en_chunker_recycle(&p->ch, w);
+        en_error_set(err, rc, p->chain->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE, "worker pool refused a seam");
+    }
+    return rc;
 }
 
 /* Hand back the oldest slab of pass p and stitch it. */
@@ -156,7 +282,12 @@ static int retire_one(en_pass *p, epsnet_error *err)
         for (int k = 0; k < EN_REFUSE_KINDS; k++)
             c->stats.refused[k] += w->refused[k];
         c->stats.slabs++;
-        rc = c->cfg.mode == EN_SLAB_SAMPLE ? take_samples(c, w, err) : en_stitcher_take(&p->st, w, err);
+        if (c->cfg.mode == EN_SLAB_SIMPLIFY) {
+            /* the stitcher job owns w now, and recycles it */
+            rc = stitch_submit(p, w, err);
+            return rc ? rc : check_budget(c, err);
+        }
+        rc = take_samples(c, w, err);
     }
     en_chunker_recycle(&p->ch, w);
     if (rc == 0)
@@ -232,7 +363,11 @@ static int pass_end(void *self, epsnet_error *err)
         rc = retire_one(p, err);
     if (rc || p->chain->cfg.mode != EN_SLAB_SIMPLIFY)
         return rc;
-    rc = en_stitcher_finish(&p->st, err);
+    rc = stitch_retire(p, err);
+    if (rc == 0)
+        rc = en_stitcher_finish(&p->st, err);
+    if (rc == 0)
+        rc = flush(p, err);
     if (rc == 0) {
         en_stage next = downstream(p->chain, p->index);
         rc = en_stage_end(&next, err);
@@ -314,8 +449,9 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             gauss_init(&p->g, cfg->sphere->n, &r);
         }
         if (en_chunker_init(&p->ch, finish ? UINT32_MAX - 1 : cfg->slab_vertices, cfg->path) ||
-            en_stitcher_init(&p->st, cfg->max_normal_dev, downstream(c, i)) ||
-            en_jobring_new(&p->ring, pool, cfg->ring_capacity))
+            en_stitcher_init(&p->st, cfg->max_normal_dev, (en_stage){ buffer_put, buffer_end, p }) ||
+            en_jobring_new(&p->ring, pool, cfg->ring_capacity) ||
+            (c->cfg.mode == EN_SLAB_SIMPLIFY && en_jobring_new(&p->stitch_ring, pool, 1)))
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         p->ch.read_marks = finish;
         p->ch.attr_size = p->st.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? cfg->attr_size : 0;
@@ -362,7 +498,10 @@ void en_chain_free(en_chain **pc)
         return;
     for (int i = 0; c->pass && i < c->cfg.passes; i++) {
         en_pass *p = &c->pass[i];
+        /* the take in flight first: it reads a slab work and the stitcher */
+        en_jobring_free(&p->stitch_ring, drop_stitch);
         en_jobring_free(&p->ring, free_work);
+        en_free(p->out);
         en_chunker_free(&p->ch);
         en_stitcher_free(&p->st);
     }

@@ -23,6 +23,11 @@
  * within a slab, not across slabs). */
 typedef int (*en_sample_fn)(void *opaque, uint64_t gid, const double xyz[3], int32_t gvertex, epsnet_error *err);
 
+/* Bytes a one-slab pass holds per vertex, every array of the slab work and
+ * of the collapse core counted (measured: 610 on a 1M-vertex run,
+ * docs/architecture.md §7): what a target's one slab is budgeted at. */
+#define EN_ONE_SLAB_BYTES_PER_VERTEX 640
+
 typedef struct en_chain en_chain;
 
 typedef struct en_chain_config {

@@ -179,9 +179,9 @@ static int classify_at(en_slab_work *w, uint32_t n, uint64_t *samples)
  * samples grow about like the sphere's 4n^2 + 2 vertices. From there it
  * walks up while under the budget (and the count still grows), or down
  * until under it (sample counts grow with n, but not strictly, so it walks
- * rather than bisects). With no
- * count to aim at (an error bound alone), the sphere given stays. Leaves
- * the classification at the chosen frequency in w.
+ * rather than bisects). With no count to aim at (an error bound alone), the
+ * sphere given stays. Leaves the classification at the chosen frequency in
+ * w.
  */
 static int choose_density(en_slab_work *w)
 {

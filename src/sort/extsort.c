@@ -499,7 +499,12 @@ int en_extsort_add(en_extsort *es, const uint64_t *item, epsnet_error *err)
         return es->err.code;
     if (es->n == es->cap) {
         /* note: a thread that cannot start leaves the runs to this one */
-        if (es->cfg.threads > 0 && !es->pool) {
+        if (es->cfg.threads > 0 && !es->pool && !es->ring && es->cfg.pool) {
+            /* the run's pool: a ring of our own on it */
+            if (en_jobring_new(&es->ring, es->cfg.pool, 1))
+                return nomem(es, err);
+        }
+        if (es->cfg.threads > 0 && !es->pool && !es->cfg.pool) {
             int rc = en_pool_new(&es->pool, 1);
             if (rc == 0 && en_jobring_new(&es->ring, es->pool, 1)) {
                 en_pool_free(&es->pool);
@@ -510,7 +515,7 @@ int en_extsort_add(en_extsort *es, const uint64_t *item, epsnet_error *err)
             if (rc)
                 es->cfg.threads = 0;
         }
-        int rc = es->pool ? spill_buffer_async(es, err) : spill_buffer(es, err);
+        int rc = es->ring ? spill_buffer_async(es, err) : spill_buffer(es, err);
         if (rc)
             return rc;
     }

@@ -13,6 +13,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "common/pool.h"
+
 #include "epsnet/epsnet.h"
 
 /* Memory the sort stages account for (buffers they allocate themselves). */
@@ -39,6 +41,9 @@ typedef struct en_extsort_config {
                                  on a worker while the next one fills (the
                                  budget is then cut in thirds, not halves);
                                  the items come out the same */
+    en_pool *pool;            /* with threads: the workers to use (the run's
+                                 one pool, docs/architecture.md §10); NULL:
+                                 a thread of its own */
 } en_extsort_config;
 
 typedef struct en_extsort en_extsort;

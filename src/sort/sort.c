@@ -156,6 +156,7 @@ struct en_sort {
     uint32_t *out_id, *fin;      /* whole: see whole_emit */
     uint64_t whole_bytes;        /* accounted */
     en_pool *pool;               /* whole: workers for the chunks; NULL = this thread */
+    en_pool *shared;             /* the run's pool when given (not ours to free) */
     en_jobring *ring;            /* ... the chunks' jobs, retired in order */
     size_t chunks;               /* pieces the whole path's loops are cut into */
     uint32_t *rank_of;           /* in core: old id -> rank */
@@ -203,6 +204,8 @@ static int nomem(const sort_job *j, epsnet_error *err)
 /* Threads asked for: as epsnet_settings.threads, 0 = all cores. */
 static long sort_workers(const sort_job *j)
 {
+    if (j->shared) /* its threads; 0 runs jobs on this thread */
+        return en_pool_threads(j->shared) > 1 ? en_pool_threads(j->shared) : 1;
     long n = j->set.threads > 0 ? j->set.threads : sysconf(_SC_NPROCESSORS_ONLN);
     return n > 64 ? 64 : n;
 }
@@ -216,6 +219,7 @@ static int open_sorter(sort_job *j, en_extsort **es, size_t words, size_t key_wo
     en_extsort_config c = {
         .item_words = words, .key_words = key_words, .mem = j->set.mem / 4,
         .tmpdir = j->tmpdir, .owner = j->owner, .account = &j->mem, .threads = sort_workers(j) > 1,
+        .pool = j->shared,
     };
     return en_extsort_open(es, &c, err);
 }
@@ -1313,8 +1317,8 @@ static int start_pool(sort_job *j, epsnet_error *err)
     j->chunks = 1;
     if (n <= 1)
         return 0;
-    int rc = en_pool_new(&j->pool, (int)n);
-    if (rc == 0 && en_jobring_new(&j->ring, j->pool, (size_t)n)) {
+    int rc = j->shared ? 0 : en_pool_new(&j->pool, (int)n);
+    if (rc == 0 && en_jobring_new(&j->ring, j->shared ? j->shared : j->pool, (size_t)n)) {
         en_pool_free(&j->pool);
         rc = EPSNET_ENOMEM;
     }
@@ -1362,7 +1366,7 @@ static int run_passes(sort_job *j, epsnet_error *err)
 }
 
 int en_sort_open(en_sort **out, const char *in_path, const char *owner, const epsnet_sort_settings *settings,
-                 int keep_attrs, epsnet_error *err)
+                 int keep_attrs, en_pool *pool, epsnet_error *err)
 {
     *out = NULL;
     if (!in_path || !owner)
@@ -1386,6 +1390,7 @@ int en_sort_open(en_sort **out, const char *in_path, const char *owner, const ep
         j->set.mem = (uint64_t)512 << 20;
     j->axis = j->set.axis;
     j->keep_attrs = keep_attrs;
+    j->shared = pool;
     *out = j;
     return run_passes(j, err);
 }
@@ -1441,7 +1446,7 @@ int epsnet_sort_file(const char *in_path, const char *out_path, const epsnet_sor
                             "epsnet_sort_file: NULL path");
     en_sort *j = NULL;
     epsnet_writer *w = NULL;
-    int rc = en_sort_open(&j, in_path, out_path, settings, 1, err);
+    int rc = en_sort_open(&j, in_path, out_path, settings, 1, NULL, err);
     if (rc == 0) {
         epsnet_writer_settings ws;
         epsnet_writer_default_settings(&ws);

@@ -40,6 +40,7 @@
 #ifndef EN_SORT_SORT_H
 #define EN_SORT_SORT_H
 
+#include "common/pool.h"
 #include "epsnet/epsnet.h"
 
 /*
@@ -56,6 +57,9 @@ typedef int (*en_sort_emit_fn)(void *opaque, const epsnet_record *rec, epsnet_er
 
 /* owner: the output the sort serves, named in messages (and whose folder
  * holds the runs when settings->tmpdir is NULL). settings may be NULL.
+ * pool: the workers to use (the run's one pool, docs/architecture.md §10;
+ * it must outlive the sort), or NULL to start threads of its own as
+ * settings->threads asks.
  * keep_attrs: 1 to carry the vertex attributes that owner's format
  * (settings->format, else owner's extension) holds, 2 to carry all of them
  * (the consumer names what its output drops), 0 to carry none; those
@@ -63,7 +67,7 @@ typedef int (*en_sort_emit_fn)(void *opaque, const epsnet_record *rec, epsnet_er
  * @return 0 or a negative code; *s is set in both cases (NULL only when
  * nothing was allocated) and en_sort_close() frees it. */
 int en_sort_open(en_sort **s, const char *in_path, const char *owner, const epsnet_sort_settings *settings,
-                 int keep_attrs, epsnet_error *err);
+                 int keep_attrs, en_pool *pool, epsnet_error *err);
 /* What the output stream will be: coord_type, streaming, sorted_axis, nfaces,
  * vertex_attrs. */
 void en_sort_info(const en_sort *s, epsnet_mesh_info *info);
