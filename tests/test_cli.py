@@ -661,7 +661,7 @@ def what_an_input_holds_beyond_the_mesh_is_named_in_one_warning_line():
                               "usemtl red\nf 1/1 2/1 3/1\ng b\n")
     rc, _, err = run("simplify", obj, "-o", path("extras_obj.ply"), "-q", "--stats", path("extras_obj.json"))
     assert rc == 0, err
-    # its one vt per position is carried as texture_u/texture_v, through simplify too
+    # the faces name the vt: it is carried (texture_u, texture_v), through simplify too
     assert err.splitlines() == [f"warning: {obj}: dropped: mtllib (1), g (2), usemtl (1)"], err
     assert json.load(open(path("extras_obj.json")))["dropped"] == 3
     # a mesh that carries nothing more says nothing
@@ -924,7 +924,8 @@ def obj_colours_round_trip_through_ply_sort_and_smz():
 @case
 def obj_vt_and_vn_of_one_per_position_round_trip():
     """OBJ vt/vn when each position has exactly one: carried as texture_u, texture_v, nx, ny, nz
-    through PLY, sort and .smz, and written back as vt/vn with f v/vt/vn; a seam is named."""
+    through PLY, sort and .smz, and written back as vt/vn with f v/vt/vn; a seam splits its
+    position (tests/test_obj_corners.py has the rest)."""
     text = ("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 1 1 1\n"
             "vt 0 0\nvt 1 0\nvt 0 1\nvt 0.5 0.5\nvt 0.25 0.75\n"
             "vn 0 0 1\nvn 1 0 0\nvn 0 1 0\nvn 0.57735026 0.57735026 0.57735026\nvn 0 -1 0\n"
@@ -941,7 +942,8 @@ def obj_vt_and_vn_of_one_per_position_round_trip():
     out = open(b).read()
     vs = [ln for ln in out.splitlines() if ln[:2] in ("v ", "vt", "vn")]
     assert vs[:3] == ["v 0 0 0", "vt 0 0", "vn 0 0 1"] and len(vs) == 15, out
-    assert "f 1/1/1 3/3/3 2/2/2" in out, out
+    # records come in the order the faces first name them: 1 3 2 4 5
+    assert "f 1/1/1 2/2/2 3/3/3" in out, out
     z, zo = path("uv.smz"), path("uv_z.obj")
     for args in (("sort", src, "-o", z), ("convert", z, "-o", zo)):
         rc, _, err = run(*args, "-q")
@@ -969,16 +971,19 @@ def obj_vt_and_vn_of_one_per_position_round_trip():
         assert rc == 0 and err == "", (args, err)
     assert open(s1, "rb").read() == open(s2, "rb").read(), "a sort that spills mid-read differs"
     assert read_ply(s1)[0][3:] == [("red", "float"), ("green", "float"), ("blue", "float")]
-    # a position with two different vt is a seam: vt is not carried, and says why
+    # a position with two different vt is a seam: it becomes one vertex per vt
     seam = write("uv_seam.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvt 1 0\nvt 0 1\nvt 0.5 0.5\n"
                  "f 1/1 3/3 2/2\nf 1/4 2/2 4/4\n")
     rc, _, err = run("convert", seam, "-o", path("uv_seam.ply"), "-q")
-    assert rc == 0 and err.splitlines() == [
-        f"warning: {seam}: dropped: per-corner vt (positions with several: 1), vt (4)"], err
-    # vt/vn indices out of range or missing leave zeros, never a crash
+    assert rc == 0 and err == "", err
+    assert len(read_ply(path("uv_seam.ply"))[1]) == 5
+    # a vt index out of range is an error naming the file and line; a corner without vt gets zeros
     odd = write("uv_odd.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 1 1\nf 1/9 2/1 3\n")
     rc, _, err = run("convert", odd, "-o", path("uv_odd.ply"), "-q")
-    assert rc == 0 and err == "", err
+    assert rc == 2 and f"{odd}:5:" in err and "vt index 9" in err, err
+    odd = write("uv_odd2.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 1 1\nf 1/1 2/1 3\n")
+    rc, _, err = run("convert", odd, "-o", path("uv_odd2.ply"), "-q")
+    assert rc == 0 and err.splitlines() == [f"warning: {odd}: dropped: face corner without vt (1)"], err
 
 
 subprocess.run(["rm", "-rf", TMP])

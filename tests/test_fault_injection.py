@@ -110,6 +110,23 @@ def main():
     walk("sample", lambda o: ["sample", src, "-o", o + ".ply", "--level", "2", "-q"])
     walk("simplify_two_passes", lambda o: ["simplify", src, "-o", o + ".ply", "--level", "2", "--passes", "2",
                                            "-q"], max_points=600)
+    # OBJ vt/vn: the reader's corner tables and read-ahead, the writer's weld.
+    plain_obj = os.path.join(TMP, "in_plain.obj")
+    p = run(["gen", "bumpy", "--faces", "2000", "-o", plain_obj, "-q"])
+    assert p.returncode == 0, p.stderr
+    tex = os.path.join(TMP, "in_tex.obj")
+    with open(plain_obj) as f, open(tex, "w") as g:
+        lines = f.read().split("\n")
+        nv = sum(1 for x in lines if x.startswith("v "))
+        g.write("\n".join(x for x in lines if x.startswith("v ")) + "\n")
+        g.write("".join("vt %d 0.5\n" % (i % 7) for i in range(2 * nv)) + "vn 0 0 1\nvn 0 1 0\n")
+        for k, x in enumerate(x for x in lines if x.startswith("f ")):
+            a, b, c = x.split()[1:]
+            # every fifth face gives its first corner a second vt: seams
+            g.write("f %s/%d/1 %s/%s/2 %s/%s/1\n" % (a, int(a) + (nv if k % 5 == 0 else 0), b, b, c, c))
+    walk("convert_obj_corners", lambda o: ["convert", tex, "-o", o + ".obj", "-q"], max_points=600)
+    walk("simplify_obj_corners", lambda o: ["simplify", tex, "-o", o + ".obj", "--level", "1", "-q"],
+         max_points=900, stride=5)
     # The streaming pipeline with many slabs, seams and worker threads.
     smz = os.path.join(TMP, "in.smz")
     p = run(["gen", "bumpy", "--faces", "6000", "-o", smz, "-q"])

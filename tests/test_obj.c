@@ -8,6 +8,7 @@
 /* Every record of a file, in order. */
 typedef struct records {
     epsnet_record rec[256];
+    uint8_t attr[256][64];           /* rec[i].attr points here */
     int n;
     epsnet_mesh_info info;
 } records;
@@ -21,8 +22,14 @@ static int read_records(const char *path, records *out, epsnet_error *err)
         return rc;
     out->info = *epsnet_reader_info(r);
     epsnet_record rec;
-    while ((rc = epsnet_reader_next(r, &rec, err)) > 0 && out->n < 256)
+    size_t asz = out->info.vertex_attrs.size;
+    while ((rc = epsnet_reader_next(r, &rec, err)) > 0 && out->n < 256) {
+        if (rec.attr && asz <= sizeof out->attr[0]) {
+            memcpy(out->attr[out->n], rec.attr, asz);
+            rec.attr = out->attr[out->n];
+        }
         out->rec[out->n++] = rec;
+    }
     epsnet_reader_close(&r);
     return rc < 0 ? rc : 0;
 }
@@ -187,13 +194,25 @@ TEST(skipped_statements_are_named_with_their_counts)
     while ((rc = epsnet_reader_next(r, &rec, &err)) > 0)
         ;
     CHECK_EQ_INT(rc, 0);
-    /* one vt and one vn per position: carried as attributes, not dropped (epsnet.h §2) */
+    /* vt and vn are carried (the faces name them): not dropped */
     const char *what = epsnet_reader_dropped(r, &n);
     CHECK(what && strcmp(what, "mtllib (1), o (1), usemtl (2), vertex w (1), vertex colour (2), ?bad (1)") == 0);
     if (what && strcmp(what, "mtllib (1), o (1), usemtl (2), vertex w (1), vertex colour (2), ?bad (1)") != 0)
         fprintf(stderr, "  got: %s\n", what);
     CHECK_EQ_U64(n, 6);
     CHECK_EQ_U64(epsnet_reader_info(r)->vertex_attrs.count, 5);
+    epsnet_reader_close(&r);
+
+    /* vt and vn that no face names are not carried, and so named */
+    path = tl_write_str("unused_vt.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvn 0 0 1\ng x\nf 1 2 3\n");
+    CHECK_EQ_INT(epsnet_reader_open(&r, path, NULL, &err), 0);
+    if (!r)
+        return;
+    CHECK_EQ_INT(epsnet_reader_info(r)->vertex_attrs.count, 0);
+    while ((rc = epsnet_reader_next(r, &rec, &err)) > 0)
+        ;
+    what = epsnet_reader_dropped(r, &n);
+    CHECK(what && strcmp(what, "vt (2), vn (1), g (1)") == 0);
     epsnet_reader_close(&r);
 
     path = tl_write_str("plain.obj", "# only geometry\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
@@ -435,6 +454,136 @@ TEST(float32_writer_refuses_coordinates_beyond_float_range)
     CHECK_EQ_INT(write_records(path, rec, 1, EPSNET_COORD_FLOAT64, &err), 0);
 }
 
+/* ---- texture coordinates and normals (docs/architecture.md §13) ---- */
+
+static float attr_f32(const epsnet_record *rec, const epsnet_mesh_info *info, const char *name)
+{
+    int at = epsnet_attr_layout_find(&info->vertex_attrs, name);
+    float f = -999;
+    if (at >= 0 && rec->attr)
+        memcpy(&f, rec->attr + info->vertex_attrs.attr[at].offset, 4);
+    return f;
+}
+
+/*
+ *   4 ----- 3     two triangles sharing the edge 1-3; the second gives
+ *   |     / |     position 1 another vt (a UV seam through 1): position 1
+ *   |   /   |     becomes two records at the same place, one per face
+ *   1 ----- 2
+ */
+TEST(a_uv_seam_splits_its_position_into_one_record_per_corner_value)
+{
+    const char *path = tl_write_str("seam.obj",
+                                    "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+                                    "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 0.5 0.5\nvn 0 0 1\n"
+                                    "f 1/1/1 2/2/1 3/3/1\n"
+                                    "f 1/5/1 3/3/-1 4/-2/1\n");
+    records m;
+    epsnet_error err;
+    CHECK_EQ_INT(read_records(path, &m, &err), 0);
+    const epsnet_attr_layout *l = &m.info.vertex_attrs;
+    CHECK_EQ_INT(l->count, 5);
+    CHECK(epsnet_attr_layout_find(l, "texture_u") == 0 && epsnet_attr_layout_find(l, "texture_v") == 1);
+    CHECK(epsnet_attr_layout_find(l, "nx") == 2 && epsnet_attr_layout_find(l, "nz") == 4);
+    /* records in the order faces first name them: 1 2 3, f, 1' 4, f */
+    CHECK_EQ_INT(m.n, 7);
+    static const int kinds[] = { 1, 1, 1, 2, 1, 1, 2 };
+    for (int i = 0; i < m.n && i < 7; i++)
+        CHECK_EQ_INT(m.rec[i].kind, kinds[i]);
+    check_vertex(&m.rec[0], 0, 0, 0);
+    check_vertex(&m.rec[4], 0, 0, 0);
+    check_vertex(&m.rec[5], 0, 1, 0);
+    check_tri(&m.rec[3], 0, 1, 2);
+    check_tri(&m.rec[6], 3, 2, 4);
+    CHECK(attr_f32(&m.rec[0], &m.info, "texture_u") == 0 && attr_f32(&m.rec[4], &m.info, "texture_u") == 0.5f);
+    CHECK(attr_f32(&m.rec[5], &m.info, "texture_v") == 1 && attr_f32(&m.rec[5], &m.info, "nz") == 1);
+}
+
+/* Exporters that write one vt per corner repeat equal values: a position
+ * keeps one record wherever its vt and vn agree bit for bit, so no seam is
+ * invented. A v no face names comes last, with zero vt and vn; `vt u`
+ * means v = 0 and a w is named as dropped. */
+TEST(equal_corner_values_share_a_record_and_lone_positions_come_last)
+{
+    const char *path = tl_write_str("dup.obj",
+                                    "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 5 5 5\nv 1 1 0\n"
+                                    "vt 0.25 0.5 0\nvt 1\nvt 0 1\nvt 0.25 0.5\nvt 1 0\n"
+                                    "f 1/1 2/2 3/3\n"
+                                    "f 2/5 5/3 3/3\n"
+                                    "f 3/3 1/4 2/2\n");
+    records m;
+    epsnet_error err;
+    epsnet_reader *r = NULL;
+    CHECK_EQ_INT(read_records(path, &m, &err), 0);
+    CHECK_EQ_INT(m.info.vertex_attrs.count, 2);
+    /* 1 2 3 f 5 f f 4 */
+    CHECK_EQ_INT(m.n, 8);
+    check_tri(&m.rec[3], 0, 1, 2);
+    check_tri(&m.rec[5], 1, 3, 2);
+    check_tri(&m.rec[6], 2, 0, 1);
+    check_vertex(&m.rec[7], 5, 5, 5);
+    CHECK(attr_f32(&m.rec[1], &m.info, "texture_u") == 1 && attr_f32(&m.rec[1], &m.info, "texture_v") == 0);
+    CHECK(attr_f32(&m.rec[7], &m.info, "texture_u") == 0);
+    CHECK_EQ_INT(epsnet_reader_open(&r, path, NULL, &err), 0);
+    if (!r)
+        return;
+    epsnet_record rec;
+    while (epsnet_reader_next(r, &rec, &err) > 0)
+        ;
+    const char *what = epsnet_reader_dropped(r, NULL);
+    CHECK(what && strcmp(what, "vt w (1)") == 0);
+    epsnet_reader_close(&r);
+}
+
+TEST(corner_tables_are_held_to_the_memory_budget)
+{
+    char *text = malloc(64 << 10);
+    size_t n = 0;
+    for (int i = 0; i < 2000; i++)
+        n += (size_t)sprintf(text + n, "v %d 0 0\n", i);
+    n += (size_t)sprintf(text + n, "vt 0 0\nf 1/1 2/1 3/1\n");
+    const char *path = tl_write("budget.obj", text, n);
+    free(text);
+    epsnet_reader_settings set;
+    epsnet_reader_default_settings(&set);
+    set.mem_limit = 32 << 10;
+    epsnet_reader *r = NULL;
+    epsnet_error err;
+    memset(&err, 0, sizeof err);
+    int rc = epsnet_reader_open(&r, path, &set, &err);
+    epsnet_record rec;
+    while (rc == 0 && (rc = epsnet_reader_next(r, &rec, &err)) > 0)
+        ;
+    CHECK_EQ_INT(rc, EPSNET_ELIMIT);
+    CHECK_STR_CONTAINS(epsnet_error_message(&err), "over the memory budget");
+    epsnet_reader_close(&r);
+}
+
+#define SQ_VT "v 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvn 0 0 1\n"
+
+TEST(bad_texture_coordinate_and_normal_indices_are_rejected)
+{
+    check_rejected("vt_range.obj", SQ_VT "f 1/1/1 2/2/1 3/3/1\n", EPSNET_EFORMAT, 7,
+                   "face 1: vt index 3, but only 2 vt precede it");
+    check_rejected("vn_range.obj", SQ_VT "f 1/1/1 2/2/1 3/2/2\n", EPSNET_EFORMAT, 7,
+                   "face 1: vn index 2, but only 1 vn precede it");
+    check_rejected("vt_zero.obj", SQ_VT "f 1/1/1 2/0/1 3/2/1\n", EPSNET_EFORMAT, 7, "vt index 0");
+    check_rejected("vn_rel.obj", SQ_VT "f 1/1/1 2/2/1 3/2/-2\n", EPSNET_EFORMAT, 7,
+                   "relative vn index -2 reaches before the first vn");
+    check_rejected("v_range.obj", SQ_VT "f 1/1/1 2/2/1 4/2/1\n", EPSNET_EFORMAT, 7,
+                   "face 1: vertex index 4, but only 3 vertices precede it");
+    check_rejected("vt_bad.obj", SQ_VT "f 1/1/1 2/x/1 3/2/1\n", EPSNET_EFORMAT, 7, "bad corner '2/x/1'");
+    check_rejected("vt_many.obj", "v 0 0 0\nvt 1 2 3 4\nf 1/1 1/1 1/1\n", EPSNET_EFORMAT, 2,
+                   "vt 1 has more than 3 values");
+    check_rejected("vt_none.obj", "v 0 0 0\nvt 0 0\nvt\nf 1/1 1/1 1/1\n", EPSNET_EFORMAT, 3, "vt 2 has no values");
+    check_rejected("vt_nan.obj", "v 0 0 0\nvt 0 zero\nf 1/1 1/1 1/1\n", EPSNET_EFORMAT, 2,
+                   "vt 1: 'zero' is not a number");
+    check_rejected("vn_two.obj", "v 0 0 0\nvn 0 1\nf 1//1 1//1 1//1\n", EPSNET_EFORMAT, 2,
+                   "vn 1 has 2 values, expected 3");
+    check_rejected("v_nan.obj", "v 0 0 0\nv 0 inf 0\nvt 0 0\nf 1/1 1/1 1/1\n", EPSNET_EFORMAT, 2,
+                   "vertex 2 has a non-finite coordinate");
+}
+
 /* ---- bad input ---- */
 
 #define TRI3 "v 0 0 0\nv 1 0 0\nv 0 1 0\n"
@@ -528,6 +677,10 @@ int main(void)
     RUN(non_finite_coordinates_are_rejected);
     RUN(a_two_megabyte_line_is_rejected);
     RUN(nul_byte_is_rejected);
+    RUN(a_uv_seam_splits_its_position_into_one_record_per_corner_value);
+    RUN(equal_corner_values_share_a_record_and_lone_positions_come_last);
+    RUN(corner_tables_are_held_to_the_memory_budget);
+    RUN(bad_texture_coordinate_and_normal_indices_are_rejected);
     int rc = tl_finish();
     tl_cleanup();
     return rc;

@@ -141,15 +141,15 @@ typedef enum epsnet_record_kind {
  * renamed on the way (a PLY uchar red stays a uchar red).
  *
  * Names are the file's: PLY property names as they are ("red", "nx",
- * "texture_u", "quality", ...). OBJ gives float32 attributes: vertex
- * colours (`v x y z r g b`) as "red", "green", "blue"; and, when no position
- * gets two different vt (or vn) from the faces' corners, its vt as
- * "texture_u", "texture_v" and its vn as "nx", "ny", "nz" (reading such a
- * file takes a second pass over it, and 8 bytes per vt, 12 per vn and 8 per
- * position; from standard input they are not carried). Positions with
- * several (UV or normal seams: per-corner attributes) are named as dropped.
- * Zero attributes (count 0) is the stream of earlier versions: rec.attr is
- * then NULL and nothing else changes.
+ * "texture_u", "quality", ...); OBJ vertex colours are "red", "green",
+ * "blue" (float32). OBJ texture coordinates and normals (`vt`, `vn`, given
+ * per face corner) are "texture_u", "texture_v" and "nx", "ny", "nz"
+ * (float32; the PLY names MeshLab, Blender and trimesh read): an OBJ
+ * vertex record is then one distinct (position, vt, vn) of the faces, and a
+ * position with different values in different faces (a seam) is several
+ * records at the same coordinates (docs/architecture.md §13). Zero
+ * attributes (count 0) is the stream of earlier versions: rec.attr is then
+ * NULL and nothing else changes.
  */
 typedef enum epsnet_attr_type {
     EPSNET_ATTR_INT8 = 1,
@@ -296,7 +296,8 @@ EPSNET_API uint64_t epsnet_reader_file_size(const epsnet_reader *r);
  * count), vertex list properties, vertex properties past EPSNET_ATTR_MAX,
  * and faces of fewer than 3 corners (scalar vertex properties are carried
  * as attributes, epsnet_mesh_info.vertex_attrs); OBJ every statement kind it
- * skips, with how many it met ("usemtl (3), vt (120)"). Most of it is known
+ * skips, with how many it met ("usemtl (3), g (2)"; vt and vn only when no
+ * face names them, "vt w" for a third texture coordinate). Most of it is known
  * from the PLY header, the rest as the file is read: the text is complete
  * once epsnet_reader_next() has returned 0.
  * @return NULL when nothing is dropped, else the text (owned by the reader,
@@ -372,13 +373,13 @@ EPSNET_API int epsnet_writer_commit(epsnet_writer **w, epsnet_error *err);
  * The vertex attributes announced at epsnet_writer_open() that the output
  * format cannot hold and that the writer therefore leaves out, as one line
  * in the style of epsnet_reader_dropped(): "vertex property red, vertex
- * property green". PLY and .smz hold every attribute. OBJ holds float32
- * groups, each only whole: colours red, green, blue (`v x y z r g b`),
- * texture coordinates texture_u, texture_v (or u, v or s, t: one `vt` per
- * vertex) and normals nx, ny, nz (one `vn` per vertex; faces then read
- * `f a/a/a`); integer colours would need a conversion, which would not read
- * back bit for bit, so they are left out and named. SMA, SMB, STL and OFF
- * hold none. Known from the open.
+ * property green". PLY and .smz hold every attribute. OBJ holds vertex
+ * colours red, green, blue when all three are float32 (as its reader gives
+ * them; integer colours would need a conversion, which would not read back
+ * bit for bit, so they are left out and named), texture coordinates
+ * texture_u, texture_v (else s, t, else u, v) and normals nx, ny, nz, all
+ * float32 and each group only whole, as `vt`, `vn` and `f v/vt/vn`; SMA, SMB, STL and OFF hold
+ * none. Known from the open.
  * @return NULL when nothing is left out, else the text (owned by the
  * writer, valid until it is committed or aborted). *count, when count is
  * not NULL, receives the number of attributes named (0 with NULL).

@@ -1,36 +1,44 @@
 /*
- * Wavefront OBJ (docs/architecture.md §13, ordinary formats): geometry only.
+ * Wavefront OBJ (docs/architecture.md §13, ordinary formats).
  *
- * Reader: `v x y z [w | r g b [a]]` and `f` with corners `a`, `a/b`, `a/b/c`
- * or `a//c`; indices are 1-based, or negative and relative to the newest
- * vertex (-1 = newest). Polygons are fan-triangulated around their first
- * corner. Faces may come between vertices, as OBJ allows. Vertex colours
- * become the attributes red, green, blue (float32, epsnet.h §2) when the
- * first `v` line of the file's first 64 KiB has them (OBJ has no header:
- * the attributes must be known before the first record); a later `v`
- * without colours then gets 0 0 0 and is counted as dropped ("vertex
- * without colour"). Every other statement (vt, vn, vp, o, g, s, usemtl,
- * mtllib, l, p, unknown ones) is skipped and named by
- * epsnet_reader_dropped(), as are w, alpha, and colours in a file whose
- * first `v` has none; the numbers of a `v` or `f` statement must all parse.
- * A trailing backslash continues a statement on the next line.
+ * Reader: `v x y z [w | r g b [a]]`, `vt`, `vn` and `f` with corners `a`,
+ * `a/b`, `a/b/c` or `a//c`; indices are 1-based, or negative and relative
+ * to the newest v, vt or vn (-1 = newest). Polygons are fan-triangulated
+ * around their first corner. Faces may come between vertices, as OBJ
+ * allows. Vertex colours become the attributes red, green, blue (float32,
+ * epsnet.h §2) when the first `v` line of the file's first 64 KiB has them
+ * (OBJ has no header: the attributes must be known before the first
+ * record); a later `v` without colours then gets 0 0 0 and is counted as
+ * dropped ("vertex without colour").
+ *
+ * Texture coordinates and normals are given per face corner. When the
+ * faces name them (decided by reading ahead to the first `f`, see
+ * prescan_corners()), a record is one distinct (position, vt, vn) with the
+ * attributes texture_u, texture_v and/or nx, ny, nz: a position that faces
+ * use with different values (a seam) becomes several records at the same
+ * coordinates, which cuts the mesh open along the seam
+ * (docs/architecture.md §13, docs/method.md §6). The v, vt and vn tables
+ * are then held to the end of the file, within settings.mem_limit, and a
+ * record is pushed when a face first names it.
+ *
+ * Every other statement (vp, o, g, s, usemtl, mtllib, l, p, unknown ones,
+ * and vt or vn that no face names) is skipped and named by
+ * epsnet_reader_dropped(), as are w, alpha, a vt's w, and colours in a file
+ * whose first `v` has none; the numbers of a `v`, `vt`, `vn` or `f`
+ * statement must all parse. A trailing backslash continues a statement on
+ * the next line.
  *
  * note: OBJ has no header, so info.coord_type is decided by looking ahead at
  * the `v` lines, by the rule of src/io/text_scan.h.
  *
- * Reader, vt and vn: a pre-scan (scan_corners) finds the vt and vn each
- * position gets from the faces; when no position gets two different ones,
- * they are carried as the vertex attributes texture_u, texture_v and nx,
- * ny, nz (float32); otherwise (per-corner seams) they are named as dropped.
- *
  * Writer: `v` lines in the shortest exact text for the writer's coordinate
  * type (with `r g b` when the stream has float32 red, green and blue, in
- * the shortest text that reads back to the same bits), a `vt` and a `vn`
- * line after each `v` when the stream has float32 texture coordinates
- * (texture_u/texture_v, u/v or s/t) or normals (nx/ny/nz), and `f a b c`
- * (`f a/a/a ...` with them) lines with 1-based absolute indices, in stream order
- * (OBJ allows interleaving, so nothing is buffered). FINALIZE records have no
- * OBJ form and are dropped.
+ * the shortest text that reads back to the same bits) and `f a b c` lines
+ * with 1-based absolute indices, in stream order (OBJ allows interleaving,
+ * so nothing is buffered). A stream with texture coordinates or normals
+ * also gets `vt` and `vn` lines and `f a/b/c` corners, and its records at
+ * one position are welded into one `v` line (put_corner_vertex()).
+ * FINALIZE records have no OBJ form and are dropped.
  */
 #include <math.h>
 #include <stdio.h>
@@ -38,6 +46,7 @@
 #include <string.h>
 
 #include "common/alloc.h"
+#include "common/hash64.h"
 #include "io/format.h"
 #include "io/text_scan.h"
 
@@ -48,20 +57,54 @@
 /* Beyond x y z: w, or r g b, or r g b a. */
 #define OBJ_MAX_VERTEX_VALUES 7
 
+/* Bytes a face corner adds to its position: texture_u, texture_v and nx,
+ * ny, nz, all float32. */
+#define OBJ_KEY_MAX 20
+/* Indices of the corner tables are uint32 (they are held in memory). */
+#define OBJ_TABLE_MAX ((size_t)UINT32_MAX - 1)
+
+/* A `v` statement of a file whose records are corners. */
+typedef struct obj_position {
+    double xyz[3];
+    float rgb[3];
+    uint32_t first;                  /* newest record at this position + 1; 0: none yet */
+} obj_position;
+
+/* A vertex record of such a file: one distinct (position, vt, vn). */
+typedef struct obj_corner {
+    uint32_t next;                   /* older record at the same position + 1; 0: none */
+    uint8_t key[OBJ_KEY_MAX];        /* its texture_u texture_v nx ny nz bytes */
+} obj_corner;
+
 typedef struct obj_reader {
     char *joined;                    /* backslash-continued statement */
     size_t joined_cap;
     int colours;                     /* the records carry red, green, blue */
-    /* vt / vn per position, from the pre-scan (scan_corners): carried when
-     * every position has at most one of each (epsnet.h §2) */
-    int has_vt, has_vn;
-    float *vt, *vn;                  /* 2 and 3 floats per vt / vn statement */
-    uint32_t *vt_of, *vn_of;         /* per position: 1 + index, 0 none */
-    uint64_t npos;                   /* positions the pre-scan saw */
-    uint64_t no_vt, no_vn;           /* positions used by faces without one */
-} obj_reader;
 
-#define OBJ_SEVERAL UINT32_MAX       /* a position with several different vt (vn) */
+    /* Corners (docs/architecture.md §13): the records carry texture_u,
+     * texture_v (uv) and/or nx, ny, nz (normals), one record per distinct
+     * (position, vt values, vn values); key_size is 0 in a file without.
+     * file_uv, file_normals: the attributes declared; uv, normals: those
+     * whose values are read (see follow_kept_attrs()); mute_vt, mute_vn:
+     * vt or vn statements skipped without a word, as their attributes are
+     * named already. */
+    int file_uv, file_normals;
+    int uv, normals;
+    int mute_vt, mute_vn;
+    int started;
+    size_t key_size;
+    obj_position *pos;
+    size_t npos, pos_cap;
+    float *vt;                       /* u v of each vt */
+    size_t nvt, vt_cap;
+    float *vn;                       /* x y z of each vn */
+    size_t nvn, vn_cap;
+    obj_corner *rec;
+    size_t nrec, rec_cap;
+    size_t bytes;                    /* of the four tables, held to settings.mem_limit */
+    int at_end;                      /* the statements are all read */
+    size_t tail;                     /* next position to check for a record at the end */
+} obj_reader;
 
 /* ---- reader ---- */
 
@@ -111,10 +154,54 @@ static int next_statement(epsnet_reader *r, obj_reader *st, char **stmt)
     return 1;
 }
 
+/* Grow one of the corner tables to hold need elements, keeping all four
+ * within the reader's memory budget (they live until the end of the file). */
+static int table_grow(epsnet_reader *r, obj_reader *st, void **buf, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap)
+        return 0;
+    size_t ncap = *cap ? *cap : 1024;
+    while (ncap < need)
+        ncap *= 2;
+    if (need > OBJ_TABLE_MAX || ncap > SIZE_MAX / elem)
+        return en_reader_fail(r, EPSNET_ELIMIT, "more than %zu v, vt, vn or corner vertices", OBJ_TABLE_MAX);
+    size_t bytes = st->bytes - *cap * elem + ncap * elem;
+    if (r->settings.mem_limit && bytes > r->settings.mem_limit)
+        return en_reader_fail(r, EPSNET_ELIMIT,
+                              "an OBJ with vt/vn is held in memory until its faces are read: %zu v, %zu vt, "
+                              "%zu vn and %zu corner vertices need %zu bytes, over the memory budget of %llu bytes",
+                              st->npos, st->nvt, st->nvn, st->nrec, bytes,
+                              (unsigned long long)r->settings.mem_limit);
+    void *p = en_realloc(*buf, ncap * elem);
+    if (!p)
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    *buf = p;
+    *cap = ncap;
+    st->bytes = bytes;
+    return 0;
+}
+
+/* A position of a file whose records are corners: kept until faces name it. */
+static int store_position(epsnet_reader *r, obj_reader *st, const double xyz[3], const float rgb[3])
+{
+    if (!isfinite(xyz[0]) || !isfinite(xyz[1]) || !isfinite(xyz[2]))
+        return en_reader_fail(r, EPSNET_EFORMAT, "vertex %zu has a non-finite coordinate (%g %g %g)",
+                              st->npos + 1, xyz[0], xyz[1], xyz[2]);
+    int rc = table_grow(r, st, (void **)&st->pos, &st->pos_cap, st->npos + 1, sizeof *st->pos);
+    if (rc)
+        return rc;
+    obj_position *p = &st->pos[st->npos++];
+    memcpy(p->xyz, xyz, sizeof p->xyz);
+    memcpy(p->rgb, rgb, sizeof p->rgb);
+    p->first = 0;
+    return 0;
+}
+
 static int parse_vertex(epsnet_reader *r, obj_reader *st, char *p)
 {
     double val[OBJ_MAX_VERTEX_VALUES];
     float rgb[3] = { 0, 0, 0 };
+    unsigned long long label = (unsigned long long)(st->key_size ? st->npos : r->nverts) + 1;
     int n = 0;
     for (;;) {
         double d;
@@ -138,124 +225,152 @@ static int parse_vertex(epsnet_reader *r, obj_reader *st, char *p)
         if (rc == 0)
             break;
         if (rc < 0)
-            return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu: '%.*s' is not a number",
-                                  (unsigned long long)r->nverts + 1, en_text_quoted_len(p), p);
+            return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu: '%.*s' is not a number", label,
+                                  en_text_quoted_len(p), p);
         if (n == OBJ_MAX_VERTEX_VALUES)
-            return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu has more than %d values",
-                                  (unsigned long long)r->nverts + 1, OBJ_MAX_VERTEX_VALUES);
+            return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu has more than %d values", label,
+                                  OBJ_MAX_VERTEX_VALUES);
         val[n++] = d;
     }
     if (n < 3)
-        return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu has %d coordinates, expected 3",
-                              (unsigned long long)r->nverts + 1, n);
+        return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu has %d coordinates, expected 3", label, n);
     if (st->colours) {
         if (n == 4 || n == 5)
             return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu has %d values, expected 3 or 6 (x y z r g b)",
-                                  (unsigned long long)r->nverts + 1, n);
+                                  label, n);
         if (n == 3)
             en_reader_drop(r, "vertex without colour", 1, 1);
         if (n == 7)
             en_reader_drop(r, "vertex colour alpha", 1, 1);
-    }
-    if (!st->colours && n > 3)
+    } else if (n > 3) {
         en_reader_drop(r, n == 4 ? "vertex w" : "vertex colour", 1, 1);
-    if (!st->colours && !st->has_vt && !st->has_vn)
-        return en_reader_push_vertex(r, val[0], val[1], val[2]);
-    /* the attribute bytes in the order obj_open_reader declared them */
-    uint8_t attr[12 + 8 + 12];
-    size_t at = 0;
+    }
+    if (st->key_size)
+        return store_position(r, st, val, rgb);
     if (st->colours) {
-        memcpy(attr, rgb, 12);
-        at = 12;
+        uint8_t attr[12];
+        memcpy(attr, rgb, sizeof attr);
+        return en_reader_push_vertex_attr(r, val[0], val[1], val[2], attr);
     }
-    uint64_t pos = r->nverts;
-    if (st->has_vt) {
-        uint32_t k = pos < st->npos ? st->vt_of[pos] : 0;
-        float uv[2] = { 0, 0 };
-        if (k)
-            memcpy(uv, st->vt + 2 * (size_t)(k - 1), sizeof uv);
-        memcpy(attr + at, uv, sizeof uv);
-        at += sizeof uv;
-    }
-    if (st->has_vn) {
-        uint32_t k = pos < st->npos ? st->vn_of[pos] : 0;
-        float nrm[3] = { 0, 0, 0 };
-        if (k)
-            memcpy(nrm, st->vn + 3 * (size_t)(k - 1), sizeof nrm);
-        memcpy(attr + at, nrm, sizeof nrm);
-    }
-    return en_reader_push_vertex_attr(r, val[0], val[1], val[2], attr);
+    return en_reader_push_vertex(r, val[0], val[1], val[2]);
 }
 
-/* Whether the first `v` line in the first EN_TEXT_PEEK_BYTES has colours
- * (6 or 7 numbers), without consuming anything. */
-static int peek_colours(en_source *src)
+/* Up to max float32 values read as floats (strtof: the bits of the text, as
+ * for colours). @return how many, or -1 with *pp at a token that is not a
+ * number, or max + 1 when there are more. */
+static int scan_floats(char **pp, float *out, int max)
 {
-    size_t avail = en_source_fill(src, EN_TEXT_PEEK_BYTES);
-    if (avail > EN_TEXT_PEEK_BYTES)
-        avail = EN_TEXT_PEEK_BYTES;
-    const char *p = (const char *)src->cur, *end = p + avail;
-    while (p < end) {
-        const char *eol = memchr(p, '\n', (size_t)(end - p));
-        if (!eol)
-            return 0;
-        while (p < eol && (*p == ' ' || *p == '\t'))
-            p++;
-        if (eol - p > 2 && p[0] == 'v' && (p[1] == ' ' || p[1] == '\t')) {
-            int n = 0;
-            for (const char *q = p + 1; q < eol && *q != '#';) {
-                while (q < eol && (*q == ' ' || *q == '\t' || *q == '\r'))
-                    q++;
-                if (q == eol || *q == '#')
-                    break;
-                n++;
-                while (q < eol && *q != ' ' && *q != '\t' && *q != '\r')
-                    q++;
-            }
-            return n == 6 || n == 7;
+    int n = 0;
+    char *p = *pp;
+    for (;;) {
+        p = en_text_skip_blanks(p);
+        if (*p == '\0' || *p == '#')
+            break;
+        char *e;
+        float f = strtof(p, &e);
+        if (e == p || !en_text_ends_token(*e)) {
+            *pp = p;
+            return -1;
         }
-        p = eol + 1;
+        if (n == max)
+            return max + 1;
+        out[n++] = f;
+        p = e;
     }
+    *pp = p;
+    return n;
+}
+
+/* `vt u [v [w]]`: v is 0 when absent (as OBJ defines it); w, the depth of
+ * a 3D texture, has no attribute and is named as dropped. */
+static int parse_texcoord(epsnet_reader *r, obj_reader *st, char *p)
+{
+    float uvw[3] = { 0, 0, 0 };
+    int n = scan_floats(&p, uvw, 3);
+    if (n < 0)
+        return en_reader_fail(r, EPSNET_EFORMAT, "vt %zu: '%.*s' is not a number", st->nvt + 1,
+                              en_text_quoted_len(p), p);
+    if (n == 0 || n > 3)
+        return en_reader_fail(r, EPSNET_EFORMAT, "vt %zu has %s values, expected 1 to 3 (u [v [w]])",
+                              st->nvt + 1, n ? "more than 3" : "no");
+    if (n == 3)
+        en_reader_drop(r, "vt w", 1, 1);
+    int rc = table_grow(r, st, (void **)&st->vt, &st->vt_cap, st->nvt + 1, 2 * sizeof *st->vt);
+    if (rc)
+        return rc;
+    memcpy(st->vt + 2 * st->nvt++, uvw, 2 * sizeof *uvw);
     return 0;
 }
 
-/* OBJ index -> 0-based global index; the front end checks the upper bound. */
-static int resolve_index(epsnet_reader *r, int64_t k, uint64_t *out)
+static int parse_normal(epsnet_reader *r, obj_reader *st, char *p)
+{
+    float xyz[3];
+    int n = scan_floats(&p, xyz, 3);
+    if (n < 0)
+        return en_reader_fail(r, EPSNET_EFORMAT, "vn %zu: '%.*s' is not a number", st->nvn + 1,
+                              en_text_quoted_len(p), p);
+    if (n != 3)
+        return en_reader_fail(r, EPSNET_EFORMAT, "vn %zu has %s values, expected 3 (x y z)", st->nvn + 1,
+                              n > 3 ? "more than 3" : n == 2 ? "2" : n == 1 ? "1" : "no");
+    int rc = table_grow(r, st, (void **)&st->vn, &st->vn_cap, st->nvn + 1, 3 * sizeof *st->vn);
+    if (rc)
+        return rc;
+    memcpy(st->vn + 3 * st->nvn++, xyz, sizeof xyz);
+    return 0;
+}
+
+/* What the three index spaces of a face corner are called in messages. */
+static const char *const index_one[3] = { "vertex", "vt", "vn" };
+static const char *const index_many[3] = { "vertices", "vt", "vn" };
+
+/* OBJ index k of space s (0 v, 1 vt, 2 vn) -> 0-based, with count items so
+ * far; check_upper: say so when k is past them (for positions of a plain
+ * file the front end checks that). */
+static int resolve_index(epsnet_reader *r, int s, int64_t k, uint64_t count, int check_upper, uint64_t *out)
 {
     if (k > 0) {
         *out = (uint64_t)k - 1;
+        if (check_upper && *out >= count)
+            return en_reader_fail(r, EPSNET_EFORMAT, "face %llu: %s index %lld, but only %llu %s precede it",
+                                  (unsigned long long)r->ntris + 1, index_one[s], (long long)k,
+                                  (unsigned long long)count, index_many[s]);
         return 0;
     }
     if (k == 0)
-        return en_reader_fail(r, EPSNET_EFORMAT, "face %llu: vertex index 0 (OBJ indices start at 1)",
-                              (unsigned long long)r->ntris + 1);
+        return en_reader_fail(r, EPSNET_EFORMAT, "face %llu: %s index 0 (OBJ indices start at 1)",
+                              (unsigned long long)r->ntris + 1, index_one[s]);
     uint64_t back = (uint64_t)(-(k + 1)) + 1;
-    if (back > r->nverts)
+    if (back > count)
         return en_reader_fail(r, EPSNET_EFORMAT,
-                              "face %llu: relative index %lld reaches before the first vertex "
-                              "(%llu vertices so far)",
-                              (unsigned long long)r->ntris + 1, (long long)k,
-                              (unsigned long long)r->nverts);
-    *out = r->nverts - back;
+                              "face %llu: relative %sindex %lld reaches before the first %s "
+                              "(%llu %s so far)",
+                              (unsigned long long)r->ntris + 1, s ? (s == 1 ? "vt " : "vn ") : "", (long long)k,
+                              index_one[s], (unsigned long long)count, index_many[s]);
+    *out = count - back;
     return 0;
 }
 
-/* One corner `a`, `a/b`, `a/b/c` or `a//c`; b and c must be integers too,
- * though only a is used. */
-static int scan_corner(char **pp, int64_t *vertex)
+/* One corner `a`, `a/b`, `a/b/c` or `a//c`: idx[0..2] and has[1], has[2]
+ * (whether b and c are given). All given indices must be integers. */
+static int scan_corner(char **pp, int64_t idx[3], int has[3])
 {
     char *p = *pp;
-    int64_t ignored;
-    if (en_text_scan_int64(&p, vertex))
+    has[0] = 1;
+    has[1] = has[2] = 0;
+    if (en_text_scan_int64(&p, &idx[0]))
         return -1;
     if (*p == '/') {
         p++;
-        if (*p != '/' && en_text_scan_int64(&p, &ignored))
-            return -1;
+        if (*p != '/') {
+            if (en_text_scan_int64(&p, &idx[1]))
+                return -1;
+            has[1] = 1;
+        }
         if (*p == '/') {
             p++;
-            if (en_text_scan_int64(&p, &ignored))
+            if (en_text_scan_int64(&p, &idx[2]))
                 return -1;
+            has[2] = 1;
         }
     }
     if (!en_text_ends_token(*p))
@@ -264,7 +379,65 @@ static int scan_corner(char **pp, int64_t *vertex)
     return 0;
 }
 
-static int parse_face(epsnet_reader *r, char *p)
+/* The record of position v with the corner bytes key: an earlier one with
+ * the same bytes (so a position keeps one record wherever its vt and vn
+ * agree, bit for bit), or a new record pushed now. */
+static int corner_record(epsnet_reader *r, obj_reader *st, uint64_t v, const uint8_t *key, uint64_t *out)
+{
+    for (uint32_t k = st->pos[v].first; k; k = st->rec[k - 1].next)
+        if (memcmp(st->rec[k - 1].key, key, st->key_size) == 0) {
+            *out = k - 1;
+            return 0;
+        }
+    int rc = table_grow(r, st, (void **)&st->rec, &st->rec_cap, st->nrec + 1, sizeof *st->rec);
+    if (rc)
+        return rc;
+    obj_position *p = &st->pos[v];
+    uint8_t attr[12 + OBJ_KEY_MAX];
+    size_t at = 0;
+    if (st->colours) {
+        memcpy(attr, p->rgb, 12);
+        at = 12;
+    }
+    memcpy(attr + at, key, st->key_size);
+    if ((rc = en_reader_push_vertex_attr(r, p->xyz[0], p->xyz[1], p->xyz[2], attr)))
+        return rc;
+    obj_corner *c = &st->rec[st->nrec];
+    memset(c->key, 0, sizeof c->key);
+    memcpy(c->key, key, st->key_size);
+    c->next = p->first;
+    p->first = (uint32_t)++st->nrec;
+    *out = st->nrec - 1;
+    return 0;
+}
+
+/* The record a corner names: in a plain file the position itself; in a file
+ * whose records are corners, the record of (position, vt, vn). */
+static int corner_vertex(epsnet_reader *r, obj_reader *st, const int64_t idx[3], const int has[3], uint64_t *v)
+{
+    if (!st->key_size)
+        return resolve_index(r, 0, idx[0], r->nverts, 0, v);
+    uint64_t at[3];
+    int rc = resolve_index(r, 0, idx[0], st->npos, 1, &at[0]);
+    uint8_t key[OBJ_KEY_MAX];
+    memset(key, 0, sizeof key);
+    size_t o = st->file_uv ? 8 : 0;
+    if (!rc && st->uv) {
+        if (!has[1])
+            en_reader_drop(r, "face corner without vt", 1, 1);
+        else if (!(rc = resolve_index(r, 1, idx[1], st->nvt, 1, &at[1])))
+            memcpy(key, st->vt + 2 * at[1], 8);
+    }
+    if (!rc && st->normals) {
+        if (!has[2])
+            en_reader_drop(r, "face corner without vn", 1, 1);
+        else if (!(rc = resolve_index(r, 2, idx[2], st->nvn, 1, &at[2])))
+            memcpy(key + o, st->vn + 3 * at[2], 12);
+    }
+    return rc ? rc : corner_record(r, st, at[0], key, v);
+}
+
+static int parse_face(epsnet_reader *r, obj_reader *st, char *p)
 {
     uint64_t first = 0, prev = 0;
     int ncorners = 0;
@@ -272,12 +445,13 @@ static int parse_face(epsnet_reader *r, char *p)
         p = en_text_skip_blanks(p);
         if (*p == '\0')
             break;
-        int64_t k;
+        int64_t idx[3];
+        int has[3];
         uint64_t v = 0;
-        if (scan_corner(&p, &k))
+        if (scan_corner(&p, idx, has))
             return en_reader_fail(r, EPSNET_EFORMAT, "face %llu: bad corner '%.*s'",
                                   (unsigned long long)r->ntris + 1, en_text_quoted_len(p), p);
-        int rc = resolve_index(r, k, &v);
+        int rc = corner_vertex(r, st, idx, has, &v);
         if (rc)
             return rc;
         if (ncorners == 0)
@@ -315,194 +489,119 @@ static int parse_statement(epsnet_reader *r, char *stmt)
     char *p = en_text_skip_blanks(stmt);
     if (p[0] == 'v' && en_text_ends_token(p[1]))
         return parse_vertex(r, st, p + 1);
-    /* carried per vertex: the pre-scan took them */
-    if (p[0] == 'v' && ((p[1] == 't' && st->has_vt) || (p[1] == 'n' && st->has_vn)) && en_text_ends_token(p[2]))
-        return 0;
     if (p[0] == 'f' && en_text_ends_token(p[1]))
-        return parse_face(r, p + 1);
+        return parse_face(r, st, p + 1);
+    if (st->uv && p[0] == 'v' && p[1] == 't' && en_text_ends_token(p[2]))
+        return parse_texcoord(r, st, p + 2);
+    if (st->normals && p[0] == 'v' && p[1] == 'n' && en_text_ends_token(p[2]))
+        return parse_normal(r, st, p + 2);
+    if (p[0] == 'v' && ((st->mute_vt && p[1] == 't') || (st->mute_vn && p[1] == 'n')) && en_text_ends_token(p[2]))
+        return 0;
     if (p[0] != '\0' && p[0] != '#')
         drop_statement(r, p);
     return 0;
 }
 
-/* One vt/vn index of a corner, resolved as OBJ does (1-based, or negative
- * from the newest of seen); @return 0 with *out 0-based, -1 when invalid. */
-static int scan_ref(int64_t k, uint64_t seen, uint64_t *out)
+/* Prescan of one line: notes vt and vn statements until the first `f`,
+ * then whether that face's first corner names a vt and a vn.
+ * @return 1 at the first face (the scan ends), else 0. */
+static int prescan_line(const char *p, const char *eol, int seen[2], int *uv, int *normals)
 {
-    if (k > 0 && (uint64_t)k <= seen) {
-        *out = (uint64_t)k - 1;
+    while (p < eol && en_text_is_blank(*p))
+        p++;
+    if (eol - p >= 2 && p[0] == 'v' && (p[1] == 't' || p[1] == 'n') && (eol - p == 2 || en_text_is_blank(p[2])))
+        seen[p[1] == 'n'] = 1;
+    if (eol - p < 2 || p[0] != 'f' || !en_text_is_blank(p[1]))
         return 0;
+    p += 2;
+    while (p < eol && en_text_is_blank(*p))
+        p++;
+    while (p < eol && (*p == '-' || *p == '+' || (*p >= '0' && *p <= '9')))
+        p++;
+    int has_vt = 0, has_vn = 0;
+    if (p < eol && *p == '/') {
+        p++;
+        has_vt = p < eol && *p != '/' && !en_text_is_blank(*p);
+        while (p < eol && *p != '/' && !en_text_is_blank(*p))
+            p++;
+        has_vn = p + 1 < eol && *p == '/' && !en_text_is_blank(p[1]);
     }
-    if (k < 0 && (uint64_t)(-(k + 1)) < seen) {
-        *out = seen - (uint64_t)(-(k + 1)) - 1;
-        return 0;
-    }
-    return -1;
-}
-
-/* Note a position's vt (vn) index: a second, different one makes it
- * OBJ_SEVERAL. @return 1 when it became several. */
-static int note_ref(uint32_t *of, uint64_t pos, uint64_t idx)
-{
-    if (of[pos] == OBJ_SEVERAL)
-        return 0;
-    if (of[pos] == 0) {
-        of[pos] = (uint32_t)idx + 1;
-        return 0;
-    }
-    if (of[pos] != (uint32_t)idx + 1) {
-        of[pos] = OBJ_SEVERAL;
-        return 1;
-    }
-    return 0;
-}
-
-static int grow_u32(uint32_t **p, uint64_t *cap, uint64_t need)
-{
-    if (need <= *cap)
-        return 0;
-    uint64_t n = *cap ? *cap * 2 : 4096;
-    while (n < need)
-        n *= 2;
-    uint32_t *q = en_realloc(*p, (size_t)n * sizeof *q);
-    if (!q)
-        return -1;
-    memset(q + *cap, 0, (size_t)(n - *cap) * sizeof *q);
-    *p = q;
-    *cap = n;
-    return 0;
-}
-
-static int grow_f32(float **p, uint64_t *cap, uint64_t need)
-{
-    if (need <= *cap)
-        return 0;
-    uint64_t n = *cap ? *cap * 2 : 4096;
-    while (n < need)
-        n *= 2;
-    float *q = en_realloc(*p, (size_t)n * sizeof *q);
-    if (!q)
-        return -1;
-    *p = q;
-    *cap = n;
-    return 0;
+    *uv = seen[0] && has_vt;
+    *normals = seen[1] && has_vn;
+    return 1;
 }
 
 /*
- * Pre-scan of a file with vt or vn statements (OBJ has no header): which
- * vt and vn each position gets from the faces' corners, so that the
- * vertices can carry them when they are read (docs/architecture.md §6).
- * It reads the file a second time through its own source, so it needs a
- * path (not "-"), and holds 8 bytes per vt, 12 per vn and 8 per position.
- * A position given several different vt (or vn) by different corners is a
- * seam: then vt (vn) are not carried at all and are named as dropped with
- * the count of such positions (per-corner attributes are a later step).
- * @return 0 (also when nothing is carried), or a negative code with r->err
- * filled (out of memory; errors of the file itself are left to the main
- * pass, which reports them with their line).
+ * Whether the records are corners (docs/architecture.md §13): OBJ gives vt
+ * and vn only at the faces, after the positions, so the layout is decided
+ * before the first record by reading ahead to the first `f`. texture_u and
+ * texture_v are carried when vt statements come before it and its first
+ * corner names one, nx ny nz likewise for vn. A regular file is read ahead
+ * through a second source (the v lines before the first face are scanned,
+ * not parsed); a pipe only in the window of src.
  */
-static int scan_corners(epsnet_reader *r, obj_reader *st)
+static int prescan_corners(epsnet_reader *r, int *uv, int *normals)
 {
-    en_source *src = NULL;
-    epsnet_error e;
-    if (strcmp(r->path, "-") == 0 || en_source_open(&src, r->path, &e))
+    int seen[2] = { 0, 0 };
+    *uv = *normals = 0;
+    if (r->src->file_size == 0) {
+        size_t avail = en_source_fill(r->src, EN_TEXT_PEEK_BYTES);
+        if (r->src->failed)
+            return source_failed(r, en_source_error(r->src, &r->err));
+        const char *p = (const char *)r->src->cur, *end = p + avail;
+        while (p < end) {
+            const char *eol = memchr(p, '\n', (size_t)(end - p));
+            if (!eol || prescan_line(p, eol, seen, uv, normals))
+                break;
+            p = eol + 1;
+        }
         return 0;
-    uint64_t nv = 0, nvt = 0, nvn = 0, cap_pos = 0, cap_vt = 0, cap_vn = 0, several_vt = 0, several_vn = 0;
-    int rc = 0, usable = 1;
-    char *line;
-    size_t len;
-    while (usable && (rc = en_source_line(src, &line, &len, OBJ_MAX_LINE, &e)) == 1) {
-        if (len && line[len - 1] == '\\') {
-            usable = 0;          /* continued statements: keep it simple, carry nothing */
+    }
+    en_source *s = NULL;
+    int rc = en_source_open(&s, r->path, &r->err);
+    if (rc)
+        return source_failed(r, rc);
+    for (;;) {
+        char *line;
+        size_t len;
+        rc = en_source_line(s, &line, &len, OBJ_MAX_LINE, &r->err);
+        if (rc < 0)
+            r->failed = 1;
+        if (rc <= 0 || prescan_line(line, line + len, seen, uv, normals))
             break;
-        }
-        char *p = en_text_skip_blanks(line);
-        if (p[0] == 'v' && en_text_ends_token(p[1])) {
-            nv++;
-        } else if (p[0] == 'v' && (p[1] == 't' || p[1] == 'n') && en_text_ends_token(p[2])) {
-            int is_vt = p[1] == 't', want = is_vt ? 2 : 3;
-            float f[3] = { 0, 0, 0 };
-            char *q = p + 2;
-            for (int k = 0; k < want; k++) {
-                q = en_text_skip_blanks(q);
-                char *end;
-                float x = strtof(q, &end);
-                if (end == q || !en_text_ends_token(*end))
-                    break;
-                f[k] = x;
-                q = end;
-            }
-            uint64_t *n = is_vt ? &nvt : &nvn;
-            if (is_vt ? grow_f32(&st->vt, &cap_vt, 2 * (nvt + 1)) : grow_f32(&st->vn, &cap_vn, 3 * (nvn + 1))) {
-                rc = EPSNET_ENOMEM;
-                break;
-            }
-            memcpy((is_vt ? st->vt : st->vn) + (size_t)want * *n, f, (size_t)want * sizeof *f);
-            (*n)++;
-        } else if (p[0] == 'f' && en_text_ends_token(p[1])) {
-            if (grow_u32(&st->vt_of, &cap_pos, nv)) {
-                rc = EPSNET_ENOMEM;
-                break;
-            }
-            /* vn_of follows vt_of's capacity */
-            uint32_t *vn_of = en_realloc(st->vn_of, (size_t)(cap_pos ? cap_pos : 1) * sizeof *vn_of);
-            if (!vn_of) {
-                rc = EPSNET_ENOMEM;
-                break;
-            }
-            if (st->npos < cap_pos)
-                memset(vn_of + st->npos, 0, (size_t)(cap_pos - st->npos) * sizeof *vn_of);
-            st->vn_of = vn_of;
-            st->npos = cap_pos;
-            char *q = p + 1;
-            for (;;) {
-                q = en_text_skip_blanks(q);
-                if (*q == '\0' || *q == '#')
-                    break;
-                int64_t a, b = 0, c = 0;
-                if (en_text_scan_int64(&q, &a))
-                    break;
-                if (*q == '/') {
+    }
+    en_source_close(&s);
+    return rc < 0 ? rc : 0;
+}
+
+/* Whether the first `v` line in the first EN_TEXT_PEEK_BYTES has colours
+ * (6 or 7 numbers), without consuming anything. */
+static int peek_colours(en_source *src)
+{
+    size_t avail = en_source_fill(src, EN_TEXT_PEEK_BYTES);
+    if (avail > EN_TEXT_PEEK_BYTES)
+        avail = EN_TEXT_PEEK_BYTES;
+    const char *p = (const char *)src->cur, *end = p + avail;
+    while (p < end) {
+        const char *eol = memchr(p, '\n', (size_t)(end - p));
+        if (!eol)
+            return 0;
+        while (p < eol && (*p == ' ' || *p == '\t'))
+            p++;
+        if (eol - p > 2 && p[0] == 'v' && (p[1] == ' ' || p[1] == '\t')) {
+            int n = 0;
+            for (const char *q = p + 1; q < eol && *q != '#';) {
+                while (q < eol && (*q == ' ' || *q == '\t' || *q == '\r'))
                     q++;
-                    if (*q != '/' && en_text_scan_int64(&q, &b))
-                        break;
-                    if (*q == '/') {
-                        q++;
-                        if (en_text_scan_int64(&q, &c))
-                            break;
-                    }
-                }
-                uint64_t pos, idx;
-                if (scan_ref(a, nv, &pos))
+                if (q == eol || *q == '#')
                     break;
-                if (b && scan_ref(b, nvt, &idx) == 0)
-                    several_vt += (uint64_t)note_ref(st->vt_of, pos, idx);
-                if (c && scan_ref(c, nvn, &idx) == 0)
-                    several_vn += (uint64_t)note_ref(st->vn_of, pos, idx);
-                if (!en_text_ends_token(*q))
-                    break;
+                n++;
+                while (q < eol && *q != ' ' && *q != '\t' && *q != '\r')
+                    q++;
             }
+            return n == 6 || n == 7;
         }
-    }
-    en_source_close(&src);
-    if (rc == EPSNET_ENOMEM)
-        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
-    if (!usable || rc < 0)
-        return 0;                /* the main pass reports what is wrong, with its line */
-    char what[EN_DROP_NAME];
-    st->has_vt = nvt > 0 && several_vt == 0;
-    st->has_vn = nvn > 0 && several_vn == 0;
-    if (nvt && several_vt) {
-        snprintf(what, sizeof what, "per-corner vt (positions with several: %llu)", (unsigned long long)several_vt);
-        en_reader_drop(r, what, 0, 0);
-    }
-    if (nvn && several_vn) {
-        snprintf(what, sizeof what, "per-corner vn (positions with several: %llu)", (unsigned long long)several_vn);
-        en_reader_drop(r, what, 0, 0);
-    }
-    for (uint64_t i = 0; i < st->npos && i < nv; i++) {
-        st->no_vt += st->has_vt && st->vt_of[i] == 0;
-        st->no_vn += st->has_vn && st->vn_of[i] == 0;
+        p = eol + 1;
     }
     return 0;
 }
@@ -521,27 +620,88 @@ static int obj_open_reader(epsnet_reader *r)
     st->colours = peek_colours(r->src);
     if (r->src->failed)
         return source_failed(r, en_source_error(r->src, &r->err));
-    int rc = scan_corners(r, st);
+    int rc = prescan_corners(r, &st->uv, &st->normals);
     if (rc)
         return rc;
-    static const char *names[] = { "red", "green", "blue", "texture_u", "texture_v", "nx", "ny", "nz" };
-    for (int k = 0; k < 8; k++) {
-        if ((k < 3 && !st->colours) || ((k == 3 || k == 4) && !st->has_vt) || (k > 4 && !st->has_vn))
-            continue;
-        if (en_reader_add_attr(r, names[k], EPSNET_ATTR_FLOAT32) < 0)
-            return r->err.code;
-    }
+    st->file_uv = st->uv;
+    st->file_normals = st->normals;
+    st->key_size = (size_t)(8 * st->uv + 12 * st->normals);
+    if (st->colours)
+        for (int k = 0; k < 3; k++)
+            if (en_reader_add_attr(r, k == 0 ? "red" : k == 1 ? "green" : "blue", EPSNET_ATTR_FLOAT32) < 0)
+                return r->err.code;
+    /* note: texture_u and texture_v are the per-vertex texture coordinate
+     * names that MeshLab writes and reads in PLY, and that Blender's and
+     * trimesh's PLY readers also accept, so an OBJ converted to PLY keeps
+     * its texture coordinates in those tools too (u/v and s/t are each
+     * read by fewer of them); nx ny nz are the normal names all of them
+     * use. */
+    if (st->uv && (en_reader_add_attr(r, "texture_u", EPSNET_ATTR_FLOAT32) < 0 ||
+                   en_reader_add_attr(r, "texture_v", EPSNET_ATTR_FLOAT32) < 0))
+        return r->err.code;
+    if (st->normals)
+        for (int k = 0; k < 3; k++)
+            if (en_reader_add_attr(r, k == 0 ? "nx" : k == 1 ? "ny" : "nz", EPSNET_ATTR_FLOAT32) < 0)
+                return r->err.code;
     return 0;
+}
+
+/*
+ * Before the first record: the corner attributes that the consumer keeps
+ * (en_reader_keep_attrs() may have left some out, and named them). Values
+ * no one keeps are not read, so they split no position; when neither vt
+ * nor vn is kept, positions are the records, as in a file without them:
+ * an output that cannot hold texture coordinates gets the mesh uncut.
+ */
+static void follow_kept_attrs(epsnet_reader *r, obj_reader *st)
+{
+    static const char *const uv[2] = { "texture_u", "texture_v" };
+    static const char *const n[3] = { "nx", "ny", "nz" };
+    const epsnet_attr_layout *kept = &r->info.vertex_attrs;
+    int keeps_uv = 0, keeps_n = 0;
+    for (int k = 0; k < 2; k++)
+        keeps_uv |= epsnet_attr_layout_find(kept, uv[k]) >= 0;
+    for (int k = 0; k < 3; k++)
+        keeps_n |= epsnet_attr_layout_find(kept, n[k]) >= 0;
+    if (st->uv && !keeps_uv) {
+        st->uv = 0;
+        st->mute_vt = 1;
+    }
+    if (st->normals && !keeps_n) {
+        st->normals = 0;
+        st->mute_vn = 1;
+    }
+    if (!st->uv && !st->normals)
+        st->key_size = 0;
 }
 
 static int obj_fill(epsnet_reader *r)
 {
     obj_reader *st = r->state;
+    static const uint8_t none[OBJ_KEY_MAX];
+    if (!st->started) {
+        st->started = 1;
+        follow_kept_attrs(r, st);
+    }
     while (r->qlen < OBJ_FILL_BATCH) {
+        int rc;
+        if (st->at_end) {
+            /* positions that no face names are vertices all the same, as
+             * in a plain file; they come last, with zero vt and vn */
+            if (st->tail == st->npos)
+                return r->qlen > 0;
+            uint64_t ignored;
+            if (st->pos[st->tail].first == 0 && (rc = corner_record(r, st, st->tail, none, &ignored)))
+                return rc;
+            st->tail++;
+            continue;
+        }
         char *stmt = NULL;
-        int rc = next_statement(r, st, &stmt);
-        if (rc == 0)
-            return r->qlen > 0;
+        rc = next_statement(r, st, &stmt);
+        if (rc == 0) {
+            st->at_end = 1;
+            continue;
+        }
         if (rc > 0)
             rc = parse_statement(r, stmt);
         if (rc < 0)
@@ -555,10 +715,10 @@ static void obj_close_reader(epsnet_reader *r)
     obj_reader *st = r->state;
     if (st) {
         en_free(st->joined);
+        en_free(st->pos);
         en_free(st->vt);
         en_free(st->vn);
-        en_free(st->vt_of);
-        en_free(st->vn_of);
+        en_free(st->rec);
         en_free(st);
     }
     r->state = NULL;
@@ -620,116 +780,334 @@ static size_t format_u64(char *buf, uint64_t v)
     return n;
 }
 
+/*
+ * The writer's tables for files whose records are corners (texture
+ * coordinates or normals): an exact map from fixed-size byte keys to
+ * indices, open addressing, grown at half full.
+ */
+typedef struct key_table {
+    uint8_t *slots;                  /* per slot: uint64 value + 1 (0: free), then the key */
+    size_t cap, used, key_size, slot_size;
+} key_table;
+
+static size_t key_hash(const uint8_t *k, size_t n)
+{
+    uint64_t h = 0xcbf29ce484222325ull;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ k[i]) * 0x100000001b3ull;
+    return en_hash_slot(h, SIZE_MAX);
+}
+
+static int key_grow(key_table *t)
+{
+    size_t cap = t->cap ? t->cap * 2 : 1024;
+    uint8_t *slots = en_calloc(cap, t->slot_size);
+    if (!slots)
+        return -1;
+    for (size_t i = 0; i < t->cap; i++) {
+        const uint8_t *s = t->slots + i * t->slot_size;
+        uint64_t v;
+        memcpy(&v, s, 8);
+        if (!v)
+            continue;
+        size_t j = key_hash(s + 8, t->key_size) & (cap - 1);
+        while (memcpy(&v, slots + j * t->slot_size, 8), v)
+            j = (j + 1) & (cap - 1);
+        memcpy(slots + j * t->slot_size, s, t->slot_size);
+    }
+    en_free(t->slots);
+    t->slots = slots;
+    t->cap = cap;
+    return 0;
+}
+
+/* The value of key, or its new value when absent (*added = 1); value
+ * UINT64_MAX leaves an absent key out. @return 0 or -1 out of memory. */
+static int key_find(key_table *t, const uint8_t *key, uint64_t value, uint64_t *found, int *added)
+{
+    *added = 0;
+    if ((t->used + 1) * 2 > t->cap && key_grow(t))
+        return -1;
+    size_t j = key_hash(key, t->key_size) & (t->cap - 1);
+    for (;; j = (j + 1) & (t->cap - 1)) {
+        uint8_t *s = t->slots + j * t->slot_size;
+        uint64_t v;
+        memcpy(&v, s, 8);
+        if (!v)
+            break;
+        if (memcmp(s + 8, key, t->key_size) == 0) {
+            *found = v - 1;
+            return 0;
+        }
+    }
+    *found = value;
+    if (value == UINT64_MAX)
+        return 0;
+    uint8_t *s = t->slots + j * t->slot_size;
+    uint64_t v = value + 1;
+    memcpy(s, &v, 8);
+    memcpy(s + 8, key, t->key_size);
+    t->used++;
+    *added = 1;
+    return 0;
+}
+
+/* Overwrite the value of a key that is present. */
+static void key_set(key_table *t, const uint8_t *key, uint64_t value)
+{
+    size_t j = key_hash(key, t->key_size) & (t->cap - 1);
+    for (;; j = (j + 1) & (t->cap - 1)) {
+        uint8_t *s = t->slots + j * t->slot_size;
+        if (memcmp(s + 8, key, t->key_size) == 0) {
+            uint64_t v = value + 1;
+            memcpy(s, &v, 8);
+            return;
+        }
+    }
+}
+
+static void key_init(key_table *t, size_t key_size)
+{
+    memset(t, 0, sizeof *t);
+    t->key_size = key_size;
+    t->slot_size = 8 + key_size;
+}
+
+/* The texture coordinate names the OBJ writer takes for `vt`, in order of
+ * preference: what the OBJ reader gives, then the other common PLY names. */
+static const char *const uv_names[][2] = { { "texture_u", "texture_v" }, { "s", "t" }, { "u", "v" } };
+
+/* Index in l of each of n names, all float32; @return 1 when all are. */
+static int find_float32(const epsnet_attr_layout *l, const char *const *names, int n, int *at)
+{
+    for (int k = 0; k < n; k++) {
+        at[k] = epsnet_attr_layout_find(l, names[k]);
+        if (at[k] < 0 || l->attr[at[k]].type != EPSNET_ATTR_FLOAT32)
+            return 0;
+    }
+    return 1;
+}
+
+/* The attributes of l that go to `vt` (uv[0..1]) and `vn` (n[0..2]);
+ * @return bit 1 for vt, bit 2 for vn. */
+static int corner_attrs(const epsnet_attr_layout *l, int uv[2], int n[3])
+{
+    static const char *const normal[3] = { "nx", "ny", "nz" };
+    int found = 0;
+    for (size_t k = 0; k < sizeof uv_names / sizeof *uv_names && !found; k++)
+        found = find_float32(l, uv_names[k], 2, uv);
+    return found | (find_float32(l, normal, 3, n) ? 2 : 0);
+}
+
+typedef struct obj_writer {
+    int rgb[3];                      /* attributes of `v x y z r g b`; -1: none */
+    int uv[2], n[3];                 /* of `vt` and `vn`; uv[0] / n[0] -1: none */
+    int corners;                     /* vt or vn are written */
+    /* Weld (docs/architecture.md §13): records at the same position (xyz
+     * and colour bits) share one `v` line unless that line already has a
+     * record with the same vt and vn, so reading the file back gives the
+     * same records. */
+    key_table vline;                 /* v line text bits -> newest v line */
+    key_table used;                  /* v line + vt/vn bits -> present */
+    key_table vts, vns;              /* vt / vn bits -> their line */
+    uint64_t nv, nvt, nvn;
+    uint64_t (*corner)[3];           /* per record: its v, vt, vn lines */
+    size_t corner_cap;
+} obj_writer;
+
 static int obj_open_writer(epsnet_writer *w)
 {
-    (void)w;
+    obj_writer *st = en_calloc(1, sizeof *st);
+    if (!st)
+        return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    w->state = st;
+    static const char *const rgb[3] = { "red", "green", "blue" };
+    if (!find_float32(&w->attrs, rgb, 3, st->rgb))
+        st->rgb[0] = -1;
+    int which = corner_attrs(&w->attrs, st->uv, st->n);
+    if (!(which & 1))
+        st->uv[0] = -1;
+    if (!(which & 2))
+        st->n[0] = -1;
+    st->corners = which != 0;
+    key_init(&st->vline, 3 * 8 + 3 * 4);
+    key_init(&st->used, 8 + 5 * 4);
+    key_init(&st->vts, 2 * 4);
+    key_init(&st->vns, 3 * 4);
     return 0;
 }
 
-/* What OBJ holds (epsnet.h epsnet_writer_dropped()): groups of float32
- * attributes, each group only whole. */
-static const char *const obj_groups[][4] = {
-    { "red", "green", "blue", NULL },            /* v x y z r g b */
-    { "texture_u", "texture_v", NULL, NULL },    /* vt */
-    { "u", "v", NULL, NULL },
-    { "s", "t", NULL, NULL },
-    { "nx", "ny", "nz", NULL },                  /* vn */
-};
-#define OBJ_GROUPS 5
-
-/* Attribute index of member k of group g in l, or -1 when the group is not
- * whole and float32 in l. */
-static int obj_group_at(const epsnet_attr_layout *l, int g, int k)
+static void obj_close_writer(epsnet_writer *w)
 {
-    for (int m = 0; m < 4 && obj_groups[g][m]; m++) {
-        int at = epsnet_attr_layout_find(l, obj_groups[g][m]);
-        if (at < 0 || l->attr[at].type != EPSNET_ATTR_FLOAT32)
-            return -1;
+    obj_writer *st = w->state;
+    if (st) {
+        en_free(st->vline.slots);
+        en_free(st->used.slots);
+        en_free(st->vts.slots);
+        en_free(st->vns.slots);
+        en_free(st->corner);
+        en_free(st);
     }
-    return epsnet_attr_layout_find(l, obj_groups[g][k]);
+    w->state = NULL;
 }
 
-/* Which texture group the stream has (the first whole one), or -1. */
-static int obj_uv_group(const epsnet_attr_layout *l)
-{
-    for (int g = 1; g <= 3; g++)
-        if (obj_group_at(l, g, 0) >= 0)
-            return g;
-    return -1;
-}
-
+/* OBJ holds vertex colours as `v x y z r g b` (red, green and blue, all
+ * three float32), texture coordinates as `vt u v` (texture_u and
+ * texture_v, else s and t, else u and v, float32) and normals as `vn`
+ * (nx, ny, nz, float32): see epsnet.h epsnet_writer_dropped(). */
 static int obj_holds_attr(const epsnet_attr_layout *l, uint32_t i)
 {
-    int uv = obj_uv_group(l);
-    for (int g = 0; g < OBJ_GROUPS; g++) {
-        if (g >= 1 && g <= 3 && g != uv)
-            continue;
-        for (int k = 0; k < 4 && obj_groups[g][k]; k++)
-            if (obj_group_at(l, g, k) == (int)i)
-                return 1;
-    }
-    return 0;
+    static const char *const rgb[3] = { "red", "green", "blue" };
+    int at[3], uv[2], n[3];
+    if (find_float32(l, rgb, 3, at) && ((uint32_t)at[0] == i || (uint32_t)at[1] == i || (uint32_t)at[2] == i))
+        return 1;
+    int which = corner_attrs(l, uv, n);
+    if ((which & 1) && ((uint32_t)uv[0] == i || (uint32_t)uv[1] == i))
+        return 1;
+    return (which & 2) && ((uint32_t)n[0] == i || (uint32_t)n[1] == i || (uint32_t)n[2] == i);
 }
 
-/* The group's floats of a vertex as " a b [c]" into line. */
-static size_t obj_group_text(char *line, const epsnet_attr_layout *l, int g, const uint8_t *attr)
+static int writer_nomem(epsnet_writer *w)
 {
-    size_t n = 0;
-    for (int k = 0; k < 4 && obj_groups[g][k]; k++) {
-        float c;
-        memcpy(&c, attr + l->attr[obj_group_at(l, g, k)].offset, 4);
-        line[n++] = ' ';
-        n += (size_t)en_format_coord(line + n, c, EPSNET_COORD_FLOAT32);
-    }
-    return n;
+    return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
 }
 
-static int obj_put(epsnet_writer *w, const epsnet_record *rec)
+/* Copy the 4-byte values of attributes at[0..n) of rec into key. */
+static void attr_bits(const epsnet_writer *w, const epsnet_record *rec, const int *at, int n, uint8_t *key)
 {
-    char line[12 * 33 + 64];
+    for (int k = 0; k < n; k++)
+        memcpy(key + 4 * k, rec->attr + w->attrs.attr[at[k]].offset, 4);
+}
+
+/* `keyword a b c` of n float32 attributes of rec, appended at line + *len. */
+static void put_floats(char *line, size_t *len, const char *keyword, const epsnet_writer *w,
+                       const epsnet_record *rec, const int *at, int n)
+{
+    size_t m = *len;
+    if (keyword) {
+        size_t kl = strlen(keyword);
+        memcpy(line + m, keyword, kl);
+        m += kl;
+    }
+    for (int k = 0; k < n; k++) {
+        float f;
+        memcpy(&f, rec->attr + w->attrs.attr[at[k]].offset, 4);
+        line[m++] = ' ';
+        m += (size_t)en_format_coord(line + m, f, EPSNET_COORD_FLOAT32);
+    }
+    if (keyword)
+        line[m++] = '\n';
+    *len = m;
+}
+
+/* A vertex record of a file with vt or vn: its `v` line unless it welds
+ * into an earlier one, its `vt` and `vn` lines unless the same values have
+ * one already; the face corners then name those lines. */
+static int put_corner_vertex(epsnet_writer *w, obj_writer *st, const epsnet_record *rec, char *line, size_t *len)
+{
+    if (en_grow((void **)&st->corner, &st->corner_cap, w->nverts, sizeof *st->corner))
+        return writer_nomem(w);
+    uint64_t *c = st->corner[w->nverts - 1];
+    uint8_t vkey[36], ukey[28];
+    memset(vkey, 0, sizeof vkey);
+    memset(ukey, 0, sizeof ukey);
+    memcpy(vkey, rec->xyz, 24);
+    if (st->rgb[0] >= 0)
+        attr_bits(w, rec, st->rgb, 3, vkey + 24);
+    if (st->uv[0] >= 0)
+        attr_bits(w, rec, st->uv, 2, ukey + 8);
+    if (st->n[0] >= 0)
+        attr_bits(w, rec, st->n, 3, ukey + 16);
+    int added;
+    if (key_find(&st->vline, vkey, st->nv, &c[0], &added))
+        return writer_nomem(w);
+    memcpy(ukey, &c[0], 8);
+    uint64_t ignored;
+    int fresh;
+    if (key_find(&st->used, ukey, 0, &ignored, &fresh))
+        return writer_nomem(w);
+    if (!added && !fresh) {
+        /* the v line has a record with these vt and vn bits already: a
+         * distinct vertex at the same place gets a line of its own */
+        c[0] = st->nv;
+        key_set(&st->vline, vkey, c[0]);
+        memcpy(ukey, &c[0], 8);
+        if (key_find(&st->used, ukey, 0, &ignored, &fresh))
+            return writer_nomem(w);
+        added = 1;
+    }
     size_t n = 0;
-    const epsnet_attr_layout *l = &w->attrs;
-    int uv = l->count ? obj_uv_group(l) : -1, nrm = l->count && obj_group_at(l, 4, 0) >= 0;
-    if (rec->kind == EPSNET_REC_VERTEX) {
-        int rc = check_coord_range(w, rec->xyz, w->nverts);
-        if (rc)
-            return rc;
+    if (added) {
+        st->nv++;
         line[n++] = 'v';
         for (int k = 0; k < 3; k++) {
             line[n++] = ' ';
             n += (size_t)en_format_coord(line + n, rec->xyz[k], w->coord_type);
         }
-        if (l->count && obj_group_at(l, 0, 0) >= 0)
-            n += obj_group_text(line + n, l, 0, rec->attr);
-        /* one vt and one vn per vertex, numbered as the vertex is */
-        if (uv >= 0) {
-            memcpy(line + n, "\nvt", 3);
-            n += 3;
-            n += obj_group_text(line + n, l, uv, rec->attr);
+        if (st->rgb[0] >= 0)
+            put_floats(line, &n, NULL, w, rec, st->rgb, 3);
+        line[n++] = '\n';
+    }
+    c[1] = c[2] = 0;
+    if (st->uv[0] >= 0) {
+        if (key_find(&st->vts, ukey + 8, st->nvt, &c[1], &added))
+            return writer_nomem(w);
+        if (added) {
+            st->nvt++;
+            put_floats(line, &n, "vt", w, rec, st->uv, 2);
         }
-        if (nrm) {
-            memcpy(line + n, "\nvn", 3);
-            n += 3;
-            n += obj_group_text(line + n, l, 4, rec->attr);
+    }
+    if (st->n[0] >= 0) {
+        if (key_find(&st->vns, ukey + 16, st->nvn, &c[2], &added))
+            return writer_nomem(w);
+        if (added) {
+            st->nvn++;
+            put_floats(line, &n, "vn", w, rec, st->n, 3);
         }
+    }
+    *len = n;
+    return 0;
+}
+
+static int obj_put(epsnet_writer *w, const epsnet_record *rec)
+{
+    obj_writer *st = w->state;
+    /* v with colours, vt and vn lines, or f with three v/vt/vn corners */
+    char line[3 * (6 * 33 + 8)];
+    size_t n = 0;
+    if (rec->kind == EPSNET_REC_VERTEX) {
+        int rc = check_coord_range(w, rec->xyz, w->nverts);
+        if (rc)
+            return rc;
+        if (st->corners) {
+            if ((rc = put_corner_vertex(w, st, rec, line, &n)))
+                return rc;
+            return n ? en_writer_bytes(w, line, n) : 0;
+        }
+        line[n++] = 'v';
+        for (int k = 0; k < 3; k++) {
+            line[n++] = ' ';
+            n += (size_t)en_format_coord(line + n, rec->xyz[k], w->coord_type);
+        }
+        if (st->rgb[0] >= 0)
+            put_floats(line, &n, NULL, w, rec, st->rgb, 3);
     } else if (rec->kind == EPSNET_REC_TRIANGLE) {
         line[n++] = 'f';
         for (int k = 0; k < 3; k++) {
             line[n++] = ' ';
-            size_t at = n;
-            n += format_u64(line + n, rec->v[k] + 1);
-            size_t idx = n - at;
-            if (uv >= 0 || nrm) {
+            if (!st->corners) {
+                n += format_u64(line + n, rec->v[k] + 1);
+                continue;
+            }
+            const uint64_t *c = st->corner[rec->v[k]];
+            n += format_u64(line + n, c[0] + 1);
+            if (st->uv[0] >= 0 || st->n[0] >= 0)
                 line[n++] = '/';
-                if (uv >= 0) {
-                    memcpy(line + n, line + at, idx);
-                    n += idx;
-                }
-                if (nrm) {
-                    line[n++] = '/';
-                    memcpy(line + n, line + at, idx);
-                    n += idx;
-                }
+            if (st->uv[0] >= 0)
+                n += format_u64(line + n, c[1] + 1);
+            if (st->n[0] >= 0) {
+                line[n++] = '/';
+                n += format_u64(line + n, c[2] + 1);
             }
         }
     } else {
@@ -755,5 +1133,6 @@ const en_format en_format_obj = {
     .open_writer = obj_open_writer,
     .put = obj_put,
     .finish = obj_finish,
+    .close_writer = obj_close_writer,
     .holds_attr = obj_holds_attr,
 };

@@ -1,0 +1,358 @@
+#!/usr/bin/env python3
+"""OBJ texture coordinates and normals (docs/architecture.md §13): a vertex
+record is one (position, vt, vn) of the faces, a position used with
+different vt or vn (a seam) is split into one record per value, and
+simplify keeps every corner's own values because the split copies are an
+open boundary, which is locked (docs/method.md §6). Values are compared as
+float32 bits."""
+import math
+import os
+import shutil
+import struct
+import subprocess
+import sys
+import tempfile
+
+EPSNET = sys.argv[1] if len(sys.argv) > 1 else os.environ["EPSNET_BIN"]
+TMP = tempfile.mkdtemp(prefix="epsnet-objc-")
+failures = 0
+
+
+def run(*args):
+    p = subprocess.run([EPSNET, *args], capture_output=True, text=True, timeout=300)
+    return p.returncode, p.stdout, p.stderr
+
+
+def path(name):
+    return os.path.join(TMP, name)
+
+
+def case(fn):
+    global failures
+    try:
+        fn()
+        print("ok  ", fn.__name__)
+    except AssertionError as e:
+        failures += 1
+        print("FAIL", fn.__name__, "-", e)
+    return fn
+
+
+def f32(text):
+    """The float32 bits a decimal text stands for."""
+    return struct.pack("<f", float(text))
+
+
+def bits(words):
+    return tuple(f32(w) for w in words)
+
+
+def read_obj(p):
+    """Every triangle as three corners (xyz, vt or None, vn or None), in
+    float32 bits; and the counts of v, vt, vn lines."""
+    vs, vts, vns, tris = [], [], [], []
+    with open(p) as f:
+        for line in f:
+            w = line.split()
+            if not w:
+                continue
+            if w[0] == "v":
+                vs.append(bits(w[1:4]))
+            elif w[0] == "vt":
+                vts.append(bits(w[1:3]))
+            elif w[0] == "vn":
+                vns.append(bits(w[1:4]))
+            elif w[0] == "f":
+                corners = []
+                for c in w[1:]:
+                    k = (c.split("/") + ["", ""])[:3]
+                    corners.append((vs[int(k[0]) - 1], vts[int(k[1]) - 1] if k[1] else None,
+                                    vns[int(k[2]) - 1] if k[2] else None))
+                for i in range(1, len(corners) - 1):
+                    tris.append((corners[0], corners[i], corners[i + 1]))
+    return tris, (len(vs), len(vts), len(vns))
+
+
+def read_ascii_ply(p):
+    with open(p) as f:
+        lines = f.read().split("\n")
+    i, names, nv, nf = 0, [], 0, 0
+    while lines[i] != "end_header":
+        w = lines[i].split()
+        if w[:2] == ["element", "vertex"]:
+            nv, el = int(w[2]), "vertex"
+        elif w[:2] == ["element", "face"]:
+            nf, el = int(w[2]), "face"
+        elif w and w[0] == "property" and el == "vertex":
+            names.append(w[2])
+        i += 1
+    i += 1
+    verts = [dict(zip(names, lines[i + k].split())) for k in range(nv)]
+    faces = [[int(x) for x in lines[i + nv + k].split()[1:]] for k in range(nf)]
+    return names, verts, faces
+
+
+def rotated(t):
+    """The same triangle whatever corner it starts from."""
+    k = t.index(min(t))
+    return t[k:] + t[:k]
+
+
+def textured(name, seams, normals=True):
+    """A generated bumpy sphere with vt from the longitude and latitude of
+    each corner's position and vn its direction. seams: a face across the
+    date line gets u + 1 on its corners west of it, as a sphere's UV map
+    does, so the positions along that line have two vt (a UV seam)."""
+    p = path(name)
+    if os.path.exists(p):
+        return p
+    base = path("bumpy.obj")
+    if not os.path.exists(base):
+        rc, _, err = run("gen", "bumpy", "--faces", "20000", "-o", base, "-q")
+        assert rc == 0, err
+    vs, faces = [], []
+    with open(base) as f:
+        for line in f:
+            w = line.split()
+            if w and w[0] == "v":
+                vs.append([float(x) for x in w[1:4]])
+            elif w and w[0] == "f":
+                faces.append([int(x) - 1 for x in w[1:]])
+    vt, vt_index, vn = [], {}, []
+
+    def vt_of(u, v):
+        t = "%.7g %.7g" % (u, v)
+        if t not in vt_index:
+            vt_index[t] = len(vt)
+            vt.append(t)
+        return vt_index[t] + 1
+
+    for x, y, z in vs:
+        r = math.sqrt(x * x + y * y + z * z) or 1
+        vn.append("%.7g %.7g %.7g" % (x / r, y / r, z / r))
+    out = []
+    for t in faces:
+        us = [math.atan2(vs[i][1], vs[i][0]) / (2 * math.pi) + 0.5 for i in t]
+        if seams and max(us) - min(us) > 0.5:
+            us = [u + 1 if u < 0.5 else u for u in us]
+        corners = []
+        for i, u in zip(t, us):
+            k = vt_of(u, vs[i][2] * 0.5 + 0.5)
+            corners.append("%d/%d/%d" % (i + 1, k, i + 1) if normals else "%d/%d" % (i + 1, k))
+        out.append("f " + " ".join(corners))
+    with open(p, "w") as f:
+        f.write("# textured\nmtllib bumpy.mtl\no bumpy\n")
+        for x, y, z in vs:
+            f.write("v %.9g %.9g %.9g\n" % (x, y, z))
+        f.write("".join("vt %s\n" % t for t in vt))
+        if normals:
+            f.write("".join("vn %s\n" % n for n in vn))
+        f.write("usemtl skin\ns 1\n" + "\n".join(out) + "\n")
+    return p
+
+
+@case
+def without_seams_obj_and_ply_round_trip_every_corner():
+    src = textured("smooth.obj", seams=False)
+    tin, counts = read_obj(src)
+    out = path("smooth_out.obj")
+    rc, _, err = run("convert", src, "-o", out)
+    assert rc == 0, err
+    # vt and vn are carried: only what no record holds is named
+    assert err.splitlines() == [f"warning: {src}: dropped: mtllib (1), o (1), usemtl (1), s (1)"], err
+    tout, counts_out = read_obj(out)
+    assert sorted(map(rotated, tout)) == sorted(map(rotated, tin)), "OBJ -> OBJ changed a corner"
+    # one record per position, welded back: the file's own shape
+    assert counts_out == counts, (counts_out, counts)
+    ply = path("smooth.ply")
+    rc, _, err = run("convert", src, "-o", ply, "--ascii", "-q")
+    assert rc == 0, err
+    names, verts, faces = read_ascii_ply(ply)
+    assert names == ["x", "y", "z", "texture_u", "texture_v", "nx", "ny", "nz"], names
+    assert len(verts) == counts[0], (len(verts), counts)
+    corner = lambda v: (bits([v["x"], v["y"], v["z"]]), bits([v["texture_u"], v["texture_v"]]),
+                        bits([v["nx"], v["ny"], v["nz"]]))
+    tply = [tuple(corner(verts[i]) for i in t) for t in faces]
+    assert sorted(map(rotated, tply)) == sorted(map(rotated, tin)), "OBJ -> PLY changed a corner"
+    back = path("smooth_back.obj")
+    rc, _, err = run("convert", ply, "-o", back, "-q")
+    assert rc == 0, err
+    tback, counts_back = read_obj(back)
+    assert sorted(map(rotated, tback)) == sorted(map(rotated, tin)), "PLY -> OBJ changed a corner"
+    assert counts_back == counts, (counts_back, counts)
+
+
+@case
+def a_seam_splits_positions_and_converts_back_to_the_same_corners():
+    src = textured("seams.obj", seams=True)
+    tin, counts = read_obj(src)
+    uv = {}
+    for t in tin:
+        for c in t:
+            uv.setdefault(c[0], set()).add(c[1])
+    seam = [p for p, s in uv.items() if len(s) > 1]
+    assert len(seam) > 10, "the test mesh has no seam"
+    rc, out, err = run("info", src)
+    assert rc == 0 and "vertices:    %d" % (counts[0] + len(seam)) in out, out
+    o = path("seams_out.obj")
+    rc, _, err = run("convert", src, "-o", o, "-q")
+    assert rc == 0, err
+    tout, counts_out = read_obj(o)
+    assert sorted(map(rotated, tout)) == sorted(map(rotated, tin))
+    assert counts_out[0] == counts[0], "split copies are not welded back into one v line"
+
+
+@case
+def simplify_keeps_every_corner_of_a_seamed_obj():
+    src = textured("seams.obj", seams=True)
+    tin, _ = read_obj(src)
+    corners = {c for t in tin for c in t}
+    pairs = {(c[0], c[1]) for c in corners}
+    uv = {}
+    for c in corners:
+        uv.setdefault(c[0], set()).add(c[1])
+    seam = {p for p, s in uv.items() if len(s) > 1}
+    results = {}
+    for tag, opts in (("j1", ["-j1"]), ("j2", ["-j2"]), ("slab", ["-j2", "--slab", "1024"]),
+                      ("ratio", ["-j2", "--ratio", "0.1"])):
+        o = path("simp_%s.obj" % tag)
+        rc, _, err = run("simplify", src, "-o", o, "-q", *opts)
+        assert rc == 0, (tag, err)
+        tout, counts = read_obj(o)
+        assert 0 < len(tout) < len(tin), (tag, len(tout), len(tin))
+        for t in tout:
+            for c in t:
+                assert c[1] is not None and c[2] is not None, f"{tag}: a corner without vt or vn"
+                assert (c[0], c[1]) in pairs, f"{tag}: corner {c[:2]} is not an input corner"
+                assert c in corners, f"{tag}: corner {c} is not an input corner"
+        kept = {c[0] for t in tout for c in t}
+        assert seam <= kept, f"{tag}: {len(seam - kept)} seam positions were removed"
+        with open(o, "rb") as f:
+            results[tag] = f.read()
+    assert results["j1"] == results["j2"], "-j1 and -j2 differ"
+    # the same run again gives the same bytes
+    again = path("simp_again.obj")
+    assert run("simplify", src, "-o", again, "-q", "-j2", "--slab", "1024")[0] == 0
+    with open(again, "rb") as f:
+        assert f.read() == results["slab"], "a second run differs"
+
+
+@case
+def texture_coordinates_alone_and_through_ply():
+    src = textured("uv_only.obj", seams=True, normals=False)
+    tin, _ = read_obj(src)
+    pairs = {(c[0], c[1]) for t in tin for c in t}
+    ply = path("uv_only.ply")
+    rc, _, err = run("simplify", src, "-o", ply, "-q", "--ascii", "--ratio", "0.2")
+    assert rc == 0, err
+    names, verts, faces = read_ascii_ply(ply)
+    assert names == ["x", "y", "z", "texture_u", "texture_v"], names
+    for t in faces:
+        for i in t:
+            v = verts[i]
+            assert (bits([v["x"], v["y"], v["z"]]), bits([v["texture_u"], v["texture_v"]])) in pairs
+    o = path("uv_only_out.obj")
+    rc, _, err = run("convert", ply, "-o", o, "-q")
+    assert rc == 0, err
+    tout, _ = read_obj(o)
+    assert all(c[2] is None and (c[0], c[1]) in pairs for t in tout for c in t)
+
+
+@case
+def sort_and_smz_keep_the_corners():
+    src = textured("seams.obj", seams=True)
+    tin, counts = read_obj(src)
+    smz = path("seams.smz")
+    rc, _, err = run("sort", src, "-o", smz, "-q")
+    assert rc == 0, err
+    o = path("seams_smz.obj")
+    rc, _, err = run("convert", smz, "-o", o, "-q")
+    assert rc == 0, err
+    tout, counts_out = read_obj(o)
+    assert sorted(map(rotated, tout)) == sorted(map(rotated, tin)), "sort and .smz changed a corner"
+    assert counts_out[0] == counts[0], (counts_out, counts)
+    corners = {c for t in tin for c in t}
+    s = path("seams_smz_simp.obj")
+    rc, _, err = run("simplify", smz, "-o", s, "-q", "-j2", "--slab", "1024")
+    assert rc == 0, err
+    tout, _ = read_obj(s)
+    assert tout and all(c in corners for t in tout for c in t), "simplify of the .smz changed a corner"
+
+
+@case
+def a_pipe_is_read_ahead_in_its_window():
+    text = ("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 0.5 0.5\nvn 0 0 1\n"
+            "f 1/1/1 2/2/1 3/3/1\nf 1/5/1 3/3/1 4/4/1\n")
+    o = path("pipe.obj")
+    p = subprocess.run([EPSNET, "convert", "-", "-o", o, "-q"], input=text, capture_output=True, text=True,
+                       timeout=60)
+    assert p.returncode == 0, p.stderr
+    src = path("pipe_in.obj")
+    with open(src, "w") as f:
+        f.write(text)
+    tin, _ = read_obj(src)
+    tout, counts = read_obj(o)
+    assert sorted(map(rotated, tout)) == sorted(map(rotated, tin)), (tin, tout)
+    assert counts == (4, 5, 1), counts
+
+
+@case
+def an_output_without_vt_and_vn_gets_the_mesh_uncut():
+    """simplify to a format that holds neither: the positions are the
+    vertices, so no seam copies (vertices at the same place) come out."""
+    src = textured("seams.obj", seams=True)
+    o = path("seams.sma")
+    rc, _, err = run("simplify", src, "-o", o, "-j2", "--ratio", "0.2")
+    assert rc == 0, err
+    assert "vertex property texture_u" in err and "vertex property nz" in err, err
+    with open(o) as f:
+        xyz = [tuple(line.split()[1:4]) for line in f if line.startswith("v ")]
+    assert xyz and len(set(xyz)) == len(xyz), f"{len(xyz) - len(set(xyz))} vertices share a place: a cut mesh"
+
+
+def expect_bad(name, text, line, reason):
+    src = path(name)
+    with open(src, "w") as f:
+        f.write(text)
+    out = path("bad_out.ply")
+    rc, _, err = run("convert", src, "-o", out, "-q")
+    lines = err.strip().splitlines()
+    assert rc == 2, f"{name}: exit {rc}; stderr={err!r}"
+    assert len(lines) == 1, f"{name}: want one error line, got {lines!r}"
+    assert f"{src}:{line}:" in lines[0], f"{name}: file and line not in {lines[0]!r}"
+    assert reason in lines[0], f"{name}: {reason!r} not in {lines[0]!r}"
+    assert not os.path.exists(out), f"{name}: output left behind"
+
+
+@case
+def malformed_vt_vn_and_corners_name_file_and_line():
+    head = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvn 0 0 1\n"
+    expect_bad("vt9.obj", head + "f 1/1/1 2/2/1 3/9/1\n", 7, "vt index 9, but only 2 vt precede it")
+    expect_bad("vn0.obj", head + "f 1/1/0 2/2/1 3/2/1\n", 7, "vn index 0")
+    expect_bad("v9.obj", head + "f 1/1/1 2/2/1 9/2/1\n", 7, "vertex index 9")
+    expect_bad("vtneg.obj", head + "f 1/-3/1 2/2/1 3/2/1\n", 7, "relative vt index -3")
+    expect_bad("vtx.obj", head + "f 1/1/1 2/2/1 3/a/1\n", 7, "bad corner '3/a/1'")
+    expect_bad("vt4.obj", "v 0 0 0\nvt 1 2 3 4\nf 1/1 1/1 1/1\n", 2, "more than 3 values")
+    expect_bad("vn2.obj", "v 0 0 0\nvn 1 0\nf 1//1 1//1 1//1\n", 2, "vn 1 has 2 values")
+    # a vt after the faces began is checked like the others
+    expect_bad("late.obj", head + "f 1/1/1 2/2/1 3/2/1\nvt 0 x\n", 8, "'x' is not a number")
+
+
+@case
+def what_is_not_carried_is_named_and_vt_vn_are_not():
+    src = path("named.obj")
+    with open(src, "w") as f:
+        f.write("mtllib m.mtl\ng one\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0 0\nvt 1 0\nvn 0 0 1\n"
+                "usemtl red\nf 1/1/1 2/2/1 3/2/1\nl 1 2\n")
+    rc, _, err = run("convert", src, "-o", path("named.ply"))
+    assert rc == 0, err
+    assert err.splitlines() == [f"warning: {src}: dropped: mtllib (1), g (1), vt w (1), usemtl (1), l (1)"], err
+    # an output without vt and vn says that it drops them
+    smb = path("named.smb")
+    rc, _, err = run("convert", src, "-o", smb)
+    assert rc == 0, err
+    assert "texture_u" in err and "nz" in err and "usemtl" in err, err
+
+
+shutil.rmtree(TMP, ignore_errors=True)
+sys.exit(1 if failures else 0)
