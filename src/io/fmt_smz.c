@@ -11,6 +11,10 @@
  * by vertex (docs/architecture.md §5: a stream claimed sorted that is not is an error).
  * Errors inside a block name the block and its byte offset.
  *
+ * Given a pool (smz_use_pool), the reader reads blocks ahead on the caller's
+ * thread and decodes them on the workers; everything above still happens on
+ * the caller's thread at each block's turn (docs/architecture.md §10).
+ *
  * Writer: counts, bbox and the sorted flag are only known at the end, so the
  * header carries what the caller announced and is patched on seekable
  * outputs; the trailer always holds the exact values. On an output that
