@@ -11,6 +11,8 @@
 #include <unistd.h>
 
 #include "api/run.h"
+#include "common/pool.h"
+#include "io/format.h"
 #include "sample_util.h"
 
 static uint64_t *sorted_sample_gids(const char *shape, uint64_t faces, uint64_t *n)
@@ -221,25 +223,90 @@ TEST(seam_jobs_give_the_same_bytes_for_any_thread_count)
     }
 }
 
-/* docs/architecture.md §10: with workers, .smz blocks are read ahead and
- * decoded on the pool, and every check still happens at the block's turn:
- * a damaged block, a damaged header or a cut file fails with the same code
- * and message for every thread count, and a sound file gives the same
- * bytes (same_bytes_for_threads_1_2_3_8 reads .smz too). */
-TEST(damaged_smz_fails_alike_for_any_thread_count)
+/* Copy the mesh at in to out (a .smz), giving every vertex attributes
+ * that vary along the surface (docs/smz.md "Attributes": float and integer
+ * values, predicted from a neighbour), and, after triangle bad_tri (0:
+ * none), a triangle that uses vertex 0, finalized long before (a stream error the
+ * reader front end finds while it pushes that block's records). */
+static int copy_with_attrs(const char *in, const char *out, uint64_t bad_tri, epsnet_error *err)
 {
-    char in[512], bad[512], out[512];
-    snprintf(in, sizeof in, "%s", tl_path("blocks.smz"));
+    epsnet_reader *r = NULL;
+    epsnet_writer *w = NULL;
+    int rc = epsnet_reader_open(&r, in, NULL, err);
+    epsnet_mesh_info info;
+    if (rc == 0) {
+        info = *epsnet_reader_info(r);
+        memset(&info.vertex_attrs, 0, sizeof info.vertex_attrs);
+        epsnet_attr_layout_add(&info.vertex_attrs, "confidence", EPSNET_ATTR_FLOAT32);
+        epsnet_attr_layout_add(&info.vertex_attrs, "red", EPSNET_ATTR_UINT8);
+        epsnet_attr_layout_add(&info.vertex_attrs, "weight", EPSNET_ATTR_FLOAT64);
+        epsnet_attr_layout_add(&info.vertex_attrs, "label", EPSNET_ATTR_INT16);
+        rc = epsnet_writer_open(&w, out, NULL, &info, err);
+    }
+    uint64_t nv = 0, nt = 0;
+    epsnet_record rec;
+    while (rc == 0 && (rc = epsnet_reader_next(r, &rec, err)) == 1) {
+        uint8_t a[15];
+        if (rec.kind == EPSNET_REC_VERTEX) {
+            float c = (float)(rec.xyz[0] * 0.5 + rec.xyz[2]);
+            uint8_t red = (uint8_t)(128 + 100 * rec.xyz[1]);
+            double wt = rec.xyz[0] * rec.xyz[1] - (double)nv * 1e-7;
+            int16_t label = (int16_t)(nv % 7 == 0 ? -(int)(nv % 1000) : (int)(nv / 50));
+            memcpy(a, &c, 4);
+            a[4] = red;
+            memcpy(a + 5, &wt, 8);
+            memcpy(a + 13, &label, 2);
+            rec.attr = a;
+            nv++;
+        }
+        rc = epsnet_writer_put(w, &rec, err);
+        if (rc == 0 && rec.kind == EPSNET_REC_TRIANGLE && ++nt == bad_tri) {
+            epsnet_record t = { .kind = EPSNET_REC_TRIANGLE, .v = { 0, nv - 1, nv - 2 } };
+            rc = epsnet_writer_put(w, &t, err);
+        }
+    }
+    if (rc == 0)
+        rc = epsnet_writer_commit(&w, err);
+    epsnet_writer_abort(&w);
+    epsnet_reader_close(&r);
+    return rc;
+}
+
+/* Simplify bad with 1, 2 and 8 threads: each must fail, all alike. */
+static void fails_alike(const char *bad, const char *out, const char *kind)
+{
+    int first_rc = 0;
+    char first_msg[1200] = "";
+    for (int t = 0; t < 3; t++) {
+        static const int threads[] = { 1, 2, 8 };
+        epsnet_error e;
+        memset(&e, 0, sizeof e);
+        int rc = simplify_file(bad, out, 3000, threads[t], 1, NULL, &e);
+        CHECK(rc < 0);
+        if (t == 0) {
+            first_rc = rc;
+            snprintf(first_msg, sizeof first_msg, "%s", epsnet_error_message(&e));
+            continue;
+        }
+        int same = rc == first_rc && strcmp(first_msg, epsnet_error_message(&e)) == 0;
+        if (!same)
+            fprintf(stderr, "  %s, %d threads: %d '%s' vs %d '%s'\n", kind, threads[t], rc,
+                    epsnet_error_message(&e), first_rc, first_msg);
+        CHECK(same);
+    }
+}
+
+/* Damage the .smz at in three ways (late in a block's payload, a field of a
+ * later block's header, the file cut short) and check each fails alike. */
+static void damaged_fails_alike(const char *in, const char *what)
+{
+    char bad[512], out[512];
     snprintf(out, sizeof out, "%s", tl_path("blocks_out.smz"));
-    epsnet_error err;
-    CHECK_EQ_INT(tl_gen_file(in, "bumpy", 120000, NAN, 3, 0, &err), 0); /* several blocks */
     size_t n;
     unsigned char *data = tl_read_file(in, &n);
     CHECK(data != NULL && n > 4096);
     if (!data)
         return;
-    /* Late in the file (a later block's payload), at a block header's tag,
-     * and the file cut short. */
     size_t tag = 0;
     for (size_t i = n / 2; i + 4 < n && !tag; i++)
         if (memcmp(data + i, "SMZB", 4) == 0)
@@ -261,27 +328,102 @@ TEST(damaged_smz_fails_alike_for_any_thread_count)
             len = n * 2 / 3;
         snprintf(bad, sizeof bad, "%s", tl_write("blocks_bad.smz", copy, len));
         free(copy);
-        int first_rc = 0;
-        char first_msg[1200] = "";
-        for (int t = 0; t < 3; t++) {
-            static const int threads[] = { 1, 2, 8 };
-            epsnet_error e;
-            memset(&e, 0, sizeof e);
-            int rc = simplify_file(bad, out, 3000, threads[t], 1, NULL, &e);
-            CHECK(rc < 0);
-            if (t == 0) {
-                first_rc = rc;
-                snprintf(first_msg, sizeof first_msg, "%s", epsnet_error_message(&e));
-                continue;
-            }
-            int same = rc == first_rc && strcmp(first_msg, epsnet_error_message(&e)) == 0;
-            if (!same)
-                fprintf(stderr, "  %s, %d threads: %d '%s' vs %d '%s'\n", kinds[k], threads[t], rc,
-                        epsnet_error_message(&e), first_rc, first_msg);
-            CHECK(same);
-        }
+        char kind[200];
+        snprintf(kind, sizeof kind, "%s, %s", what, kinds[k]);
+        fails_alike(bad, out, kind);
     }
     free(data);
+}
+
+/* docs/architecture.md §10: with workers, .smz blocks are read ahead and
+ * decoded on the pool, and every check still happens at the block's turn:
+ * a damaged block, a damaged header or a cut file fails with the same code
+ * and message for every thread count, version 2 with attributes too, and
+ * so does a stream error the reader front end finds in a block read ahead
+ * (its byte offset is where the one-thread reader stands); a sound file
+ * gives the same bytes (same_bytes_for_threads_1_2_3_8 reads .smz too). */
+TEST(damaged_smz_fails_alike_for_any_thread_count)
+{
+    char in[512], attrs[512], out[512];
+    snprintf(in, sizeof in, "%s", tl_path("blocks.smz"));
+    snprintf(attrs, sizeof attrs, "%s", tl_path("blocks_attrs.smz"));
+    snprintf(out, sizeof out, "%s", tl_path("blocks_out.smz"));
+    epsnet_error err;
+    CHECK_EQ_INT(tl_gen_file(in, "bumpy", 120000, NAN, 3, 0, &err), 0); /* several blocks */
+    damaged_fails_alike(in, "no attributes");
+    CHECK_EQ_INT(copy_with_attrs(in, attrs, 0, &err), 0);
+    damaged_fails_alike(attrs, "attributes");
+    CHECK_EQ_INT(copy_with_attrs(in, attrs, 80000, &err), 0); /* of about 120000 */
+    fails_alike(attrs, out, "a finalized vertex used late");
+}
+
+/* The records themselves: a reader given a pool (en_reader_use_pool) hands
+ * out the records and attribute bytes of the one-thread reader, for 1, 2
+ * and 8 workers, and its blocks did run on the workers. */
+TEST(smz_records_alike_on_the_pool)
+{
+    char in[512], attrs[512];
+    snprintf(in, sizeof in, "%s", tl_path("recs.smz"));
+    snprintf(attrs, sizeof attrs, "%s", tl_path("recs_attrs.smz"));
+    epsnet_error err;
+    CHECK_EQ_INT(tl_gen_file(in, "torus", 150000, NAN, 5, 0, &err), 0);
+    CHECK_EQ_INT(copy_with_attrs(in, attrs, 0, &err), 0);
+    const char *files[] = { in, attrs };
+    for (int f = 0; f < 2; f++) {
+        epsnet_reader *r = NULL;
+        CHECK_EQ_INT(epsnet_reader_open(&r, files[f], NULL, &err), 0);
+        if (!r)
+            continue;
+        size_t asz = epsnet_reader_info(r)->vertex_attrs.size, n = 0, cap = 1 << 16;
+        CHECK(f == 0 || asz == 15);
+        epsnet_record *recs = malloc(cap * sizeof *recs);
+        uint8_t *abytes = malloc(cap * (asz + 1));
+        epsnet_record rec;
+        int rc;
+        while (recs && abytes && (rc = epsnet_reader_next(r, &rec, &err)) == 1) {
+            if (n == cap) {
+                cap *= 2;
+                recs = realloc(recs, cap * sizeof *recs);
+                abytes = realloc(abytes, cap * (asz + 1));
+                if (!recs || !abytes)
+                    break;
+            }
+            if (rec.attr)
+                memcpy(abytes + n * asz, rec.attr, asz);
+            recs[n++] = rec;
+        }
+        epsnet_reader_close(&r);
+        CHECK(recs && abytes && n > 70000 * 4); /* several blocks */
+        static const int threads[] = { 1, 2, 8 };
+        for (int t = 0; recs && abytes && t < 3; t++) {
+            en_pool *pool = NULL;
+            CHECK_EQ_INT(en_pool_new(&pool, threads[t] == 1 ? 0 : threads[t]), 0);
+            CHECK_EQ_INT(epsnet_reader_open(&r, files[f], NULL, &err), 0);
+            if (!pool || !r)
+                break;
+            CHECK_EQ_INT(en_reader_use_pool(r, pool), 0);
+            size_t i = 0, bad = 0;
+            while ((rc = epsnet_reader_next(r, &rec, &err)) == 1) {
+                if (i >= n || rec.kind != recs[i].kind ||
+                    memcmp(rec.v, recs[i].v, sizeof rec.v) != 0 ||
+                    (rec.kind == EPSNET_REC_VERTEX && memcmp(rec.xyz, recs[i].xyz, sizeof rec.xyz) != 0) ||
+                    (rec.attr == NULL) != (asz == 0 || rec.kind != EPSNET_REC_VERTEX) ||
+                    (rec.attr && memcmp(rec.attr, abytes + i * asz, asz) != 0))
+                    bad++;
+                i++;
+            }
+            CHECK_EQ_INT(rc, 0);
+            CHECK_EQ_U64(i, n);
+            CHECK_EQ_U64(bad, 0);
+            CHECK_EQ_INT(en_reader_use_pool(r, NULL), 0);
+            if (threads[t] > 1)
+                CHECK(en_pool_job_cpu_seconds(pool) > 0); /* the blocks were decoded by jobs */
+            epsnet_reader_close(&r);
+            en_pool_free(&pool);
+        }
+        free(recs);
+        free(abytes);
+    }
 }
 
 typedef struct stream_check {
@@ -857,6 +999,7 @@ int main(void)
     RUN(same_bytes_for_threads_1_2_3_8);
     RUN(seam_jobs_give_the_same_bytes_for_any_thread_count);
     RUN(damaged_smz_fails_alike_for_any_thread_count);
+    RUN(smz_records_alike_on_the_pool);
     RUN(output_is_a_valid_sorted_stream_keeping_samples_and_genus);
     RUN(seams_are_simplified_like_the_rest);
     RUN(active_set_grows_with_width_not_length);

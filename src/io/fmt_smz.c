@@ -11,6 +11,10 @@
  * by vertex (docs/architecture.md §5: a stream claimed sorted that is not is an error).
  * Errors inside a block name the block and its byte offset.
  *
+ * Given a pool (smz_use_pool), the reader reads blocks ahead on the caller's
+ * thread and decodes them on the workers; everything above still happens on
+ * the caller's thread at each block's turn (docs/architecture.md §10).
+ *
  * Writer: counts, bbox and the sorted flag are only known at the end, so the
  * header carries what the caller announced and is patched on seekable
  * outputs; the trailer always holds the exact values. On an output that
@@ -24,6 +28,8 @@
 #include <zstd.h>
 
 #include "common/alloc.h"
+#include "common/pool.h"
+#include "common/u64set.h"
 #include "io/format.h"
 #include "io/smz.h"
 
@@ -31,7 +37,41 @@
 
 /* ---- reader ---- */
 
-typedef struct smz_reader {
+typedef struct smz_reader smz_reader;
+
+/*
+ * A block read ahead by the caller's thread and decompressed and decoded on
+ * a worker (docs/architecture.md §10). Blocks share nothing (docs/smz.md:
+ * no state from earlier blocks; version 2 predicts from the block's own
+ * vertices and triangles), so a block decodes from its bytes, its header
+ * and the file's header alone. The caller's thread writes b, offset,
+ * block_no, read_rc, read_err and payload before submitting; the worker
+ * writes raw, recs, attrs, bad and why; the caller reads them after its
+ * ring retires the job, in block order, and makes every check that depends
+ * on the stream (vertices before the block, sortedness, finalizations)
+ * then, exactly where the one-thread reader makes them.
+ */
+typedef struct smz_job {
+    en_smz_block_header b;
+    const en_smz_header *h;        /* the reader's, read-only once open */
+    uint64_t offset;               /* of the block's tag */
+    uint64_t block_no;
+    int read_rc;                   /* the payload could not be read: raised at the block's turn */
+    epsnet_error read_err;
+    ZSTD_DCtx *dctx;
+    uint8_t *payload;
+    size_t payload_cap;
+    uint8_t *raw;                  /* worker */
+    size_t raw_cap;
+    epsnet_record *recs;           /* worker; vertex records' attr point into attrs */
+    size_t recs_cap;
+    uint8_t *attrs;                /* worker */
+    size_t attrs_cap;
+    int bad;                       /* worker: corrupt, why says how */
+    char why[200];
+} smz_job;
+
+struct smz_reader {
     en_smz_header header;
     ZSTD_DCtx *dctx;
     uint8_t *payload;
@@ -42,6 +82,7 @@ typedef struct smz_reader {
     size_t recs_cap;
     uint8_t *attrs;                /* the current block's vertex attribute bytes */
     size_t attrs_cap;
+    const epsnet_record *cur;      /* the current block's records: recs, or a job's */
     uint32_t nrecs, pos;           /* decoded records of the current block */
     uint64_t block_no;             /* blocks read so far */
     uint64_t block_offset;         /* of the current block */
@@ -51,7 +92,15 @@ typedef struct smz_reader {
     double prev_axis;
     double lo[3], hi[3];
     int finished;
-} smz_reader;
+    /* Decoding on the pool (smz_use_pool); ring NULL: on the caller's thread. */
+    en_jobring *ring;
+    smz_job *jobs;                 /* njobs slots: at most njobs - 1 in flight, so the
+                                    * current block's job stays untouched while it is pushed */
+    size_t njobs;
+    uint64_t submitted;            /* jobs ever submitted */
+    size_t ahead_bytes;            /* buffers the job slots hold (docs/architecture.md §12) */
+    int ahead_stop;                /* the index, the end or anything odd: the one-thread path takes over */
+};
 
 static int source_failed(epsnet_reader *r)
 {
@@ -139,6 +188,61 @@ static int grow_to(void **p, size_t *cap, size_t need, size_t elem)
     return need <= *cap ? 0 : en_grow(p, cap, need, elem);
 }
 
+static int first_vertex_check(epsnet_reader *r, smz_reader *st, const en_smz_block_header *b)
+{
+    if (b->first_vertex != r->nverts)
+        return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset,
+                                 "block %llu is corrupt: it says %llu vertices precede it, but %llu do",
+                                 (unsigned long long)st->block_no, (unsigned long long)b->first_vertex,
+                                 (unsigned long long)r->nverts);
+    return 0;
+}
+
+/* The block's records are decoded into recs: note its index entry and make
+ * them the current block. */
+static void block_decoded(epsnet_reader *r, smz_reader *st, const en_smz_block_header *b,
+                          const epsnet_record *recs)
+{
+    en_smz_index_entry e = {
+        .offset = st->block_offset, .first_vertex = b->first_vertex, .first_triangle = r->ntris,
+        .records = b->records, .compressed_bytes = b->compressed_bytes, .axis_min = INFINITY, .axis_max = -INFINITY,
+    };
+    int axis = st->header.axis >= 0 ? st->header.axis : 0;
+    for (uint32_t i = 0; i < b->records; i++) {
+        const epsnet_record *rec = &recs[i];
+        if (rec->kind != EPSNET_REC_VERTEX)
+            continue;
+        double a = rec->xyz[axis];
+        if (a < e.axis_min)
+            e.axis_min = a;
+        if (a > e.axis_max)
+            e.axis_max = a;
+    }
+    uint8_t eb[EN_SMZ_INDEX_ENTRY_BYTES];
+    en_smz_index_entry_encode(&e, eb);
+    st->index_crc = en_smz_crc32(st->index_crc, eb, sizeof eb);
+    st->cur = recs;
+    st->nrecs = b->records;
+    st->pos = 0;
+    st->ntris_before = r->ntris;
+    st->block_no++;
+}
+
+/* Room for block b's buffers. @return 0 or -1 (out of memory). */
+static int block_room(const en_smz_header *h, const en_smz_block_header *b, uint8_t **payload, size_t *payload_cap,
+                      uint8_t **raw, size_t *raw_cap, epsnet_record **recs, size_t *recs_cap, uint8_t **attrs,
+                      size_t *attrs_cap)
+{
+    void *pp = *payload, *rp = *raw, *qp = *recs, *ap = *attrs;
+    if (grow_to(&pp, payload_cap, b->compressed_bytes, 1) || (*payload = pp, 0) ||
+        grow_to(&rp, raw_cap, b->raw_bytes, 1) || (*raw = rp, 0) ||
+        grow_to(&qp, recs_cap, b->records, sizeof **recs) || (*recs = qp, 0))
+        return -1;
+    if (h->attrs.size && (grow_to(&ap, attrs_cap, (size_t)b->nverts * h->attrs.size, 1) || (*attrs = ap, 0)))
+        return -1;
+    return 0;
+}
+
 /* Read, check and decode the block whose tag starts at st->block_offset. */
 static int read_block(epsnet_reader *r, smz_reader *st)
 {
@@ -154,19 +258,10 @@ static int read_block(epsnet_reader *r, smz_reader *st)
     if (en_smz_block_header_decode(bh, &b, why, sizeof why))
         return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset, "block %llu is corrupt: %s",
                                  (unsigned long long)st->block_no, why);
-    if (b.first_vertex != r->nverts)
-        return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset,
-                                 "block %llu is corrupt: it says %llu vertices precede it, but %llu do",
-                                 (unsigned long long)st->block_no, (unsigned long long)b.first_vertex,
-                                 (unsigned long long)r->nverts);
-    void *pp = st->payload, *rp = st->raw, *qp = st->recs;
-    if (grow_to(&pp, &st->payload_cap, b.compressed_bytes, 1) || (st->payload = pp, 0) ||
-        grow_to(&rp, &st->raw_cap, b.raw_bytes, 1) || (st->raw = rp, 0) ||
-        grow_to(&qp, &st->recs_cap, b.records, sizeof *st->recs) || (st->recs = qp, 0))
-        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
-    void *ap = st->attrs;
-    if (st->header.attrs.size &&
-        (grow_to(&ap, &st->attrs_cap, (size_t)b.nverts * st->header.attrs.size, 1) || (st->attrs = ap, 0)))
+    if ((rc = first_vertex_check(r, st, &b)))
+        return rc;
+    if (block_room(&st->header, &b, &st->payload, &st->payload_cap, &st->raw, &st->raw_cap, &st->recs,
+                   &st->recs_cap, &st->attrs, &st->attrs_cap))
         return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
     rc = en_source_read(r->src, st->payload, b.compressed_bytes, what, &r->err);
     if (rc) {
@@ -177,28 +272,7 @@ static int read_block(epsnet_reader *r, smz_reader *st)
         en_smz_decode_block_h(st->raw, &b, &st->header, st->attrs, st->recs, why, sizeof why))
         return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset, "block %llu is corrupt: %s",
                                  (unsigned long long)st->block_no, why);
-    en_smz_index_entry e = {
-        .offset = st->block_offset, .first_vertex = b.first_vertex, .first_triangle = r->ntris,
-        .records = b.records, .compressed_bytes = b.compressed_bytes, .axis_min = INFINITY, .axis_max = -INFINITY,
-    };
-    int axis = st->header.axis >= 0 ? st->header.axis : 0;
-    for (uint32_t i = 0; i < b.records; i++) {
-        const epsnet_record *rec = &st->recs[i];
-        if (rec->kind != EPSNET_REC_VERTEX)
-            continue;
-        double a = rec->xyz[axis];
-        if (a < e.axis_min)
-            e.axis_min = a;
-        if (a > e.axis_max)
-            e.axis_max = a;
-    }
-    uint8_t eb[EN_SMZ_INDEX_ENTRY_BYTES];
-    en_smz_index_entry_encode(&e, eb);
-    st->index_crc = en_smz_crc32(st->index_crc, eb, sizeof eb);
-    st->nrecs = b.records;
-    st->pos = 0;
-    st->ntris_before = r->ntris;
-    st->block_no++;
+    block_decoded(r, st, &b, st->recs);
     return 0;
 }
 
@@ -298,6 +372,7 @@ static int read_index(epsnet_reader *r, smz_reader *st, uint64_t index_offset)
 static int next_block(epsnet_reader *r, smz_reader *st)
 {
     en_source *s = r->src;
+    r->here_set = 0; /* the one-thread path: the source stands where errors say */
     size_t n = en_source_fill(s, 4);
     if (s->failed)
         return source_failed(r);
@@ -319,6 +394,182 @@ static int next_block(epsnet_reader *r, smz_reader *st)
                              (unsigned long long)st->block_no);
 }
 
+/* ---- decoding on the pool ---- */
+
+static int decode_job(void *job)
+{
+    smz_job *j = job;
+    if (j->read_rc == 0)
+        j->bad = en_smz_unpack(j->dctx, j->payload, &j->b, j->raw, j->why, sizeof j->why) ||
+                 en_smz_decode_block_h(j->raw, &j->b, j->h, j->attrs, j->recs, j->why, sizeof j->why);
+    return 0;
+}
+
+static size_t job_bytes(const smz_job *j)
+{
+    return j->payload_cap + j->raw_cap + j->recs_cap * sizeof *j->recs + j->attrs_cap;
+}
+
+/* Whether the job slots may grow to hold `more` bytes more: the blocks read
+ * ahead count with the reader's live vertices against the memory budget
+ * (docs/architecture.md §12). Over it the reading ahead waits (it never
+ * fails: an error there would not be the one-thread reader's), except with
+ * nothing in flight, where one block is what the one-thread reader holds
+ * too. */
+static int ahead_fits(const epsnet_reader *r, const smz_reader *st, size_t more)
+{
+    uint64_t limit = r->settings.mem_limit;
+    if (!limit || en_jobring_in_flight(st->ring) == 0)
+        return 1;
+    uint64_t live = r->live ? en_u64set_bytes(r->live) : 0;
+    return live + st->ahead_bytes + more <= limit;
+}
+
+/*
+ * Read blocks ahead while the ring has room, and submit each for decoding.
+ * Anything but a well-formed block header (the index, the end, a corrupt
+ * or truncated header, no memory) stops the reading ahead for good, before
+ * that header is consumed: the one-thread path reaches it once the blocks
+ * in flight are used up, and says what it says today. Called only between
+ * blocks (st->block_no blocks given out), so the blocks in flight are the
+ * next ones in order.
+ */
+static void read_ahead(epsnet_reader *r, smz_reader *st)
+{
+    en_source *s = r->src;
+    while (!st->ahead_stop && !en_jobring_full(st->ring) && en_jobring_in_flight(st->ring) + 1 < st->njobs) {
+        size_t n = en_source_fill(s, EN_SMZ_BLOCK_HEADER_BYTES);
+        en_smz_block_header b;
+        char why[200];
+        if (s->failed || n < EN_SMZ_BLOCK_HEADER_BYTES || memcmp(s->cur, "SMZB", 4) != 0 ||
+            en_smz_block_header_decode(s->cur, &b, why, sizeof why)) {
+            st->ahead_stop = 1;
+            break;
+        }
+        smz_job *j = &st->jobs[st->submitted % st->njobs];
+        size_t before = job_bytes(j);
+        /* note: what the slot will hold, estimated from the header's sizes
+         * before growing (capacities double, so this is a lower bound). */
+        size_t need = (size_t)b.compressed_bytes + b.raw_bytes + (size_t)b.records * sizeof *j->recs +
+                      (size_t)b.nverts * st->header.attrs.size;
+        if (need > before && !ahead_fits(r, st, need - before))
+            break; /* waits for the blocks in flight to be used up */
+        if (block_room(&st->header, &b, &j->payload, &j->payload_cap, &j->raw, &j->raw_cap, &j->recs,
+                       &j->recs_cap, &j->attrs, &j->attrs_cap)) {
+            st->ahead_bytes += job_bytes(j) - before;
+            st->ahead_stop = 1;
+            break;
+        }
+        st->ahead_bytes += job_bytes(j) - before;
+        char what[64];
+        j->block_no = st->block_no + en_jobring_in_flight(st->ring);
+        snprintf(what, sizeof what, "block %llu", (unsigned long long)j->block_no);
+        j->b = b;
+        j->h = &st->header;
+        j->offset = en_source_offset(s);
+        j->bad = 0;
+        uint8_t bh[EN_SMZ_BLOCK_HEADER_BYTES];
+        j->read_rc = en_source_read(s, bh, sizeof bh, what, &j->read_err); /* in the window: cannot fail */
+        if (j->read_rc == 0)
+            j->read_rc = en_source_read(s, j->payload, b.compressed_bytes, what, &j->read_err);
+        if (j->read_rc)
+            st->ahead_stop = 1; /* raised at its turn (next_block_pooled) */
+        if (en_jobring_submit(st->ring, decode_job, j)) {
+            st->ahead_stop = 1; /* cannot happen: the ring had room */
+            break;
+        }
+        st->submitted++;
+    }
+}
+
+static int next_block(epsnet_reader *r, smz_reader *st);
+
+/* next_block() with the blocks decoded on the pool: the oldest block read
+ * ahead, checked in the order read_block() checks. */
+static int next_block_pooled(epsnet_reader *r, smz_reader *st)
+{
+    read_ahead(r, st);
+    void *job;
+    int result;
+    if (!en_jobring_retire(st->ring, &job, &result))
+        return next_block(r, st);
+    smz_job *j = job;
+    r->here_set = 0;
+    st->block_offset = j->offset;
+    int rc = first_vertex_check(r, st, &j->b);
+    if (rc)
+        return rc;
+    if (j->read_rc) {
+        r->err = j->read_err;
+        r->failed = 1;
+        return j->read_rc;
+    }
+    if (j->bad)
+        return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset, "block %llu is corrupt: %s",
+                                 (unsigned long long)st->block_no, j->why);
+    block_decoded(r, st, &j->b, j->recs);
+    /* The source is past the blocks read ahead; errors while this block's
+     * records are pushed name where the one-thread reader stands: its end. */
+    r->here = j->offset + EN_SMZ_BLOCK_HEADER_BYTES + j->b.compressed_bytes;
+    r->here_set = 1;
+    read_ahead(r, st); /* decode the next ones while this one is pushed */
+    return 1;
+}
+
+static void jobs_free(smz_reader *st)
+{
+    en_jobring_free(&st->ring, NULL);
+    for (size_t i = 0; i < st->njobs; i++) {
+        ZSTD_freeDCtx(st->jobs[i].dctx);
+        en_free(st->jobs[i].payload);
+        en_free(st->jobs[i].raw);
+        en_free(st->jobs[i].recs);
+        en_free(st->jobs[i].attrs);
+    }
+    en_free(st->jobs);
+    st->jobs = NULL;
+    st->njobs = 0;
+    st->ahead_bytes = 0;
+}
+
+/*
+ * From now on decode blocks on pool (NULL, or a pool without workers: on
+ * the caller's thread). Stopping waits for the blocks in flight; the
+ * records of a block already given out stay readable (they are copied).
+ */
+static int smz_use_pool(epsnet_reader *r, en_pool *pool)
+{
+    smz_reader *st = r->state;
+    if (!pool || en_pool_threads(pool) == 0) {
+        int lost = st->ring && en_jobring_in_flight(st->ring);
+        if (st->ring && st->pos < st->nrecs && st->cur != st->recs)
+            lost = 1; /* records of the current block live in a job slot */
+        jobs_free(st); /* waits for the blocks in flight: the pool may go next */
+        if (lost && !r->failed) /* read ahead and now dropped: this reader cannot go on */
+            return en_reader_fail(r, EPSNET_EINTERNAL, "blocks read ahead were dropped (a bug)"), 0;
+        return 0;
+    }
+    if (st->ring)
+        return 0;
+    size_t cap = 2 * (size_t)en_pool_threads(pool);
+    if (en_jobring_new(&st->ring, pool, cap))
+        return EPSNET_ENOMEM;
+    st->njobs = cap + 1;
+    st->jobs = en_calloc(st->njobs, sizeof *st->jobs);
+    int rc = st->jobs ? 0 : EPSNET_ENOMEM;
+    for (size_t i = 0; i < st->njobs && rc == 0; i++)
+        if (!(st->jobs[i].dctx = ZSTD_createDCtx()))
+            rc = EPSNET_ENOMEM;
+    if (rc) {
+        if (!st->jobs)
+            st->njobs = 0;
+        jobs_free(st);
+        return rc;
+    }
+    st->ahead_stop = st->finished;
+    return 0;
+}
+
 static int smz_fill(epsnet_reader *r)
 {
     smz_reader *st = r->state;
@@ -326,14 +577,14 @@ static int smz_fill(epsnet_reader *r)
         if (st->pos == st->nrecs) {
             if (st->finished)
                 break;
-            int rc = next_block(r, st);
+            int rc = st->ring ? next_block_pooled(r, st) : next_block(r, st);
             if (rc < 0)
                 return rc;
             if (rc == 0)
                 break;
             continue;
         }
-        int rc = push_one(r, st, &st->recs[st->pos]);
+        int rc = push_one(r, st, &st->cur[st->pos]);
         if (rc)
             return rc;
         st->pos++;
@@ -346,6 +597,7 @@ static void smz_close_reader(epsnet_reader *r)
     smz_reader *st = r->state;
     if (!st)
         return;
+    jobs_free(st); /* waits for the blocks in flight */
     ZSTD_freeDCtx(st->dctx);
     en_free(st->payload);
     en_free(st->raw);
@@ -588,6 +840,7 @@ const en_format en_format_smz = {
     .open_reader = smz_open_reader,
     .fill = smz_fill,
     .close_reader = smz_close_reader,
+    .use_pool = smz_use_pool,
     .open_writer = smz_open_writer,
     .put = smz_put,
     .finish = smz_finish,

@@ -71,6 +71,12 @@ struct epsnet_reader {
     int done;
     int failed;
     epsnet_error err;
+    /* A driver that has read past the records it is pushing (.smz decoded
+     * on the pool) sets here to the byte offset the one-thread reader would
+     * stand at, so that en_reader_fail() names the same offset whatever the
+     * thread count. here_set 0: the source's offset. */
+    int here_set;
+    uint64_t here;
 
     /* What the records do not carry (docs/architecture.md §5), for epsnet_reader_dropped(). */
     en_dropped drop[EN_DROP_MAX];

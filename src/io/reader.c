@@ -40,7 +40,7 @@ int en_reader_fail(epsnet_reader *r, int code, const char *fmt, ...)
     if (r->text)
         line = r->src->lineno ? r->src->lineno : 1;
     else
-        off = en_source_offset(r->src);
+        off = r->here_set ? r->here : en_source_offset(r->src);
     int rc = reader_vfail(r, code, line, off, fmt, ap);
     va_end(ap);
     return rc;

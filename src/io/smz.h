@@ -1,7 +1,8 @@
 /*
  * The .smz codec (docs/smz.md is the format description): fixed-size
  * header, block header, index entry and trailer, and the block payload
- * encoder/decoder. The format driver (fmt_smz.c) reads blocks in order;
+ * encoder/decoder. The format driver (fmt_smz.c) reads blocks in order
+ * and, given a pool, decodes them on its workers;
  * anything that wants to decode blocks in parallel or seek to a slab uses
  * en_smz_read_index() and en_smz_decode_block() directly, one block per
  * thread (every function here is reentrant; no state outside its arguments).
