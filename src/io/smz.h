@@ -21,9 +21,9 @@
 #define EN_SMZ_INDEX_ENTRY_BYTES 48
 #define EN_SMZ_TRAILER_BYTES 112
 /* Version 1: positions only. Version 2 adds the attribute table after the
- * header and an attribute section to every block (docs/smz.md); the writer
- * writes version 1 for a stream without attributes, so such files keep
- * their bytes. */
+ * header, an attribute section to every block and coordinates predicted
+ * from decoded neighbours (docs/smz.md); the writer always writes version
+ * 2, the reader reads both. */
 #define EN_SMZ_VERSION 2
 /* Largest attribute table: length, count, CRC, and each attribute's type,
  * name length and name. */
