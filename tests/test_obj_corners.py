@@ -7,40 +7,9 @@ open boundary, which is locked (docs/method.md §6). Values are compared as
 float32 bits."""
 import math
 import os
-import shutil
-import struct
 import subprocess
-import sys
-import tempfile
 
-EPSNET = sys.argv[1] if len(sys.argv) > 1 else os.environ["EPSNET_BIN"]
-TMP = tempfile.mkdtemp(prefix="epsnet-objc-")
-failures = 0
-
-
-def run(*args):
-    p = subprocess.run([EPSNET, *args], capture_output=True, text=True, timeout=300)
-    return p.returncode, p.stdout, p.stderr
-
-
-def path(name):
-    return os.path.join(TMP, name)
-
-
-def case(fn):
-    global failures
-    try:
-        fn()
-        print("ok  ", fn.__name__)
-    except AssertionError as e:
-        failures += 1
-        print("FAIL", fn.__name__, "-", e)
-    return fn
-
-
-def f32(text):
-    """The float32 bits a decimal text stands for."""
-    return struct.pack("<f", float(text))
+from clitest import EPSNET, case, f32, finish, path, run
 
 
 def bits(words):
@@ -354,5 +323,4 @@ def what_is_not_carried_is_named_and_vt_vn_are_not():
     assert "texture_u" in err and "nz" in err and "usemtl" in err, err
 
 
-shutil.rmtree(TMP, ignore_errors=True)
-sys.exit(1 if failures else 0)
+finish()

@@ -4,39 +4,8 @@
 normal and any other per-vertex value come out exactly as they went in, for
 any thread count, slab size and target, through PLY and OBJ."""
 import os
-import struct
-import subprocess
-import sys
-import tempfile
 
-EPSNET = sys.argv[1] if len(sys.argv) > 1 else os.environ["EPSNET_BIN"]
-TMP = tempfile.mkdtemp(prefix="epsnet-attrs-")
-failures = 0
-
-
-def run(*args):
-    p = subprocess.run([EPSNET, *args], capture_output=True, text=True, timeout=300)
-    return p.returncode, p.stdout, p.stderr
-
-
-def path(name):
-    return os.path.join(TMP, name)
-
-
-def case(fn):
-    global failures
-    try:
-        fn()
-        print("ok  ", fn.__name__)
-    except AssertionError as e:
-        failures += 1
-        print("FAIL", fn.__name__, "-", e)
-    return fn
-
-
-def f32(text):
-    """The float32 bits a decimal text stands for."""
-    return struct.pack("<f", float(text))
+from clitest import case, f32, finish, path, run
 
 
 def read_ascii_ply(p):
@@ -224,5 +193,4 @@ def locked_vertices_stay_in_every_mode():
     assert not os.path.exists(path("nolock.ply"))
 
 
-print(f"{failures} failed")
-sys.exit(1 if failures else 0)
+finish()

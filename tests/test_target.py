@@ -6,34 +6,14 @@ options get one error line and exit 1. Real meshes from ../shared/data are
 used when present and skipped cleanly when not."""
 import json
 import os
-import subprocess
-import sys
-import tempfile
 
-EPSNET = sys.argv[1] if len(sys.argv) > 1 else os.environ["EPSNET_BIN"]
+from clitest import case, f32, finish, path, run
+
+
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "data")
-TMP = tempfile.mkdtemp(prefix="epsnet-target-")
-failures = 0
 
 
-def run(*args, timeout=300):
-    p = subprocess.run([EPSNET, *args], capture_output=True, text=True, timeout=timeout)
-    return p.returncode, p.stdout, p.stderr
 
-
-def path(name):
-    return os.path.join(TMP, name)
-
-
-def case(fn):
-    global failures
-    try:
-        fn()
-        print("ok  ", fn.__name__)
-    except AssertionError as e:
-        failures += 1
-        print("FAIL", fn.__name__, "-", e)
-    return fn
 
 
 def ascii_ply(p):
@@ -253,5 +233,4 @@ def contradictory_or_impossible_options_exit_1_with_one_line():
         assert not os.path.exists(out), f"{opts}: output left behind"
 
 
-print(f"{failures} failed")
-sys.exit(1 if failures else 0)
+finish()

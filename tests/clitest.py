@@ -1,0 +1,50 @@
+"""What the command-line tests written in Python share: the binary under
+test, a scratch folder, running it, and cases that count their failures.
+
+    from clitest import run, path, case, f32, finish
+"""
+import os
+import shutil
+import struct
+import subprocess
+import sys
+import tempfile
+
+EPSNET = sys.argv[1] if len(sys.argv) > 1 else os.environ["EPSNET_BIN"]
+TMP = tempfile.mkdtemp(prefix="epsnet-" + os.path.splitext(os.path.basename(sys.argv[0]))[0] + "-")
+_failures = 0
+
+
+def run(*args, timeout=300):
+    """(exit code, stdout, stderr) of one epsnet command."""
+    p = subprocess.run([EPSNET, *args], capture_output=True, text=True, timeout=timeout)
+    return p.returncode, p.stdout, p.stderr
+
+
+def path(name):
+    return os.path.join(TMP, name)
+
+
+def case(fn):
+    """Run a test case now; an AssertionError fails it, and the run goes on."""
+    global _failures
+    try:
+        fn()
+        print("ok  ", fn.__name__)
+    except AssertionError as e:
+        _failures += 1
+        print("FAIL", fn.__name__, "-", e)
+    return fn
+
+
+def f32(text):
+    """The float32 bits a decimal text stands for: text written from the same
+    float compares equal however many digits it was given."""
+    return struct.pack("<f", float(text))
+
+
+def finish():
+    """Print the count, clean up, and exit non-zero on any failure."""
+    print(f"{_failures} failed")
+    shutil.rmtree(TMP, ignore_errors=True)
+    sys.exit(1 if _failures else 0)
