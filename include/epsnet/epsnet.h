@@ -731,12 +731,15 @@ EPSNET_API int epsnet_stats_write_json(const epsnet_context *ctx, const char *co
 /*
  * Simplify the mesh at in_path so that (after settings.passes ε-net passes)
  * only samples, locked vertices and non-samples whose every collapse was
- * refused remain, and write it to out_path (format from the extension; ASCII
- * with settings.ascii). Non-samples are removed by half-edge collapses onto a
- * neighbour, cheapest first by quadric error, so every output vertex is an
- * input vertex with bit-identical coordinates; unreferenced input vertices
- * are dropped. Closed manifold input stays closed manifold with the same
- * genus.
+ * refused remain, or to the target settings.target_* ask for, and write it
+ * to out_path (format from the extension; ASCII with settings.ascii).
+ * Non-samples are removed by half-edge collapses onto a neighbour, cheapest
+ * first by quadric error, so every output vertex is an input vertex with
+ * bit-identical coordinates and, where the output format holds them, its
+ * attributes bit for bit (epsnet_mesh_info.vertex_attrs; an OBJ's per-corner
+ * vt/vn too: a vertex on a seam is kept); what the output cannot hold is
+ * named in the one dropped warning. Unreferenced input vertices are dropped.
+ * Closed manifold input stays closed manifold with the same genus.
  * @return 0, or a negative code with err filled; nothing is left at
  * out_path on failure. Statistics are in epsnet_context_stats(ctx).
  */
