@@ -179,40 +179,65 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
     return rc;
 }
 
+/*
+ * A run of the chain on a file: one pool for the whole chain, the sort's
+ * passes and the .smz decoding included (docs/architecture.md §10), the
+ * input (read or sorted), and the run. file_run_open() makes the pool and
+ * opens the input; file_run_feed() opens the run on what the input is and
+ * pushes every record through; file_run_close() takes it all down, the
+ * pool last, and counts the sort in ctx->stats.
+ */
+typedef struct file_run {
+    en_pool *pool;
+    en_input in;
+    en_run run;
+    double sort_seconds, cpu0;
+} file_run;
+
+static int file_run_open(file_run *fr, epsnet_context *ctx, const char *in_path, const char *near_path,
+                         const en_format *keep, epsnet_error *err)
+{
+    memset(fr, 0, sizeof *fr);
+    fr->cpu0 = en_thread_cpu_seconds();
+    int rc = en_run_pool_new(&fr->pool, &ctx->settings, in_path, err);
+    return rc ? rc : open_input(ctx, in_path, near_path, keep, fr->pool, &fr->in, &fr->sort_seconds, err);
+}
+
+static int file_run_feed(file_run *fr, epsnet_context *ctx, en_slab_mode mode, const char *in_path, en_stage out,
+                         en_sample_fn on_sample, void *sample_opaque, epsnet_error *err)
+{
+    int rc = en_run_open(&fr->run, ctx, mode, in_path, &fr->in.info, fr->pool, out, on_sample, sample_opaque, err);
+    fr->run.cpu_start = fr->cpu0; /* the sort before the run is its work too */
+    if (rc == 0)
+        en_reader_use_pool(fr->in.r, fr->pool); /* ENOMEM: it decodes alone, as before */
+    return rc ? rc : feed(ctx, &fr->run, &fr->in, in_path, err);
+}
+
+static void file_run_close(file_run *fr, epsnet_context *ctx)
+{
+    en_reader_use_pool(fr->in.r, NULL); /* before the pool goes */
+    en_run_close(&fr->run);
+    input_close(&fr->in);
+    en_pool_free(&fr->pool);
+    ctx->stats.seconds_sort = fr->sort_seconds;
+    ctx->stats.dropped += fr->in.sorted.dropped;
+}
+
 int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *near_path, const en_format *keep,
                          en_open_out_fn open_out, void *opaque, epsnet_error *err)
 {
     double t0 = en_now();
-    en_input in;
-    memset(&in, 0, sizeof in);
-    en_run run;
-    memset(&run, 0, sizeof run);
-    double sort_seconds = 0, cpu0 = en_thread_cpu_seconds();
+    file_run fr;
     en_stage out = { 0 };
-    /* one pool for the whole chain, the sort's passes included
-     * (docs/architecture.md §10) */
-    en_pool *pool = NULL;
-    int rc = en_run_pool_new(&pool, &ctx->settings, in_path, err);
+    int rc = file_run_open(&fr, ctx, in_path, near_path, keep, err);
     if (rc == 0)
-        rc = open_input(ctx, in_path, near_path, keep, pool, &in, &sort_seconds, err);
+        rc = open_out(opaque, &fr.in.info, &out, err);
     if (rc == 0)
-        rc = open_out(opaque, &in.info, &out, err);
-    if (rc == 0)
-        rc = en_run_open(&run, ctx, EN_SLAB_SIMPLIFY, in_path, &in.info, pool, out, NULL, NULL, err);
-    run.cpu_start = cpu0;
-    if (rc == 0)
-        en_reader_use_pool(in.r, run.pool); /* ENOMEM: it decodes alone, as before */
-    if (rc == 0)
-        rc = feed(ctx, &run, &in, in_path, err);
-    en_reader_use_pool(in.r, NULL); /* before the pool goes */
-    en_run_close(&run);
-    input_close(&in);
-    en_pool_free(&pool);
-    ctx->stats.seconds_sort = sort_seconds;
-    ctx->stats.dropped += in.sorted.dropped;
+        rc = file_run_feed(&fr, ctx, EN_SLAB_SIMPLIFY, in_path, out, NULL, NULL, err);
+    file_run_close(&fr, ctx);
     /* note: the sort passes on only referenced vertices, so a mesh without
      * faces is told by the sort's count of the input. */
-    uint64_t nv = in.was_sorted ? in.sorted.vertices : ctx->stats.vertices;
+    uint64_t nv = fr.in.was_sorted ? fr.in.sorted.vertices : ctx->stats.vertices;
     if (rc == 0 && nv > 0 && ctx->stats.faces == 0 && ctx->settings.warning) {
         char msg[PATH_MAX + 128];
         snprintf(msg, sizeof msg, "%s: %llu vertices but no faces: nothing to simplify, the output is empty",
@@ -309,32 +334,15 @@ int en_sample_points_streamed(epsnet_context *ctx, const char *in_path, const ch
                               epsnet_error *err)
 {
     double t0 = en_now();
-    en_input in;
-    memset(&in, 0, sizeof in);
-    en_run run;
-    memset(&run, 0, sizeof run);
+    file_run fr;
     sample_list l = { 0 };
     epsnet_coord_type ct = EPSNET_COORD_FLOAT32;
-    double sort_seconds = 0, cpu0 = en_thread_cpu_seconds();
-    en_pool *pool = NULL;
-    int rc = en_run_pool_new(&pool, &ctx->settings, in_path, err);
-    if (rc == 0)
-        rc = open_input(ctx, in_path, out_path, NULL, pool, &in, &sort_seconds, err);
+    int rc = file_run_open(&fr, ctx, in_path, out_path, NULL, err);
     if (rc == 0) {
-        ct = in.info.coord_type;
-        rc = en_run_open(&run, ctx, EN_SLAB_SAMPLE, in_path, &in.info, pool, (en_stage){ 0 }, collect, &l, err);
+        ct = fr.in.info.coord_type;
+        rc = file_run_feed(&fr, ctx, EN_SLAB_SAMPLE, in_path, (en_stage){ 0 }, collect, &l, err);
     }
-    run.cpu_start = cpu0;
-    if (rc == 0)
-        en_reader_use_pool(in.r, run.pool); /* ENOMEM: it decodes alone, as before */
-    if (rc == 0)
-        rc = feed(ctx, &run, &in, in_path, err);
-    en_reader_use_pool(in.r, NULL); /* before the pool goes */
-    en_run_close(&run);
-    input_close(&in);
-    en_pool_free(&pool);
-    ctx->stats.seconds_sort = sort_seconds;
-    ctx->stats.dropped += in.sorted.dropped;
+    file_run_close(&fr, ctx);
     ctx->stats.seconds_classify = en_now() - t0;
     /* Samples are few (about one per Gaussian vertex per feature): written in
      * input order, as the one-slab run writes them. */
