@@ -1000,6 +1000,18 @@ static void put_floats(char *line, size_t *len, const char *keyword, const epsne
     *len = m;
 }
 
+/* "v x y z", with the colours when the output carries them (no newline). */
+static void put_v(char *line, size_t *n, const epsnet_writer *w, const obj_writer *st, const epsnet_record *rec)
+{
+    line[(*n)++] = 'v';
+    for (int k = 0; k < 3; k++) {
+        line[(*n)++] = ' ';
+        *n += (size_t)en_format_coord(line + *n, rec->xyz[k], w->coord_type);
+    }
+    if (st->rgb[0] >= 0)
+        put_floats(line, n, NULL, w, rec, st->rgb, 3);
+}
+
 /* A vertex record of a file with vt or vn: its `v` line unless it welds
  * into an earlier one, its `vt` and `vn` lines unless the same values have
  * one already; the face corners then name those lines. */
@@ -1039,13 +1051,7 @@ static int put_corner_vertex(epsnet_writer *w, obj_writer *st, const epsnet_reco
     size_t n = 0;
     if (added) {
         st->nv++;
-        line[n++] = 'v';
-        for (int k = 0; k < 3; k++) {
-            line[n++] = ' ';
-            n += (size_t)en_format_coord(line + n, rec->xyz[k], w->coord_type);
-        }
-        if (st->rgb[0] >= 0)
-            put_floats(line, &n, NULL, w, rec, st->rgb, 3);
+        put_v(line, &n, w, st, rec);
         line[n++] = '\n';
     }
     c[1] = c[2] = 0;
@@ -1084,13 +1090,7 @@ static int obj_put(epsnet_writer *w, const epsnet_record *rec)
                 return rc;
             return n ? en_writer_bytes(w, line, n) : 0;
         }
-        line[n++] = 'v';
-        for (int k = 0; k < 3; k++) {
-            line[n++] = ' ';
-            n += (size_t)en_format_coord(line + n, rec->xyz[k], w->coord_type);
-        }
-        if (st->rgb[0] >= 0)
-            put_floats(line, &n, NULL, w, rec, st->rgb, 3);
+        put_v(line, &n, w, st, rec);
     } else if (rec->kind == EPSNET_REC_TRIANGLE) {
         line[n++] = 'f';
         for (int k = 0; k < 3; k++) {
