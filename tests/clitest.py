@@ -43,6 +43,34 @@ def f32(text):
     return struct.pack("<f", float(text))
 
 
+def read_ascii_ply(p):
+    """An ASCII PLY: the vertex properties as (name, type), each vertex as a
+    dict of its values as written (text), and the faces as index lists."""
+    with open(p) as f:
+        lines = f.read().split("\n")
+    i, props, counts, order = 0, {}, {}, []
+    while lines[i] != "end_header":
+        w = lines[i].split()
+        if w and w[0] == "element":
+            order.append(w[1])
+            counts[w[1]] = int(w[2])
+            props[w[1]] = []
+        elif w and w[0] == "property" and w[1] != "list":
+            props[order[-1]].append((w[2], w[1]))
+        i += 1
+    i += 1
+    verts, faces = [], []
+    for el in order:
+        for _ in range(counts[el]):
+            w = lines[i].split()
+            i += 1
+            if el == "vertex":
+                verts.append(dict(zip([n for n, _ in props[el]], w)))
+            elif el == "face":
+                faces.append([int(x) for x in w[1:]])
+    return props["vertex"], verts, faces
+
+
 def finish():
     """Print the count, clean up, and exit non-zero on any failure."""
     print(f"{_failures} failed")

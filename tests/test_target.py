@@ -7,7 +7,7 @@ used when present and skipped cleanly when not."""
 import json
 import os
 
-from clitest import case, f32, finish, path, run
+from clitest import case, finish, path, read_ascii_ply, run
 
 
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "data")
@@ -17,34 +17,10 @@ DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "sha
 
 
 def ascii_ply(p):
-    """Vertices (as the writer's text, so equal strings are equal bits) and
-    faces of an ASCII PLY."""
-    with open(p) as f:
-        lines = f.read().split("\n")
-    counts, props, i = {}, {}, 0
-    order = []
-    while lines[i] != "end_header":
-        w = lines[i].split()
-        if w and w[0] == "element":
-            counts[w[1]] = int(w[2])
-            order.append(w[1])
-            props[w[1]] = []
-        elif w and w[0] == "property":
-            props[order[-1]].append(w[-1])
-        i += 1
-    i += 1
-    verts, faces = [], []
-    for el in order:
-        for _ in range(counts[el]):
-            w = lines[i].split()
-            i += 1
-            if el == "vertex":
-                xyz = [w[props[el].index(a)] for a in "xyz"]
-                verts.append(tuple(xyz))
-            elif el == "face":
-                n = int(w[0])
-                faces.append(tuple(int(x) for x in w[1:1 + n]))
-    return verts, faces
+    """Vertices as (x, y, z) texts (as the writer's text, so equal strings are
+    equal bits) and faces as tuples, of an ASCII PLY."""
+    _, verts, faces = read_ascii_ply(p)
+    return [tuple(v[a] for a in "xyz") for v in verts], [tuple(f) for f in faces]
 
 
 def simplify(src, out, *opts):
