@@ -147,6 +147,41 @@ def every_skeleton_sample_is_in_the_output():
             assert s["target"]["skeleton_vertices"] == len(samples), (s["target"], len(samples))
 
 
+# The frequencies a skeleton's density is chosen from (slab_work.c: freq).
+FREQUENCIES = (1, 2, 3, 4, 6, 8, 11, 16, 23, 32, 45, 64, 91, 128)
+
+
+@case
+def a_streamed_skeleton_coarsens_in_slabs_over_their_share():
+    """A sorted bumpy sphere's first slab is a cap with few normals: the
+    density it chooses is too fine for the slabs across the middle, whose
+    normals go all around. Those slabs take a coarser sphere; the run
+    reports the coarsest (the ε every part keeps) and the finest, and every
+    skeleton vertex in the output is a sample at a frequency between them."""
+    src = gen("bumpy", 50000, "bumpy50k_seed7.smz", "--seed", "7")
+    out = path("coarsen.ply")
+    s, err = simplify(src, out, "--ratio", "0.3", "--slab", "2048", "--ascii")
+    n, finest = s["gaussian_sphere"]["frequency"], s["target"]["finest_frequency"]
+    assert finest > n, (n, finest, "the premise: a slab coarsened")
+    assert s["target"]["samples_given_up"] == 0, s["target"]
+    assert s["output_faces"] == s["target"]["faces"], (s["output_faces"], s["target"])
+    union = set()
+    for f in FREQUENCIES:
+        if n <= f <= finest:
+            pts = path("coarsen_samples.ply")
+            rc, _, e = run("sample", src, "-o", pts, "--frequency", str(f), "--ascii", "-q")
+            assert rc == 0, e
+            union |= set(ascii_ply(pts)[0])
+    verts = set(ascii_ply(out)[0])
+    skeleton = s["target"]["skeleton_vertices"]
+    assert len(verts & union) >= skeleton, (len(verts & union), skeleton)
+    # near its share (a quarter of the output), not most of it
+    assert skeleton <= 0.5 * len(verts), (skeleton, len(verts))
+    # the same run with the density given keeps it in every slab
+    s2, _ = simplify(src, path("coarsen_given.ply"), "--ratio", "0.3", "--slab", "2048", "--frequency", str(finest))
+    assert s2["target"]["finest_frequency"] == s2["gaussian_sphere"]["frequency"] == finest, s2["target"]
+
+
 @case
 def a_closed_manifold_stays_closed_with_its_genus():
     for shape in ("torus", "sphere", "bumpy"):

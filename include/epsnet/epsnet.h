@@ -671,10 +671,15 @@ typedef struct epsnet_stats {
     /* Simplification to a target (see epsnet_settings.target_faces): the
      * target in faces (0: none, or vertices/error only), skeleton samples
      * in the output, and samples removed because the skeleton alone was
-     * over the target. */
+     * over the target. In a streamed run (docs/architecture.md §7) a slab
+     * whose samples at the chosen density are far over its share takes a
+     * coarser sphere: the reported sphere (gaussian_vertices) is then the
+     * coarsest any slab used, the ε every part of the output keeps, and
+     * skeleton_finest_frequency the finest (0 without a target). */
     uint64_t target_faces;
     uint64_t skeleton_vertices;
     uint64_t samples_given_up;
+    uint32_t skeleton_finest_frequency;
 } epsnet_stats;
 
 typedef struct epsnet_context epsnet_context;

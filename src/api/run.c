@@ -248,6 +248,7 @@ static void fill_stats(epsnet_stats *st, const en_chain_stats *cs)
     st->remaining_nonsamples = cs->remaining_nonsamples;
     st->skeleton_vertices = cs->skeleton_kept;
     st->samples_given_up = cs->samples_given_up;
+    st->skeleton_finest_frequency = cs->skeleton_finest_frequency;
     st->target_faces = cs->target_faces;
 }
 
@@ -296,6 +297,8 @@ int en_run_end(en_run *run, epsnet_error *err)
             run->ctx->run_sphere = chosen;
     }
     st->gaussian_vertices = run->ctx->run_sphere.nverts;
+    if (run->has_target && !st->skeleton_finest_frequency)
+        st->skeleton_finest_frequency = run->ctx->run_sphere.n; /* the density was given */
     if (run->has_target)
         warn_missed_target(run, st, cs.stopped_by_error);
     st->cpu_workers = en_pool_job_cpu_seconds(run->pool);

@@ -276,8 +276,10 @@ static int retire_one(en_pass *p, epsnet_error *err)
             c->stats.stopped_by_error |= w->stopped_by_error;
         }
         if (w->target && w->target->choose_density) {
-            c->stats.skeleton_frequency = w->chosen.n;
+            c->stats.skeleton_frequency = c->stats.skeleton_finest_frequency = w->chosen.n;
             p->g = w->chosen; /* a THIN pass's later slabs */
+        } else if (w->target && w->target->may_coarsen && w->chosen.n < c->stats.skeleton_frequency) {
+            c->stats.skeleton_frequency = w->chosen.n; /* coarsened (slab_work.c: thin_density) */
         }
         for (int k = 0; k < EN_REFUSE_KINDS; k++)
             c->stats.refused[k] += w->refused[k];
@@ -440,6 +442,7 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
         if (p->target) {
             p->fixed = *p->target;
             p->fixed.choose_density = 0;
+            p->fixed.may_coarsen = p->target->mode == EN_TARGET_THIN && p->target->choose_density;
             p->density_pending = p->target->mode == EN_TARGET_THIN && p->target->choose_density;
         }
         int finish = p->target && p->target->mode == EN_TARGET_FINISH;

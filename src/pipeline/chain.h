@@ -64,7 +64,8 @@ typedef struct en_chain_stats {
     uint64_t output_vertices, output_faces, remaining_nonsamples; /* last pass */
     /* With a target: the skeleton's frequency (0 when not chosen here),
      * samples kept and given up, whether the error bound stopped it. */
-    uint32_t skeleton_frequency;
+    uint32_t skeleton_frequency;       /* the coarsest a slab used */
+    uint32_t skeleton_finest_frequency;
     uint64_t target_faces;        /* the face target as resolved (0: none) */
     uint64_t skeleton_kept, samples_given_up;
     int stopped_by_error;

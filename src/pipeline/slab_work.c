@@ -157,8 +157,44 @@ static uint64_t vertices_on_faces(const en_slab *s)
     return n;
 }
 
-/* Classify w at geodesic frequency n (in w->chosen); *samples: how many. */
-static int classify_at(en_slab_work *w, uint32_t n, uint64_t *samples)
+/*
+ * The share of the sphere's triangles that the normals of w's faces fall in.
+ * A slab of a streamed pass sees part of the mesh, and often only part of
+ * its normals: the first slab of a sorted closed surface is a cap, whose
+ * normals cover a cap of the sphere, while the slabs across its middle
+ * cover a band all around it.
+ */
+static double normal_coverage(const en_slab_work *w)
+{
+    uint32_t nt = w->g->ntris;
+    uint8_t *hit = en_calloc((size_t)nt / 8 + 1, 1);
+    if (!hit)
+        return -1;
+    uint32_t covered = 0;
+    for (uint32_t f = 0; f < w->s.nt; f++) {
+        int32_t t = w->ftri[f];
+        if (t < 0 || (hit[t >> 3] >> (t & 7)) & 1)
+            continue;
+        hit[t >> 3] |= (uint8_t)(1u << (t & 7));
+        covered++;
+    }
+    en_free(hit);
+    return nt ? (double)covered / nt : 1;
+}
+
+/*
+ * Classify w at geodesic frequency n (in w->chosen). *samples: how many, as
+ * the choice counts them. In one slab (the whole mesh) that is the count.
+ * In the first slab of a streamed pass it is a prediction for a slab of the
+ * same size whose normals cover the whole sphere, as a middle slab of a
+ * closed surface nearly does: the samples beyond the locked vertices scale
+ * with the coverage (samples are Gaussian vertices wrapped by the normals,
+ * docs/method.md §13), so they are divided by the slab's own coverage.
+ * This errs towards coarse spheres, which cost little quality, while a
+ * sphere chosen too fine leaves slabs across the middle mostly samples: the
+ * thin pass cannot thin them and the finish gets most of the mesh.
+ */
+static int classify_at(en_slab_work *w, uint32_t n, uint64_t *samples, int predict)
 {
     gauss_rotation rot = w->g->rot;
     if (gauss_init(&w->chosen, n, &rot))
@@ -167,7 +203,32 @@ static int classify_at(en_slab_work *w, uint32_t n, uint64_t *samples)
     memset(&w->counts, 0, sizeof w->counts);
     int rc = classify(w);
     *samples = w->counts.samples;
+    if (rc == 0 && predict && w->target->mode == EN_TARGET_THIN) {
+        double cov = normal_coverage(w);
+        if (cov < 0)
+            return oom(w);
+        uint64_t locked = w->counts.locked;
+        if (cov > 0 && *samples > locked)
+            *samples = locked + (uint64_t)ceil((double)(*samples - locked) / cov);
+    }
     return rc;
+}
+
+static const uint32_t freq[] = { 1, 2, 3, 4, 6, 8, 11, 16, 23, 32, 45, 64, 91, 128 };
+#define NFREQ ((int)(sizeof freq / sizeof *freq))
+
+/* The samples the skeleton may have in this slab: skeleton_share of the
+ * vertices the target keeps of it (0: no count to aim at). */
+static double skeleton_budget(en_slab_work *w)
+{
+    uint64_t keep_faces, keep_vertices;
+    target_limits(w, &keep_faces, &keep_vertices);
+    uint64_t on_faces = vertices_on_faces(&w->s), goal = keep_vertices;
+    if (w->target->mode == EN_TARGET_THIN) /* the final target's share of this slab */
+        goal = (uint64_t)((double)on_faces * w->target->ratio);
+    else if (!goal && keep_faces && w->s.nt)
+        goal = (uint64_t)((double)on_faces * (double)keep_faces / (double)w->s.nt);
+    return w->target->skeleton_share * (double)goal;
 }
 
 /*
@@ -185,21 +246,13 @@ static int classify_at(en_slab_work *w, uint32_t n, uint64_t *samples)
  */
 static int choose_density(en_slab_work *w)
 {
-    static const uint32_t freq[] = { 1, 2, 3, 4, 6, 8, 11, 16, 23, 32, 45, 64, 91, 128 };
-    const int nfreq = (int)(sizeof freq / sizeof *freq);
-    uint64_t keep_faces, keep_vertices;
-    target_limits(w, &keep_faces, &keep_vertices);
-    uint64_t on_faces = vertices_on_faces(&w->s), goal = keep_vertices;
-    if (w->target->mode == EN_TARGET_THIN) /* the final target's share of this slab */
-        goal = (uint64_t)((double)on_faces * w->target->ratio);
-    else if (!goal && keep_faces && w->s.nt)
-        goal = (uint64_t)((double)on_faces * (double)keep_faces / (double)w->s.nt);
+    const int nfreq = NFREQ;
     w->chosen = *w->g;
-    if (!goal)
+    double budget = skeleton_budget(w);
+    if (budget <= 0)
         return classify(w);
-    double budget = w->target->skeleton_share * (double)goal;
     uint64_t samples;
-    int rc = classify_at(w, freq[0], &samples);
+    int rc = classify_at(w, freq[0], &samples, 1);
     if (rc || (double)samples > budget)
         return rc; /* even the coarsest is over: frequency 1, samples may go */
     double locked = (double)w->counts.locked, free1 = (double)samples - locked;
@@ -211,7 +264,7 @@ static int choose_density(en_slab_work *w)
               * (CAD), the prediction overshoots, and a fine sphere costs */
     int best = 0, at = 0; /* best under budget so far; frequency classified last */
     if (i > 0) {
-        if ((rc = classify_at(w, freq[i], &samples)))
+        if ((rc = classify_at(w, freq[i], &samples, 1)))
             return rc;
         at = i;
         if ((double)samples <= budget) {
@@ -221,7 +274,7 @@ static int choose_density(en_slab_work *w)
              * spheres then only cost classifications */
             uint64_t last = samples;
             for (int flat = 0; best + 1 < nfreq && !flat;) {
-                if ((rc = classify_at(w, freq[best + 1], &samples)))
+                if ((rc = classify_at(w, freq[best + 1], &samples, 1)))
                     return rc;
                 at = best + 1;
                 if ((double)samples > budget)
@@ -232,7 +285,7 @@ static int choose_density(en_slab_work *w)
             }
         } else {
             for (best = i - 1; best > 0; best--) {
-                if ((rc = classify_at(w, freq[best], &samples)))
+                if ((rc = classify_at(w, freq[best], &samples, 1)))
                     return rc;
                 at = best;
                 if ((double)samples <= budget)
@@ -240,7 +293,44 @@ static int choose_density(en_slab_work *w)
             }
         }
     }
-    return at == best ? 0 : classify_at(w, freq[best], &samples);
+    return at == best ? 0 : classify_at(w, freq[best], &samples, 1);
+}
+
+/*
+ * A later slab of a streamed thin pass, classified at the density the first
+ * slab chose (docs/method.md §13). The first slab saw one end of the stream,
+ * whose normals may be few (the cap of a sorted closed surface): where this
+ * slab's samples are over THIN_SLACK times its share of the skeleton, it
+ * walks down the frequencies until they fit, so that the thin pass can
+ * still thin it. A coarser sphere here keeps the coarser ε everywhere (a
+ * finer ε-net elsewhere covers within the coarser ε as well), and the run
+ * reports the coarsest. Each slab decides from its own vertices alone, so
+ * the result does not depend on the order slabs finish in.
+ */
+#define THIN_SLACK 2.0
+
+static int thin_density(en_slab_work *w)
+{
+    w->chosen = *w->g;
+    int rc = classify(w);
+    double budget = skeleton_budget(w);
+    if (rc || budget <= 0 || (double)w->counts.samples <= THIN_SLACK * budget)
+        return rc;
+    /* first a jump to where the count predicts (beyond the locked vertices
+     * samples grow about like n^2, choose_density), then down a step at a
+     * time while still over */
+    uint64_t samples = w->counts.samples;
+    double locked = (double)w->counts.locked, over = (double)samples - locked;
+    double n_est = over > 0 && budget > locked ? w->chosen.n * sqrt((budget - locked) / over) : 1;
+    for (int i = NFREQ - 1; i >= 0 && rc == 0; i--) {
+        if (freq[i] >= w->chosen.n || (i > 0 && freq[i] > n_est))
+            continue;
+        rc = classify_at(w, freq[i], &samples, 0);
+        if ((double)samples <= budget)
+            break;
+        n_est = freq[i]; /* still over: the next step down */
+    }
+    return rc;
 }
 
 /* The finish of a streamed target: the first pass classified, and its
@@ -436,6 +526,8 @@ int en_slab_work_run(void *arg)
         w->rc = skeleton_from_marks(w);
     else if (w->target && w->target->choose_density && w->mode == EN_SLAB_SIMPLIFY)
         w->rc = choose_density(w);
+    else if (w->target && w->target->may_coarsen && w->mode == EN_SLAB_SIMPLIFY)
+        w->rc = thin_density(w);
     else
         w->rc = classify(w);
     if (w->rc == 0 && w->mode == EN_SLAB_SIMPLIFY) {

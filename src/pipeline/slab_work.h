@@ -60,6 +60,9 @@ typedef struct en_target {
      * samples take at most skeleton_share of the target's vertices;
      * otherwise the slab work's sphere as given. */
     int choose_density;
+    /* THIN, later slabs: the density was chosen (not given), so a slab
+     * over its share may take a coarser one (slab_work.c: thin_density). */
+    int may_coarsen;
     double skeleton_share;
 } en_target;
 
