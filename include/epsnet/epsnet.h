@@ -587,8 +587,11 @@ typedef struct epsnet_settings {
      * it in the stats' Gaussian sphere; with 1, level/frequency as given.
      * An error bound alone keeps level/frequency as given.
      *
-     * The whole mesh is then one slab when it fits mem (about 600 bytes a
-     * vertex), and the target is met exactly (docs/architecture.md §7).
+     * A mesh of at most four slabs (slab_vertices, or the one mem gives:
+     * 262,144 vertices by default) is then one slab, and the target is met
+     * exactly; a larger one is thinned on slabs, in parallel, and finished
+     * in one slab, exactly when what is left fits mem (about 640 bytes a
+     * vertex; docs/architecture.md §7).
      * Defaults: 0.
      */
     uint64_t target_faces;

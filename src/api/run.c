@@ -84,14 +84,21 @@ static int plan_streamed(en_run *run, const char *path, uint64_t nv, uint64_t nf
 
 /*
  * The target stage (docs/architecture.md §7, docs/method.md §13): the
- * settings' target for the slab works, and the slabs. An input within one
- * slab (the slab size of the settings), or of unknown size, or with an
- * error bound, is one slab: the order of collapses is global and the
- * target is met exactly. A larger one, over the budget or over a slab size
- * the settings give, is streamed (plan_streamed). @return
- * 0, or ELIMIT when the input is known to be over the budget (an input of
- * unknown size meets the chain's own check while it is read).
+ * settings' target for the slab works, and the slabs. A small input (at
+ * most ONE_SLAB_SLABS of the settings' slabs), or one of unknown size, or
+ * one with an error bound, is one slab: the order of collapses is global
+ * and the target is met exactly. A larger one is streamed (plan_streamed),
+ * and so is one over the budget or over a slab size the settings give.
+ * @return 0, or ELIMIT when the input is known to be over the budget (an
+ * input of unknown size meets the chain's own check while it is read).
+ *
+ * note: one slab is one thread, in a slab larger than the caches, at
+ * 640 bytes a vertex: at 2M faces it took 3.4 times the wall time of the
+ * ε-net pass and 700 MB, the streamed shape 1.09 times its CPU in 353 MB at
+ * the same error (bench/RESULTS.md). Below a few slabs the two cost alike
+ * and one slab's global order is the better result.
  */
+#define ONE_SLAB_SLABS 4
 static int plan_target(en_run *run, const epsnet_settings *set, const char *path, const epsnet_mesh_info *in,
                        uint32_t *slab_vertices, epsnet_error *err)
 {
@@ -114,10 +121,12 @@ static int plan_target(en_run *run, const epsnet_settings *set, const char *path
                             "a target of %llu vertices is more than the input's %llu",
                             (unsigned long long)t->vertices, (unsigned long long)known_v);
     uint64_t budget = en_run_mem_budget(set);
-    /* streamed: over the budget, or over the slab size the user asked for */
+    /* streamed: over the budget, over the slab size the user asked for, or
+     * over a few of the slabs the settings give */
     int over = known_v != EPSNET_COUNT_UNKNOWN && budget && known_v > budget / EN_ONE_SLAB_BYTES_PER_VERTEX;
+    uint64_t large = set->slab_vertices ? set->slab_vertices : ONE_SLAB_SLABS * (uint64_t)en_run_slab_vertices(set);
     if (known_v != EPSNET_COUNT_UNKNOWN && known_f != EPSNET_COUNT_UNKNOWN && known_f > 0 && t->max_error < 0 &&
-        (over || (set->slab_vertices && known_v > set->slab_vertices)))
+        (over || known_v > large))
         return plan_streamed(run, path, known_v, known_f, budget, err);
     if (known_v != EPSNET_COUNT_UNKNOWN && budget && known_v > budget / EN_ONE_SLAB_BYTES_PER_VERTEX)
         return en_error_set(err, EPSNET_ELIMIT, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
