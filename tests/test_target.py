@@ -289,6 +289,23 @@ def glued_double_sheets_go_under_a_target_and_stay_without():
 
 
 @case
+def double_sheets_stay_while_their_corners_fit_the_skeleton_share():
+    """The corners of a sheet are locked, part of the skeleton: a few
+    sheets stay when the target is large enough to hold them in the
+    skeleton's share, and go at a small one. An error bound alone keeps
+    them (their height is an error it does not see)."""
+    src = gen("sphere", 2000, "sphere2k_asc.ply", "--ascii")
+    fins = path("few_fins.ply")
+    apexes, _ = with_sheets(src, fins, step=70)
+    for opts, dropped in ((("--ratio", "0.5"), 0), (("--faces", "100"), 2 * len(apexes)),
+                          (("--error", "0.001"), 0), (("--ratio", "0.5", "--slab", "256"), 0)):
+        s, err = simplify(fins, path("few_fins_out.ply"), *opts)
+        assert s["target"]["membrane_faces"] == dropped, (opts, s["target"], len(apexes))
+        want = s["target"]["faces"]
+        assert not want or want - 1 <= s["output_faces"] <= want, (opts, s["output_faces"], want, err)
+
+
+@case
 def non_manifold_vertices_are_given_up_like_samples():
     """Faces repeated in the same orientation are no sheet: their corners
     stay non-manifold, kept as samples, and a target below what they allow

@@ -159,6 +159,20 @@ static uint64_t vertices_on_faces(const en_slab *s)
     return n;
 }
 
+/* The vertices the target keeps of this slab, which the skeleton takes a
+ * share of (docs/method.md §13); 0 with no count (an error bound alone). */
+static uint64_t target_goal(const en_slab_work *w)
+{
+    uint64_t keep_faces, keep_vertices;
+    target_limits(w, &keep_faces, &keep_vertices);
+    uint64_t on_faces = vertices_on_faces(&w->s), goal = keep_vertices;
+    if (w->target->mode == EN_TARGET_THIN) /* the final target's share of this slab */
+        goal = (uint64_t)((double)on_faces * w->target->ratio);
+    else if (!goal && keep_faces && w->s.nt)
+        goal = (uint64_t)((double)on_faces * (double)keep_faces / (double)w->s.nt);
+    return goal;
+}
+
 /* Classify w at geodesic frequency n (in w->chosen); *samples: how many. */
 static int classify_at(en_slab_work *w, uint32_t n, uint64_t *samples)
 {
@@ -189,13 +203,7 @@ static int choose_density(en_slab_work *w)
 {
     static const uint32_t freq[] = { 1, 2, 3, 4, 6, 8, 11, 16, 23, 32, 45, 64, 91, 128 };
     const int nfreq = (int)(sizeof freq / sizeof *freq);
-    uint64_t keep_faces, keep_vertices;
-    target_limits(w, &keep_faces, &keep_vertices);
-    uint64_t on_faces = vertices_on_faces(&w->s), goal = keep_vertices;
-    if (w->target->mode == EN_TARGET_THIN) /* the final target's share of this slab */
-        goal = (uint64_t)((double)on_faces * w->target->ratio);
-    else if (!goal && keep_faces && w->s.nt)
-        goal = (uint64_t)((double)on_faces * (double)keep_faces / (double)w->s.nt);
+    uint64_t goal = target_goal(w);
     w->chosen = *w->g;
     if (!goal)
         return classify(w);
@@ -441,11 +449,12 @@ static int simplify(en_slab_work *w)
 
 /*
  * Under a target, the glued membranes go first (core/membrane.h,
- * docs/method.md §13): the faces are compacted and the stars built again,
- * so that their corners are classified as the surface they are on, not
- * locked as non-manifold. A THIN slab drops only sheets of interior faces
- * (the others are held by other slabs too: the finish drops them); a
- * target they alone would overshoot keeps them all.
+ * docs/method.md §13) when their corners crowd the skeleton: the faces are
+ * compacted and the stars built again, so that their corners are
+ * classified as the surface they are on, not locked as non-manifold. A
+ * THIN slab drops only sheets of interior faces (the others are held by
+ * other slabs too: the finish drops them); a target they alone would
+ * overshoot keeps them all.
  */
 static int drop_membranes(en_slab_work *w)
 {
@@ -478,6 +487,23 @@ static int drop_membranes(en_slab_work *w)
         if (left < keep_vertices)
             return 0;
     }
+    /* The sheets' corners are non-manifold, kept as samples (§6): part of
+     * the skeleton. Like samples they stay while they fit its share of
+     * what the target keeps, and go when they crowd it. An error bound
+     * alone has no count, and keeps them: dropping a sheet is an error
+     * (its height) that the bound does not see. */
+    uint64_t goal = target_goal(w), locked = 0;
+    for (uint32_t v = 0; v < s->nv; v++) {
+        if (!(s->vflags[v] & EN_V_NONMANIFOLD))
+            continue;
+        for (uint32_t i = s->star_start[v]; i < s->star_start[v + 1]; i++)
+            if (drop[s->star[i]]) {
+                locked++;
+                break;
+            }
+    }
+    if (!goal || (double)locked <= w->target->skeleton_share * (double)goal)
+        return 0;
     uint32_t nt = 0;
     for (uint32_t f = 0; f < s->nt; f++) {
         if (drop[f])
