@@ -64,6 +64,8 @@ int64_t en_find_membranes(const en_slab *s, const uint8_t *fflags, uint8_t need,
             if (has_corner(u, t[1]) && has_corner(u, t[2]) && !repeats_corner(u))
                 group[n++] = g;
         }
+        if (n == 1) /* the common case: no other face on these corners */
+            continue;
         qsort(group, n, sizeof *group, cmp_u32);
         uint32_t same = 0, other = 0;
         for (uint32_t i = 0; i < n; i++) {
