@@ -264,7 +264,11 @@ static int skeleton_from_marks(en_slab_work *w)
         room(&w->vgvertex, &w->cap.vgvertex, nv, sizeof *w->vgvertex))
         return oom(w);
     for (uint32_t v = 0; v < s->nv; v++) {
+        /* the marks are the sample rule's; topology locks are found here
+         * again and kept as samples, as the classification does (§6) */
         w->vclass[v] = (s->vflags[v] & EN_V_SKELETON) ? EN_C_SAMPLE : 0;
+        if (!(s->vflags[v] & EN_V_ISOLATED) && en_seam_locked(s->vflags[v]))
+            w->vclass[v] = EN_C_LOCKED | EN_C_SAMPLE;
         w->vgvertex[v] = -1;
     }
     return 0;
