@@ -564,7 +564,8 @@ typedef struct epsnet_settings {
      * the ε-net pass (topology, max_normal_dev, zero area, duplicates;
      * boundary vertices stay). Zero-volume double sheets glued to the
      * surface (two faces on the same corners, opposite orientations) are
-     * removed first (epsnet_stats.membrane_faces).
+     * removed first when their non-manifold corners would take more than
+     * the skeleton's share of the target (epsnet_stats.membrane_faces).
      *
      * At most one of target_faces, target_ratio and target_vertices;
      * target_error may be given with one of them (both must then hold:

@@ -420,7 +420,7 @@ static int take_vertices(en_stitcher *st, const en_slab_work *w, epsnet_error *e
         x->border = w->border[l];
         x->state = (uint8_t)(((w->vclass[l] & (EN_C_SAMPLE | EN_C_LOCKED)) ? S_FIXED : 0) | (w->band[l] ? S_BAND : 0));
         /* the finish finds boundaries and non-manifold spots again in its
-         * own stars (docs/method.md §13: its membranes are gone) */
+         * own stars (docs/method.md §13: its membranes may be gone) */
         if ((w->vclass[l] & EN_C_SAMPLE) && !en_seam_locked(w->s.vflags[l]))
             x->state |= S_SKELETON;
         st->local[l] = idx;
