@@ -141,6 +141,15 @@ def main():
          max_points=600, stride=5)
     walk("simplify_target_streamed", lambda o: ["simplify", smz, "-o", o + ".smz", "--ratio", "0.1", "--slab", "300",
                                                 "-j", "3", "-q"], max_points=600, stride=7)
+    # A glued double sheet (a fin on edge 0-1 of a tetrahedron), which a
+    # target drops first (docs/method.md §13): its search and compaction.
+    fin = os.path.join(TMP, "fin.ply")
+    with open(fin, "w") as f:
+        f.write("ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+                "property float z\nelement face 6\nproperty list uchar int vertex_indices\nend_header\n"
+                "0 0 0\n1 0 0\n0 1 0\n0 0 1\n0.5 -0.5 0.5\n"
+                "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n3 0 1 4\n3 1 0 4\n")
+    walk("simplify_target_membrane", lambda o: ["simplify", fin, "-o", o + ".ply", "--faces", "4", "-q"])
     # Vertex attributes through the chain, and a lock by one of them.
     coloured = os.path.join(TMP, "coloured.ply")
     plain = os.path.join(TMP, "plain_ascii.ply")

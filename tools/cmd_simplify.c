@@ -28,8 +28,11 @@ static void simplify_help(void)
            "To a size or an error bound (docs/method.md §13): the samples of one ε-net\n"
            "pass are kept as a feature skeleton, every other vertex may go, smallest\n"
            "error first, until the target is met; samples go only when the skeleton\n"
-           "alone is over it. The skeleton's density is chosen from the target (a\n"
-           "quarter of the vertices it keeps) unless --level or --frequency is given.\n"
+           "alone is over it (non-manifold vertices, kept as samples, go with them).\n"
+           "Zero-volume double sheets glued to the surface (two faces on the same\n"
+           "corners, opposite orientations) are removed first. The skeleton's density\n"
+           "is chosen from the target (a quarter of the vertices it keeps) unless\n"
+           "--level or --frequency is given.\n"
            "      --faces N           keep N faces (N - 1 when a closed surface needs an\n"
            "                          even count)\n"
            "      --ratio R           keep round(R x input faces), 0 < R <= 1\n"
@@ -177,12 +180,12 @@ int cmd_simplify(int argc, char **argv)
                          (unsigned)s->skeleton_finest_frequency);
             fprintf(stderr,
                     "  target: %llu %s; skeleton at frequency %u%s: %llu vertices (%.1f%% of the output), "
-                    "%llu samples given up\n",
+                    "%llu samples given up, %llu membrane faces removed\n",
                     (unsigned long long)(s->target_faces ? s->target_faces : m.settings.target_vertices),
                     s->target_faces || !m.settings.target_vertices ? "faces" : "vertices", n, finer,
                     (unsigned long long)s->skeleton_vertices,
                     s->output_vertices ? 100.0 * (double)s->skeleton_vertices / (double)s->output_vertices : 0.0,
-                    (unsigned long long)s->samples_given_up);
+                    (unsigned long long)s->samples_given_up, (unsigned long long)s->membrane_faces);
         }
     }
     epsnet_context_free(&ctx);

@@ -559,9 +559,13 @@ typedef struct epsnet_settings {
      * ε-cover at that density) and removes the other vertices by half-edge
      * collapses, smallest error first, until the target is met. Only when
      * the skeleton alone is over the target are samples removed too, by the
-     * same order (epsnet_stats.samples_given_up counts them). The refusals
-     * are those of the ε-net pass (topology, max_normal_dev, zero area,
-     * duplicates; boundary and non-manifold vertices stay).
+     * same order (epsnet_stats.samples_given_up counts them; non-manifold
+     * vertices, kept as samples, go with them). The refusals are those of
+     * the ε-net pass (topology, max_normal_dev, zero area, duplicates;
+     * boundary vertices stay). Zero-volume double sheets glued to the
+     * surface (two faces on the same corners, opposite orientations) are
+     * removed first when their non-manifold corners would take more than
+     * the skeleton's share of the target (epsnet_stats.membrane_faces).
      *
      * At most one of target_faces, target_ratio and target_vertices;
      * target_error may be given with one of them (both must then hold:
@@ -674,14 +678,20 @@ typedef struct epsnet_stats {
     /* Simplification to a target (see epsnet_settings.target_faces): the
      * target in faces (0: none, or vertices/error only), skeleton samples
      * in the output, and samples removed because the skeleton alone was
-     * over the target. In a streamed run (docs/architecture.md §7) a slab
-     * whose samples at the chosen density are far over its share takes a
-     * coarser sphere: the reported sphere (gaussian_vertices) is then the
-     * coarsest any slab used, the ε every part of the output keeps, and
-     * skeleton_finest_frequency the finest (0 without a target). */
+     * over the target (non-manifold vertices, kept as samples, included).
+     * membrane_faces: faces of zero-volume double sheets glued to the
+     * surface (two faces on the same corners, opposite orientations),
+     * removed before the classification; the classification counts above
+     * (isolated_vertices, locked, ...) are then of the mesh without them
+     * (docs/method.md §13). In a streamed run (docs/architecture.md §7) a
+     * slab whose samples at the chosen density are far over its share
+     * takes a coarser sphere: the reported sphere (gaussian_vertices) is
+     * then the coarsest any slab used, the ε every part of the output
+     * keeps, and skeleton_finest_frequency the finest (0 without a target). */
     uint64_t target_faces;
     uint64_t skeleton_vertices;
     uint64_t samples_given_up;
+    uint64_t membrane_faces;
     uint32_t skeleton_finest_frequency;
 } epsnet_stats;
 

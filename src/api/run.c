@@ -258,6 +258,7 @@ static void fill_stats(epsnet_stats *st, const en_chain_stats *cs)
     st->skeleton_vertices = cs->skeleton_kept;
     st->samples_given_up = cs->samples_given_up;
     st->skeleton_finest_frequency = cs->skeleton_finest_frequency;
+    st->membrane_faces = cs->membrane_faces;
     st->target_faces = cs->target_faces;
 }
 
@@ -280,13 +281,12 @@ static void warn_missed_target(const en_run *run, const epsnet_stats *st, int st
     else
         snprintf(msg, sizeof msg,
                  "%s: target of %llu %s missed by %llu: %llu removable vertices were refused every collapse "
-                 "(link %llu, normal %llu, zero-area %llu, duplicate %llu); boundary and non-manifold vertices "
-                 "(%llu) are kept",
+                 "(link %llu, normal %llu, zero-area %llu, duplicate %llu); boundary vertices (%llu) are kept",
                  run->path ? run->path : "input", (unsigned long long)want, faces ? "faces" : "vertices",
                  (unsigned long long)(got - want), (unsigned long long)st->remaining_nonsamples,
                  (unsigned long long)st->refused_link, (unsigned long long)st->refused_normal,
                  (unsigned long long)st->refused_zero_area, (unsigned long long)st->refused_duplicate,
-                 (unsigned long long)st->locked);
+                 (unsigned long long)st->boundary_vertices);
     set->warning(set->warning_opaque, msg);
 }
 

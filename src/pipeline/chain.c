@@ -259,7 +259,8 @@ static int retire_one(en_pass *p, epsnet_error *err)
     if (!en_jobring_retire(p->ring, &job, &result))
         return 0;
     en_slab_work *w = job;
-    p->in_flight_elements -= (uint64_t)w->s.nv + w->s.nt;
+    /* the worker may have dropped membrane faces (slab_work.c) */
+    p->in_flight_elements -= (uint64_t)w->s.nv + w->s.nt + w->membrane_faces;
     int rc = result;
     if (rc) {
         *err = w->err;
@@ -269,6 +270,7 @@ static int retire_one(en_pass *p, epsnet_error *err)
         if (p->index == 0)
             en_classify_counts_add(&c->stats.counts, &w->counts);
         c->stats.collapses += w->collapses;
+        c->stats.membrane_faces += w->membrane_faces;
         if (w->target && w->target->mode != EN_TARGET_THIN) {
             c->stats.skeleton_kept += w->skeleton_kept;
             c->stats.samples_given_up += w->given_up;

@@ -67,7 +67,7 @@ typedef struct en_chain_stats {
     uint32_t skeleton_frequency;       /* the coarsest a slab used */
     uint32_t skeleton_finest_frequency;
     uint64_t target_faces;        /* the face target as resolved (0: none) */
-    uint64_t skeleton_kept, samples_given_up;
+    uint64_t skeleton_kept, samples_given_up, membrane_faces;
     int stopped_by_error;
 } en_chain_stats;
 

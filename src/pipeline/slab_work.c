@@ -6,6 +6,7 @@
 #include "common/alloc.h"
 #include "common/error.h"
 #include "common/util.h"
+#include "core/membrane.h"
 
 void en_slab_work_init(en_slab_work *w)
 {
@@ -121,7 +122,8 @@ static void target_limits(const en_slab_work *w, uint64_t *keep_faces, uint64_t 
         *keep_vertices = 0;
         return;
     }
-    *keep_faces = t->faces ? t->faces : t->ratio > 0 ? (uint64_t)llround(t->ratio * (double)w->s.nt) : 0;
+    /* a ratio is of the faces the slab came with, membranes included */
+    *keep_faces = t->faces ? t->faces : t->ratio > 0 ? (uint64_t)llround(t->ratio * (double)w->faces_in) : 0;
     *keep_vertices = t->vertices;
     /* 0 means "no limit" to the collapse core: a target of no faces at all
      * is the nearest it can get, one face */
@@ -155,6 +157,20 @@ static uint64_t vertices_on_faces(const en_slab *s)
     for (uint32_t v = 0; v < s->nv; v++)
         n += en_slab_degree(s, v) > 0;
     return n;
+}
+
+/* The vertices the target keeps of this slab, which the skeleton takes a
+ * share of (docs/method.md §13); 0 with no count (an error bound alone). */
+static uint64_t target_goal(const en_slab_work *w)
+{
+    uint64_t keep_faces, keep_vertices;
+    target_limits(w, &keep_faces, &keep_vertices);
+    uint64_t on_faces = vertices_on_faces(&w->s), goal = keep_vertices;
+    if (w->target->mode == EN_TARGET_THIN) /* the final target's share of this slab */
+        goal = (uint64_t)((double)on_faces * w->target->ratio);
+    else if (!goal && keep_faces && w->s.nt)
+        goal = (uint64_t)((double)on_faces * (double)keep_faces / (double)w->s.nt);
+    return goal;
 }
 
 /*
@@ -221,14 +237,7 @@ static const uint32_t freq[] = { 1, 2, 3, 4, 6, 8, 11, 16, 23, 32, 45, 64, 91, 1
  * vertices the target keeps of it (0: no count to aim at). */
 static double skeleton_budget(en_slab_work *w)
 {
-    uint64_t keep_faces, keep_vertices;
-    target_limits(w, &keep_faces, &keep_vertices);
-    uint64_t on_faces = vertices_on_faces(&w->s), goal = keep_vertices;
-    if (w->target->mode == EN_TARGET_THIN) /* the final target's share of this slab */
-        goal = (uint64_t)((double)on_faces * w->target->ratio);
-    else if (!goal && keep_faces && w->s.nt)
-        goal = (uint64_t)((double)on_faces * (double)keep_faces / (double)w->s.nt);
-    return w->target->skeleton_share * (double)goal;
+    return w->target->skeleton_share * (double)target_goal(w);
 }
 
 /*
@@ -344,7 +353,11 @@ static int skeleton_from_marks(en_slab_work *w)
         room(&w->vgvertex, &w->cap.vgvertex, nv, sizeof *w->vgvertex))
         return oom(w);
     for (uint32_t v = 0; v < s->nv; v++) {
+        /* the marks are the sample rule's; topology locks are found here
+         * again and kept as samples, as the classification does (§6) */
         w->vclass[v] = (s->vflags[v] & EN_V_SKELETON) ? EN_C_SAMPLE : 0;
+        if (!(s->vflags[v] & EN_V_ISOLATED) && en_seam_locked(s->vflags[v]))
+            w->vclass[v] = EN_C_LOCKED | EN_C_SAMPLE;
         w->vgvertex[v] = -1;
     }
     return 0;
@@ -377,6 +390,15 @@ static void apply_user_locks(en_slab_work *w)
     for (uint32_t v = 0; v < w->nowned; v++)
         if (user_locked(w, v))
             w->vclass[v] |= EN_C_LOCKED;
+}
+
+/* Is owned vertex v locked for being non-manifold alone (not on a
+ * boundary, not isolated, not locked by the user)? */
+static int nonmanifold_only(const en_slab_work *w, uint32_t v)
+{
+    uint8_t f = w->s.vflags[v];
+    return (f & EN_V_NONMANIFOLD) && !(f & (EN_V_BOUNDARY | EN_V_ISOLATED)) &&
+           !(w->lock_type && w->attr && user_locked(w, v));
 }
 
 static int owned_here(const en_slab_work *w, uint32_t v)
@@ -469,8 +491,11 @@ static int simplify(en_slab_work *w)
                                   en_seam_locked(s->vflags[v]) || (w->vclass[v] & EN_C_LOCKED),
                                   (w->vclass[v] & EN_C_SAMPLE) != 0);
         removable[v] = (uint8_t)en_removable(k);
-        /* under a target, samples are the second tier (en_collapse_slab) */
-        if (w->target && k == EN_VK_SAMPLE && w->target->mode != EN_TARGET_THIN)
+        /* under a target, samples are the second tier (en_collapse_slab),
+         * and so are the non-manifold vertices, which are kept as samples
+         * (docs/method.md §6, §13); boundaries and the user's locks stay */
+        if (w->target && w->target->mode != EN_TARGET_THIN &&
+            (k == EN_VK_SAMPLE || (k == EN_VK_LOCKED && nonmanifold_only(w, v))))
             removable[v] = 2;
         s->vflags[v] = (uint8_t)((s->vflags[v] & ~EN_V_TARGET) | (en_receives(k) ? EN_V_TARGET : 0));
         nremovable += removable[v];
@@ -485,12 +510,12 @@ static int simplify(en_slab_work *w)
         target_limits(w, &cs.keep_faces, &cs.keep_vertices);
         w->keep_faces = cs.keep_faces;
         if (w->target->mode == EN_TARGET_WHOLE &&
-            (w->target->faces > s->nt || w->target->vertices > vertices_on_faces(s)))
+            (w->target->faces > w->faces_in || w->target->vertices > vertices_on_faces(s)))
             return en_error_set(&w->err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
                                 "a target of %llu %s is more than the input's %llu",
                                 (unsigned long long)(w->target->faces ? w->target->faces : w->target->vertices),
                                 w->target->faces ? "faces" : "vertices",
-                                (unsigned long long)(w->target->faces ? s->nt : vertices_on_faces(s)));
+                                (unsigned long long)(w->target->faces ? w->faces_in : vertices_on_faces(s)));
         cs.by_error = 1;
         cs.max_error = w->target->max_error >= 0 ? w->target->max_error * slab_diagonal(s) : -1;
     }
@@ -515,13 +540,85 @@ static int simplify(en_slab_work *w)
     return 0;
 }
 
+/*
+ * Under a target, the glued membranes go first (core/membrane.h,
+ * docs/method.md §13) when their corners crowd the skeleton: the faces are
+ * compacted and the stars built again, so that their corners are
+ * classified as the surface they are on, not locked as non-manifold. A
+ * THIN slab drops only sheets of interior faces (the others are held by
+ * other slabs too: the finish drops them); a target they alone would
+ * overshoot keeps them all.
+ */
+static int drop_membranes(en_slab_work *w)
+{
+    w->rc = 0;
+    en_slab *s = &w->s;
+    if (room(&w->falive, &w->cap.falive, (size_t)s->nt + 1, 1)) /* scratch until simplify */
+        return w->rc = oom(w);
+    uint8_t *drop = w->falive;
+    int thin = w->target->mode == EN_TARGET_THIN;
+    int64_t n = en_find_membranes(s, thin ? w->fflags : NULL, EN_F_INTERIOR, drop);
+    if (n < 0)
+        return w->rc = oom(w);
+    if (n == 0)
+        return 0;
+    uint64_t keep_faces, keep_vertices;
+    if (thin) /* this slab's share of the final target */
+        keep_faces = (uint64_t)llround(w->target->ratio * (double)s->nt), keep_vertices = 0;
+    else
+        target_limits(w, &keep_faces, &keep_vertices);
+    if (keep_faces && s->nt - (uint64_t)n < keep_faces)
+        return 0;
+    if (keep_vertices) {
+        uint64_t left = 0;
+        for (uint32_t v = 0; v < s->nv; v++)
+            for (uint32_t i = s->star_start[v]; i < s->star_start[v + 1]; i++)
+                if (!drop[s->star[i]]) {
+                    left++;
+                    break;
+                }
+        if (left < keep_vertices)
+            return 0;
+    }
+    /* The sheets' corners are non-manifold, kept as samples (§6): part of
+     * the skeleton. Like samples they stay while they fit its share of
+     * what the target keeps, and go when they crowd it. An error bound
+     * alone has no count, and keeps them: dropping a sheet is an error
+     * (its height) that the bound does not see. */
+    uint64_t goal = target_goal(w), locked = 0;
+    for (uint32_t v = 0; v < s->nv; v++) {
+        if (!(s->vflags[v] & EN_V_NONMANIFOLD))
+            continue;
+        for (uint32_t i = s->star_start[v]; i < s->star_start[v + 1]; i++)
+            if (drop[s->star[i]]) {
+                locked++;
+                break;
+            }
+    }
+    if (!goal || (double)locked <= w->target->skeleton_share * (double)goal)
+        return 0;
+    uint32_t nt = 0;
+    for (uint32_t f = 0; f < s->nt; f++) {
+        if (drop[f])
+            continue;
+        memmove(s->tri + 3 * (size_t)nt, s->tri + 3 * (size_t)f, 3 * sizeof *s->tri);
+        w->fflags[nt++] = w->fflags[f];
+    }
+    s->nt = nt;
+    w->membrane_faces = (uint64_t)n;
+    return w->rc = en_slab_build_stars(s) ? oom(w) : 0;
+}
+
 int en_slab_work_run(void *arg)
 {
     en_slab_work *w = arg;
     double t0 = en_now();
     en_error_clear(&w->err);
+    w->faces_in = w->s.nt;
     if (en_slab_build_stars(&w->s))
         w->rc = oom(w);
+    else if (w->target && w->mode == EN_SLAB_SIMPLIFY && drop_membranes(w))
+        ; /* w->rc and w->err are set */
     else if (w->target && w->target->mode == EN_TARGET_FINISH)
         w->rc = skeleton_from_marks(w);
     else if (w->target && w->target->choose_density && w->mode == EN_SLAB_SIMPLIFY)

@@ -115,6 +115,10 @@ typedef struct en_slab_work {
      * samples kept, and whether the error bound left collapses undone. */
     gauss_sphere chosen;
     uint64_t given_up, skeleton_kept, keep_faces;
+    /* The faces the slab came with, and, under a target, the faces of
+     * glued membranes removed before the classification (docs/method.md
+     * §13); s.nt is then faces_in - membrane_faces. */
+    uint64_t faces_in, membrane_faces;
     uint64_t faces_left, vertices_left;
     int stopped_by_error;
 

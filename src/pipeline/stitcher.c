@@ -13,6 +13,7 @@ enum {
     S_BAND = 1 << 4,       /* near a slab border in the input (stats) */
     S_BLOCKED = 1 << 5,    /* scratch (settle): has a neighbour that is not complete */
     S_IN_FACE = 1 << 6,    /* scratch (settle): still a corner of a seam face */
+    S_SKELETON = 1 << 7,   /* a sample by the sample rule, not by its topology: marked for a finish */
 };
 
 struct en_stitch_vertex {
@@ -367,7 +368,7 @@ static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
             else
                 st->stats.inner_left++;
         }
-        uint64_t mark = st->mark_samples && (x->state & S_FIXED) ? EN_MARK_SKELETON : 0;
+        uint64_t mark = st->mark_samples && (x->state & S_SKELETON) ? EN_MARK_SKELETON : 0;
         int rc = put(st, EPSNET_REC_VERTEX, mark, 0, 0, x->xyz,
                      st->attr_size ? st->attr + (size_t)e.idx * st->attr_size : NULL, err);
         if (rc)
@@ -418,6 +419,10 @@ static int take_vertices(en_stitcher *st, const en_slab_work *w, epsnet_error *e
         x->future = w->future[l];
         x->border = w->border[l];
         x->state = (uint8_t)(((w->vclass[l] & (EN_C_SAMPLE | EN_C_LOCKED)) ? S_FIXED : 0) | (w->band[l] ? S_BAND : 0));
+        /* the finish finds boundaries and non-manifold spots again in its
+         * own stars (docs/method.md §13: its membranes may be gone) */
+        if ((w->vclass[l] & EN_C_SAMPLE) && !en_seam_locked(w->s.vflags[l]))
+            x->state |= S_SKELETON;
         st->local[l] = idx;
         if (x->border == EN_BORDER_INNER) {
             x->state |= S_COMPLETE | S_SETTLED;
