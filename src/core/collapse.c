@@ -573,6 +573,35 @@ static int do_collapse(state *st, uint32_t v, uint32_t u)
     return rc;
 }
 
+/* Every vertex's quadric from the faces alive now, as
+ * en_quadrics_from_faces() takes them from the input's (the reference
+ * normals of the normal bound stay the input's). */
+static void refresh_quadrics(state *st)
+{
+    const en_slab *s = st->s;
+    for (uint32_t v = 0; v < s->nv; v++)
+        memset(&st->vx[v].q, 0, sizeof st->vx[v].q);
+    for (uint32_t f = 0; f < s->nt; f++) {
+        if (!st->falive[f])
+            continue;
+        const uint32_t *t = st->tri + 3 * (size_t)f;
+        double n[3];
+        en_triangle_normal(s->pos, t, n);
+        double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        if (len == 0)
+            continue;
+        double area = 0.5 * len, a = n[0] / len, b = n[1] / len, c = n[2] / len;
+        const double *p = s->pos + 3 * (size_t)t[0];
+        double d = -(a * p[0] + b * p[1] + c * p[2]);
+        en_quadric k = { area * a * a, area * a * b, area * a * c, area * a * d, area * b * b,
+                         area * b * c, area * b * d, area * c * c, area * c * d, area * d * d };
+        for (int i = 0; i < 3; i++)
+            quadric_add(&st->vx[t[i]].q, &k);
+    }
+    for (uint32_t v = 0; v < s->nv; v++)
+        st->vx[v].self_err = quadric_eval(&st->vx[v].q, s->pos + 3 * (size_t)v);
+}
+
 static void state_free(state *st)
 {
     en_free(st->pool);
@@ -631,6 +660,7 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
         st.vx[v].removable = removable[v] == 1;
     }
     int tier2 = 0, met = 0;
+    uint64_t refresh = cs->refresh_faces;
     for (;;) {
         for (uint32_t v = 0; v < s->nv && rc == 0; v++)
             if (!tier2 || removable[v] == 2)
@@ -640,6 +670,14 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
                   (st.keep_vertices && st.vertices_alive <= st.keep_vertices);
             if (met)
                 break;
+            if (refresh && st.faces_alive <= refresh) {
+                /* every price changes: queue every vertex again */
+                refresh = 0;
+                refresh_quadrics(&st);
+                for (uint32_t v = 0; v < s->nv && rc == 0; v++)
+                    rc = queue_cheapest(&st, v);
+                continue;
+            }
             heap_entry e = heap_pop(&st);
             if (!st.vx[e.u].alive || !is_neighbour(&st, e.v, e.u) || pair_cost(&st, e.v, e.u) != e.cost) {
                 /* its target went away or got dearer: rank v's targets again */

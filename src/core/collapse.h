@@ -48,6 +48,11 @@ typedef struct en_collapse_settings {
      * error: bench/RESULTS.md). */
     int by_error;
     double max_error;
+    /* Once at most this many faces are alive (0: never), every quadric is
+     * taken afresh from the faces then alive, once (docs/method.md §13:
+     * the target's last collapses measure against the mesh near the
+     * target, not against every plane each vertex has absorbed). */
+    uint64_t refresh_faces;
 } en_collapse_settings;
 
 typedef struct en_collapse_counts {
