@@ -49,26 +49,35 @@ static double quadric_eval(const en_quadric *q, const double p[3])
            2 * q->bc * y * z + 2 * q->bd * y + q->c2 * z * z + 2 * q->cd * z + q->d2;
 }
 
+/* The area-weighted plane quadric of face t into k, its unit normal into
+ * un (0 for a zero-area face, whose quadric is then 0 too). */
+static void face_quadric(const double *pos, const uint32_t *t, en_quadric *k, double un[3])
+{
+    double n[3];
+    en_triangle_normal(pos, t, n);
+    double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (len == 0) {
+        un[0] = un[1] = un[2] = 0;
+        memset(k, 0, sizeof *k);
+        return;
+    }
+    /* note: weight = area, so a plane counts by how much surface it
+     * carries and sliver triangles do not dominate. */
+    double area = 0.5 * len, a = n[0] / len, b = n[1] / len, c = n[2] / len;
+    un[0] = a, un[1] = b, un[2] = c;
+    const double *p = pos + 3 * (size_t)t[0];
+    double d = -(a * p[0] + b * p[1] + c * p[2]);
+    *k = (en_quadric){ area * a * a, area * a * b, area * a * c, area * a * d, area * b * b,
+                       area * b * c, area * b * d, area * c * c, area * c * d, area * d * d };
+}
+
 void en_quadrics_from_faces(const en_slab *s, en_quadric *q, double *unit_normal)
 {
     memset(q, 0, (size_t)s->nv * sizeof *q);
     for (uint32_t f = 0; f < s->nt; f++) {
         const uint32_t *t = s->tri + 3 * (size_t)f;
-        double n[3], *un = unit_normal + 3 * (size_t)f;
-        en_triangle_normal(s->pos, t, n);
-        double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-        if (len == 0) {
-            un[0] = un[1] = un[2] = 0;
-            continue;
-        }
-        /* note: weight = area, so a plane counts by how much surface it
-         * carries and sliver triangles do not dominate. */
-        double area = 0.5 * len, a = n[0] / len, b = n[1] / len, c = n[2] / len;
-        un[0] = a, un[1] = b, un[2] = c;
-        const double *p = s->pos + 3 * (size_t)t[0];
-        double d = -(a * p[0] + b * p[1] + c * p[2]);
-        en_quadric k = { area * a * a, area * a * b, area * a * c, area * a * d, area * b * b,
-                         area * b * c, area * b * d, area * c * c, area * c * d, area * d * d };
+        en_quadric k;
+        face_quadric(s->pos, t, &k, unit_normal + 3 * (size_t)f);
         for (int i = 0; i < 3; i++)
             quadric_add(&q[t[i]], &k);
     }
@@ -585,16 +594,9 @@ static void refresh_quadrics(state *st)
         if (!st->falive[f])
             continue;
         const uint32_t *t = st->tri + 3 * (size_t)f;
-        double n[3];
-        en_triangle_normal(s->pos, t, n);
-        double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-        if (len == 0)
-            continue;
-        double area = 0.5 * len, a = n[0] / len, b = n[1] / len, c = n[2] / len;
-        const double *p = s->pos + 3 * (size_t)t[0];
-        double d = -(a * p[0] + b * p[1] + c * p[2]);
-        en_quadric k = { area * a * a, area * a * b, area * a * c, area * a * d, area * b * b,
-                         area * b * c, area * b * d, area * c * c, area * c * d, area * d * d };
+        en_quadric k;
+        double un[3];
+        face_quadric(s->pos, t, &k, un);
         for (int i = 0; i < 3; i++)
             quadric_add(&st->vx[t[i]].q, &k);
     }
