@@ -14,9 +14,10 @@
 #include "common/pool.h"
 #include "io/sink.h"
 
-/* note: what one open run costs while it is merged: zstd's decoder keeps a
- * window (512 KiB at the spill's level 1) and an input buffer, plus our own
- * read buffer. Used to size the fan-in from the budget. */
+/* note: what one open run may cost while it is merged, used to size the
+ * fan-in from the budget. Runs are plain spills now (only our read buffer
+ * and the kernel's read-ahead), so this is a margin, kept from when each run
+ * held a zstd decoder's window and input buffer. */
 #define RUN_READ_COST ((uint64_t)1 << 20)
 #define CURSOR_BYTES ((size_t)64 << 10)
 #define MIN_FANIN 4
@@ -357,7 +358,7 @@ static int merge_top(en_extsort *es, size_t k, int level, epsnet_error *err)
     uint64_t *wbuf = NULL;
     uint64_t items = 0;
     int rc = merge_begin(es, first, k, &cs, &heap, &len, err);
-    if (rc == 0 && (rc = en_spill_open(&out, es->cfg.tmpdir, es->cfg.owner, err)))
+    if (rc == 0 && (rc = en_spill_open_plain(&out, es->cfg.tmpdir, es->cfg.owner, err)))
         fail(es, rc, err);
     size_t wcap = CURSOR_BYTES / es->item_bytes, wn = 0;
     if (rc == 0 && !(wbuf = en_malloc(wcap * es->item_bytes)))
@@ -412,7 +413,7 @@ static int run_job_fn(void *arg)
     run_job *jb = arg;
     en_extsort *es = jb->es;
     radix_sort(jb->buf, es->scratch, jb->n, es->cfg.item_words, es->cfg.key_words, es->count);
-    int rc = en_spill_open(&jb->sp, es->cfg.tmpdir, es->cfg.owner, &jb->err);
+    int rc = en_spill_open_plain(&jb->sp, es->cfg.tmpdir, es->cfg.owner, &jb->err);
     if (rc == 0)
         rc = en_spill_write(jb->sp, jb->buf, jb->n * es->item_bytes, &jb->err);
     if (rc == 0)
@@ -473,7 +474,7 @@ static int spill_buffer(en_extsort *es, epsnet_error *err)
 {
     radix_sort(es->buf, es->scratch, es->n, es->cfg.item_words, es->cfg.key_words, es->count);
     en_spill *sp = NULL;
-    int rc = en_spill_open(&sp, es->cfg.tmpdir, es->cfg.owner, err);
+    int rc = en_spill_open_plain(&sp, es->cfg.tmpdir, es->cfg.owner, err);
     if (rc == 0)
         rc = en_spill_write(sp, es->buf, es->n * es->item_bytes, err);
     /* note: rewinding ends the zstd frame and frees the compressor at once,

@@ -1,6 +1,6 @@
 /*
  * External sort of fixed-size items in bounded memory: items are buffered,
- * radix-sorted and spilled as zstd-compressed runs (en_spill: anonymous
+ * radix-sorted and spilled as runs (en_spill_open_plain: anonymous
  * files that vanish on any exit), then merged. Items are arrays of uint64_t
  * words; the first key_words of them are the key, compared as unsigned
  * numbers, most significant word first. The sort is stable: items with

@@ -1243,9 +1243,9 @@ static int open_job(sort_job *j, epsnet_error *err)
         j->whole_bytes = (24 + j->asz) * in->nverts + 12 * in->nfaces;
         en_mem_take(&j->mem, j->whole_bytes);
     }
-    if ((rc = en_spill_open(&j->vraw, j->tmpdir, j->owner, err)) ||
-        (rc = en_spill_open(&j->fraw, j->tmpdir, j->owner, err)) ||
-        (rc = en_spill_open(&j->vsorted, j->tmpdir, j->owner, err)) ||
+    if ((rc = en_spill_open_plain(&j->vraw, j->tmpdir, j->owner, err)) ||
+        (rc = en_spill_open_plain(&j->fraw, j->tmpdir, j->owner, err)) ||
+        (rc = en_spill_open_plain(&j->vsorted, j->tmpdir, j->owner, err)) ||
         (rc = open_sorter(j, &j->corners, 2, 1, err)) || (rc = open_sorter(j, &j->verts, 4 + j->aw, 1, err)) ||
         (rc = open_sorter(j, &j->map, 2, 1, err)) || (rc = open_sorter(j, &j->joined, 2, 1, err)) ||
         (rc = open_sorter(j, &j->lastuse, 2, 1, err)))
