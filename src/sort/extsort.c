@@ -63,6 +63,7 @@ typedef struct cursor {
 
 struct en_extsort {
     en_extsort_config cfg;
+    uint64_t mask0;            /* cfg.key_mask, or all bits */
     size_t item_bytes;
     uint64_t *buf, *scratch;   /* run buffer and the radix sort's second half */
     size_t (*count)[256];      /* radix histograms, 8 per key word */
@@ -94,17 +95,20 @@ struct en_extsort {
     uint64_t *spare;
 };
 
-static int key_less(const uint64_t *a, const uint64_t *b, size_t k)
+static int key_less(const uint64_t *a, const uint64_t *b, size_t k, uint64_t mask0)
 {
-    for (size_t i = 0; i < k; i++)
+    if ((a[0] & mask0) != (b[0] & mask0))
+        return (a[0] & mask0) < (b[0] & mask0);
+    for (size_t i = 1; i < k; i++)
         if (a[i] != b[i])
             return a[i] < b[i];
     return 0;
 }
 
 /* LSD radix sort on the key bytes, least significant first; a byte position
- * where every item has the same value is skipped (high bytes of ids). */
-static void radix_sort(uint64_t *items, uint64_t *tmp, size_t n, size_t words, size_t key_words,
+ * where every item has the same value is skipped (high bytes of ids, and
+ * the bits key_mask leaves out, which count as zero). */
+static void radix_sort(uint64_t *items, uint64_t *tmp, size_t n, size_t words, size_t key_words, uint64_t mask0,
                        size_t (*count)[256])
 {
     size_t nbytes = key_words * 8;
@@ -113,9 +117,11 @@ static void radix_sort(uint64_t *items, uint64_t *tmp, size_t n, size_t words, s
     memset(count, 0, nbytes * sizeof *count);
     for (size_t i = 0; i < n; i++) {
         const uint64_t *it = items + i * words;
-        for (size_t w = 0; w < key_words; w++)
+        for (size_t w = 0; w < key_words; w++) {
+            uint64_t k = w ? it[w] : it[0] & mask0;
             for (size_t b = 0; b < 8; b++)
-                count[(key_words - 1 - w) * 8 + b][(it[w] >> (8 * b)) & 0xff]++;
+                count[(key_words - 1 - w) * 8 + b][(k >> (8 * b)) & 0xff]++;
+        }
     }
     uint64_t *src = items, *dst = tmp;
     for (size_t pos = 0; pos < nbytes; pos++) {
@@ -133,11 +139,21 @@ static void radix_sort(uint64_t *items, uint64_t *tmp, size_t n, size_t words, s
             sum += k;
         }
         size_t w = key_words - 1 - pos / 8, shift = 8 * (pos % 8);
-        for (size_t i = 0; i < n; i++) {
-            const uint64_t *it = src + i * words;
-            uint64_t *o = dst + c[(it[w] >> shift) & 0xff]++ * words;
-            for (size_t j = 0; j < words; j++)
-                o[j] = it[j];
+        uint64_t m = w ? UINT64_MAX : mask0;
+        /* note: fixed item widths get their own loops, so the copy is a
+         * few moves rather than a loop over words */
+        switch (words) {
+#define MOVE_ITEMS(W)                                                                         \
+    for (size_t i = 0; i < n; i++) {                                                          \
+        const uint64_t *it = src + i * (W);                                                   \
+        memcpy(dst + c[((it[w] & m) >> shift) & 0xff]++ * (W), it, (W) * sizeof *it);         \
+    }                                                                                         \
+    break;
+        case 2: MOVE_ITEMS(2)
+        case 3: MOVE_ITEMS(3)
+        case 4: MOVE_ITEMS(4)
+        default: MOVE_ITEMS(words)
+#undef MOVE_ITEMS
         }
         uint64_t *t = src;
         src = dst;
@@ -157,6 +173,7 @@ int en_extsort_open(en_extsort **out, const en_extsort_config *cfg, epsnet_error
     if (!es)
         return en_error_set(err, EPSNET_ENOMEM, cfg->owner, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     es->cfg = *cfg;
+    es->mask0 = cfg->key_mask ? cfg->key_mask : UINT64_MAX;
     es->count = en_calloc(cfg->key_words * 8, sizeof *es->count);
     if (!es->count) {
         en_free(es);
@@ -252,9 +269,13 @@ static const uint64_t *cursor_item(const en_extsort *es, const cursor *c)
 static int heap_less(const en_extsort *es, const cursor *cs, size_t a, size_t b)
 {
     const uint64_t *x = cursor_item(es, &cs[a]), *y = cursor_item(es, &cs[b]);
-    if (key_less(x, y, es->cfg.key_words))
+    if (es->cfg.key_words == 1) {
+        uint64_t kx = x[0] & es->mask0, ky = y[0] & es->mask0;
+        return kx != ky ? kx < ky : a < b;
+    }
+    if (key_less(x, y, es->cfg.key_words, es->mask0))
         return 1;
-    if (key_less(y, x, es->cfg.key_words))
+    if (key_less(y, x, es->cfg.key_words, es->mask0))
         return 0;
     return a < b;  /* note: equal keys leave in run order: deterministic */
 }
@@ -412,7 +433,7 @@ static int run_job_fn(void *arg)
 {
     run_job *jb = arg;
     en_extsort *es = jb->es;
-    radix_sort(jb->buf, es->scratch, jb->n, es->cfg.item_words, es->cfg.key_words, es->count);
+    radix_sort(jb->buf, es->scratch, jb->n, es->cfg.item_words, es->cfg.key_words, es->mask0, es->count);
     int rc = en_spill_open_plain(&jb->sp, es->cfg.tmpdir, es->cfg.owner, &jb->err);
     if (rc == 0)
         rc = en_spill_write(jb->sp, jb->buf, jb->n * es->item_bytes, &jb->err);
@@ -472,7 +493,7 @@ static int spill_buffer_async(en_extsort *es, epsnet_error *err)
 
 static int spill_buffer(en_extsort *es, epsnet_error *err)
 {
-    radix_sort(es->buf, es->scratch, es->n, es->cfg.item_words, es->cfg.key_words, es->count);
+    radix_sort(es->buf, es->scratch, es->n, es->cfg.item_words, es->cfg.key_words, es->mask0, es->count);
     en_spill *sp = NULL;
     int rc = en_spill_open_plain(&sp, es->cfg.tmpdir, es->cfg.owner, err);
     if (rc == 0)
@@ -538,7 +559,7 @@ int en_extsort_finish(en_extsort *es, epsnet_error *err)
         /* note: all items fit: sort them in place and hand them out from
          * memory; the scratch half is no longer needed. */
         if (es->buf)
-            radix_sort(es->buf, es->scratch, es->n, es->cfg.item_words, es->cfg.key_words, es->count);
+            radix_sort(es->buf, es->scratch, es->n, es->cfg.item_words, es->cfg.key_words, es->mask0, es->count);
         en_free(es->scratch);
         es->scratch = NULL;
         en_mem_give(es->cfg.account, es->buf_bytes / 2);

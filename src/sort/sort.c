@@ -142,7 +142,7 @@ struct en_sort {
     en_spill *vsorted;           /* vertices in rank order */
     en_spill *fraw;              /* input faces (old ids), input order */
     int in_core;                 /* rank_of/last_of arrays fit the budget */
-    int narrow;                  /* ranks fit 32 bits: sorter F's items are 3 words, not 4 */
+    int narrow;                  /* ranks fit 32 bits: sorter F's items are 2 words, not 4 */
     int whole;                   /* everything is in memory (see whole_fits) */
     double *xyz;                 /* whole: input vertices, 3 each */
     uint32_t *tri;               /* whole: input faces, 3 old ids each */
@@ -214,10 +214,10 @@ static long sort_workers(const sort_job *j)
  * items arrive in input order (vertex id, face id), so ties keep input
  * order: the (coordinate, id) and (last corner, face) orders of sort.h
  * without comparing the second word. */
-static int open_sorter(sort_job *j, en_extsort **es, size_t words, size_t key_words, epsnet_error *err)
+static int open_sorter(sort_job *j, en_extsort **es, size_t words, uint64_t key_mask, epsnet_error *err)
 {
     en_extsort_config c = {
-        .item_words = words, .key_words = key_words, .mem = j->set.mem / 4,
+        .item_words = words, .key_words = 1, .key_mask = key_mask, .mem = j->set.mem / 4,
         .tmpdir = j->tmpdir, .owner = j->owner, .account = &j->mem, .threads = sort_workers(j) > 1,
         .pool = j->shared,
     };
@@ -892,11 +892,13 @@ static int add_face(sort_job *j, const uint64_t r[3], epsnet_error *err)
             last = r[s];
     /* note: a face's id is not kept: it only breaks ties on the last
      * corner, which the stable sort does by itself (faces are added in
-     * input order); with ranks below 2^32 the corners share words. */
+     * input order); with ranks below 2^32 the corners share words, and
+     * the first corner rides in the key word above the key mask, as in
+     * whole_faces. */
     uint64_t face[4] = { last, r[0], r[1], r[2] };
     if (j->narrow) {
-        face[1] = r[0] | r[1] << 32;
-        face[2] = r[2];
+        face[0] = last | r[0] << 32;
+        face[1] = r[1] | r[2] << 32;
     }
     int rc = en_extsort_add(j->faces, face, err);
     for (int s = 0; s < 3 && rc == 0; s++) {
@@ -1151,18 +1153,18 @@ static int pass_emit(sort_job *j, epsnet_error *err)
                 j->st.max_width = j->live.count;
             size_t n = 0;
             const uint64_t *f;
-            while ((f = en_extsort_peek(j->faces, &rc, err)) && f[0] == rank) {
+            while ((f = en_extsort_peek(j->faces, &rc, err)) && (j->narrow ? f[0] & UINT32_MAX : f[0]) == rank) {
                 if (n == j->group_cap && en_grow((void **)&j->group, &j->group_cap, n + 1, 5 * sizeof *j->group))
                     return nomem(j, err);
                 uint64_t it[4], *g = j->group + 5 * n;
                 if ((rc = en_extsort_next(j->faces, it, err)) < 0)
                     return rc;
-                g[0] = it[0];
+                g[0] = rank;
                 g[1] = 0;
                 if (j->narrow) {
-                    g[2] = it[1] & UINT32_MAX;
-                    g[3] = it[1] >> 32;
-                    g[4] = it[2];
+                    g[2] = it[0] >> 32;
+                    g[3] = it[1] & UINT32_MAX;
+                    g[4] = it[1] >> 32;
                 } else {
                     memcpy(g + 2, it + 1, 3 * sizeof *g);
                 }
@@ -1246,9 +1248,9 @@ static int open_job(sort_job *j, epsnet_error *err)
     if ((rc = en_spill_open_plain(&j->vraw, j->tmpdir, j->owner, err)) ||
         (rc = en_spill_open_plain(&j->fraw, j->tmpdir, j->owner, err)) ||
         (rc = en_spill_open_plain(&j->vsorted, j->tmpdir, j->owner, err)) ||
-        (rc = open_sorter(j, &j->corners, 2, 1, err)) || (rc = open_sorter(j, &j->verts, 4 + j->aw, 1, err)) ||
-        (rc = open_sorter(j, &j->map, 2, 1, err)) || (rc = open_sorter(j, &j->joined, 2, 1, err)) ||
-        (rc = open_sorter(j, &j->lastuse, 2, 1, err)))
+        (rc = open_sorter(j, &j->corners, 2, 0, err)) || (rc = open_sorter(j, &j->verts, 4 + j->aw, 0, err)) ||
+        (rc = open_sorter(j, &j->map, 2, 0, err)) || (rc = open_sorter(j, &j->joined, 2, 0, err)) ||
+        (rc = open_sorter(j, &j->lastuse, 2, 0, err)))
         return rc;
     return 0;
 }
@@ -1350,7 +1352,7 @@ static int run_passes(sort_job *j, epsnet_error *err)
         return whole_faces(j, err);
     }
     j->narrow = j->st.vertices < UINT32_MAX;
-    if ((rc = open_sorter(j, &j->faces, j->narrow ? 3 : 4, 1, err)) || (rc = choose_relabel(j, err)))
+    if ((rc = open_sorter(j, &j->faces, j->narrow ? 2 : 4, j->narrow ? UINT32_MAX : 0, err)) || (rc = choose_relabel(j, err)))
         return rc;
     j->phase = 2;
     if ((rc = pass_order(j, err)))
