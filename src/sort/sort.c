@@ -153,7 +153,7 @@ struct en_sort {
     uint8_t *sattr;              /* whole: the same in rank order */
     uint32_t *fend;              /* whole: rank -> end of its faces in fitems */
     uint64_t *fitems;            /* whole: faces by (last corner, input order): see whole_faces */
-    uint32_t *out_id, *fin;      /* whole: see whole_emit */
+    uint32_t *out_id, *fin;      /* whole, and pass 6 in core: see whole_emit, emit_arrays */
     uint64_t whole_bytes;        /* accounted */
     en_pool *pool;               /* whole: workers for the chunks; NULL = this thread */
     en_pool *shared;             /* the run's pool when given (not ours to free) */
@@ -938,6 +938,8 @@ static int pass_faces_in_core(sort_job *j, epsnet_error *err)
     close_spill(j, &j->fraw);
     en_free(j->rank_of);
     j->rank_of = NULL;
+    en_mem_give(&j->mem, j->st.vertices * sizeof(uint32_t));
+    j->arrays_bytes -= j->st.vertices * sizeof(uint32_t);
     return en_extsort_finish(j->faces, err);
 }
 
@@ -1067,6 +1069,34 @@ static int emit_group(sort_job *j, uint64_t rank, size_t n, epsnet_error *err)
     return 0;
 }
 
+/* emit_group() over arrays of the ranks instead of the live map (see
+ * pass_emit): the same records in the same order. */
+static int emit_group_arrays(sort_job *j, uint64_t rank, size_t n, uint64_t *live, epsnet_error *err)
+{
+    const uint32_t *last_of = j->last_of;
+    uint32_t *fin = j->fin, *id = j->out_id;
+    for (size_t i = n; i-- > 0;)
+        for (int s = 0; s < 3; s++) {
+            uint64_t c = j->group[5 * i + 2 + (size_t)s];
+            if (last_of[c] == rank && fin[c] == UINT32_MAX)
+                fin[c] = (uint32_t)i;
+        }
+    int rc;
+    for (size_t i = 0; i < n; i++) {
+        const uint64_t *f = j->group + 5 * i + 2;
+        if ((rc = put_record(j, EPSNET_REC_TRIANGLE, id[f[0]], id[f[1]], id[f[2]], err)))
+            return rc;
+        for (int s = 0; s < 3; s++) {
+            if ((s > 0 && f[s] == f[0]) || (s > 1 && f[s] == f[1]) || last_of[f[s]] != rank || fin[f[s]] != i)
+                continue;
+            if ((rc = put_record(j, EPSNET_REC_FINALIZE, id[f[s]], 0, 0, err)))
+                return rc;
+            --*live;
+        }
+    }
+    return 0;
+}
+
 /*
  * Pass 6 of the whole path: emit_group() and the live map again, but with
  * arrays over the ranks (new id, face of the group after which a vertex is
@@ -1125,11 +1155,35 @@ static int whole_emit(sort_job *j, epsnet_error *err)
     return progress(j, nv, nv, err);
 }
 
+/*
+ * note: with ranks and last uses in core, and room for two more 32-bit
+ * arrays over the ranks (new id, face of the group after which a vertex is
+ * finalized) in half of the budget, those arrays stand for the live map, as
+ * in whole_emit(): a face's corners are ranks close to its last corner, so
+ * the arrays are read where they were just written, while the live map's
+ * probes land anywhere in a table as wide as the stream.
+ */
+static int emit_arrays(sort_job *j, epsnet_error *err)
+{
+    uint64_t nv = j->st.vertices;
+    if (!j->in_core || 3 * nv * sizeof(uint32_t) > j->set.mem / 2)
+        return 0;
+    int rc = whole_alloc(j, (void **)&j->out_id, nv, sizeof *j->out_id, err);
+    if (rc || (rc = whole_alloc(j, (void **)&j->fin, nv, sizeof *j->fin, err)))
+        return rc;
+    j->arrays_bytes += 2 * nv * sizeof(uint32_t);
+    en_mem_take(&j->mem, 2 * nv * sizeof(uint32_t));
+    return 1;
+}
+
 static int pass_emit(sort_job *j, epsnet_error *err)
 {
     if (j->whole)
         return whole_emit(j, err);
-    uint64_t nv = j->st.vertices, next_id = 0;
+    uint64_t nv = j->st.vertices, next_id = 0, live = 0;
+    int arrays = emit_arrays(j, err);
+    if (arrays < 0)
+        return arrays;
     int rc;
     for (uint64_t rank = 0; rank < nv;) {
         size_t nb = nv - rank < BATCH ? (size_t)(nv - rank) : BATCH;
@@ -1147,10 +1201,17 @@ static int pass_emit(sort_job *j, epsnet_error *err)
             vrec_get(j, b, p);
             if ((rc = emit_vertex(j, p, vrec_at(j, b) + 3 * sizeof(double), next_id, err)))
                 return rc;
-            if (live_add(&j->live, rank, next_id++, last))
-                return nomem(j, err);
-            if (j->live.count > j->st.max_width)
-                j->st.max_width = j->live.count;
+            if (arrays) {
+                j->out_id[rank] = (uint32_t)next_id++;
+                j->fin[rank] = UINT32_MAX;
+                if (++live > j->st.max_width)
+                    j->st.max_width = live;
+            } else {
+                if (live_add(&j->live, rank, next_id++, last))
+                    return nomem(j, err);
+                if (j->live.count > j->st.max_width)
+                    j->st.max_width = j->live.count;
+            }
             size_t n = 0;
             const uint64_t *f;
             while ((f = en_extsort_peek(j->faces, &rc, err)) && (j->narrow ? f[0] & UINT32_MAX : f[0]) == rank) {
@@ -1172,13 +1233,13 @@ static int pass_emit(sort_job *j, epsnet_error *err)
             }
             if (rc < 0 || (rc = over_budget(j, err)))
                 return rc;
-            if (n && (rc = emit_group(j, rank, n, err)))
+            if (n && (rc = arrays ? emit_group_arrays(j, rank, n, &live, err) : emit_group(j, rank, n, err)))
                 return rc;
         }
         if ((rc = progress(j, rank, nv, err)))
             return rc;
     }
-    if (j->live.count)
+    if (j->live.count || live)
         return internal(j, "vertices left live at the end", err);
     return 0;
 }
