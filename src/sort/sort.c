@@ -20,6 +20,7 @@
 
 #define NONE UINT64_MAX
 #define BATCH 4096               /* vertices per temporary-file read or write */
+#define PREFETCH 16              /* items ahead whose random reads are started early */
 #define PROGRESS_EVERY 0xffff
 #define PHASES 6
 #define PHASE_UNITS 1000
@@ -796,10 +797,22 @@ static int pass_order(sort_job *j, epsnet_error *err)
 
 /* ---- pass 3: ranks ---- */
 
+/* rank_of[ids[i]] = first + i: random writes on a shuffled input, started
+ * PREFETCH ahead so that their misses overlap (pass_faces_in_core). */
+static void rank_batch(sort_job *j, const uint32_t *ids, size_t n, uint64_t first)
+{
+    for (size_t i = 0; i < n; i++) {
+        if (i + PREFETCH < n)
+            __builtin_prefetch(&j->rank_of[ids[i + PREFETCH]], 1);
+        j->rank_of[ids[i]] = (uint32_t)(first + i);
+    }
+}
+
 static int pass_rank(sort_job *j, epsnet_error *err)
 {
     int a = j->axis, o1 = (a + 1) % 3, o2 = (a + 2) % 3;
     uint64_t item[EN_EXTSORT_MAX_WORDS];
+    uint32_t ids[BATCH];         /* in core: the batch's old ids, ranked at the flush */
     size_t nb = 0;
     uint64_t rank = 0;
     int rc;
@@ -811,10 +824,12 @@ static int pass_rank(sort_job *j, epsnet_error *err)
         vrec_put(j, nb, p, (const uint8_t *)(item + 4));
         uint64_t m[2] = { item[1], rank++ };
         if (j->in_core)
-            j->rank_of[item[1]] = (uint32_t)m[1];
+            ids[nb] = (uint32_t)item[1];
         else if ((rc = en_extsort_add(j->map, m, err)))
             return rc;
         if (++nb == BATCH) {
+            if (j->in_core)
+                rank_batch(j, ids, nb, rank - nb);
             if ((rc = en_spill_write(j->vsorted, j->vbuf, nb * j->vrec, err)) ||
                 (rc = progress(j, rank, j->st.vertices, err)))
                 return rc;
@@ -823,6 +838,8 @@ static int pass_rank(sort_job *j, epsnet_error *err)
     }
     if (rc < 0)
         return rc;
+    if (nb && j->in_core)
+        rank_batch(j, ids, nb, rank - nb);
     if (nb && (rc = en_spill_write(j->vsorted, j->vbuf, nb * j->vrec, err)))
         return rc;
     close_sorter(j, &j->verts);
@@ -925,11 +942,20 @@ static int pass_faces_in_core(sort_job *j, epsnet_error *err)
         size_t n = j->st.faces - f < BATCH ? (size_t)(j->st.faces - f) : BATCH;
         if ((rc = read_faces(j, n, err)))
             return rc;
+        /* note: on a shuffled input rank_of and last_of are read at random,
+         * one cache miss each per corner; asking for them PREFETCH faces
+         * ahead lets the misses overlap instead of following one another. */
+        uint64_t *fb = j->fbuf;
+        for (size_t i = 0; i < 3 * n; i++) {
+            if (i + 3 * PREFETCH < 3 * n)
+                __builtin_prefetch(&j->rank_of[fb[i + 3 * PREFETCH]]);
+            fb[i] = j->rank_of[fb[i]];
+        }
         for (size_t i = 0; i < n; i++, f++) {
-            uint64_t r[3];
-            for (int s = 0; s < 3; s++)
-                r[s] = j->rank_of[j->fbuf[3 * i + (size_t)s]];
-            if ((rc = add_face(j, r, err)))
+            if (i + PREFETCH < n)
+                for (int s = 0; s < 3; s++)
+                    __builtin_prefetch(&j->last_of[fb[3 * (i + PREFETCH) + (size_t)s]], 1);
+            if ((rc = add_face(j, fb + 3 * i, err)))
                 return rc;
         }
         if ((rc = progress(j, f, j->st.faces, err)))
