@@ -58,7 +58,8 @@ typedef struct run_job {
 typedef struct cursor {
     en_spill *sp;              /* borrowed from its run */
     uint64_t *buf;
-    size_t n, pos;             /* items in buf, next item */
+    size_t n, pos;             /* items in buf (0: spent), next item */
+    uint64_t key;              /* key_words 1: the next item's key, masked */
 } cursor;
 
 struct en_extsort {
@@ -80,8 +81,7 @@ struct en_extsort {
     int in_memory;             /* everything fits: hand out buf directly */
     size_t out_pos;
     cursor *cur;               /* fanin cursors of the final merge */
-    size_t *heap;              /* cursor indices, min-heap by key */
-    size_t heap_len;
+    size_t *tree;              /* the final merge's loser tree (merge_begin) */
     size_t ncur;
     int failed;
     epsnet_error err;
@@ -266,71 +266,76 @@ static const uint64_t *cursor_item(const en_extsort *es, const cursor *c)
     return c->buf + c->pos * es->cfg.item_words;
 }
 
-static int heap_less(const en_extsort *es, const cursor *cs, size_t a, size_t b)
+/* Cursor a leaves before cursor b: by key, then by run age (note: equal
+ * keys leave in run order, which keeps the sort stable); a spent cursor
+ * after every other. A strict total order, so the merge's output does not
+ * depend on how the tree compares. */
+static int run_less(const en_extsort *es, const cursor *cs, size_t a, size_t b)
 {
+    if (cs[a].n == 0 || cs[b].n == 0)
+        return cs[b].n == 0 && (cs[a].n != 0 || a < b);
+    if (es->cfg.key_words == 1)
+        return cs[a].key != cs[b].key ? cs[a].key < cs[b].key : a < b;
     const uint64_t *x = cursor_item(es, &cs[a]), *y = cursor_item(es, &cs[b]);
-    if (es->cfg.key_words == 1) {
-        uint64_t kx = x[0] & es->mask0, ky = y[0] & es->mask0;
-        return kx != ky ? kx < ky : a < b;
-    }
     if (key_less(x, y, es->cfg.key_words, es->mask0))
         return 1;
     if (key_less(y, x, es->cfg.key_words, es->mask0))
         return 0;
-    return a < b;  /* note: equal keys leave in run order: deterministic */
+    return a < b;
 }
 
-static void heap_down(const en_extsort *es, const cursor *cs, size_t *heap, size_t len, size_t i)
+static void cursor_key(const en_extsort *es, cursor *c)
 {
-    for (;;) {
-        size_t l = 2 * i + 1, m = i;
-        if (l < len && heap_less(es, cs, heap[l], heap[m]))
-            m = l;
-        if (l + 1 < len && heap_less(es, cs, heap[l + 1], heap[m]))
-            m = l + 1;
-        if (m == i)
-            return;
-        size_t t = heap[i];
-        heap[i] = heap[m];
-        heap[m] = t;
-        i = m;
-    }
+    if (c->n)
+        c->key = c->buf[c->pos * es->cfg.item_words] & es->mask0;
 }
 
-/* Open cursors on runs [first, first+k) and build the heap. */
-static int merge_begin(en_extsort *es, size_t first, size_t k, cursor **pcs, size_t **pheap, size_t *plen,
-                       epsnet_error *err)
+/* Open cursors on runs [first, first+k) and build the tree.
+ * note: a loser tree: node n of 1..k-1 keeps
+ * the loser of the match between its children 2n and 2n+1, leaves k..2k-1
+ * are the runs, tree[0] the winner. Taking the winner replays only its
+ * path, one comparison per level, where a heap's sift-down made two. */
+static int merge_begin(en_extsort *es, size_t first, size_t k, cursor **pcs, size_t **ptree, epsnet_error *err)
 {
     cursor *cs = en_calloc(k, sizeof *cs);
-    size_t *heap = en_calloc(k, sizeof *heap);
-    if (!cs || !heap) {
+    size_t *tree = en_calloc(k, sizeof *tree);
+    size_t *win = en_calloc(2 * k, sizeof *win);
+    if (!cs || !tree || !win) {
         en_free(cs);
-        en_free(heap);
+        en_free(tree);
+        en_free(win);
         return nomem(es, err);
     }
     *pcs = cs;
-    *pheap = heap;
-    *plen = 0;
+    *ptree = tree;
     en_mem_take(es->cfg.account, k * (CURSOR_BYTES + RUN_READ_COST));
-    for (size_t i = 0; i < k; i++) {
+    int rc = 0;
+    for (size_t i = 0; i < k && rc == 0; i++) {
         cs[i].sp = es->runs[first + i].sp;
         cs[i].buf = en_malloc(CURSOR_BYTES);
         if (!cs[i].buf)
-            return nomem(es, err);
-        int rc = en_spill_rewind(cs[i].sp, err);
-        if (rc)
-            return fail(es, rc, err);
-        if ((rc = cursor_refill(es, &cs[i], err)))
-            return rc;
-        if (cs[i].n)
-            heap[(*plen)++] = i;
+            rc = nomem(es, err);
+        else if ((rc = en_spill_rewind(cs[i].sp, err)))
+            fail(es, rc, err);
+        else if ((rc = cursor_refill(es, &cs[i], err)) == 0)
+            cursor_key(es, &cs[i]);
     }
-    for (size_t i = *plen / 2; i-- > 0;)
-        heap_down(es, cs, heap, *plen, i);
-    return 0;
+    if (rc == 0) {
+        for (size_t i = 0; i < k; i++)
+            win[k + i] = i;
+        for (size_t n = k; n-- > 1;) {
+            size_t a = win[2 * n], b = win[2 * n + 1];
+            int a_wins = run_less(es, cs, a, b);
+            win[n] = a_wins ? a : b;
+            tree[n] = a_wins ? b : a;
+        }
+        tree[0] = k > 1 ? win[1] : 0;
+    }
+    en_free(win);
+    return rc;
 }
 
-static void merge_end(en_extsort *es, cursor **pcs, size_t **pheap, size_t k)
+static void merge_end(en_extsort *es, cursor **pcs, size_t **ptree, size_t k)
 {
     cursor *cs = *pcs;
     for (size_t i = 0; cs && i < k; i++)
@@ -338,26 +343,33 @@ static void merge_end(en_extsort *es, cursor **pcs, size_t **pheap, size_t k)
     if (cs)
         en_mem_give(es->cfg.account, k * (CURSOR_BYTES + RUN_READ_COST));
     en_free(cs);
-    en_free(*pheap);
+    en_free(*ptree);
     *pcs = NULL;
-    *pheap = NULL;
+    *ptree = NULL;
 }
 
-/* Take the smallest item of a merge. @return 1, 0 when empty, or < 0. */
-static int merge_pop(en_extsort *es, cursor *cs, size_t *heap, size_t *len, uint64_t *item, epsnet_error *err)
+/* Take the smallest item of a merge of k cursors. @return 1, 0 when
+ * empty, or < 0. */
+static int merge_pop(en_extsort *es, cursor *cs, size_t *tree, size_t k, uint64_t *item, epsnet_error *err)
 {
-    if (*len == 0)
+    size_t w = tree[0];
+    cursor *c = &cs[w];
+    if (c->n == 0)
         return 0;
-    cursor *c = &cs[heap[0]];
     memcpy(item, cursor_item(es, c), es->item_bytes);
     if (++c->pos == c->n) {
         int rc = cursor_refill(es, c, err);
         if (rc)
             return rc;
-        if (c->n == 0)
-            heap[0] = heap[--*len];
     }
-    heap_down(es, cs, heap, *len, 0);
+    cursor_key(es, c);
+    for (size_t n = (w + k) / 2; n >= 1; n /= 2)
+        if (run_less(es, cs, tree[n], w)) {
+            size_t t = tree[n];
+            tree[n] = w;
+            w = t;
+        }
+    tree[0] = w;
     return 1;
 }
 
@@ -374,18 +386,18 @@ static int merge_top(en_extsort *es, size_t k, int level, epsnet_error *err)
 {
     size_t first = es->nruns - k;
     cursor *cs = NULL;
-    size_t *heap = NULL, len = 0;
+    size_t *tree = NULL;
     en_spill *out = NULL;
     uint64_t *wbuf = NULL;
     uint64_t items = 0;
-    int rc = merge_begin(es, first, k, &cs, &heap, &len, err);
+    int rc = merge_begin(es, first, k, &cs, &tree, err);
     if (rc == 0 && (rc = en_spill_open_plain(&out, es->cfg.tmpdir, es->cfg.owner, err)))
         fail(es, rc, err);
     size_t wcap = CURSOR_BYTES / es->item_bytes, wn = 0;
     if (rc == 0 && !(wbuf = en_malloc(wcap * es->item_bytes)))
         rc = nomem(es, err);
     while (rc == 0) {
-        int got = merge_pop(es, cs, heap, &len, wbuf + wn * es->cfg.item_words, err);
+        int got = merge_pop(es, cs, tree, k, wbuf + wn * es->cfg.item_words, err);
         if (got < 0)
             rc = got;
         if (got > 0) {
@@ -401,7 +413,7 @@ static int merge_top(en_extsort *es, size_t k, int level, epsnet_error *err)
             break;
     }
     en_free(wbuf);
-    merge_end(es, &cs, &heap, k);
+    merge_end(es, &cs, &tree, k);
     if (rc == 0 && (rc = en_spill_rewind(out, err)))
         fail(es, rc, err);
     if (rc) {
@@ -574,7 +586,7 @@ int en_extsort_finish(en_extsort *es, epsnet_error *err)
     if (rc)
         return rc;
     es->ncur = es->nruns;
-    return merge_begin(es, 0, es->nruns, &es->cur, &es->heap, &es->heap_len, err);
+    return merge_begin(es, 0, es->nruns, &es->cur, &es->tree, err);
 }
 
 const uint64_t *en_extsort_peek(en_extsort *es, int *rc, epsnet_error *err)
@@ -586,9 +598,8 @@ const uint64_t *en_extsort_peek(en_extsort *es, int *rc, epsnet_error *err)
     }
     if (es->in_memory)
         return es->out_pos < es->n ? es->buf + es->out_pos * es->cfg.item_words : NULL;
-    if (es->heap_len == 0)
-        return NULL;
-    return cursor_item(es, &es->cur[es->heap[0]]);
+    const cursor *c = &es->cur[es->tree[0]];
+    return c->n ? cursor_item(es, c) : NULL;
 }
 
 int en_extsort_next(en_extsort *es, uint64_t *item, epsnet_error *err)
@@ -601,7 +612,7 @@ int en_extsort_next(en_extsort *es, uint64_t *item, epsnet_error *err)
         memcpy(item, es->buf + es->out_pos++ * es->cfg.item_words, es->item_bytes);
         return 1;
     }
-    return merge_pop(es, es->cur, es->heap, &es->heap_len, item, err);
+    return merge_pop(es, es->cur, es->tree, es->ncur, item, err);
 }
 
 uint64_t en_extsort_items(const en_extsort *es)
@@ -636,7 +647,7 @@ void en_extsort_close(en_extsort **pes)
     }
     en_jobring_free(&es->ring, NULL);
     en_pool_free(&es->pool);
-    merge_end(es, &es->cur, &es->heap, es->ncur);
+    merge_end(es, &es->cur, &es->tree, es->ncur);
     for (size_t i = 0; i < es->nruns; i++)
         en_spill_close(&es->runs[i].sp);
     en_free(es->runs);
