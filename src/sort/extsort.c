@@ -95,6 +95,18 @@ struct en_extsort {
     uint64_t *spare;
 };
 
+/* note: the widths in use get fixed-size copies, a few moves inlined,
+ * rather than a call per item. */
+static inline void copy_item(uint64_t *dst, const uint64_t *src, size_t words)
+{
+    switch (words) {
+    case 2: memcpy(dst, src, 2 * sizeof *src); break;
+    case 3: memcpy(dst, src, 3 * sizeof *src); break;
+    case 4: memcpy(dst, src, 4 * sizeof *src); break;
+    default: memcpy(dst, src, words * sizeof *src); break;
+    }
+}
+
 static int key_less(const uint64_t *a, const uint64_t *b, size_t k, uint64_t mask0)
 {
     if ((a[0] & mask0) != (b[0] & mask0))
@@ -356,7 +368,7 @@ static int merge_pop(en_extsort *es, cursor *cs, size_t *tree, size_t k, uint64_
     cursor *c = &cs[w];
     if (c->n == 0)
         return 0;
-    memcpy(item, cursor_item(es, c), es->item_bytes);
+    copy_item(item, cursor_item(es, c), es->cfg.item_words);
     if (++c->pos == c->n) {
         int rc = cursor_refill(es, c, err);
         if (rc)
@@ -553,7 +565,7 @@ int en_extsort_add(en_extsort *es, const uint64_t *item, epsnet_error *err)
         if (rc)
             return rc;
     }
-    memcpy(es->buf + es->n * es->cfg.item_words, item, es->item_bytes);
+    copy_item(es->buf + es->n * es->cfg.item_words, item, es->cfg.item_words);
     es->n++;
     es->items++;
     return 0;
@@ -609,7 +621,7 @@ int en_extsort_next(en_extsort *es, uint64_t *item, epsnet_error *err)
     if (es->in_memory) {
         if (es->out_pos == es->n)
             return 0;
-        memcpy(item, es->buf + es->out_pos++ * es->cfg.item_words, es->item_bytes);
+        copy_item(item, es->buf + es->out_pos++ * es->cfg.item_words, es->cfg.item_words);
         return 1;
     }
     return merge_pop(es, es->cur, es->tree, es->ncur, item, err);
