@@ -581,16 +581,17 @@ static int spill_compress(en_spill *sp, const void *data, size_t n, ZSTD_EndDire
     }
 }
 
-/* A plain spill stages small writes in zbuf and passes large ones
- * straight to the file. */
+/* A plain spill stages small writes in zbuf and passes large ones (half
+ * of zbuf or more: a batch of records) straight to the file, without the
+ * copy. */
 static int spill_put_plain(en_spill *sp, const void *data, size_t n, epsnet_error *err)
 {
-    if (sp->zlen + n > sp->zcap && sp->zlen) {
+    if ((sp->zlen + n > sp->zcap || n >= sp->zcap / 2) && sp->zlen) {
         if (spill_write_raw(sp, sp->zbuf, sp->zlen, err))
             return EPSNET_EIO;
         sp->zlen = 0;
     }
-    if (n >= sp->zcap)
+    if (n >= sp->zcap / 2)
         return spill_write_raw(sp, data, n, err) ? EPSNET_EIO : 0;
     memcpy(sp->zbuf + sp->zlen, data, n);
     sp->zlen += n;
