@@ -127,6 +127,37 @@ static uint64_t live_bytes(const live_map *m)
     return m->slots ? (uint64_t)(m->mask + 1) * sizeof *m->slots : 0;
 }
 
+/* ---- pass 6's faces, merged a block ahead on a worker ----
+ * note: the final merge of sorter F is most of what pass 6 does for the
+ * sort itself (the rest is the consumer's: encoding the output). A worker
+ * merges the next block of items into one buffer while the calling thread
+ * walks the other, so the merge overlaps the consumer (docs/architecture.md
+ * §10, §13). One fill is in flight at a time, on a one-slot ring, so the
+ * sorter is only ever touched by one fill, and the blocks, hence the
+ * items, come in the same order for any thread count. */
+#define FEED_ITEMS 16384
+
+typedef struct face_fill {
+    /* Written by the calling thread before submit, read by the worker. */
+    en_extsort *faces;           /* touched only by the fill in flight */
+    uint64_t *buf;               /* FEED_ITEMS items: the worker writes them while in flight */
+    size_t words;
+    /* Written by the worker, read by the calling thread after retire. */
+    size_t n;                    /* items filled; fewer than FEED_ITEMS: the sorter is drained */
+    epsnet_error err;
+} face_fill;
+
+/* Calling thread only. */
+typedef struct face_feed {
+    en_pool *pool;               /* ours (1 worker, or 0: inline) when the sort was given none */
+    en_jobring *ring;            /* one slot */
+    face_fill fill[2];
+    int cur;                     /* the block being walked: fill[cur] */
+    size_t pos;                  /* its next item */
+    int busy;                    /* fill[1 - cur] is in flight */
+    uint64_t bytes;              /* accounted */
+} face_feed;
+
 /* ---- the job ---- */
 
 struct en_sort {
@@ -181,6 +212,7 @@ struct en_sort {
     uint64_t *group;             /* faces of one last corner: 5 words each */
     size_t group_cap;
     live_map live;
+    face_feed feed;              /* pass 6: sorter F's items, a block ahead */
     double t0;
 };
 
@@ -1202,6 +1234,103 @@ static int emit_arrays(sort_job *j, epsnet_error *err)
     return 1;
 }
 
+static int fill_job(void *arg)
+{
+    face_fill *f = arg;
+    int rc = 0;
+    f->n = 0;
+    while (f->n < FEED_ITEMS && (rc = en_extsort_next(f->faces, f->buf + f->n * f->words, &f->err)) > 0)
+        f->n++;
+    return rc < 0 ? rc : 0;
+}
+
+static int feed_submit(sort_job *j, face_feed *fd, int which, epsnet_error *err)
+{
+    if (en_jobring_submit(fd->ring, fill_job, &fd->fill[which]))
+        return internal(j, "the worker refused a block of faces", err);
+    fd->busy = 1;
+    return 0;
+}
+
+/* A thread that cannot start leaves the merge to this one (fills then run
+ * inline, through the same code). */
+static int feed_open(sort_job *j, face_feed *fd, epsnet_error *err)
+{
+    size_t words = j->narrow ? 2 : 4;
+    en_pool *pool = j->shared;
+    if (!pool) {
+        int rc = en_pool_new(&fd->pool, sort_workers(j) > 1 ? 1 : 0);
+        if (rc && rc != EPSNET_ENOMEM)
+            rc = en_pool_new(&fd->pool, 0);
+        if (rc)
+            return nomem(j, err);
+        pool = fd->pool;
+    }
+    if (en_jobring_new(&fd->ring, pool, 1))
+        return nomem(j, err);
+    for (int b = 0; b < 2; b++) {
+        fd->fill[b] = (face_fill){ .faces = j->faces, .words = words };
+        if (!(fd->fill[b].buf = en_malloc(FEED_ITEMS * words * sizeof(uint64_t))))
+            return nomem(j, err);
+    }
+    fd->bytes = 2 * FEED_ITEMS * words * sizeof(uint64_t);
+    en_mem_take(&j->mem, fd->bytes);
+    fd->cur = 1; /* an empty block, whose successor is in flight */
+    fd->pos = 0;
+    return feed_submit(j, fd, 0, err);
+}
+
+/* Move to the block in flight, and start the next one after it unless the
+ * sorter is drained. @return 1, 0 at the end, or < 0. */
+static int feed_advance(sort_job *j, face_feed *fd, epsnet_error *err)
+{
+    if (!fd->busy)
+        return 0;
+    void *job;
+    int rc;
+    en_jobring_retire(fd->ring, &job, &rc);
+    fd->busy = 0;
+    fd->cur = 1 - fd->cur;
+    fd->pos = 0;
+    const face_fill *f = &fd->fill[fd->cur];
+    if (rc) {
+        if (err)
+            *err = f->err;
+        return rc;
+    }
+    if (f->n == FEED_ITEMS && (rc = feed_submit(j, fd, 1 - fd->cur, err)))
+        return rc;
+    return f->n > 0;
+}
+
+/* The next item of sorter F, or NULL at the end or on failure (*rc). */
+static const uint64_t *feed_peek(sort_job *j, face_feed *fd, int *rc, epsnet_error *err)
+{
+    *rc = 0;
+    if (fd->pos == fd->fill[fd->cur].n && (*rc = feed_advance(j, fd, err)) <= 0)
+        return NULL;
+    const face_fill *f = &fd->fill[fd->cur];
+    return f->buf + fd->pos * f->words;
+}
+
+static void feed_close(sort_job *j, face_feed *fd)
+{
+    if (fd->busy) {
+        void *job;
+        int rc;
+        en_jobring_retire(fd->ring, &job, &rc);
+        fd->busy = 0;
+    }
+    en_jobring_free(&fd->ring, NULL);
+    en_pool_free(&fd->pool);
+    for (int b = 0; b < 2; b++) {
+        en_free(fd->fill[b].buf);
+        fd->fill[b].buf = NULL;
+    }
+    en_mem_give(&j->mem, fd->bytes);
+    fd->bytes = 0;
+}
+
 static int pass_emit(sort_job *j, epsnet_error *err)
 {
     if (j->whole)
@@ -1210,7 +1339,9 @@ static int pass_emit(sort_job *j, epsnet_error *err)
     int arrays = emit_arrays(j, err);
     if (arrays < 0)
         return arrays;
-    int rc;
+    int rc = feed_open(j, &j->feed, err);
+    if (rc)
+        return rc;
     for (uint64_t rank = 0; rank < nv;) {
         size_t nb = nv - rank < BATCH ? (size_t)(nv - rank) : BATCH;
         if ((rc = read_vertices(j, j->vsorted, nb, err)))
@@ -1240,12 +1371,12 @@ static int pass_emit(sort_job *j, epsnet_error *err)
             }
             size_t n = 0;
             const uint64_t *f;
-            while ((f = en_extsort_peek(j->faces, &rc, err)) && (j->narrow ? f[0] & UINT32_MAX : f[0]) == rank) {
+            while ((f = feed_peek(j, &j->feed, &rc, err)) && (j->narrow ? f[0] & UINT32_MAX : f[0]) == rank) {
                 if (n == j->group_cap && en_grow((void **)&j->group, &j->group_cap, n + 1, 5 * sizeof *j->group))
                     return nomem(j, err);
-                uint64_t it[4], *g = j->group + 5 * n;
-                if ((rc = en_extsort_next(j->faces, it, err)) < 0)
-                    return rc;
+                const uint64_t *it = f;
+                uint64_t *g = j->group + 5 * n;
+                j->feed.pos++;
                 g[0] = rank;
                 g[1] = 0;
                 if (j->narrow) {
@@ -1344,6 +1475,7 @@ static int open_job(sort_job *j, epsnet_error *err)
 
 static void close_job(sort_job *j)
 {
+    feed_close(j, &j->feed); /* first: a fill in flight uses sorter F */
     epsnet_reader_close(&j->r);
     close_spill(j, &j->vraw);
     close_spill(j, &j->vsorted);
