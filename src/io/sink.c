@@ -522,8 +522,8 @@ static int spill_open(en_spill **out, const char *dir, const char *owner, int pl
     /* note: a fast level. A spill is read back once or twice: at level 1
      * compressing the sort's spills was a third of its time; at -7 it
      * needed 28% less CPU (2M faces, --mem 64M) for 40% more temporary
-     * bytes. The sort now writes plain spills (bench/RESULTS.md, "Sort at
-     * 20M"): even -7 cost more time than the bytes it saved. */
+     * bytes. The sort now writes plain spills (docs/architecture.md §13):
+     * even -7 cost more time than the bytes it saved. */
     if (!plain)
         ZSTD_CCtx_setParameter(sp->zc, ZSTD_c_compressionLevel, -7);
     *out = sp;
