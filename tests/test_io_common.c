@@ -215,6 +215,41 @@ TEST(spill_round_trips_and_leaves_no_file)
     CHECK_EQ_INT(count_entries(dir), 0);
 }
 
+TEST(plain_spill_keeps_bytes_as_written_across_small_and_large_writes)
+{
+    char dir[600];
+    snprintf(dir, sizeof dir, "%s/plaindir", tl_tmpdir());
+    mkdir(dir, 0777);
+    epsnet_error err;
+    en_spill *sp = NULL;
+    CHECK_EQ_INT(en_spill_open_plain(&sp, dir, "out.smz", &err), 0);
+    CHECK_EQ_INT(count_entries(dir), 0);
+    /* small writes are staged, a write larger than the staging goes
+     * straight to the file: both in order */
+    static uint64_t big[40000];
+    uint64_t next = 0;
+    for (int round = 0; round < 3; round++) {
+        for (int i = 0; i < 1000; i++, next++)
+            CHECK_EQ_INT(en_spill_write(sp, &next, sizeof next, &err), 0);
+        for (size_t i = 0; i < sizeof big / sizeof *big; i++)
+            big[i] = next++;
+        CHECK_EQ_INT(en_spill_write(sp, big, sizeof big, &err), 0);
+    }
+    CHECK_EQ_INT(en_spill_rewind(sp, &err), 0);
+    CHECK_EQ_U64(en_spill_disk_bytes(sp), next * 8); /* not compressed */
+    uint64_t v, n = 0;
+    int ok = 1;
+    while (en_spill_read(sp, &v, sizeof v, &err) == (int64_t)sizeof v)
+        ok &= v == n++;
+    CHECK(ok);
+    CHECK_EQ_U64(n, next);
+    CHECK_EQ_INT(en_spill_rewind(sp, &err), 0); /* read again from the start */
+    CHECK_EQ_INT((int)en_spill_read(sp, big, 16, &err), 16);
+    CHECK_EQ_U64(big[1], 1);
+    en_spill_close(&sp);
+    CHECK_EQ_INT(count_entries(dir), 0);
+}
+
 TEST(u64set_add_remove_many)
 {
     en_u64set *s = en_u64set_new();
@@ -374,6 +409,7 @@ int main(void)
     RUN(sink_onto_a_device_writes_in_place);
     RUN(sink_into_missing_directory_fails_cleanly);
     RUN(spill_round_trips_and_leaves_no_file);
+    RUN(plain_spill_keeps_bytes_as_written_across_small_and_large_writes);
     RUN(u64set_add_remove_many);
     RUN(parse_size_accepts_binary_suffixes);
     RUN(error_messages_name_file_and_position);

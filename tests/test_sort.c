@@ -5,6 +5,7 @@
  * same bytes every time. The output is checked by an independent validator
  * written here, not by the library's own reader checks alone.
  */
+#include "sort/extsort.h"
 #include "sort/sort.h"
 #include "testlib.h"
 
@@ -553,6 +554,42 @@ TEST(no_temporary_files_are_left)
     CHECK_EQ_INT(system(cmd), 0);
 }
 
+/* Items (key | payload << 32, index): only the low 32 bits are key, so
+ * items with equal keys leave in the order they were added, whatever their
+ * payload, through many runs and their merges. */
+TEST(extsort_key_mask_keeps_equal_keys_in_added_order)
+{
+    epsnet_error err;
+    for (int threads = 0; threads < 2; threads++) {
+        en_extsort_config c = { .item_words = 2, .key_words = 1, .key_mask = UINT32_MAX, .mem = 64 << 10,
+                                .tmpdir = tl_tmpdir(), .owner = "mask", .threads = threads };
+        en_extsort *es = NULL;
+        CHECK_EQ_INT(en_extsort_open(&es, &c, &err), 0);
+        const uint64_t n = 50000;
+        for (uint64_t i = 0; i < n; i++) {
+            uint64_t payload = (i * 2654435761u) & 0xffff; /* unordered high bits */
+            uint64_t item[2] = { (i * 7919 % 97) | payload << 32, i };
+            CHECK_EQ_INT(en_extsort_add(es, item, &err), 0);
+        }
+        CHECK_EQ_INT(en_extsort_finish(es, &err), 0);
+        CHECK(en_extsort_runs(es) > 1);
+        uint64_t item[2], prev_key = 0, prev_i = 0, got = 0;
+        int ok = 1;
+        while (en_extsort_next(es, item, &err) > 0) {
+            uint64_t key = item[0] & UINT32_MAX;
+            ok &= key == item[1] * 7919 % 97 && item[0] >> 32 == ((item[1] * 2654435761u) & 0xffff);
+            if (got)
+                ok &= key > prev_key || (key == prev_key && item[1] > prev_i);
+            prev_key = key;
+            prev_i = item[1];
+            got++;
+        }
+        CHECK(ok);
+        CHECK_EQ_U64(got, n);
+        en_extsort_close(&es);
+    }
+}
+
 int main(void)
 {
     RUN(tiny_mesh_sorts_to_the_exact_expected_stream);
@@ -567,6 +604,7 @@ int main(void)
     RUN(empty_mesh_sorts_to_an_empty_stream);
     RUN(degenerate_and_duplicate_faces_are_kept);
     RUN(no_temporary_files_are_left);
+    RUN(extsort_key_mask_keeps_equal_keys_in_added_order);
     tl_cleanup();
     return tl_finish();
 }

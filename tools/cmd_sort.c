@@ -15,7 +15,7 @@ static void sort_help(void)
            "of any size, into a spatially sorted, finalized streaming mesh: vertices in\n"
            "order along the axis, each triangle right after its last vertex, each vertex\n"
            "finalized right after its last triangle. Vertices no triangle uses are\n"
-           "dropped. Temporary runs are zstd-compressed anonymous files that vanish on\n"
+           "dropped. Temporary runs are uncompressed anonymous files that vanish on\n"
            "any exit. The same input and options give the same bytes.\n"
            "\n"
            "  -o, --output FILE   destination (required); .smz keeps the finalization\n"

@@ -952,7 +952,7 @@ EPSNET_API int epsnet_hausdorff_write_json(const epsnet_hausdorff_result *r, con
  * non-decreasing order along one axis, each triangle right after its last
  * vertex, each vertex finalized right after its last triangle. Sorting turns
  * any readable mesh into one, out of core: vertices and face corners are
- * external-sorted in zstd-compressed temporary runs (anonymous files that
+ * external-sorted in temporary runs (anonymous, uncompressed files that
  * vanish on any exit), so memory stays near `mem` whatever the mesh size.
  *
  * The output, for the same input and settings, is the same bytes:

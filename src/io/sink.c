@@ -16,6 +16,7 @@
 #include "common/fault.h"
 
 #define EN_SINK_BUF (1u << 20)
+#define SPILL_PLAIN_BUF ((size_t)128 << 10)
 
 /* Full-disk injection (tests/test_fault_injection.py): with EPSNET_FAIL_WRITE=N
  * the N-th write to an output or temporary file and every later one fail
@@ -463,15 +464,17 @@ struct en_spill {
     int fd;
     char *owner;            /* for messages */
     int reading;
+    int plain;              /* no zstd: zbuf stages the bytes themselves */
     ZSTD_CStream *zc;
     ZSTD_DStream *zd;
-    uint8_t *zbuf;          /* compressed staging, both directions */
+    uint8_t *zbuf;          /* compressed staging, both directions; plain: the
+                               write staging (freed at rewind) */
     size_t zcap, zlen, zpos;
     int eof;
     uint64_t disk;
 };
 
-int en_spill_open(en_spill **out, const char *dir, const char *owner, epsnet_error *err)
+static int spill_open(en_spill **out, const char *dir, const char *owner, int plain, epsnet_error *err)
 {
     *out = NULL;
     if (!dir || !*dir)
@@ -508,20 +511,33 @@ int en_spill_open(en_spill **out, const char *dir, const char *owner, epsnet_err
         return en_error_set(err, en_error_from_errno(e), dir, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "cannot create a temporary file: %s", strerror(e));
     }
-    sp->zc = ZSTD_createCStream();
-    sp->zcap = ZSTD_CStreamOutSize();
+    sp->plain = plain;
+    sp->zc = plain ? NULL : ZSTD_createCStream();
+    sp->zcap = plain ? SPILL_PLAIN_BUF : ZSTD_CStreamOutSize();
     sp->zbuf = en_malloc(sp->zcap);
-    if (!sp->zc || !sp->zbuf) {
+    if ((!plain && !sp->zc) || !sp->zbuf) {
         en_spill_close(&sp);
         return en_error_set(err, EPSNET_ENOMEM, dir, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     }
-    /* note: a fast level. A spill is read back once or twice, and the
-     * sort is bound by the processor: at level 1 compressing its spills
-     * was a third of its time; at -7 it needs 28% less CPU (2M faces,
-     * --mem 64M) for 40% more temporary bytes. */
-    ZSTD_CCtx_setParameter(sp->zc, ZSTD_c_compressionLevel, -7);
+    /* note: a fast level. A spill is read back once or twice: at level 1
+     * compressing the sort's spills was a third of its time; at -7 it
+     * needed 28% less CPU (2M faces, --mem 64M) for 40% more temporary
+     * bytes. The sort now writes plain spills (docs/architecture.md §13):
+     * even -7 cost more time than the bytes it saved. */
+    if (!plain)
+        ZSTD_CCtx_setParameter(sp->zc, ZSTD_c_compressionLevel, -7);
     *out = sp;
     return 0;
+}
+
+int en_spill_open(en_spill **out, const char *dir, const char *owner, epsnet_error *err)
+{
+    return spill_open(out, dir, owner, 0, err);
+}
+
+int en_spill_open_plain(en_spill **out, const char *dir, const char *owner, epsnet_error *err)
+{
+    return spill_open(out, dir, owner, 1, err);
 }
 
 static int spill_io_fail(const en_spill *sp, int e, epsnet_error *err)
@@ -565,16 +581,42 @@ static int spill_compress(en_spill *sp, const void *data, size_t n, ZSTD_EndDire
     }
 }
 
+/* A plain spill stages small writes in zbuf and passes large ones (half
+ * of zbuf or more: a batch of records) straight to the file, without the
+ * copy. */
+static int spill_put_plain(en_spill *sp, const void *data, size_t n, epsnet_error *err)
+{
+    if ((sp->zlen + n > sp->zcap || n >= sp->zcap / 2) && sp->zlen) {
+        if (spill_write_raw(sp, sp->zbuf, sp->zlen, err))
+            return EPSNET_EIO;
+        sp->zlen = 0;
+    }
+    if (n >= sp->zcap / 2)
+        return spill_write_raw(sp, data, n, err) ? EPSNET_EIO : 0;
+    memcpy(sp->zbuf + sp->zlen, data, n);
+    sp->zlen += n;
+    return 0;
+}
+
 int en_spill_write(en_spill *sp, const void *data, size_t n, epsnet_error *err)
 {
     if (sp->reading)
         return en_error_set(err, EPSNET_EINTERNAL, sp->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "temporary file: write after rewind");
+    if (sp->plain)
+        return spill_put_plain(sp, data, n, err);
     return spill_compress(sp, data, n, ZSTD_e_continue, err);
 }
 
 int en_spill_rewind(en_spill *sp, epsnet_error *err)
 {
+    if (!sp->reading && sp->plain) {
+        if (sp->zlen && spill_write_raw(sp, sp->zbuf, sp->zlen, err))
+            return EPSNET_EIO;
+        en_free(sp->zbuf);
+        sp->zbuf = NULL;
+        sp->reading = 1;
+    }
     if (!sp->reading) {
         int rc = spill_compress(sp, NULL, 0, ZSTD_e_end, err);
         if (rc)
@@ -590,7 +632,8 @@ int en_spill_rewind(en_spill *sp, epsnet_error *err)
                                 "out of memory");
         sp->reading = 1;
     }
-    ZSTD_initDStream(sp->zd);
+    if (!sp->plain)
+        ZSTD_initDStream(sp->zd);
     sp->zlen = sp->zpos = 0;
     sp->eof = 0;
     if (lseek(sp->fd, 0, SEEK_SET) < 0)
@@ -598,8 +641,29 @@ int en_spill_rewind(en_spill *sp, epsnet_error *err)
     return 0;
 }
 
+/* note: a plain spill reads straight into data: the caller's buffer is
+ * the only copy. */
+static int64_t spill_read_plain(en_spill *sp, uint8_t *data, size_t n, epsnet_error *err)
+{
+    size_t got = 0;
+    while (got < n && !sp->eof) {
+        ssize_t k = read(sp->fd, data + got, n - got);
+        if (k < 0) {
+            if (errno == EINTR)
+                continue;
+            return spill_io_fail(sp, errno, err);
+        }
+        if (k == 0)
+            sp->eof = 1;
+        got += (size_t)k;
+    }
+    return (int64_t)got;
+}
+
 int64_t en_spill_read(en_spill *sp, void *data, size_t n, epsnet_error *err)
 {
+    if (sp->plain)
+        return spill_read_plain(sp, data, n, err);
     ZSTD_outBuffer out = { data, n, 0 };
     while (out.pos < out.size) {
         if (sp->zpos == sp->zlen) {

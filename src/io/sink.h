@@ -56,6 +56,9 @@ typedef struct en_spill en_spill;
  * owner names the file the spill serves (the output path), so that a failure
  * such as a full disk is reported against what the user asked for. */
 int en_spill_open(en_spill **sp, const char *dir, const char *owner, epsnet_error *err);
+/* The same, stored as written, without compression: for data that does not
+ * compress well enough to pay for zstd's time. */
+int en_spill_open_plain(en_spill **sp, const char *dir, const char *owner, epsnet_error *err);
 int en_spill_write(en_spill *sp, const void *data, size_t n, epsnet_error *err);
 /* Switch from writing to reading from the start. */
 int en_spill_rewind(en_spill *sp, epsnet_error *err);

@@ -14,9 +14,10 @@
 #include "common/pool.h"
 #include "io/sink.h"
 
-/* note: what one open run costs while it is merged: zstd's decoder keeps a
- * window (512 KiB at the spill's level 1) and an input buffer, plus our own
- * read buffer. Used to size the fan-in from the budget. */
+/* note: what one open run may cost while it is merged, used to size the
+ * fan-in from the budget. Runs are plain spills now (only our read buffer
+ * and the kernel's read-ahead), so this is a margin, kept from when each run
+ * held a zstd decoder's window and input buffer. */
 #define RUN_READ_COST ((uint64_t)1 << 20)
 #define CURSOR_BYTES ((size_t)64 << 10)
 #define MIN_FANIN 4
@@ -57,11 +58,13 @@ typedef struct run_job {
 typedef struct cursor {
     en_spill *sp;              /* borrowed from its run */
     uint64_t *buf;
-    size_t n, pos;             /* items in buf, next item */
+    size_t n, pos;             /* items in buf (0: spent), next item */
+    uint64_t key;              /* key_words 1: the next item's key, masked */
 } cursor;
 
 struct en_extsort {
     en_extsort_config cfg;
+    uint64_t mask0;            /* cfg.key_mask, or all bits */
     size_t item_bytes;
     uint64_t *buf, *scratch;   /* run buffer and the radix sort's second half */
     size_t (*count)[256];      /* radix histograms, 8 per key word */
@@ -78,8 +81,7 @@ struct en_extsort {
     int in_memory;             /* everything fits: hand out buf directly */
     size_t out_pos;
     cursor *cur;               /* fanin cursors of the final merge */
-    size_t *heap;              /* cursor indices, min-heap by key */
-    size_t heap_len;
+    size_t *tree;              /* the final merge's loser tree (merge_begin) */
     size_t ncur;
     int failed;
     epsnet_error err;
@@ -93,17 +95,32 @@ struct en_extsort {
     uint64_t *spare;
 };
 
-static int key_less(const uint64_t *a, const uint64_t *b, size_t k)
+/* note: the widths in use get fixed-size copies, a few moves inlined,
+ * rather than a call per item. */
+static inline void copy_item(uint64_t *dst, const uint64_t *src, size_t words)
 {
-    for (size_t i = 0; i < k; i++)
+    switch (words) {
+    case 2: memcpy(dst, src, 2 * sizeof *src); break;
+    case 3: memcpy(dst, src, 3 * sizeof *src); break;
+    case 4: memcpy(dst, src, 4 * sizeof *src); break;
+    default: memcpy(dst, src, words * sizeof *src); break;
+    }
+}
+
+static int key_less(const uint64_t *a, const uint64_t *b, size_t k, uint64_t mask0)
+{
+    if ((a[0] & mask0) != (b[0] & mask0))
+        return (a[0] & mask0) < (b[0] & mask0);
+    for (size_t i = 1; i < k; i++)
         if (a[i] != b[i])
             return a[i] < b[i];
     return 0;
 }
 
 /* LSD radix sort on the key bytes, least significant first; a byte position
- * where every item has the same value is skipped (high bytes of ids). */
-static void radix_sort(uint64_t *items, uint64_t *tmp, size_t n, size_t words, size_t key_words,
+ * where every item has the same value is skipped (high bytes of ids, and
+ * the bits key_mask leaves out, which count as zero). */
+static void radix_sort(uint64_t *items, uint64_t *tmp, size_t n, size_t words, size_t key_words, uint64_t mask0,
                        size_t (*count)[256])
 {
     size_t nbytes = key_words * 8;
@@ -112,9 +129,11 @@ static void radix_sort(uint64_t *items, uint64_t *tmp, size_t n, size_t words, s
     memset(count, 0, nbytes * sizeof *count);
     for (size_t i = 0; i < n; i++) {
         const uint64_t *it = items + i * words;
-        for (size_t w = 0; w < key_words; w++)
+        for (size_t w = 0; w < key_words; w++) {
+            uint64_t k = w ? it[w] : it[0] & mask0;
             for (size_t b = 0; b < 8; b++)
-                count[(key_words - 1 - w) * 8 + b][(it[w] >> (8 * b)) & 0xff]++;
+                count[(key_words - 1 - w) * 8 + b][(k >> (8 * b)) & 0xff]++;
+        }
     }
     uint64_t *src = items, *dst = tmp;
     for (size_t pos = 0; pos < nbytes; pos++) {
@@ -132,11 +151,21 @@ static void radix_sort(uint64_t *items, uint64_t *tmp, size_t n, size_t words, s
             sum += k;
         }
         size_t w = key_words - 1 - pos / 8, shift = 8 * (pos % 8);
-        for (size_t i = 0; i < n; i++) {
-            const uint64_t *it = src + i * words;
-            uint64_t *o = dst + c[(it[w] >> shift) & 0xff]++ * words;
-            for (size_t j = 0; j < words; j++)
-                o[j] = it[j];
+        uint64_t m = w ? UINT64_MAX : mask0;
+        /* note: fixed item widths get their own loops, so the copy is a
+         * few moves rather than a loop over words */
+        switch (words) {
+#define MOVE_ITEMS(W)                                                                         \
+    for (size_t i = 0; i < n; i++) {                                                          \
+        const uint64_t *it = src + i * (W);                                                   \
+        memcpy(dst + c[((it[w] & m) >> shift) & 0xff]++ * (W), it, (W) * sizeof *it);         \
+    }                                                                                         \
+    break;
+        case 2: MOVE_ITEMS(2)
+        case 3: MOVE_ITEMS(3)
+        case 4: MOVE_ITEMS(4)
+        default: MOVE_ITEMS(words)
+#undef MOVE_ITEMS
         }
         uint64_t *t = src;
         src = dst;
@@ -156,6 +185,7 @@ int en_extsort_open(en_extsort **out, const en_extsort_config *cfg, epsnet_error
     if (!es)
         return en_error_set(err, EPSNET_ENOMEM, cfg->owner, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     es->cfg = *cfg;
+    es->mask0 = cfg->key_mask ? cfg->key_mask : UINT64_MAX;
     es->count = en_calloc(cfg->key_words * 8, sizeof *es->count);
     if (!es->count) {
         en_free(es);
@@ -248,67 +278,76 @@ static const uint64_t *cursor_item(const en_extsort *es, const cursor *c)
     return c->buf + c->pos * es->cfg.item_words;
 }
 
-static int heap_less(const en_extsort *es, const cursor *cs, size_t a, size_t b)
+/* Cursor a leaves before cursor b: by key, then by run age (note: equal
+ * keys leave in run order, which keeps the sort stable); a spent cursor
+ * after every other. A strict total order, so the merge's output does not
+ * depend on how the tree compares. */
+static int run_less(const en_extsort *es, const cursor *cs, size_t a, size_t b)
 {
+    if (cs[a].n == 0 || cs[b].n == 0)
+        return cs[b].n == 0 && (cs[a].n != 0 || a < b);
+    if (es->cfg.key_words == 1)
+        return cs[a].key != cs[b].key ? cs[a].key < cs[b].key : a < b;
     const uint64_t *x = cursor_item(es, &cs[a]), *y = cursor_item(es, &cs[b]);
-    if (key_less(x, y, es->cfg.key_words))
+    if (key_less(x, y, es->cfg.key_words, es->mask0))
         return 1;
-    if (key_less(y, x, es->cfg.key_words))
+    if (key_less(y, x, es->cfg.key_words, es->mask0))
         return 0;
-    return a < b;  /* note: equal keys leave in run order: deterministic */
+    return a < b;
 }
 
-static void heap_down(const en_extsort *es, const cursor *cs, size_t *heap, size_t len, size_t i)
+static void cursor_key(const en_extsort *es, cursor *c)
 {
-    for (;;) {
-        size_t l = 2 * i + 1, m = i;
-        if (l < len && heap_less(es, cs, heap[l], heap[m]))
-            m = l;
-        if (l + 1 < len && heap_less(es, cs, heap[l + 1], heap[m]))
-            m = l + 1;
-        if (m == i)
-            return;
-        size_t t = heap[i];
-        heap[i] = heap[m];
-        heap[m] = t;
-        i = m;
-    }
+    if (c->n)
+        c->key = c->buf[c->pos * es->cfg.item_words] & es->mask0;
 }
 
-/* Open cursors on runs [first, first+k) and build the heap. */
-static int merge_begin(en_extsort *es, size_t first, size_t k, cursor **pcs, size_t **pheap, size_t *plen,
-                       epsnet_error *err)
+/* Open cursors on runs [first, first+k) and build the tree.
+ * note: a loser tree: node n of 1..k-1 keeps
+ * the loser of the match between its children 2n and 2n+1, leaves k..2k-1
+ * are the runs, tree[0] the winner. Taking the winner replays only its
+ * path, one comparison per level, where a heap's sift-down made two. */
+static int merge_begin(en_extsort *es, size_t first, size_t k, cursor **pcs, size_t **ptree, epsnet_error *err)
 {
     cursor *cs = en_calloc(k, sizeof *cs);
-    size_t *heap = en_calloc(k, sizeof *heap);
-    if (!cs || !heap) {
+    size_t *tree = en_calloc(k, sizeof *tree);
+    size_t *win = en_calloc(2 * k, sizeof *win);
+    if (!cs || !tree || !win) {
         en_free(cs);
-        en_free(heap);
+        en_free(tree);
+        en_free(win);
         return nomem(es, err);
     }
     *pcs = cs;
-    *pheap = heap;
-    *plen = 0;
+    *ptree = tree;
     en_mem_take(es->cfg.account, k * (CURSOR_BYTES + RUN_READ_COST));
-    for (size_t i = 0; i < k; i++) {
+    int rc = 0;
+    for (size_t i = 0; i < k && rc == 0; i++) {
         cs[i].sp = es->runs[first + i].sp;
         cs[i].buf = en_malloc(CURSOR_BYTES);
         if (!cs[i].buf)
-            return nomem(es, err);
-        int rc = en_spill_rewind(cs[i].sp, err);
-        if (rc)
-            return fail(es, rc, err);
-        if ((rc = cursor_refill(es, &cs[i], err)))
-            return rc;
-        if (cs[i].n)
-            heap[(*plen)++] = i;
+            rc = nomem(es, err);
+        else if ((rc = en_spill_rewind(cs[i].sp, err)))
+            fail(es, rc, err);
+        else if ((rc = cursor_refill(es, &cs[i], err)) == 0)
+            cursor_key(es, &cs[i]);
     }
-    for (size_t i = *plen / 2; i-- > 0;)
-        heap_down(es, cs, heap, *plen, i);
-    return 0;
+    if (rc == 0) {
+        for (size_t i = 0; i < k; i++)
+            win[k + i] = i;
+        for (size_t n = k; n-- > 1;) {
+            size_t a = win[2 * n], b = win[2 * n + 1];
+            int a_wins = run_less(es, cs, a, b);
+            win[n] = a_wins ? a : b;
+            tree[n] = a_wins ? b : a;
+        }
+        tree[0] = k > 1 ? win[1] : 0;
+    }
+    en_free(win);
+    return rc;
 }
 
-static void merge_end(en_extsort *es, cursor **pcs, size_t **pheap, size_t k)
+static void merge_end(en_extsort *es, cursor **pcs, size_t **ptree, size_t k)
 {
     cursor *cs = *pcs;
     for (size_t i = 0; cs && i < k; i++)
@@ -316,26 +355,33 @@ static void merge_end(en_extsort *es, cursor **pcs, size_t **pheap, size_t k)
     if (cs)
         en_mem_give(es->cfg.account, k * (CURSOR_BYTES + RUN_READ_COST));
     en_free(cs);
-    en_free(*pheap);
+    en_free(*ptree);
     *pcs = NULL;
-    *pheap = NULL;
+    *ptree = NULL;
 }
 
-/* Take the smallest item of a merge. @return 1, 0 when empty, or < 0. */
-static int merge_pop(en_extsort *es, cursor *cs, size_t *heap, size_t *len, uint64_t *item, epsnet_error *err)
+/* Take the smallest item of a merge of k cursors. @return 1, 0 when
+ * empty, or < 0. */
+static int merge_pop(en_extsort *es, cursor *cs, size_t *tree, size_t k, uint64_t *item, epsnet_error *err)
 {
-    if (*len == 0)
+    size_t w = tree[0];
+    cursor *c = &cs[w];
+    if (c->n == 0)
         return 0;
-    cursor *c = &cs[heap[0]];
-    memcpy(item, cursor_item(es, c), es->item_bytes);
+    copy_item(item, cursor_item(es, c), es->cfg.item_words);
     if (++c->pos == c->n) {
         int rc = cursor_refill(es, c, err);
         if (rc)
             return rc;
-        if (c->n == 0)
-            heap[0] = heap[--*len];
     }
-    heap_down(es, cs, heap, *len, 0);
+    cursor_key(es, c);
+    for (size_t n = (w + k) / 2; n >= 1; n /= 2)
+        if (run_less(es, cs, tree[n], w)) {
+            size_t t = tree[n];
+            tree[n] = w;
+            w = t;
+        }
+    tree[0] = w;
     return 1;
 }
 
@@ -352,18 +398,18 @@ static int merge_top(en_extsort *es, size_t k, int level, epsnet_error *err)
 {
     size_t first = es->nruns - k;
     cursor *cs = NULL;
-    size_t *heap = NULL, len = 0;
+    size_t *tree = NULL;
     en_spill *out = NULL;
     uint64_t *wbuf = NULL;
     uint64_t items = 0;
-    int rc = merge_begin(es, first, k, &cs, &heap, &len, err);
-    if (rc == 0 && (rc = en_spill_open(&out, es->cfg.tmpdir, es->cfg.owner, err)))
+    int rc = merge_begin(es, first, k, &cs, &tree, err);
+    if (rc == 0 && (rc = en_spill_open_plain(&out, es->cfg.tmpdir, es->cfg.owner, err)))
         fail(es, rc, err);
     size_t wcap = CURSOR_BYTES / es->item_bytes, wn = 0;
     if (rc == 0 && !(wbuf = en_malloc(wcap * es->item_bytes)))
         rc = nomem(es, err);
     while (rc == 0) {
-        int got = merge_pop(es, cs, heap, &len, wbuf + wn * es->cfg.item_words, err);
+        int got = merge_pop(es, cs, tree, k, wbuf + wn * es->cfg.item_words, err);
         if (got < 0)
             rc = got;
         if (got > 0) {
@@ -379,7 +425,7 @@ static int merge_top(en_extsort *es, size_t k, int level, epsnet_error *err)
             break;
     }
     en_free(wbuf);
-    merge_end(es, &cs, &heap, k);
+    merge_end(es, &cs, &tree, k);
     if (rc == 0 && (rc = en_spill_rewind(out, err)))
         fail(es, rc, err);
     if (rc) {
@@ -411,8 +457,8 @@ static int run_job_fn(void *arg)
 {
     run_job *jb = arg;
     en_extsort *es = jb->es;
-    radix_sort(jb->buf, es->scratch, jb->n, es->cfg.item_words, es->cfg.key_words, es->count);
-    int rc = en_spill_open(&jb->sp, es->cfg.tmpdir, es->cfg.owner, &jb->err);
+    radix_sort(jb->buf, es->scratch, jb->n, es->cfg.item_words, es->cfg.key_words, es->mask0, es->count);
+    int rc = en_spill_open_plain(&jb->sp, es->cfg.tmpdir, es->cfg.owner, &jb->err);
     if (rc == 0)
         rc = en_spill_write(jb->sp, jb->buf, jb->n * es->item_bytes, &jb->err);
     if (rc == 0)
@@ -471,9 +517,9 @@ static int spill_buffer_async(en_extsort *es, epsnet_error *err)
 
 static int spill_buffer(en_extsort *es, epsnet_error *err)
 {
-    radix_sort(es->buf, es->scratch, es->n, es->cfg.item_words, es->cfg.key_words, es->count);
+    radix_sort(es->buf, es->scratch, es->n, es->cfg.item_words, es->cfg.key_words, es->mask0, es->count);
     en_spill *sp = NULL;
-    int rc = en_spill_open(&sp, es->cfg.tmpdir, es->cfg.owner, err);
+    int rc = en_spill_open_plain(&sp, es->cfg.tmpdir, es->cfg.owner, err);
     if (rc == 0)
         rc = en_spill_write(sp, es->buf, es->n * es->item_bytes, err);
     /* note: rewinding ends the zstd frame and frees the compressor at once,
@@ -519,7 +565,7 @@ int en_extsort_add(en_extsort *es, const uint64_t *item, epsnet_error *err)
         if (rc)
             return rc;
     }
-    memcpy(es->buf + es->n * es->cfg.item_words, item, es->item_bytes);
+    copy_item(es->buf + es->n * es->cfg.item_words, item, es->cfg.item_words);
     es->n++;
     es->items++;
     return 0;
@@ -537,7 +583,7 @@ int en_extsort_finish(en_extsort *es, epsnet_error *err)
         /* note: all items fit: sort them in place and hand them out from
          * memory; the scratch half is no longer needed. */
         if (es->buf)
-            radix_sort(es->buf, es->scratch, es->n, es->cfg.item_words, es->cfg.key_words, es->count);
+            radix_sort(es->buf, es->scratch, es->n, es->cfg.item_words, es->cfg.key_words, es->mask0, es->count);
         en_free(es->scratch);
         es->scratch = NULL;
         en_mem_give(es->cfg.account, es->buf_bytes / 2);
@@ -552,7 +598,7 @@ int en_extsort_finish(en_extsort *es, epsnet_error *err)
     if (rc)
         return rc;
     es->ncur = es->nruns;
-    return merge_begin(es, 0, es->nruns, &es->cur, &es->heap, &es->heap_len, err);
+    return merge_begin(es, 0, es->nruns, &es->cur, &es->tree, err);
 }
 
 const uint64_t *en_extsort_peek(en_extsort *es, int *rc, epsnet_error *err)
@@ -564,9 +610,8 @@ const uint64_t *en_extsort_peek(en_extsort *es, int *rc, epsnet_error *err)
     }
     if (es->in_memory)
         return es->out_pos < es->n ? es->buf + es->out_pos * es->cfg.item_words : NULL;
-    if (es->heap_len == 0)
-        return NULL;
-    return cursor_item(es, &es->cur[es->heap[0]]);
+    const cursor *c = &es->cur[es->tree[0]];
+    return c->n ? cursor_item(es, c) : NULL;
 }
 
 int en_extsort_next(en_extsort *es, uint64_t *item, epsnet_error *err)
@@ -576,10 +621,10 @@ int en_extsort_next(en_extsort *es, uint64_t *item, epsnet_error *err)
     if (es->in_memory) {
         if (es->out_pos == es->n)
             return 0;
-        memcpy(item, es->buf + es->out_pos++ * es->cfg.item_words, es->item_bytes);
+        copy_item(item, es->buf + es->out_pos++ * es->cfg.item_words, es->cfg.item_words);
         return 1;
     }
-    return merge_pop(es, es->cur, es->heap, &es->heap_len, item, err);
+    return merge_pop(es, es->cur, es->tree, es->ncur, item, err);
 }
 
 uint64_t en_extsort_items(const en_extsort *es)
@@ -614,7 +659,7 @@ void en_extsort_close(en_extsort **pes)
     }
     en_jobring_free(&es->ring, NULL);
     en_pool_free(&es->pool);
-    merge_end(es, &es->cur, &es->heap, es->ncur);
+    merge_end(es, &es->cur, &es->tree, es->ncur);
     for (size_t i = 0; i < es->nruns; i++)
         en_spill_close(&es->runs[i].sp);
     en_free(es->runs);

@@ -1,6 +1,6 @@
 /*
  * External sort of fixed-size items in bounded memory: items are buffered,
- * radix-sorted and spilled as zstd-compressed runs (en_spill: anonymous
+ * radix-sorted and spilled as runs (en_spill_open_plain: anonymous
  * files that vanish on any exit), then merged. Items are arrays of uint64_t
  * words; the first key_words of them are the key, compared as unsigned
  * numbers, most significant word first. The sort is stable: items with
@@ -33,6 +33,8 @@ void en_mem_give(en_mem_account *m, uint64_t bytes);
 typedef struct en_extsort_config {
     size_t item_words;        /* 1 .. EN_EXTSORT_MAX_WORDS */
     size_t key_words;         /* 1 .. item_words */
+    uint64_t key_mask;        /* the bits of the first word that are key;
+                                 0 = all (the others ride along) */
     uint64_t mem;             /* bytes for the run buffer and the merge */
     const char *tmpdir;       /* NULL = $TMPDIR or /tmp */
     const char *owner;        /* the output the runs serve, for messages */

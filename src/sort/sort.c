@@ -20,6 +20,7 @@
 
 #define NONE UINT64_MAX
 #define BATCH 4096               /* vertices per temporary-file read or write */
+#define PREFETCH 16              /* items ahead whose random reads are started early */
 #define PROGRESS_EVERY 0xffff
 #define PHASES 6
 #define PHASE_UNITS 1000
@@ -126,6 +127,37 @@ static uint64_t live_bytes(const live_map *m)
     return m->slots ? (uint64_t)(m->mask + 1) * sizeof *m->slots : 0;
 }
 
+/* ---- pass 6's faces, merged a block ahead on a worker ----
+ * note: the final merge of sorter F is most of what pass 6 does for the
+ * sort itself (the rest is the consumer's: encoding the output). A worker
+ * merges the next block of items into one buffer while the calling thread
+ * walks the other, so the merge overlaps the consumer (docs/architecture.md
+ * §10, §13). One fill is in flight at a time, on a one-slot ring, so the
+ * sorter is only ever touched by one fill, and the blocks, hence the
+ * items, come in the same order for any thread count. */
+#define FEED_ITEMS 16384
+
+typedef struct face_fill {
+    /* Written by the calling thread before submit, read by the worker. */
+    en_extsort *faces;           /* touched only by the fill in flight */
+    uint64_t *buf;               /* FEED_ITEMS items: the worker writes them while in flight */
+    size_t words;
+    /* Written by the worker, read by the calling thread after retire. */
+    size_t n;                    /* items filled; fewer than FEED_ITEMS: the sorter is drained */
+    epsnet_error err;
+} face_fill;
+
+/* Calling thread only. */
+typedef struct face_feed {
+    en_pool *pool;               /* ours (1 worker, or 0: inline) when the sort was given none */
+    en_jobring *ring;            /* one slot */
+    face_fill fill[2];
+    int cur;                     /* the block being walked: fill[cur] */
+    size_t pos;                  /* its next item */
+    int busy;                    /* fill[1 - cur] is in flight */
+    uint64_t bytes;              /* accounted */
+} face_feed;
+
 /* ---- the job ---- */
 
 struct en_sort {
@@ -142,7 +174,7 @@ struct en_sort {
     en_spill *vsorted;           /* vertices in rank order */
     en_spill *fraw;              /* input faces (old ids), input order */
     int in_core;                 /* rank_of/last_of arrays fit the budget */
-    int narrow;                  /* ranks fit 32 bits: sorter F's items are 3 words, not 4 */
+    int narrow;                  /* ranks fit 32 bits: sorter F's items are 2 words, not 4 */
     int whole;                   /* everything is in memory (see whole_fits) */
     double *xyz;                 /* whole: input vertices, 3 each */
     uint32_t *tri;               /* whole: input faces, 3 old ids each */
@@ -153,7 +185,7 @@ struct en_sort {
     uint8_t *sattr;              /* whole: the same in rank order */
     uint32_t *fend;              /* whole: rank -> end of its faces in fitems */
     uint64_t *fitems;            /* whole: faces by (last corner, input order): see whole_faces */
-    uint32_t *out_id, *fin;      /* whole: see whole_emit */
+    uint32_t *out_id, *fin;      /* whole, and pass 6 in core: see whole_emit, emit_arrays */
     uint64_t whole_bytes;        /* accounted */
     en_pool *pool;               /* whole: workers for the chunks; NULL = this thread */
     en_pool *shared;             /* the run's pool when given (not ours to free) */
@@ -180,6 +212,7 @@ struct en_sort {
     uint64_t *group;             /* faces of one last corner: 5 words each */
     size_t group_cap;
     live_map live;
+    face_feed feed;              /* pass 6: sorter F's items, a block ahead */
     double t0;
 };
 
@@ -214,10 +247,10 @@ static long sort_workers(const sort_job *j)
  * items arrive in input order (vertex id, face id), so ties keep input
  * order: the (coordinate, id) and (last corner, face) orders of sort.h
  * without comparing the second word. */
-static int open_sorter(sort_job *j, en_extsort **es, size_t words, size_t key_words, epsnet_error *err)
+static int open_sorter(sort_job *j, en_extsort **es, size_t words, uint64_t key_mask, epsnet_error *err)
 {
     en_extsort_config c = {
-        .item_words = words, .key_words = key_words, .mem = j->set.mem / 4,
+        .item_words = words, .key_words = 1, .key_mask = key_mask, .mem = j->set.mem / 4,
         .tmpdir = j->tmpdir, .owner = j->owner, .account = &j->mem, .threads = sort_workers(j) > 1,
         .pool = j->shared,
     };
@@ -796,10 +829,22 @@ static int pass_order(sort_job *j, epsnet_error *err)
 
 /* ---- pass 3: ranks ---- */
 
+/* rank_of[ids[i]] = first + i: random writes on a shuffled input, started
+ * PREFETCH ahead so that their misses overlap (pass_faces_in_core). */
+static void rank_batch(sort_job *j, const uint32_t *ids, size_t n, uint64_t first)
+{
+    for (size_t i = 0; i < n; i++) {
+        if (i + PREFETCH < n)
+            __builtin_prefetch(&j->rank_of[ids[i + PREFETCH]], 1);
+        j->rank_of[ids[i]] = (uint32_t)(first + i);
+    }
+}
+
 static int pass_rank(sort_job *j, epsnet_error *err)
 {
     int a = j->axis, o1 = (a + 1) % 3, o2 = (a + 2) % 3;
     uint64_t item[EN_EXTSORT_MAX_WORDS];
+    uint32_t ids[BATCH];         /* in core: the batch's old ids, ranked at the flush */
     size_t nb = 0;
     uint64_t rank = 0;
     int rc;
@@ -811,10 +856,12 @@ static int pass_rank(sort_job *j, epsnet_error *err)
         vrec_put(j, nb, p, (const uint8_t *)(item + 4));
         uint64_t m[2] = { item[1], rank++ };
         if (j->in_core)
-            j->rank_of[item[1]] = (uint32_t)m[1];
+            ids[nb] = (uint32_t)item[1];
         else if ((rc = en_extsort_add(j->map, m, err)))
             return rc;
         if (++nb == BATCH) {
+            if (j->in_core)
+                rank_batch(j, ids, nb, rank - nb);
             if ((rc = en_spill_write(j->vsorted, j->vbuf, nb * j->vrec, err)) ||
                 (rc = progress(j, rank, j->st.vertices, err)))
                 return rc;
@@ -823,6 +870,8 @@ static int pass_rank(sort_job *j, epsnet_error *err)
     }
     if (rc < 0)
         return rc;
+    if (nb && j->in_core)
+        rank_batch(j, ids, nb, rank - nb);
     if (nb && (rc = en_spill_write(j->vsorted, j->vbuf, nb * j->vrec, err)))
         return rc;
     close_sorter(j, &j->verts);
@@ -892,11 +941,13 @@ static int add_face(sort_job *j, const uint64_t r[3], epsnet_error *err)
             last = r[s];
     /* note: a face's id is not kept: it only breaks ties on the last
      * corner, which the stable sort does by itself (faces are added in
-     * input order); with ranks below 2^32 the corners share words. */
+     * input order); with ranks below 2^32 the corners share words, and
+     * the first corner rides in the key word above the key mask, as in
+     * whole_faces. */
     uint64_t face[4] = { last, r[0], r[1], r[2] };
     if (j->narrow) {
-        face[1] = r[0] | r[1] << 32;
-        face[2] = r[2];
+        face[0] = last | r[0] << 32;
+        face[1] = r[1] | r[2] << 32;
     }
     int rc = en_extsort_add(j->faces, face, err);
     for (int s = 0; s < 3 && rc == 0; s++) {
@@ -923,11 +974,20 @@ static int pass_faces_in_core(sort_job *j, epsnet_error *err)
         size_t n = j->st.faces - f < BATCH ? (size_t)(j->st.faces - f) : BATCH;
         if ((rc = read_faces(j, n, err)))
             return rc;
+        /* note: on a shuffled input rank_of and last_of are read at random,
+         * one cache miss each per corner; asking for them PREFETCH faces
+         * ahead lets the misses overlap instead of following one another. */
+        uint64_t *fb = j->fbuf;
+        for (size_t i = 0; i < 3 * n; i++) {
+            if (i + 3 * PREFETCH < 3 * n)
+                __builtin_prefetch(&j->rank_of[fb[i + 3 * PREFETCH]]);
+            fb[i] = j->rank_of[fb[i]];
+        }
         for (size_t i = 0; i < n; i++, f++) {
-            uint64_t r[3];
-            for (int s = 0; s < 3; s++)
-                r[s] = j->rank_of[j->fbuf[3 * i + (size_t)s]];
-            if ((rc = add_face(j, r, err)))
+            if (i + PREFETCH < n)
+                for (int s = 0; s < 3; s++)
+                    __builtin_prefetch(&j->last_of[fb[3 * (i + PREFETCH) + (size_t)s]], 1);
+            if ((rc = add_face(j, fb + 3 * i, err)))
                 return rc;
         }
         if ((rc = progress(j, f, j->st.faces, err)))
@@ -936,6 +996,8 @@ static int pass_faces_in_core(sort_job *j, epsnet_error *err)
     close_spill(j, &j->fraw);
     en_free(j->rank_of);
     j->rank_of = NULL;
+    en_mem_give(&j->mem, j->st.vertices * sizeof(uint32_t));
+    j->arrays_bytes -= j->st.vertices * sizeof(uint32_t);
     return en_extsort_finish(j->faces, err);
 }
 
@@ -1065,6 +1127,34 @@ static int emit_group(sort_job *j, uint64_t rank, size_t n, epsnet_error *err)
     return 0;
 }
 
+/* emit_group() over arrays of the ranks instead of the live map (see
+ * pass_emit): the same records in the same order. */
+static int emit_group_arrays(sort_job *j, uint64_t rank, size_t n, uint64_t *live, epsnet_error *err)
+{
+    const uint32_t *last_of = j->last_of;
+    uint32_t *fin = j->fin, *id = j->out_id;
+    for (size_t i = n; i-- > 0;)
+        for (int s = 0; s < 3; s++) {
+            uint64_t c = j->group[5 * i + 2 + (size_t)s];
+            if (last_of[c] == rank && fin[c] == UINT32_MAX)
+                fin[c] = (uint32_t)i;
+        }
+    int rc;
+    for (size_t i = 0; i < n; i++) {
+        const uint64_t *f = j->group + 5 * i + 2;
+        if ((rc = put_record(j, EPSNET_REC_TRIANGLE, id[f[0]], id[f[1]], id[f[2]], err)))
+            return rc;
+        for (int s = 0; s < 3; s++) {
+            if ((s > 0 && f[s] == f[0]) || (s > 1 && f[s] == f[1]) || last_of[f[s]] != rank || fin[f[s]] != i)
+                continue;
+            if ((rc = put_record(j, EPSNET_REC_FINALIZE, id[f[s]], 0, 0, err)))
+                return rc;
+            --*live;
+        }
+    }
+    return 0;
+}
+
 /*
  * Pass 6 of the whole path: emit_group() and the live map again, but with
  * arrays over the ranks (new id, face of the group after which a vertex is
@@ -1123,12 +1213,135 @@ static int whole_emit(sort_job *j, epsnet_error *err)
     return progress(j, nv, nv, err);
 }
 
+/*
+ * note: with ranks and last uses in core, and room for two more 32-bit
+ * arrays over the ranks (new id, face of the group after which a vertex is
+ * finalized) in half of the budget, those arrays stand for the live map, as
+ * in whole_emit(): a face's corners are ranks close to its last corner, so
+ * the arrays are read where they were just written, while the live map's
+ * probes land anywhere in a table as wide as the stream.
+ */
+static int emit_arrays(sort_job *j, epsnet_error *err)
+{
+    uint64_t nv = j->st.vertices;
+    if (!j->in_core || 3 * nv * sizeof(uint32_t) > j->set.mem / 2)
+        return 0;
+    int rc = whole_alloc(j, (void **)&j->out_id, nv, sizeof *j->out_id, err);
+    if (rc || (rc = whole_alloc(j, (void **)&j->fin, nv, sizeof *j->fin, err)))
+        return rc;
+    j->arrays_bytes += 2 * nv * sizeof(uint32_t);
+    en_mem_take(&j->mem, 2 * nv * sizeof(uint32_t));
+    return 1;
+}
+
+static int fill_job(void *arg)
+{
+    face_fill *f = arg;
+    int rc = 0;
+    f->n = 0;
+    while (f->n < FEED_ITEMS && (rc = en_extsort_next(f->faces, f->buf + f->n * f->words, &f->err)) > 0)
+        f->n++;
+    return rc < 0 ? rc : 0;
+}
+
+static int feed_submit(sort_job *j, face_feed *fd, int which, epsnet_error *err)
+{
+    if (en_jobring_submit(fd->ring, fill_job, &fd->fill[which]))
+        return internal(j, "the worker refused a block of faces", err);
+    fd->busy = 1;
+    return 0;
+}
+
+/* A thread that cannot start leaves the merge to this one (fills then run
+ * inline, through the same code). */
+static int feed_open(sort_job *j, face_feed *fd, epsnet_error *err)
+{
+    size_t words = j->narrow ? 2 : 4;
+    en_pool *pool = j->shared;
+    if (!pool) {
+        int rc = en_pool_new(&fd->pool, sort_workers(j) > 1 ? 1 : 0);
+        if (rc && rc != EPSNET_ENOMEM)
+            rc = en_pool_new(&fd->pool, 0);
+        if (rc)
+            return nomem(j, err);
+        pool = fd->pool;
+    }
+    if (en_jobring_new(&fd->ring, pool, 1))
+        return nomem(j, err);
+    for (int b = 0; b < 2; b++) {
+        fd->fill[b] = (face_fill){ .faces = j->faces, .words = words };
+        if (!(fd->fill[b].buf = en_malloc(FEED_ITEMS * words * sizeof(uint64_t))))
+            return nomem(j, err);
+    }
+    fd->bytes = 2 * FEED_ITEMS * words * sizeof(uint64_t);
+    en_mem_take(&j->mem, fd->bytes);
+    fd->cur = 1; /* an empty block, whose successor is in flight */
+    fd->pos = 0;
+    return feed_submit(j, fd, 0, err);
+}
+
+/* Move to the block in flight, and start the next one after it unless the
+ * sorter is drained. @return 1, 0 at the end, or < 0. */
+static int feed_advance(sort_job *j, face_feed *fd, epsnet_error *err)
+{
+    if (!fd->busy)
+        return 0;
+    void *job;
+    int rc;
+    en_jobring_retire(fd->ring, &job, &rc);
+    fd->busy = 0;
+    fd->cur = 1 - fd->cur;
+    fd->pos = 0;
+    const face_fill *f = &fd->fill[fd->cur];
+    if (rc) {
+        if (err)
+            *err = f->err;
+        return rc;
+    }
+    if (f->n == FEED_ITEMS && (rc = feed_submit(j, fd, 1 - fd->cur, err)))
+        return rc;
+    return f->n > 0;
+}
+
+/* The next item of sorter F, or NULL at the end or on failure (*rc). */
+static const uint64_t *feed_peek(sort_job *j, face_feed *fd, int *rc, epsnet_error *err)
+{
+    *rc = 0;
+    if (fd->pos == fd->fill[fd->cur].n && (*rc = feed_advance(j, fd, err)) <= 0)
+        return NULL;
+    const face_fill *f = &fd->fill[fd->cur];
+    return f->buf + fd->pos * f->words;
+}
+
+static void feed_close(sort_job *j, face_feed *fd)
+{
+    if (fd->busy) {
+        void *job;
+        int rc;
+        en_jobring_retire(fd->ring, &job, &rc);
+        fd->busy = 0;
+    }
+    en_jobring_free(&fd->ring, NULL);
+    en_pool_free(&fd->pool);
+    for (int b = 0; b < 2; b++) {
+        en_free(fd->fill[b].buf);
+        fd->fill[b].buf = NULL;
+    }
+    en_mem_give(&j->mem, fd->bytes);
+    fd->bytes = 0;
+}
+
 static int pass_emit(sort_job *j, epsnet_error *err)
 {
     if (j->whole)
         return whole_emit(j, err);
-    uint64_t nv = j->st.vertices, next_id = 0;
-    int rc;
+    uint64_t nv = j->st.vertices, next_id = 0, live = 0;
+    int arrays = emit_arrays(j, err);
+    if (arrays < 0)
+        return arrays;
+    int rc = feed_open(j, &j->feed, err);
+    if (rc)
+        return rc;
     for (uint64_t rank = 0; rank < nv;) {
         size_t nb = nv - rank < BATCH ? (size_t)(nv - rank) : BATCH;
         if ((rc = read_vertices(j, j->vsorted, nb, err)))
@@ -1145,24 +1358,31 @@ static int pass_emit(sort_job *j, epsnet_error *err)
             vrec_get(j, b, p);
             if ((rc = emit_vertex(j, p, vrec_at(j, b) + 3 * sizeof(double), next_id, err)))
                 return rc;
-            if (live_add(&j->live, rank, next_id++, last))
-                return nomem(j, err);
-            if (j->live.count > j->st.max_width)
-                j->st.max_width = j->live.count;
+            if (arrays) {
+                j->out_id[rank] = (uint32_t)next_id++;
+                j->fin[rank] = UINT32_MAX;
+                if (++live > j->st.max_width)
+                    j->st.max_width = live;
+            } else {
+                if (live_add(&j->live, rank, next_id++, last))
+                    return nomem(j, err);
+                if (j->live.count > j->st.max_width)
+                    j->st.max_width = j->live.count;
+            }
             size_t n = 0;
             const uint64_t *f;
-            while ((f = en_extsort_peek(j->faces, &rc, err)) && f[0] == rank) {
+            while ((f = feed_peek(j, &j->feed, &rc, err)) && (j->narrow ? f[0] & UINT32_MAX : f[0]) == rank) {
                 if (n == j->group_cap && en_grow((void **)&j->group, &j->group_cap, n + 1, 5 * sizeof *j->group))
                     return nomem(j, err);
-                uint64_t it[4], *g = j->group + 5 * n;
-                if ((rc = en_extsort_next(j->faces, it, err)) < 0)
-                    return rc;
-                g[0] = it[0];
+                const uint64_t *it = f;
+                uint64_t *g = j->group + 5 * n;
+                j->feed.pos++;
+                g[0] = rank;
                 g[1] = 0;
                 if (j->narrow) {
-                    g[2] = it[1] & UINT32_MAX;
-                    g[3] = it[1] >> 32;
-                    g[4] = it[2];
+                    g[2] = it[0] >> 32;
+                    g[3] = it[1] & UINT32_MAX;
+                    g[4] = it[1] >> 32;
                 } else {
                     memcpy(g + 2, it + 1, 3 * sizeof *g);
                 }
@@ -1170,13 +1390,13 @@ static int pass_emit(sort_job *j, epsnet_error *err)
             }
             if (rc < 0 || (rc = over_budget(j, err)))
                 return rc;
-            if (n && (rc = emit_group(j, rank, n, err)))
+            if (n && (rc = arrays ? emit_group_arrays(j, rank, n, &live, err) : emit_group(j, rank, n, err)))
                 return rc;
         }
         if ((rc = progress(j, rank, nv, err)))
             return rc;
     }
-    if (j->live.count)
+    if (j->live.count || live)
         return internal(j, "vertices left live at the end", err);
     return 0;
 }
@@ -1243,18 +1463,19 @@ static int open_job(sort_job *j, epsnet_error *err)
         j->whole_bytes = (24 + j->asz) * in->nverts + 12 * in->nfaces;
         en_mem_take(&j->mem, j->whole_bytes);
     }
-    if ((rc = en_spill_open(&j->vraw, j->tmpdir, j->owner, err)) ||
-        (rc = en_spill_open(&j->fraw, j->tmpdir, j->owner, err)) ||
-        (rc = en_spill_open(&j->vsorted, j->tmpdir, j->owner, err)) ||
-        (rc = open_sorter(j, &j->corners, 2, 1, err)) || (rc = open_sorter(j, &j->verts, 4 + j->aw, 1, err)) ||
-        (rc = open_sorter(j, &j->map, 2, 1, err)) || (rc = open_sorter(j, &j->joined, 2, 1, err)) ||
-        (rc = open_sorter(j, &j->lastuse, 2, 1, err)))
+    if ((rc = en_spill_open_plain(&j->vraw, j->tmpdir, j->owner, err)) ||
+        (rc = en_spill_open_plain(&j->fraw, j->tmpdir, j->owner, err)) ||
+        (rc = en_spill_open_plain(&j->vsorted, j->tmpdir, j->owner, err)) ||
+        (rc = open_sorter(j, &j->corners, 2, 0, err)) || (rc = open_sorter(j, &j->verts, 4 + j->aw, 0, err)) ||
+        (rc = open_sorter(j, &j->map, 2, 0, err)) || (rc = open_sorter(j, &j->joined, 2, 0, err)) ||
+        (rc = open_sorter(j, &j->lastuse, 2, 0, err)))
         return rc;
     return 0;
 }
 
 static void close_job(sort_job *j)
 {
+    feed_close(j, &j->feed); /* first: a fill in flight uses sorter F */
     epsnet_reader_close(&j->r);
     close_spill(j, &j->vraw);
     close_spill(j, &j->vsorted);
@@ -1350,7 +1571,7 @@ static int run_passes(sort_job *j, epsnet_error *err)
         return whole_faces(j, err);
     }
     j->narrow = j->st.vertices < UINT32_MAX;
-    if ((rc = open_sorter(j, &j->faces, j->narrow ? 3 : 4, 1, err)) || (rc = choose_relabel(j, err)))
+    if ((rc = open_sorter(j, &j->faces, j->narrow ? 2 : 4, j->narrow ? UINT32_MAX : 0, err)) || (rc = choose_relabel(j, err)))
         return rc;
     j->phase = 2;
     if ((rc = pass_order(j, err)))

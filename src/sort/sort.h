@@ -26,7 +26,9 @@
  * in half of the budget, pass 3 fills an array of ranks, pass 5 relabels
  * the faces through it and fills an array of last uses, and pass 4 and
  * sorter L are skipped: the same output with a third of the temporary
- * traffic.
+ * traffic; pass 6 then also keeps new ids and finalizing faces in arrays
+ * over the ranks when they fit. In pass 6 a worker merges sorter F a block
+ * ahead of the walk (sort.c: face_feed), one block at a time.
  *
  * When the whole mesh and the arrays that sort it fit in half of the budget
  * (sort.c: whole_bytes), passes 1 to 5 run in memory instead: the read
