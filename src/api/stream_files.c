@@ -206,7 +206,7 @@ static int file_run_open(file_run *fr, epsnet_context *ctx, const char *in_path,
 static int file_run_feed(file_run *fr, epsnet_context *ctx, en_slab_mode mode, const char *in_path, en_stage out,
                          en_sample_fn on_sample, void *sample_opaque, epsnet_error *err)
 {
-    int rc = en_run_open(&fr->run, ctx, mode, in_path, &fr->in.info, fr->pool, out, on_sample, sample_opaque, err);
+    int rc = en_run_open(&fr->run, ctx, mode, in_path, &fr->in.info, 1, fr->pool, out, on_sample, sample_opaque, err);
     fr->run.cpu_start = fr->cpu0; /* the sort before the run is its work too */
     if (rc == 0)
         en_reader_use_pool(fr->in.r, fr->pool); /* ENOMEM: it decodes alone, as before */
