@@ -29,7 +29,7 @@
 
 #include "common/alloc.h"
 #include "common/pool.h"
-#include "common/u64set.h"
+#include "common/idmap.h"
 #include "io/format.h"
 #include "io/smz.h"
 
@@ -421,7 +421,7 @@ static int ahead_fits(const epsnet_reader *r, const smz_reader *st, size_t more)
     uint64_t limit = r->settings.mem_limit;
     if (!limit || en_jobring_in_flight(st->ring) == 0)
         return 1;
-    uint64_t live = r->live ? en_u64set_bytes(r->live) : 0;
+    uint64_t live = r->live ? en_idmap_bytes(r->live) : 0;
     return live + st->ahead_bytes + more <= limit;
 }
 

@@ -65,7 +65,7 @@ struct epsnet_reader {
 
     uint64_t nverts;                 /* vertex records pushed so far */
     uint64_t ntris;                  /* triangle records pushed so far */
-    struct en_u64set *live;          /* streaming formats: pushed, not finalized */
+    struct en_idmap *live;           /* streaming formats: pushed, not finalized (values unused) */
     uint64_t live_peak;
 
     int done;
