@@ -11,8 +11,9 @@
  * until its ring hands it back, in submission order; each pass's stitcher,
  * one take at a time (stitch_job), so that the seam collapses leave the
  * caller's thread; and, for a pass whose input is already checked, its
- * chunker, one batch of records at a time (chunk_job), so that the caller
- * only copies records into a batch. A take's records and a batch's slabs
+ * chunker, one batch of records at a time, in order (chunk_job), so that
+ * the caller only copies records into batches. A take's records and a
+ * batch's slabs
  * are buffered in their job and handed on by the caller when it retires the
  * job, in order, so the records, and the bytes, are the same for every
  * thread count.
@@ -45,17 +46,25 @@ typedef struct stitch_job {
  * Records a pass's chunker takes per chunk job: small enough that the
  * budget's view of the chunker (copied at each retire) lags little, large
  * enough that a job's cost dwarfs its submission (docs/architecture.md §10).
+ * CHUNK_JOBS batches may wait or run at once: the chunker runs when a worker
+ * is free, and while the workers are in long slab jobs the caller reads on
+ * into the next batches instead of waiting (measured: with one batch in
+ * flight, 20M faces at -j 2 took 38 s instead of 21, bench/RESULTS.md).
  */
 #define CHUNK_BATCH 8192
+#define CHUNK_JOBS 16
 
 /*
  * One batch of a pass's input records as a pool job: the chunker takes
  * them, cuts the slabs they complete and, at the pass's end, the last ones.
- * Ownership, as stitch_job: the caller's thread fills the batch (recs,
- * attr, finish) and submits; from then until the ring retires the job only
- * the worker running it touches the job and the pass's chunker (ch); after
- * the retire only the caller's thread does, and it submits the slabs cut,
- * in order. A pass has two: one filling, one in flight at most.
+ * The pass's chunk ring is serial: its jobs run one at a time, in order, so
+ * each finds the chunker as the one before left it. Ownership: the
+ * caller's thread fills the batch (recs, attr, finish, give) and submits;
+ * from then until the ring retires the job only the worker running it
+ * touches the job, and the pass's chunker (ch) is touched only by the chunk
+ * jobs; after the retire the caller's thread reads the job (cut, err, the
+ * copies of the chunker's sizes) and submits the slabs cut, in order. The
+ * caller's thread never touches the chunker while the pass is batched.
  */
 typedef struct chunk_job {
     en_pass *p;                    /* caller writes at init; worker reads */
@@ -64,8 +73,11 @@ typedef struct chunk_job {
     uint8_t *attr;                 /* caller: attr_size bytes per vertex record, in order; worker reads */
     size_t nattr, attr_cap;        /* vertex records in the batch; capacity in vertices */
     int finish;                    /* caller: the pass's end, finish the chunker after the records */
+    en_slab_work **give;           /* caller: slab works done with; worker hands them to the chunker */
+    size_t ngive, give_cap;
     en_slab_work **cut;            /* worker appends the slabs cut; caller submits and clears after retire */
     size_t ncut, cut_cap;
+    uint64_t ch_bytes, ch_vertices, ch_faces; /* worker: the chunker's, after the batch; caller reads */
     epsnet_error err;              /* worker writes on failure; caller reads after retire */
 } chunk_job;
 
@@ -79,17 +91,20 @@ struct en_pass {
     const en_target *target;
     en_target fixed;
     int density_pending;
-    /* Between a chunk job's submit and retire: the worker's (see chunk_job). */
+    /* Batched: only the chunk jobs touch it (see chunk_job). */
     en_chunker ch;
     /* batched: the chunker runs as chunk jobs (the pass's input was checked
      * before it: a checked reader, the sort, or the pass before). */
     int batched;
-    en_jobring *chunk_ring;        /* one chunk job in flight at most */
-    chunk_job chunk[2];
-    chunk_job *fill;               /* the batch the caller's thread is filling */
+    en_jobring *chunk_ring;        /* CHUNK_JOBS slots, serial, urgent */
+    chunk_job *chunk;              /* CHUNK_JOBS, in the ring's order */
+    uint64_t chunk_submitted;      /* caller: chunk[chunk_submitted % CHUNK_JOBS] is filling */
+    int chunk_failed;              /* chunk jobs only: one failed, the later ones do nothing */
+    en_slab_work **returned;       /* caller: slab works done with, for the next batch's give */
+    size_t nreturned, returned_cap;
     uint64_t records;              /* records the caller's thread handed to this pass */
-    /* What the caller's thread knows of the chunker, copied whenever it
-     * owns it (batched: at each chunk retire), for the budget checks. */
+    /* What the caller's thread knows of the chunker, for the budget checks:
+     * copied from it (not batched) or from the last retired batch. */
     uint64_t ch_bytes, ch_vertices, ch_faces;
     en_jobring *ring;
     en_stitcher st;                /* between submit and retire of job: the worker's (see stitch_job) */
@@ -137,8 +152,8 @@ static void drop_stitch(void *job)
     j->w = NULL;
 }
 
-/* Copy what the budget checks read of p's chunker; only while the caller's
- * thread owns it (no chunk job of p in flight). */
+/* Copy what the budget checks read of p's chunker; only where it is the
+ * caller's (p not batched). */
 static void chunker_seen(en_pass *p)
 {
     p->ch_bytes = en_chunker_bytes(&p->ch);
@@ -229,6 +244,21 @@ static int check_budget(en_chain *c, epsnet_error *err)
                         (unsigned long long)c->cfg.mem_budget);
 }
 
+/* A slab work p is done with goes back to its chunker for a later cut: at
+ * once when the chunker is this thread's, else with the next batch. */
+static void pass_recycle(en_pass *p, en_slab_work *w)
+{
+    if (!p->batched) {
+        en_chunker_recycle(&p->ch, w);
+        return;
+    }
+    if (en_grow((void **)&p->returned, &p->returned_cap, p->nreturned + 1, sizeof *p->returned)) {
+        free_work(w);
+        return;
+    }
+    p->returned[p->nreturned++] = w;
+}
+
 /* The stitcher's output stage while a take runs: the take's records wait
  * in the job's buffer (worker's thread). */
 static int buffer_put(void *self, const epsnet_record *rec, epsnet_error *err)
@@ -282,7 +312,7 @@ static int stitch_retire(en_pass *p, epsnet_error *err)
     if (!en_jobring_retire(p->stitch_ring, &job, &result))
         return 0;
     stitch_job *j = job;
-    en_chunker_recycle(&p->ch, j->w);
+    pass_recycle(p, j->w);
     j->w = NULL;
     if (result) {
         *err = j->err;
@@ -296,7 +326,7 @@ static int stitch_submit(en_pass *p, en_slab_work *w, epsnet_error *err)
 {
     int rc = stitch_retire(p, err);
     if (rc) {
-        en_chunker_recycle(&p->ch, w);
+        pass_recycle(p, w);
         return rc;
     }
     p->job.p = p;
@@ -305,7 +335,7 @@ static int stitch_submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     rc = en_jobring_submit(p->stitch_ring, stitch_run, &p->job);
     if (rc) {
         p->job.w = NULL;
-        en_chunker_recycle(&p->ch, w);
+        pass_recycle(p, w);
         en_error_set(err, rc, p->chain->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE, "worker pool refused a seam");
     }
     return rc;
@@ -350,7 +380,7 @@ static int retire_one(en_pass *p, epsnet_error *err)
         }
         rc = take_samples(c, w, err);
     }
-    en_chunker_recycle(&p->ch, w);
+    pass_recycle(p, w);
     if (rc == 0)
         rc = check_budget(c, err);
     return rc;
@@ -403,6 +433,12 @@ static int chunk_run(void *job)
     en_chunker *ch = &j->p->ch;
     size_t asz = ch->attr_size, vi = 0;
     int rc = 0;
+    for (size_t i = 0; i < j->ngive; i++)
+        en_chunker_recycle(ch, j->give[i]);
+    j->ngive = 0;
+    if (j->p->chunk_failed) /* the caller stops at that one; the chunker is not to be trusted */
+        return en_error_set(&j->err, EPSNET_EINTERNAL, ch->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "a batch after a failed one (a bug if reported)");
     for (size_t i = 0; i < j->nrecs || (j->finish && rc == 0); i++) {
         en_slab_work *w = NULL;
         if (i < j->nrecs) {
@@ -427,11 +463,15 @@ static int chunk_run(void *job)
         if (w)
             j->cut[j->ncut++] = w;
     }
+    j->ch_bytes = en_chunker_bytes(ch);
+    j->ch_vertices = ch->map.count;
+    j->ch_faces = ch->nfaces;
+    j->p->chunk_failed = rc != 0;
     return rc;
 }
 
-/* Wait for pass p's chunk job in flight, if any, and submit the slabs it
- * cut, in order. Afterwards the caller's thread owns the chunker. */
+/* Wait for pass p's oldest chunk job in flight, if any, and submit the
+ * slabs it cut, in order. */
 static int chunk_retire(en_pass *p, epsnet_error *err)
 {
     void *job;
@@ -439,7 +479,9 @@ static int chunk_retire(en_pass *p, epsnet_error *err)
     if (!en_jobring_retire(p->chunk_ring, &job, &result))
         return 0;
     chunk_job *j = job;
-    chunker_seen(p);
+    p->ch_bytes = j->ch_bytes;
+    p->ch_vertices = j->ch_vertices;
+    p->ch_faces = j->ch_faces;
     int rc = result;
     if (rc)
         *err = j->err;
@@ -452,21 +494,36 @@ static int chunk_retire(en_pass *p, epsnet_error *err)
     return rc ? rc : check_budget(p->chain, err);
 }
 
-/* Hand the batch being filled to a worker, after the one in flight. */
+static chunk_job *filling(en_pass *p)
+{
+    return &p->chunk[p->chunk_submitted % CHUNK_JOBS];
+}
+
+/* Hand the batch being filled to the pool, behind those in flight; first
+ * retire those done (their slabs go on at once), and the oldest while the
+ * slot after this one, the next to fill, is still in flight. */
 static int chunk_submit(en_pass *p, int finish, epsnet_error *err)
 {
-    int rc = chunk_retire(p, err);
+    int rc = 0;
+    while (rc == 0 && (en_jobring_in_flight(p->chunk_ring) + 1 >= CHUNK_JOBS || en_jobring_ready(p->chunk_ring)))
+        rc = chunk_retire(p, err);
     if (rc)
         return rc;
-    chunk_job *j = p->fill;
+    chunk_job *j = filling(p);
     j->finish = finish;
     memset(&j->err, 0, sizeof j->err);
+    /* the slab works returned so far travel with the batch (see chunk_job) */
+    en_slab_work **t = j->give;
+    size_t tcap = j->give_cap;
+    j->give = p->returned, j->give_cap = p->returned_cap, j->ngive = p->nreturned;
+    p->returned = t, p->returned_cap = tcap, p->nreturned = 0;
     rc = en_jobring_submit(p->chunk_ring, chunk_run, j);
     if (rc)
         return en_error_set(err, rc, p->chain->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "worker pool refused a batch of records");
-    p->fill = j == &p->chunk[0] ? &p->chunk[1] : &p->chunk[0];
-    p->fill->nrecs = p->fill->nattr = 0; /* retired above, or never used */
+    p->chunk_submitted++;
+    j = filling(p);
+    j->nrecs = j->nattr = 0; /* retired (at most CHUNK_JOBS - 1 in flight), or never used */
     return 0;
 }
 
@@ -474,8 +531,8 @@ static int chunk_submit(en_pass *p, int finish, epsnet_error *err)
  * live only until the producer's next record). */
 static int batch_put(en_pass *p, const epsnet_record *rec, epsnet_error *err)
 {
-    chunk_job *j = p->fill;
-    size_t asz = p->ch.attr_size; /* set at init, read only since */
+    chunk_job *j = filling(p);
+    size_t asz = p->chain->cfg.mode == EN_SLAB_SIMPLIFY ? p->chain->cfg.attr_size : 0; /* the chunker's */
     if (en_grow((void **)&j->recs, &j->recs_cap, j->nrecs + 1, sizeof *j->recs) ||
         (rec->kind == EPSNET_REC_VERTEX && asz && en_grow((void **)&j->attr, &j->attr_cap, j->nattr + 1, asz)))
         return en_error_set(err, EPSNET_ENOMEM, p->chain->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
@@ -516,7 +573,7 @@ static int pass_end(void *self, epsnet_error *err)
     int rc = 0;
     if (p->batched) {
         rc = chunk_submit(p, 1, err);
-        if (rc == 0)
+        while (rc == 0 && en_jobring_in_flight(p->chunk_ring))
             rc = chunk_retire(p, err);
     } else {
         do {
@@ -615,14 +672,18 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             gauss_init(&p->g, cfg->sphere->n, &r);
         }
         p->batched = i > 0 || cfg->checked_input;
-        p->chunk[0].p = p->chunk[1].p = p;
-        p->fill = &p->chunk[0];
-        if (en_chunker_init(&p->ch, finish ? UINT32_MAX - 1 : cfg->slab_vertices, cfg->path) ||
+        if (p->batched && (p->chunk = en_calloc(CHUNK_JOBS, sizeof *p->chunk)) != NULL)
+            for (int k = 0; k < CHUNK_JOBS; k++)
+                p->chunk[k].p = p;
+        if ((p->batched && !p->chunk) ||
+            en_chunker_init(&p->ch, finish ? UINT32_MAX - 1 : cfg->slab_vertices, cfg->path) ||
             en_stitcher_init(&p->st, cfg->max_normal_dev, (en_stage){ buffer_put, buffer_end, p }) ||
             en_jobring_new(&p->ring, pool, cfg->ring_capacity) ||
-            (p->batched && en_jobring_new(&p->chunk_ring, pool, 1)) ||
+            (p->batched && en_jobring_new(&p->chunk_ring, pool, CHUNK_JOBS)) ||
             (c->cfg.mode == EN_SLAB_SIMPLIFY && en_jobring_new(&p->stitch_ring, pool, 1)))
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+        if (p->chunk_ring) /* see chunk_job, CHUNK_JOBS */
+            en_jobring_set_order(p->chunk_ring, 1, 1);
         p->ch.read_marks = finish;
         p->ch.attr_size = p->st.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? cfg->attr_size : 0;
         p->st.keep_seams = p->st.mark_samples = p->target && p->target->mode == EN_TARGET_THIN;
@@ -674,14 +735,21 @@ void en_chain_free(en_chain **pc)
         en_jobring_free(&p->chunk_ring, NULL);
         en_jobring_free(&p->stitch_ring, drop_stitch);
         en_jobring_free(&p->ring, free_work);
-        for (int k = 0; k < 2; k++) {
+        for (int k = 0; p->chunk && k < CHUNK_JOBS; k++) {
             chunk_job *j = &p->chunk[k];
             for (size_t n = 0; n < j->ncut; n++)
                 free_work(j->cut[n]);
+            for (size_t n = 0; n < j->ngive; n++)
+                free_work(j->give[n]);
             en_free(j->cut);
+            en_free(j->give);
             en_free(j->recs);
             en_free(j->attr);
         }
+        en_free(p->chunk);
+        for (size_t n = 0; n < p->nreturned; n++)
+            free_work(p->returned[n]);
+        en_free(p->returned);
         en_free(p->out);
         en_chunker_free(&p->ch);
         en_stitcher_free(&p->st);
