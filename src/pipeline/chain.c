@@ -99,6 +99,8 @@ struct en_pass {
     en_jobring *chunk_ring;        /* CHUNK_JOBS slots, serial, urgent */
     chunk_job *chunk;              /* CHUNK_JOBS, in the ring's order */
     uint64_t chunk_submitted;      /* caller: chunk[chunk_submitted % CHUNK_JOBS] is filling */
+    chunk_job *fill;               /* caller: that one, with room for CHUNK_BATCH records */
+    size_t batch_attr_size;        /* caller: the chunker's attr_size, fixed at init */
     int chunk_failed;              /* chunk jobs only: one failed, the later ones do nothing */
     en_slab_work **returned;       /* caller: slab works done with, for the next batch's give */
     size_t nreturned, returned_cap;
@@ -494,9 +496,19 @@ static int chunk_retire(en_pass *p, epsnet_error *err)
     return rc ? rc : check_budget(p->chain, err);
 }
 
-static chunk_job *filling(en_pass *p)
+/* The next batch to fill, with room for a whole batch made at once, so that
+ * batch_put, once per record on the calling thread, only copies.
+ * @return 0 or -1 (out of memory). */
+static int next_fill(en_pass *p)
 {
-    return &p->chunk[p->chunk_submitted % CHUNK_JOBS];
+    chunk_job *j = &p->chunk[p->chunk_submitted % CHUNK_JOBS];
+    j->nrecs = j->nattr = 0; /* retired (at most CHUNK_JOBS - 1 in flight), or never used */
+    p->fill = NULL;
+    if (en_grow((void **)&j->recs, &j->recs_cap, CHUNK_BATCH, sizeof *j->recs) ||
+        (p->batch_attr_size && en_grow((void **)&j->attr, &j->attr_cap, CHUNK_BATCH, p->batch_attr_size)))
+        return -1;
+    p->fill = j;
+    return 0;
 }
 
 /* Hand the batch being filled to the pool, behind those in flight; first
@@ -509,7 +521,7 @@ static int chunk_submit(en_pass *p, int finish, epsnet_error *err)
         rc = chunk_retire(p, err);
     if (rc)
         return rc;
-    chunk_job *j = filling(p);
+    chunk_job *j = p->fill;
     j->finish = finish;
     memset(&j->err, 0, sizeof j->err);
     /* the slab works returned so far travel with the batch (see chunk_job) */
@@ -522,8 +534,9 @@ static int chunk_submit(en_pass *p, int finish, epsnet_error *err)
         return en_error_set(err, rc, p->chain->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "worker pool refused a batch of records");
     p->chunk_submitted++;
-    j = filling(p);
-    j->nrecs = j->nattr = 0; /* retired (at most CHUNK_JOBS - 1 in flight), or never used */
+    if (next_fill(p))
+        return en_error_set(err, EPSNET_ENOMEM, p->chain->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "out of memory");
     return 0;
 }
 
@@ -531,14 +544,13 @@ static int chunk_submit(en_pass *p, int finish, epsnet_error *err)
  * live only until the producer's next record). */
 static int batch_put(en_pass *p, const epsnet_record *rec, epsnet_error *err)
 {
-    chunk_job *j = filling(p);
-    size_t asz = p->chain->cfg.mode == EN_SLAB_SIMPLIFY ? p->chain->cfg.attr_size : 0; /* the chunker's */
-    if (en_grow((void **)&j->recs, &j->recs_cap, j->nrecs + 1, sizeof *j->recs) ||
-        (rec->kind == EPSNET_REC_VERTEX && asz && en_grow((void **)&j->attr, &j->attr_cap, j->nattr + 1, asz)))
+    chunk_job *j = p->fill;
+    size_t asz = p->batch_attr_size;
+    if (!j)
         return en_error_set(err, EPSNET_ENOMEM, p->chain->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "out of memory");
-    j->recs[j->nrecs++] = *rec;
-    if (rec->kind == EPSNET_REC_VERTEX && asz) {
+    memcpy(&j->recs[j->nrecs++], rec, sizeof *rec);
+    if (asz && rec->kind == EPSNET_REC_VERTEX) {
         uint8_t *to = j->attr + j->nattr++ * asz;
         if (rec->attr)
             memcpy(to, rec->attr, asz);
@@ -684,6 +696,9 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         if (p->chunk_ring) /* see chunk_job, CHUNK_JOBS */
             en_jobring_set_order(p->chunk_ring, 1, 1);
+        p->batch_attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? cfg->attr_size : 0;
+        if (rc == 0 && p->batched && next_fill(p))
+            rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         p->ch.read_marks = finish;
         p->ch.attr_size = p->st.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? cfg->attr_size : 0;
         p->st.keep_seams = p->st.mark_samples = p->target && p->target->mode == EN_TARGET_THIN;
