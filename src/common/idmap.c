@@ -98,16 +98,6 @@ int en_idmap_put(en_idmap *m, uint64_t id, uint32_t val)
     return 0;
 }
 
-int en_idmap_get(const en_idmap *m, uint64_t id, uint32_t *val)
-{
-    size_t slot = (size_t)(id & m->ring_mask);
-    if (m->ring_key[slot] == id) {
-        *val = m->ring_val[slot];
-        return 1;
-    }
-    return m->old.count ? en_u64map_get(&m->old, id, val) : 0;
-}
-
 int en_idmap_remove(en_idmap *m, uint64_t id)
 {
     size_t slot = (size_t)(id & m->ring_mask);

@@ -42,8 +42,19 @@ void en_idmap_free(en_idmap *m);
 /* Insert id, which must be >= every id put before (else -1, m unchanged).
  * @return 0 or -1 (out of memory; m unchanged). */
 int en_idmap_put(en_idmap *m, uint64_t id, uint32_t val);
-/* @return 1 with *val set, or 0 when absent. */
-int en_idmap_get(const en_idmap *m, uint64_t id, uint32_t *val);
+/* @return 1 with *val set, or 0 when absent.
+ * note: inline for the ring hit, the common case: the reader front end
+ * asks once per triangle corner on the calling thread (docs/architecture.md
+ * §10), where a call each was a measurable share. */
+static inline int en_idmap_get(const en_idmap *m, uint64_t id, uint32_t *val)
+{
+    size_t slot = (size_t)(id & m->ring_mask);
+    if (m->ring_key[slot] == id) {
+        *val = m->ring_val[slot];
+        return 1;
+    }
+    return m->old.count ? en_u64map_get(&m->old, id, val) : 0;
+}
 /* @return 1 removed, 0 absent. */
 int en_idmap_remove(en_idmap *m, uint64_t id);
 size_t en_idmap_bytes(const en_idmap *m);
