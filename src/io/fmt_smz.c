@@ -881,9 +881,10 @@ static int smz_writer_use_pool(epsnet_writer *w, en_pool *pool)
     }
     if (st->ring)
         return 0;
-    /* note: N workers, N blocks in flight: the output is a small share of
-     * the run (a tenth of the input), so more would only hold memory */
-    size_t n = (size_t)en_pool_threads(pool);
+    /* note: one block in flight while the next gathers: blocks come far
+     * apart (the output is a tenth of the input or less), and each slot
+     * holds an encoder and a zstd context, a few MB */
+    size_t n = 1;
     smz_wjob *jobs = en_realloc(st->jobs, (n + 1) * sizeof *jobs);
     if (!jobs)
         return EPSNET_ENOMEM;

@@ -46,13 +46,17 @@ typedef struct stitch_job {
  * Records a pass's chunker takes per chunk job: small enough that the
  * budget's view of the chunker (copied at each retire) lags little, large
  * enough that a job's cost dwarfs its submission (docs/architecture.md §10).
- * CHUNK_JOBS batches may wait or run at once: the chunker runs when a worker
- * is free, and while the workers are in long slab jobs the caller reads on
- * into the next batches instead of waiting (measured: with one batch in
- * flight, 20M faces at -j 2 took 38 s instead of 21, bench/RESULTS.md).
+ * Up to CHUNK_JOBS batches may wait or run at once: the chunker runs when a
+ * worker is free, and while the workers are in long slab jobs the caller
+ * reads on into the next batches instead of waiting (measured: with one
+ * batch in flight, 20M faces at -j 2 took 38 s instead of 21,
+ * bench/RESULTS.md). Slab jobs last about as long as their slab is large,
+ * so a pass takes about a slab's records (some 4 per vertex) in batches,
+ * at least CHUNK_JOBS_MIN of them (chunk_slots).
  */
 #define CHUNK_BATCH 8192
 #define CHUNK_JOBS 16
+#define CHUNK_JOBS_MIN 4
 
 /*
  * One batch of a pass's input records as a pool job: the chunker takes
@@ -96,9 +100,10 @@ struct en_pass {
     /* batched: the chunker runs as chunk jobs (the pass's input was checked
      * before it: a checked reader, the sort, or the pass before). */
     int batched;
-    en_jobring *chunk_ring;        /* CHUNK_JOBS slots, serial, urgent */
-    chunk_job *chunk;              /* CHUNK_JOBS, in the ring's order */
-    uint64_t chunk_submitted;      /* caller: chunk[chunk_submitted % CHUNK_JOBS] is filling */
+    en_jobring *chunk_ring;        /* nchunk slots, serial, urgent */
+    chunk_job *chunk;              /* nchunk, in the ring's order */
+    size_t nchunk;                 /* a power of two, CHUNK_JOBS_MIN ... CHUNK_JOBS */
+    uint64_t chunk_submitted;      /* caller: chunk[chunk_submitted % nchunk] is filling */
     chunk_job *fill;               /* caller: that one, with room for CHUNK_BATCH records */
     size_t batch_attr_size;        /* caller: the chunker's attr_size, fixed at init */
     int chunk_failed;              /* chunk jobs only: one failed, the later ones do nothing */
@@ -501,8 +506,8 @@ static int chunk_retire(en_pass *p, epsnet_error *err)
  * @return 0 or -1 (out of memory). */
 static int next_fill(en_pass *p)
 {
-    chunk_job *j = &p->chunk[p->chunk_submitted % CHUNK_JOBS];
-    j->nrecs = j->nattr = 0; /* retired (at most CHUNK_JOBS - 1 in flight), or never used */
+    chunk_job *j = &p->chunk[p->chunk_submitted % p->nchunk];
+    j->nrecs = j->nattr = 0; /* retired (at most nchunk - 1 in flight), or never used */
     p->fill = NULL;
     if (en_grow((void **)&j->recs, &j->recs_cap, CHUNK_BATCH, sizeof *j->recs) ||
         (p->batch_attr_size && en_grow((void **)&j->attr, &j->attr_cap, CHUNK_BATCH, p->batch_attr_size)))
@@ -517,7 +522,7 @@ static int next_fill(en_pass *p)
 static int chunk_submit(en_pass *p, int finish, epsnet_error *err)
 {
     int rc = 0;
-    while (rc == 0 && (en_jobring_in_flight(p->chunk_ring) + 1 >= CHUNK_JOBS || en_jobring_ready(p->chunk_ring)))
+    while (rc == 0 && (en_jobring_in_flight(p->chunk_ring) + 1 >= p->nchunk || en_jobring_ready(p->chunk_ring)))
         rc = chunk_retire(p, err);
     if (rc)
         return rc;
@@ -649,6 +654,16 @@ en_stage en_chain_input(en_chain *c)
     return (en_stage){ chain_put, chain_end, c };
 }
 
+/* Batch slots of a pass whose slabs own slab_vertices (see CHUNK_JOBS). */
+static size_t chunk_slots(uint32_t slab_vertices)
+{
+    uint64_t want = 4 * (uint64_t)slab_vertices / CHUNK_BATCH;
+    size_t n = CHUNK_JOBS_MIN;
+    while (n < want && n < CHUNK_JOBS)
+        n *= 2;
+    return n;
+}
+
 int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsnet_error *err)
 {
     *out = NULL;
@@ -684,17 +699,18 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             gauss_init(&p->g, cfg->sphere->n, &r);
         }
         p->batched = i > 0 || cfg->checked_input;
-        if (p->batched && (p->chunk = en_calloc(CHUNK_JOBS, sizeof *p->chunk)) != NULL)
-            for (int k = 0; k < CHUNK_JOBS; k++)
+        p->nchunk = chunk_slots(finish ? UINT32_MAX - 1 : cfg->slab_vertices);
+        if (p->batched && (p->chunk = en_calloc(p->nchunk, sizeof *p->chunk)) != NULL)
+            for (size_t k = 0; k < p->nchunk; k++)
                 p->chunk[k].p = p;
         if ((p->batched && !p->chunk) ||
             en_chunker_init(&p->ch, finish ? UINT32_MAX - 1 : cfg->slab_vertices, cfg->path) ||
             en_stitcher_init(&p->st, cfg->max_normal_dev, (en_stage){ buffer_put, buffer_end, p }) ||
             en_jobring_new(&p->ring, pool, cfg->ring_capacity) ||
-            (p->batched && en_jobring_new(&p->chunk_ring, pool, CHUNK_JOBS)) ||
+            (p->batched && en_jobring_new(&p->chunk_ring, pool, p->nchunk)) ||
             (c->cfg.mode == EN_SLAB_SIMPLIFY && en_jobring_new(&p->stitch_ring, pool, 1)))
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
-        if (p->chunk_ring) /* see chunk_job, CHUNK_JOBS */
+        if (p->chunk_ring) /* see chunk_job */
             en_jobring_set_order(p->chunk_ring, 1, 1);
         p->batch_attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? cfg->attr_size : 0;
         if (rc == 0 && p->batched && next_fill(p))
@@ -750,7 +766,7 @@ void en_chain_free(en_chain **pc)
         en_jobring_free(&p->chunk_ring, NULL);
         en_jobring_free(&p->stitch_ring, drop_stitch);
         en_jobring_free(&p->ring, free_work);
-        for (int k = 0; p->chunk && k < CHUNK_JOBS; k++) {
+        for (size_t k = 0; p->chunk && k < p->nchunk; k++) {
             chunk_job *j = &p->chunk[k];
             for (size_t n = 0; n < j->ncut; n++)
                 free_work(j->cut[n]);
