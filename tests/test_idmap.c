@@ -47,6 +47,40 @@ TEST(answers_match_a_plain_map_with_long_lived_ids)
     en_idmap_free(&m);
 }
 
+/* A growing ring (en_idmap_init_growing) starts at 64 slots and doubles
+ * to the window's width instead of pushing live ids to the hash: the same
+ * answers as a plain map, the window's ids never leave the ring, and the
+ * long-lived ones do once the ring is four times the ids present. */
+TEST(a_growing_ring_widens_to_the_window)
+{
+    enum { N = 20000, WIDTH = 1000 };
+    en_idmap m;
+    CHECK_EQ_INT(en_idmap_init_growing(&m, 1 << 20), 0);
+    CHECK_EQ_U64(m.ring_mask + 1, 64);
+    int *present = calloc(N, sizeof *present);
+    for (uint64_t id = 0; id < N; id++) {
+        CHECK_EQ_INT(en_idmap_put(&m, id, (uint32_t)(id * 3 + 2)), 0);
+        present[id] = 1;
+        if (id >= WIDTH && (id - WIDTH) % 501 != 0) { /* every 501st id stays to the end */
+            CHECK_EQ_INT(en_idmap_remove(&m, id - WIDTH), 1);
+            present[id - WIDTH] = 0;
+        }
+        if (id == WIDTH)
+            CHECK_EQ_U64(m.old.count, 0); /* grew rather than push the window out */
+    }
+    for (uint64_t q = 0; q < N + 2; q++) {
+        uint32_t v = 0;
+        int got = en_idmap_get(&m, q, &v);
+        CHECK_EQ_INT(got, q < N && present[q]);
+        if (got)
+            CHECK_EQ_U64(v, q * 3 + 2);
+    }
+    CHECK(m.ring_mask + 1 >= WIDTH && m.ring_mask + 1 <= 8 * (WIDTH + N / 501 + 1)); /* doubled below 4x */
+    CHECK(m.old.count > 0);
+    free(present);
+    en_idmap_free(&m);
+}
+
 /* Ids come in stream order: an id below one already put is refused and
  * changes nothing. */
 TEST(an_id_older_than_the_last_put_is_refused)
@@ -67,6 +101,7 @@ TEST(an_id_older_than_the_last_put_is_refused)
 int main(void)
 {
     RUN(answers_match_a_plain_map_with_long_lived_ids);
+    RUN(a_growing_ring_widens_to_the_window);
     RUN(an_id_older_than_the_last_put_is_refused);
     return tl_finish();
 }

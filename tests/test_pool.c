@@ -4,7 +4,8 @@
  * submission order with their own results, for any thread count, also when
  * several rings share one pool; in-flight jobs never exceed a ring's
  * capacity; an error rides in its job and surfaces in order; freeing a ring
- * with queued work finishes it cleanly.
+ * with queued work finishes it cleanly; a serial ring's jobs run one at a
+ * time, in order, beside other rings' jobs.
  * Also run under the thread sanitizer in CI (build-tsan).
  */
 #include <stdatomic.h>
@@ -196,6 +197,74 @@ TEST(rings_sharing_a_pool_each_retire_in_their_own_order)
     }
 }
 
+/* A serial ring's jobs share plain state (as a pass's chunk jobs share its
+ * chunker): each appends its id to a log without any lock, so overlap or
+ * disorder shows as a wrong log (and as a race under the thread sanitizer). */
+typedef struct serial_job {
+    uint64_t id;
+    uint64_t *log;
+    size_t *nlog;
+} serial_job;
+
+static int append_id(void *arg)
+{
+    serial_job *j = arg;
+    uint64_t x = j->id;
+    for (uint64_t i = 0; i < (j->id % 5) * 10000; i++) /* unequal lengths */
+        x = x * 6364136223846793005ull + 1;
+    j->log[(*j->nlog)++] = j->id + (x & 0); /* x only keeps the loop */
+    return 0;
+}
+
+/*
+ * A serial, urgent ring beside an ordinary one on the same pool: the serial
+ * ring's jobs run one at a time in submission order (the log), with several
+ * in flight at once, while the other ring's jobs go on around them.
+ */
+TEST(a_serial_ring_runs_its_jobs_one_at_a_time_in_order)
+{
+    const int threads[] = { 0, 1, 2, 5 };
+    for (int k = 0; k < 4; k++) {
+        en_pool *pool = NULL;
+        en_jobring *serial = NULL, *other = NULL;
+        CHECK_EQ_INT(en_pool_new(&pool, threads[k]), 0);
+        CHECK_EQ_INT(en_jobring_new(&serial, pool, 8), 0);
+        CHECK_EQ_INT(en_jobring_new(&other, pool, 4), 0);
+        en_jobring_set_order(serial, 1, 1);
+        enum { N = 200 };
+        static uint64_t log[N];
+        size_t nlog = 0;
+        serial_job sj[N];
+        work ow[N];
+        uint64_t retired = 0, oretired = 0;
+        void *job;
+        int result;
+        for (uint64_t i = 0; i < N; i++) {
+            if (en_jobring_full(serial)) {
+                CHECK_EQ_INT(en_jobring_retire(serial, &job, &result), 1);
+                CHECK(job == &sj[retired++]);
+            }
+            sj[i] = (serial_job){ i, log, &nlog };
+            CHECK_EQ_INT(en_jobring_submit(serial, append_id, &sj[i]), 0);
+            if (en_jobring_full(other)) {
+                CHECK_EQ_INT(en_jobring_retire(other, &job, &result), 1);
+                CHECK(job == &ow[oretired++]);
+            }
+            ow[i] = (work){ i, i * 7, 0, 0 };
+            CHECK_EQ_INT(en_jobring_submit(other, crunch, &ow[i]), 0);
+        }
+        while (en_jobring_retire(serial, &job, &result))
+            CHECK(job == &sj[retired++]);
+        CHECK(!en_jobring_ready(serial));
+        en_jobring_free(&other, NULL);
+        CHECK_EQ_U64(nlog, N);
+        for (uint64_t i = 0; i < N && i < nlog; i++)
+            CHECK_EQ_U64(log[i], i);
+        en_jobring_free(&serial, NULL);
+        en_pool_free(&pool);
+    }
+}
+
 int main(void)
 {
     RUN(jobs_retire_in_submission_order_for_any_thread_count);
@@ -204,5 +273,6 @@ int main(void)
     RUN(submitting_to_a_full_ring_is_refused_not_blocked);
     RUN(capacity_rounds_up_to_a_power_of_two);
     RUN(rings_sharing_a_pool_each_retire_in_their_own_order);
+    RUN(a_serial_ring_runs_its_jobs_one_at_a_time_in_order);
     return tl_finish();
 }

@@ -296,9 +296,11 @@ static int collect_put(void *self, const epsnet_record *rec, epsnet_error *err)
                : 0;
 }
 
-static int open_collector(void *opaque, const epsnet_mesh_info *in, en_stage *out, epsnet_error *err)
+static int open_collector(void *opaque, const epsnet_mesh_info *in, struct en_pool *pool, en_stage *out,
+                          epsnet_error *err)
 {
     (void)in;
+    (void)pool;
     (void)err;
     *out = (en_stage){ collect_put, NULL, opaque };
     return 0;
@@ -309,7 +311,7 @@ static int draw_simplified(epsnet_context *ctx, const char *in, const char *out_
 {
     en_slab slab;
     en_slab_init(&slab);
-    int rc = en_simplify_streamed(ctx, in, out_png, NULL, open_collector, &slab, err);
+    int rc = en_simplify_streamed(ctx, in, out_png, NULL, open_collector, NULL, &slab, err);
     if (rc == 0)
         draw_slab(&slab, img, p, style);
     en_slab_free(&slab);

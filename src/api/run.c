@@ -153,7 +153,7 @@ int en_run_pool_new(en_pool **pool, const epsnet_settings *set, const char *path
 }
 
 int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char *path,
-                const epsnet_mesh_info *in, en_pool *pool, en_stage out, en_sample_fn on_sample,
+                const epsnet_mesh_info *in, int checked, en_pool *pool, en_stage out, en_sample_fn on_sample,
                 void *sample_opaque, epsnet_error *err)
 {
     memset(run, 0, sizeof *run);
@@ -207,6 +207,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         /* note: two slabs per worker keep every worker busy while the
          * caller stitches the oldest one. */
         .ring_capacity = workers ? 2 * (size_t)workers : 1,
+        .checked_input = checked,
         .out = out,
         .on_sample = on_sample,
         .sample_opaque = sample_opaque,

@@ -45,11 +45,15 @@ typedef struct en_run {
  * cpu_start to where its own CPU count began), or NULL for a pool of the
  * run's own.
  * out: SIMPLIFY's output stage; on_sample: SAMPLE's sample sink.
+ * checked: the records were checked before the run (a reader front end,
+ * the sort), so the chain may cut slabs on the pool and report a bad
+ * record later than its put (en_chain_config.checked_input); 0: each put
+ * checks its record (the push API).
  * @return 0, or a negative code with err filled (then nothing is left
  * running and run_close() is still safe).
  */
 int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char *path,
-                const epsnet_mesh_info *in, en_pool *pool, en_stage out, en_sample_fn on_sample,
+                const epsnet_mesh_info *in, int checked, en_pool *pool, en_stage out, en_sample_fn on_sample,
                 void *sample_opaque, epsnet_error *err);
 
 /* The run's one pool of -j workers (en_run_workers), made before the run

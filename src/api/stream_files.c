@@ -206,7 +206,7 @@ static int file_run_open(file_run *fr, epsnet_context *ctx, const char *in_path,
 static int file_run_feed(file_run *fr, epsnet_context *ctx, en_slab_mode mode, const char *in_path, en_stage out,
                          en_sample_fn on_sample, void *sample_opaque, epsnet_error *err)
 {
-    int rc = en_run_open(&fr->run, ctx, mode, in_path, &fr->in.info, fr->pool, out, on_sample, sample_opaque, err);
+    int rc = en_run_open(&fr->run, ctx, mode, in_path, &fr->in.info, 1, fr->pool, out, on_sample, sample_opaque, err);
     fr->run.cpu_start = fr->cpu0; /* the sort before the run is its work too */
     if (rc == 0)
         en_reader_use_pool(fr->in.r, fr->pool); /* ENOMEM: it decodes alone, as before */
@@ -224,16 +224,19 @@ static void file_run_close(file_run *fr, epsnet_context *ctx)
 }
 
 int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *near_path, const en_format *keep,
-                         en_open_out_fn open_out, void *opaque, epsnet_error *err)
+                         en_open_out_fn open_out, en_release_out_fn release_out, void *opaque, epsnet_error *err)
 {
     double t0 = en_now();
     file_run fr;
     en_stage out = { 0 };
     int rc = file_run_open(&fr, ctx, in_path, near_path, keep, err);
+    int opened = rc == 0;
     if (rc == 0)
-        rc = open_out(opaque, &fr.in.info, &out, err);
+        rc = open_out(opaque, &fr.in.info, fr.pool, &out, err);
     if (rc == 0)
         rc = file_run_feed(&fr, ctx, EN_SLAB_SIMPLIFY, in_path, out, NULL, NULL, err);
+    if (opened && release_out)
+        release_out(opaque);
     file_run_close(&fr, ctx);
     /* note: the sort passes on only referenced vertices, so a mesh without
      * faces is told by the sort's count of the input. */
@@ -254,7 +257,7 @@ typedef struct file_out {
     epsnet_writer *w;
 } file_out;
 
-static int open_writer(void *opaque, const epsnet_mesh_info *in, en_stage *out, epsnet_error *err)
+static int open_writer(void *opaque, const epsnet_mesh_info *in, en_pool *pool, en_stage *out, epsnet_error *err)
 {
     file_out *f = opaque;
     epsnet_writer_settings ws;
@@ -270,8 +273,18 @@ static int open_writer(void *opaque, const epsnet_mesh_info *in, en_stage *out, 
     info.sorted_axis = in->sorted_axis; /* output vertices keep the input's order */
     info.vertex_attrs = in->vertex_attrs; /* kept vertices keep their bytes */
     int rc = epsnet_writer_open(&f->w, f->path, &ws, &info, err);
+    /* note: the writer encodes on the run's pool, if its format can
+     * (docs/architecture.md §10); ENOMEM: it encodes alone, as before */
+    if (rc == 0)
+        (void)en_writer_use_pool(f->w, pool);
     *out = (en_stage){ writer_put, NULL, f->w };
     return rc;
+}
+
+static void release_writer(void *opaque)
+{
+    file_out *f = opaque;
+    (void)en_writer_use_pool(f->w, NULL); /* a failure is the writer's, its commit reports it */
 }
 
 int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *out_path, epsnet_error *err)
@@ -281,7 +294,8 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
                             "epsnet_simplify_file: NULL argument");
     snprintf(ctx->command, sizeof ctx->command, "simplify");
     file_out f = { ctx, out_path, NULL };
-    int rc = en_simplify_streamed(ctx, in_path, out_path, en_format_by_path(out_path), open_writer, &f, err);
+    int rc = en_simplify_streamed(ctx, in_path, out_path, en_format_by_path(out_path), open_writer, release_writer, &f,
+                                  err);
     /* what the writer leaves out (only the lock property can get this far
      * unfiltered: the reader kept every attribute for it) */
     uint64_t left_out = 0;

@@ -11,15 +11,24 @@
 int en_sample_points_streamed(epsnet_context *ctx, const char *in_path, const char *out_path, int ascii,
                               epsnet_error *err);
 
-/* Where a streamed simplification goes, opened once the input is known. */
-typedef int (*en_open_out_fn)(void *opaque, const epsnet_mesh_info *in, en_stage *out, epsnet_error *err);
+struct en_pool;
+
+/* Where a streamed simplification goes, opened once the input is known.
+ * pool: the run's workers, which the output may use (en_writer_use_pool)
+ * until release_out is called. */
+typedef int (*en_open_out_fn)(void *opaque, const epsnet_mesh_info *in, struct en_pool *pool, en_stage *out,
+                              epsnet_error *err);
+/* The output stops using the run's pool, which goes next. */
+typedef void (*en_release_out_fn)(void *opaque);
 
 /* Simplify in_path through the stage chain (sorting it first when it is not
  * a stream; temporaries go beside near_path or in ctx's tmpdir) into the
  * stage open_out gives. keep: the format whose vertex attributes are
  * carried (NULL: none; the others are named as dropped). Fills ctx->stats but peak_rss. The output stage is
- * the caller's to commit or abort, also when this fails. */
+ * the caller's to commit or abort, also when this fails. release_out (may
+ * be NULL) is called once, after the last record and on every failure
+ * after open_out, before the pool goes. */
 int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *near_path, const en_format *keep,
-                         en_open_out_fn open_out, void *opaque, epsnet_error *err);
+                         en_open_out_fn open_out, en_release_out_fn release_out, void *opaque, epsnet_error *err);
 
 #endif

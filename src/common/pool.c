@@ -7,12 +7,15 @@
 #include "common/util.h"
 #include "epsnet/epsnet.h"
 
-typedef enum { SLOT_FREE, SLOT_QUEUED, SLOT_RUNNING, SLOT_DONE } slot_state;
+/* SLOT_PENDING: submitted to a serial ring while a job of it is queued or
+ * running; queued when that one is done. */
+typedef enum { SLOT_FREE, SLOT_PENDING, SLOT_QUEUED, SLOT_RUNNING, SLOT_DONE } slot_state;
 
 typedef struct slot slot;
 struct slot {
     en_job_fn fn;          /* written by submit (owner), read by the worker that takes it */
     void *job;             /* likewise */
+    en_jobring *ring;      /* written once by en_jobring_new; read by workers */
     int result;            /* written by the worker, read by retire (owner) after DONE */
     slot_state state;      /* written by submit, the worker and retire; under the lock */
     slot *next;            /* the pool's queue of QUEUED slots; under the lock */
@@ -32,7 +35,8 @@ struct en_pool {
     pthread_mutex_t lock;
     pthread_cond_t work;
     pthread_cond_t done;
-    slot *head, *tail;     /* lock: queued jobs of every ring, oldest first */
+    slot *head, *tail;     /* lock: queued jobs of every ring, urgent rings' first, else oldest first */
+    slot *urgent_tail;     /* lock: the last queued job of an urgent ring, NULL when none */
     int stopping;          /* lock: written by free, read by workers */
     double job_cpu;        /* lock: CPU seconds inside jobs, written by whoever ran one */
     int nthreads;
@@ -46,7 +50,33 @@ struct en_jobring {
     /* Written only by the owner, under the lock (workers never read them), so
      * the owner may read them without it. */
     uint64_t submitted, retired;
+    /* Written by the owner before its first submit; read by the owner and
+     * the workers (en_jobring_set_order). */
+    int serial, urgent;
+    int active;            /* lock: serial ring: one of its jobs is queued or running */
 };
+
+/* Put s in the pool's queue: an urgent ring's job behind the urgent ones,
+ * any other at the end. Lock held. */
+static void enqueue(en_pool *p, slot *s)
+{
+    s->state = SLOT_QUEUED;
+    if (s->ring->urgent) {
+        slot **at = p->urgent_tail ? &p->urgent_tail->next : &p->head;
+        s->next = *at;
+        *at = s;
+        if (!s->next)
+            p->tail = s;
+        p->urgent_tail = s;
+        return;
+    }
+    s->next = NULL;
+    if (p->tail)
+        p->tail->next = s;
+    else
+        p->head = s;
+    p->tail = s;
+}
 
 /* Run one job and account its CPU time; returns its result. Caller does
  * not hold the lock. */
@@ -78,12 +108,25 @@ static void *worker(void *arg)
         p->head = s->next;
         if (!p->head)
             p->tail = NULL;
+        if (p->urgent_tail == s)
+            p->urgent_tail = NULL;
         s->state = SLOT_RUNNING;
         pthread_mutex_unlock(&p->lock);
         int result = run_job(p, s);
         pthread_mutex_lock(&p->lock);
         s->result = result;
         s->state = SLOT_DONE;
+        en_jobring *r = s->ring;
+        if (r->serial) {
+            /* its next job, if submitted, may run now */
+            slot *n = &r->slots[(size_t)(s - r->slots + 1) & r->mask];
+            if (n->state == SLOT_PENDING) {
+                enqueue(p, n);
+                pthread_cond_signal(&p->work);
+            } else {
+                r->active = 0;
+            }
+        }
         pthread_cond_broadcast(&p->done);
     }
     pthread_mutex_unlock(&p->lock);
@@ -164,8 +207,30 @@ int en_jobring_new(en_jobring **out, en_pool *pool, size_t capacity)
     }
     r->pool = pool;
     r->mask = cap - 1;
+    for (size_t i = 0; i < cap; i++)
+        r->slots[i].ring = r;
     *out = r;
     return 0;
+}
+
+void en_jobring_set_order(en_jobring *r, int serial, int urgent)
+{
+    r->serial = serial;
+    r->urgent = urgent;
+}
+
+int en_jobring_ready(const en_jobring *r)
+{
+    if (r->retired == r->submitted)
+        return 0;
+    en_pool *p = r->pool;
+    const slot *s = &r->slots[r->retired & r->mask];
+    if (p->nthreads == 0)
+        return 1;
+    pthread_mutex_lock(&p->lock);
+    int done = s->state == SLOT_DONE;
+    pthread_mutex_unlock(&p->lock);
+    return done;
 }
 
 int en_jobring_full(const en_jobring *r)
@@ -195,14 +260,14 @@ int en_jobring_submit(en_jobring *r, en_job_fn fn, void *job)
         return 0;
     }
     pthread_mutex_lock(&p->lock);
-    s->state = SLOT_QUEUED;
-    if (p->tail)
-        p->tail->next = s;
-    else
-        p->head = s;
-    p->tail = s;
     r->submitted++;
-    pthread_cond_signal(&p->work);
+    if (r->serial && r->active) {
+        s->state = SLOT_PENDING; /* the worker finishing the one before queues it */
+    } else {
+        r->active = r->serial;
+        enqueue(p, s);
+        pthread_cond_signal(&p->work);
+    }
     pthread_mutex_unlock(&p->lock);
     return 0;
 }

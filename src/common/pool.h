@@ -54,6 +54,18 @@ int en_jobring_new(en_jobring **ring, en_pool *pool, size_t capacity);
  * (a caller bug: retire first). Never blocks. */
 int en_jobring_submit(en_jobring *ring, en_job_fn fn, void *job);
 
+/*
+ * How the pool runs ring's jobs (before its first submit; default 0, 0).
+ * serial: one at a time, in submission order (a job may then build on the
+ * state the one before it left: the jobs of the ring share it, in turn).
+ * urgent: a free worker takes them before the jobs of rings that are not
+ * urgent, for jobs that gate what the owner produces next.
+ */
+void en_jobring_set_order(en_jobring *ring, int serial, int urgent);
+
+/* 1 when the oldest job in flight is done (retire will not wait). */
+int en_jobring_ready(const en_jobring *ring);
+
 /* 1 when capacity jobs are in flight: retire before submitting. */
 int en_jobring_full(const en_jobring *ring);
 

@@ -20,6 +20,12 @@
  * outputs; the trailer always holds the exact values. On an output that
  * cannot be patched, an announced count or sorted axis that turns out wrong
  * is an error, and the header bbox is left out.
+ *
+ * Given a pool (smz_writer_use_pool), the writer gathers each block's
+ * records on the caller's thread and encodes and compresses it on a
+ * worker; the caller writes the blocks in order as their jobs retire, as
+ * zstdmt flushes only its oldest job (docs/architecture.md §10). Blocks are
+ * independent (docs/smz.md), so the bytes are the same.
  */
 #include <math.h>
 #include <stdio.h>
@@ -29,7 +35,7 @@
 
 #include "common/alloc.h"
 #include "common/pool.h"
-#include "common/u64set.h"
+#include "common/idmap.h"
 #include "io/format.h"
 #include "io/smz.h"
 
@@ -421,7 +427,7 @@ static int ahead_fits(const epsnet_reader *r, const smz_reader *st, size_t more)
     uint64_t limit = r->settings.mem_limit;
     if (!limit || en_jobring_in_flight(st->ring) == 0)
         return 1;
-    uint64_t live = r->live ? en_u64set_bytes(r->live) : 0;
+    uint64_t live = r->live ? en_idmap_bytes(r->live) : 0;
     return live + st->ahead_bytes + more <= limit;
 }
 
@@ -614,18 +620,36 @@ static int smz_probe(const uint8_t *head, size_t n)
 
 /* ---- writer ---- */
 
-typedef struct smz_writer {
+/*
+ * One block of the writer: its records gathered in enc, then encoded and
+ * compressed into out, on the caller's thread or on a worker. The caller's
+ * thread fills enc, first_vertex, first_triangle and the block's axis range
+ * and submits; the worker writes out, out_cap, b and bad; the caller reads
+ * them after its ring retires the job, in block order, and writes the
+ * block. Between submit and retire only the worker touches the slot.
+ */
+typedef struct smz_wjob {
     en_smz_encoder *enc;
     ZSTD_CCtx *cctx;
     uint8_t *out;
     size_t out_cap;
+    en_smz_block_header b;
+    int bad;                       /* worker: the encoder or zstd failed (out of memory) */
+    uint64_t first_vertex, first_triangle;
+    double axis_min, axis_max;
+} smz_wjob;
+
+typedef struct smz_writer {
+    smz_wjob *jobs;                /* njobs slots; jobs[cur] gathers the block being written */
+    size_t njobs, cur;
+    en_jobring *ring;              /* NULL: blocks are compressed on the caller's thread (njobs 1) */
+    uint64_t submitted;            /* blocks handed to the ring */
+    int level;
     en_smz_index_entry *index;
     size_t nindex, index_cap;
     en_smz_header announced;       /* as written at the start */
     uint64_t header_offset;
     uint64_t nverts, ntris, nfinal;
-    uint64_t block_first_vertex, block_first_triangle;
-    double block_min, block_max;
     double lo[3], hi[3];
     int axis;                      /* announced stream axis, -1 none */
     int sorted_ok;
@@ -637,6 +661,29 @@ static int wfail_nomem(epsnet_writer *w)
     return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
 }
 
+/* A block slot's encoder and compression context. @return 0 or -1. */
+static int wjob_init(const epsnet_writer *w, const smz_writer *st, smz_wjob *j)
+{
+    j->enc = en_smz_encoder_new_v2(w->coord_type, &w->attrs, st->axis);
+    j->cctx = ZSTD_createCCtx();
+    if (!j->enc || !j->cctx)
+        return -1;
+    ZSTD_CCtx_setParameter(j->cctx, ZSTD_c_compressionLevel, st->level);
+    ZSTD_CCtx_setParameter(j->cctx, ZSTD_c_checksumFlag, 1);
+    ZSTD_CCtx_setParameter(j->cctx, ZSTD_c_contentSizeFlag, 1);
+    j->axis_min = INFINITY;
+    j->axis_max = -INFINITY;
+    return 0;
+}
+
+static void wjob_free(smz_wjob *j)
+{
+    en_smz_encoder_free(&j->enc);
+    ZSTD_freeCCtx(j->cctx);
+    en_free(j->out);
+    memset(j, 0, sizeof *j);
+}
+
 static int smz_open_writer(epsnet_writer *w)
 {
     smz_writer *st = en_calloc(1, sizeof *st);
@@ -644,18 +691,15 @@ static int smz_open_writer(epsnet_writer *w)
         return wfail_nomem(w);
     w->state = st;
     st->axis = w->info.sorted_axis >= 0 && w->info.sorted_axis < 3 ? w->info.sorted_axis : -1;
-    st->enc = en_smz_encoder_new_v2(w->coord_type, &w->attrs, st->axis);
-    st->cctx = ZSTD_createCCtx();
-    if (!st->enc || !st->cctx)
+    st->level = w->settings.zstd_level > 0 ? w->settings.zstd_level : 3;
+    st->jobs = en_calloc(1, sizeof *st->jobs);
+    if (!st->jobs)
         return wfail_nomem(w);
-    int level = w->settings.zstd_level > 0 ? w->settings.zstd_level : 3;
-    ZSTD_CCtx_setParameter(st->cctx, ZSTD_c_compressionLevel, level);
-    ZSTD_CCtx_setParameter(st->cctx, ZSTD_c_checksumFlag, 1);
-    ZSTD_CCtx_setParameter(st->cctx, ZSTD_c_contentSizeFlag, 1);
+    st->njobs = 1;
+    if (wjob_init(w, st, &st->jobs[0]))
+        return wfail_nomem(w);
     st->sorted_ok = 1;
     st->prev_axis = -INFINITY;
-    st->block_min = INFINITY;
-    st->block_max = -INFINITY;
     for (int k = 0; k < 3; k++) {
         st->lo[k] = INFINITY;
         st->hi[k] = -INFINITY;
@@ -682,32 +726,76 @@ static int smz_open_writer(epsnet_writer *w)
     return rc;
 }
 
-static int flush_block(epsnet_writer *w, smz_writer *st)
+/* Encode and compress a block (a pool job, or inline). */
+static int compress_job(void *job)
 {
-    if (en_smz_encoder_records(st->enc) == 0)
-        return 0;
-    en_smz_block_header b;
-    if (en_smz_encoder_flush(st->enc, st->cctx, &st->out, &st->out_cap, &b))
+    smz_wjob *j = job;
+    j->bad = en_smz_encoder_flush(j->enc, j->cctx, &j->out, &j->out_cap, &j->b) != 0;
+    return 0;
+}
+
+/* Write a compressed block and its index entry, in block order. */
+static int write_block(epsnet_writer *w, smz_writer *st, smz_wjob *j)
+{
+    if (j->bad)
         return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "cannot compress a block (out of memory)");
-    b.first_vertex = st->block_first_vertex;
+    en_smz_block_header b = j->b;
+    b.first_vertex = j->first_vertex;
     if (st->nindex == st->index_cap &&
         en_grow((void **)&st->index, &st->index_cap, st->nindex + 1, sizeof *st->index))
         return wfail_nomem(w);
     st->index[st->nindex++] = (en_smz_index_entry){
-        .offset = en_sink_offset(w->sink) - st->header_offset, .first_vertex = st->block_first_vertex,
-        .first_triangle = st->block_first_triangle, .records = b.records, .compressed_bytes = b.compressed_bytes,
-        .axis_min = st->block_min, .axis_max = st->block_max,
+        .offset = en_sink_offset(w->sink) - st->header_offset, .first_vertex = j->first_vertex,
+        .first_triangle = j->first_triangle, .records = b.records, .compressed_bytes = b.compressed_bytes,
+        .axis_min = j->axis_min, .axis_max = j->axis_max,
     };
     uint8_t bh[EN_SMZ_BLOCK_HEADER_BYTES];
     en_smz_block_header_encode(&b, bh);
     int rc = en_writer_bytes(w, bh, sizeof bh);
     if (rc == 0)
-        rc = en_writer_bytes(w, st->out, b.compressed_bytes);
-    st->block_first_vertex = st->nverts;
-    st->block_first_triangle = st->ntris;
-    st->block_min = INFINITY;
-    st->block_max = -INFINITY;
+        rc = en_writer_bytes(w, j->out, b.compressed_bytes);
+    return rc;
+}
+
+/* Write the oldest block on the pool. @return 0 when none is in flight. */
+static int retire_block(epsnet_writer *w, smz_writer *st)
+{
+    void *job;
+    int result;
+    if (!st->ring || !en_jobring_retire(st->ring, &job, &result))
+        return 0;
+    return write_block(w, st, job);
+}
+
+/* The block gathered so far goes out: compressed here and written, or
+ * handed to the pool, the next slot taking the records that follow. */
+static int flush_block(epsnet_writer *w, smz_writer *st)
+{
+    smz_wjob *j = &st->jobs[st->cur];
+    if (en_smz_encoder_records(j->enc) == 0)
+        return 0;
+    int rc = 0;
+    if (!st->ring) {
+        compress_job(j);
+        rc = write_block(w, st, j);
+    } else {
+        /* the next slot must be free before this one goes (njobs = ring + 1) */
+        while (rc == 0 && en_jobring_in_flight(st->ring) + 1 >= st->njobs)
+            rc = retire_block(w, st);
+        if (rc == 0 && en_jobring_submit(st->ring, compress_job, j))
+            rc = en_error_set(&w->err, EPSNET_EINTERNAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                              "worker pool refused a block (a bug)");
+        if (rc == 0) {
+            st->submitted++;
+            st->cur = (size_t)(st->submitted % st->njobs);
+            j = &st->jobs[st->cur];
+        }
+    }
+    j->first_vertex = st->nverts;
+    j->first_triangle = st->ntris;
+    j->axis_min = INFINITY;
+    j->axis_max = -INFINITY;
     return rc;
 }
 
@@ -736,12 +824,14 @@ static int smz_put(epsnet_writer *w, const epsnet_record *rec)
         if (st->axis >= 0 && a < st->prev_axis)
             st->sorted_ok = 0;
         st->prev_axis = a;
-        if (a < st->block_min)
-            st->block_min = a;
-        if (a > st->block_max)
-            st->block_max = a;
+        smz_wjob *j = &st->jobs[st->cur];
+        if (a < j->axis_min)
+            j->axis_min = a;
+        if (a > j->axis_max)
+            j->axis_max = a;
     }
-    if (en_smz_encoder_add(st->enc, &r, st->nverts))
+    en_smz_encoder *enc = st->jobs[st->cur].enc;
+    if (en_smz_encoder_add(enc, &r, st->nverts))
         return wfail_nomem(w);
     if (rec->kind == EPSNET_REC_VERTEX)
         st->nverts++;
@@ -749,9 +839,75 @@ static int smz_put(epsnet_writer *w, const epsnet_record *rec)
         st->ntris++;
     else
         st->nfinal++;
-    if (en_smz_encoder_raw_bytes(st->enc) >= EN_SMZ_TARGET_RAW_BYTES ||
-        en_smz_encoder_records(st->enc) >= EN_SMZ_MAX_RECORDS)
+    if (en_smz_encoder_raw_bytes(enc) >= EN_SMZ_TARGET_RAW_BYTES || en_smz_encoder_records(enc) >= EN_SMZ_MAX_RECORDS)
         return flush_block(w, st);
+    return 0;
+}
+
+/* Stop using the pool: write the blocks in flight, in order. */
+static int writer_jobs_drain(epsnet_writer *w, smz_writer *st)
+{
+    int rc = 0;
+    while (st->ring && en_jobring_in_flight(st->ring))
+        if ((rc = retire_block(w, st)) != 0)
+            break;
+    en_jobring_free(&st->ring, NULL); /* waits for any left after a failure */
+    return rc;
+}
+
+/*
+ * From now on compress blocks on pool (NULL, or a pool without workers: on
+ * the caller's thread, after writing the blocks in flight). A failure to
+ * write them is the writer's, reported by its next call.
+ */
+static int smz_writer_use_pool(epsnet_writer *w, en_pool *pool)
+{
+    smz_writer *st = w->state;
+    if (!pool || en_pool_threads(pool) == 0) {
+        int rc = writer_jobs_drain(w, st);
+        if (rc && !w->failed)
+            w->failed = 1;
+        if (st->njobs > 1) {
+            /* the block being gathered moves to slot 0, the only one left */
+            smz_wjob keep = st->jobs[st->cur];
+            st->jobs[st->cur] = st->jobs[0];
+            st->jobs[0] = keep;
+            for (size_t i = 1; i < st->njobs; i++)
+                wjob_free(&st->jobs[i]);
+            st->njobs = 1;
+            st->cur = 0;
+        }
+        return 0;
+    }
+    if (st->ring)
+        return 0;
+    /* note: one block in flight while the next gathers: blocks come far
+     * apart (the output is a tenth of the input or less), and each slot
+     * holds an encoder and a zstd context, a few MB */
+    size_t n = 1;
+    smz_wjob *jobs = en_realloc(st->jobs, (n + 1) * sizeof *jobs);
+    if (!jobs)
+        return EPSNET_ENOMEM;
+    st->jobs = jobs;
+    memset(jobs + st->njobs, 0, (n + 1 - st->njobs) * sizeof *jobs);
+    int rc = 0;
+    for (size_t i = st->njobs; i < n + 1 && rc == 0; i++)
+        rc = wjob_init(w, st, &jobs[i]) ? EPSNET_ENOMEM : 0;
+    if (rc == 0)
+        rc = en_jobring_new(&st->ring, pool, n);
+    if (rc) {
+        for (size_t i = st->njobs; i < n + 1; i++)
+            wjob_free(&jobs[i]);
+        return EPSNET_ENOMEM;
+    }
+    if (st->cur != 0) { /* slot 0 first: the ring's order starts there */
+        smz_wjob keep = jobs[0];
+        jobs[0] = jobs[st->cur];
+        jobs[st->cur] = keep;
+    }
+    st->njobs = n + 1;
+    st->cur = 0;
+    st->submitted = 0;
     return 0;
 }
 
@@ -786,6 +942,8 @@ static int smz_finish(epsnet_writer *w)
 {
     smz_writer *st = w->state;
     int rc = flush_block(w, st);
+    if (rc == 0)
+        rc = writer_jobs_drain(w, st);
     if (rc)
         return rc;
     int sorted = st->axis >= 0 && st->sorted_ok;
@@ -825,9 +983,10 @@ static void smz_close_writer(epsnet_writer *w)
     smz_writer *st = w->state;
     if (!st)
         return;
-    en_smz_encoder_free(&st->enc);
-    ZSTD_freeCCtx(st->cctx);
-    en_free(st->out);
+    en_jobring_free(&st->ring, NULL); /* waits for the blocks in flight */
+    for (size_t i = 0; st->jobs && i < st->njobs; i++)
+        wjob_free(&st->jobs[i]);
+    en_free(st->jobs);
     en_free(st->index);
     en_free(st);
     w->state = NULL;
@@ -845,5 +1004,6 @@ const en_format en_format_smz = {
     .put = smz_put,
     .finish = smz_finish,
     .close_writer = smz_close_writer,
+    .writer_use_pool = smz_writer_use_pool,
     .holds_attr = en_format_holds_every_attr,
 };

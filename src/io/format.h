@@ -65,7 +65,7 @@ struct epsnet_reader {
 
     uint64_t nverts;                 /* vertex records pushed so far */
     uint64_t ntris;                  /* triangle records pushed so far */
-    struct en_u64set *live;          /* streaming formats: pushed, not finalized */
+    struct en_idmap *live;           /* streaming formats: pushed, not finalized (values unused) */
     uint64_t live_peak;
 
     int done;
@@ -131,6 +131,11 @@ struct en_format {
     int (*put)(epsnet_writer *w, const epsnet_record *rec);
     int (*finish)(epsnet_writer *w);
     void (*close_writer)(epsnet_writer *w);
+    /* NULL when the writer encodes only on the caller's thread. Otherwise
+     * as use_pool, for the writer: encode on pool's workers from now on
+     * (NULL: stop, writing what is in flight). @return 0 or EPSNET_ENOMEM
+     * (then it encodes alone, as before). */
+    int (*writer_use_pool)(epsnet_writer *w, struct en_pool *pool);
     /* Whether the writer holds attribute i of layout l (it then gets it in
      * w->attrs); NULL: it holds none. */
     int (*holds_attr)(const epsnet_attr_layout *l, uint32_t i);
@@ -196,6 +201,13 @@ void en_reader_drop(epsnet_reader *r, const char *name, uint64_t n, int counted)
  * same order. Call with NULL before the pool is freed. @return 0 or
  * EPSNET_ENOMEM (r still reads, on the caller's thread). */
 int en_reader_use_pool(epsnet_reader *r, struct en_pool *pool);
+
+/* Let w's driver encode on pool's workers, if it can (en_format.
+ * writer_use_pool); the bytes are the same. Call with NULL before the pool
+ * is freed: that writes what is in flight (a failure there is the writer's,
+ * reported by its next call). @return 0 or EPSNET_ENOMEM (w still writes,
+ * on the caller's thread). */
+int en_writer_use_pool(epsnet_writer *w, struct en_pool *pool);
 
 /* Pass what r dropped (epsnet_reader_dropped()) to a warning callback as
  * one line "PATH: dropped: ...": nothing when nothing is dropped or warning

@@ -10,7 +10,7 @@
 #include <string.h>
 
 #include "common/alloc.h"
-#include "common/u64set.h"
+#include "common/idmap.h"
 #include "io/format.h"
 
 void epsnet_reader_default_settings(epsnet_reader_settings *s)
@@ -230,12 +230,12 @@ static int push_xyz(epsnet_reader *r, double x, double y, double z)
         return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu has a non-finite coordinate (%g %g %g)",
                               (unsigned long long)r->nverts + 1, x, y, z);
     if (r->live) {
-        if (en_u64set_add(r->live, r->nverts) < 0)
+        if (en_idmap_put(r->live, r->nverts, 0))
             return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
-        uint64_t n = en_u64set_count(r->live);
+        uint64_t n = r->live->count;
         if (n > r->live_peak)
             r->live_peak = n;
-        if (r->settings.mem_limit && en_u64set_bytes(r->live) > r->settings.mem_limit)
+        if (r->settings.mem_limit && en_idmap_bytes(r->live) > r->settings.mem_limit)
             return en_reader_fail(r, EPSNET_ELIMIT,
                                   "%llu vertices are live at once, over the memory budget of %llu bytes "
                                   "(does the stream finalize its vertices?)",
@@ -253,7 +253,8 @@ static int check_corner(epsnet_reader *r, uint64_t v)
                               "triangle %llu references vertex %llu but only %llu vertices precede it",
                               (unsigned long long)r->ntris + 1, (unsigned long long)v + 1,
                               (unsigned long long)r->nverts);
-    if (r->live && !en_u64set_has(r->live, v))
+    uint32_t unused;
+    if (r->live && !en_idmap_get(r->live, v, &unused))
         return en_reader_fail(r, EPSNET_EFORMAT, "triangle %llu references vertex %llu, which was finalized",
                               (unsigned long long)r->ntris + 1, (unsigned long long)v + 1);
     return 0;
@@ -274,7 +275,7 @@ int en_reader_push_finalize(epsnet_reader *r, uint64_t v)
     if (v >= r->nverts)
         return en_reader_fail(r, EPSNET_EFORMAT, "finalizes vertex %llu but only %llu vertices exist",
                               (unsigned long long)v + 1, (unsigned long long)r->nverts);
-    if (r->live && !en_u64set_remove(r->live, v))
+    if (r->live && !en_idmap_remove(r->live, v))
         return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu is finalized twice", (unsigned long long)v + 1);
     epsnet_record rec = { .kind = EPSNET_REC_FINALIZE, .v = { v, 0, 0 } };
     return queue_push(r, &rec);
@@ -344,9 +345,15 @@ int epsnet_reader_open(epsnet_reader **out, const char *path,
     r->info.sorted_axis = -1;
     rc = r->fmt->open_reader(r);
     if (rc == 0 && r->info.streaming) {
-        r->live = en_u64set_new();
-        if (!r->live)
+        /* note: ids come in order and most die young (a stream's window),
+         * so a ring indexed by id answers with one array access where a
+         * hash set probes; the ring grows to the window's width. */
+        r->live = en_malloc(sizeof *r->live);
+        if (!r->live || en_idmap_init_growing(r->live, (size_t)1 << 24)) {
+            en_free(r->live);
+            r->live = NULL;
             rc = en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+        }
     }
     if (rc) {
         if (err)
@@ -416,7 +423,9 @@ void epsnet_reader_close(epsnet_reader **pr)
         return;
     if (r->fmt && r->fmt->close_reader)
         r->fmt->close_reader(r);
-    en_u64set_free(&r->live);
+    if (r->live)
+        en_idmap_free(r->live);
+    en_free(r->live);
     en_source_close(&r->src);
     en_free(r->queue);
     en_free(r->qattr);

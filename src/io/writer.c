@@ -208,6 +208,13 @@ fail:
     return w->err.code ? w->err.code : EPSNET_EIO;
 }
 
+int en_writer_use_pool(epsnet_writer *w, struct en_pool *pool)
+{
+    if (!w || !w->fmt || !w->fmt->writer_use_pool || !w->state)
+        return 0;
+    return w->fmt->writer_use_pool(w, pool);
+}
+
 int epsnet_writer_commit(epsnet_writer **pw, epsnet_error *err)
 {
     epsnet_writer *w = pw ? *pw : NULL;

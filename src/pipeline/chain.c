@@ -5,15 +5,18 @@
  * finishes the seams and hands its records to the next pass (paper §5:
  * passes re-sample the previous result under a new rotation), or to `out`.
  *
- * Threads (docs/architecture.md §10): the chunkers, the budget checks and
- * the hand-over of records between passes run on the caller's thread. Two
- * kinds of job run on the workers: en_slab_work_run() on a slab nobody else
- * touches until its ring hands it back, in submission order; and each
- * pass's stitcher, one take at a time (stitch_job), so that the seam
- * collapses, most of the serial work, leave the caller's thread. A take's
- * records are buffered in the job and handed on by the caller when it
- * retires the job, in slab order, so the records, and the bytes, are the
- * same for every thread count.
+ * Threads (docs/architecture.md §10): the budget checks and the hand-over
+ * of records between passes run on the caller's thread. Three kinds of job
+ * run on the workers: en_slab_work_run() on a slab nobody else touches
+ * until its ring hands it back, in submission order; each pass's stitcher,
+ * one take at a time (stitch_job), so that the seam collapses leave the
+ * caller's thread; and, for a pass whose input is already checked, its
+ * chunker, one batch of records at a time, in order (chunk_job), so that
+ * the caller only copies records into batches. A take's records and a
+ * batch's slabs
+ * are buffered in their job and handed on by the caller when it retires the
+ * job, in order, so the records, and the bytes, are the same for every
+ * thread count.
  */
 #include "pipeline/chain.h"
 
@@ -39,6 +42,49 @@ typedef struct stitch_job {
     epsnet_error err;              /* worker writes on failure; caller reads after retire */
 } stitch_job;
 
+/*
+ * Records a pass's chunker takes per chunk job: small enough that the
+ * budget's view of the chunker (copied at each retire) lags little, large
+ * enough that a job's cost dwarfs its submission (docs/architecture.md §10).
+ * Up to CHUNK_JOBS batches may wait or run at once: the chunker runs when a
+ * worker is free, and while the workers are in long slab jobs the caller
+ * reads on into the next batches instead of waiting (measured: with one
+ * batch in flight, 20M faces at -j 2 took 38 s instead of 21,
+ * bench/RESULTS.md). Slab jobs last about as long as their slab is large,
+ * so a pass takes about a slab's records (some 4 per vertex) in batches,
+ * at least CHUNK_JOBS_MIN of them (chunk_slots).
+ */
+#define CHUNK_BATCH 8192
+#define CHUNK_JOBS 16
+#define CHUNK_JOBS_MIN 4
+
+/*
+ * One batch of a pass's input records as a pool job: the chunker takes
+ * them, cuts the slabs they complete and, at the pass's end, the last ones.
+ * The pass's chunk ring is serial: its jobs run one at a time, in order, so
+ * each finds the chunker as the one before left it. Ownership: the
+ * caller's thread fills the batch (recs, attr, finish, give) and submits;
+ * from then until the ring retires the job only the worker running it
+ * touches the job, and the pass's chunker (ch) is touched only by the chunk
+ * jobs; after the retire the caller's thread reads the job (cut, err, the
+ * copies of the chunker's sizes) and submits the slabs cut, in order. The
+ * caller's thread never touches the chunker while the pass is batched.
+ */
+typedef struct chunk_job {
+    en_pass *p;                    /* caller writes at init; worker reads */
+    epsnet_record *recs;           /* caller writes before submit; worker reads (attr not used) */
+    size_t nrecs, recs_cap;
+    uint8_t *attr;                 /* caller: attr_size bytes per vertex record, in order; worker reads */
+    size_t nattr, attr_cap;        /* vertex records in the batch; capacity in vertices */
+    int finish;                    /* caller: the pass's end, finish the chunker after the records */
+    en_slab_work **give;           /* caller: slab works done with; worker hands them to the chunker */
+    size_t ngive, give_cap;
+    en_slab_work **cut;            /* worker appends the slabs cut; caller submits and clears after retire */
+    size_t ncut, cut_cap;
+    uint64_t ch_bytes, ch_vertices, ch_faces; /* worker: the chunker's, after the batch; caller reads */
+    epsnet_error err;              /* worker writes on failure; caller reads after retire */
+} chunk_job;
+
 struct en_pass {
     en_chain *chain;
     int index;
@@ -49,7 +95,24 @@ struct en_pass {
     const en_target *target;
     en_target fixed;
     int density_pending;
+    /* Batched: only the chunk jobs touch it (see chunk_job). */
     en_chunker ch;
+    /* batched: the chunker runs as chunk jobs (the pass's input was checked
+     * before it: a checked reader, the sort, or the pass before). */
+    int batched;
+    en_jobring *chunk_ring;        /* nchunk slots, serial, urgent */
+    chunk_job *chunk;              /* nchunk, in the ring's order */
+    size_t nchunk;                 /* a power of two, CHUNK_JOBS_MIN ... CHUNK_JOBS */
+    uint64_t chunk_submitted;      /* caller: chunk[chunk_submitted % nchunk] is filling */
+    chunk_job *fill;               /* caller: that one, with room for CHUNK_BATCH records */
+    size_t batch_attr_size;        /* caller: the chunker's attr_size, fixed at init */
+    int chunk_failed;              /* chunk jobs only: one failed, the later ones do nothing */
+    en_slab_work **returned;       /* caller: slab works done with, for the next batch's give */
+    size_t nreturned, returned_cap;
+    uint64_t records;              /* records the caller's thread handed to this pass */
+    /* What the caller's thread knows of the chunker, for the budget checks:
+     * copied from it (not batched) or from the last retired batch. */
+    uint64_t ch_bytes, ch_vertices, ch_faces;
     en_jobring *ring;
     en_stitcher st;                /* between submit and retire of job: the worker's (see stitch_job) */
     en_jobring *stitch_ring;       /* one stitcher take in flight at most (simplify mode) */
@@ -96,12 +159,31 @@ static void drop_stitch(void *job)
     j->w = NULL;
 }
 
+/* Copy what the budget checks read of p's chunker; only where it is the
+ * caller's (p not batched). */
+static void chunker_seen(en_pass *p)
+{
+    p->ch_bytes = en_chunker_bytes(&p->ch);
+    p->ch_vertices = p->ch.map.count;
+    p->ch_faces = p->ch.nfaces;
+}
+
+/* Before reading the copies: a pass that is not batched has its chunker on
+ * this thread at all times, so its copy can be fresh. */
+static void chunkers_seen(en_chain *c)
+{
+    for (int i = 0; i < c->cfg.passes; i++)
+        if (!c->pass[i].batched)
+            chunker_seen(&c->pass[i]);
+}
+
 static void note_active(en_chain *c)
 {
     uint64_t total = 0;
+    chunkers_seen(c);
     for (int i = 0; i < c->cfg.passes; i++) {
         const en_pass *p = &c->pass[i];
-        total += p->ch.map.count + p->ch.nfaces + p->in_flight_elements + p->st_active;
+        total += p->ch_vertices + p->ch_faces + p->in_flight_elements + p->st_active;
     }
     if (total > c->stats.max_active)
         c->stats.max_active = total;
@@ -132,13 +214,14 @@ static int check_budget(en_chain *c, epsnet_error *err)
     uint64_t total = 0, worst = 0;
     const en_pass *wp = NULL;
     int waiting = 0; /* the worst is the chunker's (1) or the stitcher's (0) */
+    chunkers_seen(c);
     for (int i = 0; i < c->cfg.passes; i++) {
         const en_pass *p = &c->pass[i];
-        uint64_t cut = en_chunker_bytes(&p->ch);
+        uint64_t cut = p->ch_bytes;
         /* a target's one slab: what the cut will hold, not just the chunker */
         if (p->target && p->target->mode != EN_TARGET_THIN &&
-            cut < p->ch.map.count * (uint64_t)EN_ONE_SLAB_BYTES_PER_VERTEX)
-            cut = p->ch.map.count * (uint64_t)EN_ONE_SLAB_BYTES_PER_VERTEX;
+            cut < p->ch_vertices * (uint64_t)EN_ONE_SLAB_BYTES_PER_VERTEX)
+            cut = p->ch_vertices * (uint64_t)EN_ONE_SLAB_BYTES_PER_VERTEX;
         uint64_t held = c->cfg.mode == EN_SLAB_SIMPLIFY ? p->st_bytes : 0;
         total += cut + held;
         if (!wp || cut > worst || held > worst) {
@@ -153,19 +236,34 @@ static int check_budget(en_chain *c, epsnet_error *err)
         return en_error_set(err, EPSNET_ELIMIT, c->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "pass %d holds the whole mesh as one slab to meet its target: %llu vertices so far, "
                             "about %llu bytes in all, over the memory budget of %llu bytes (give more --mem)",
-                            wp->index + 1, (unsigned long long)wp->ch.map.count, (unsigned long long)total,
+                            wp->index + 1, (unsigned long long)wp->ch_vertices, (unsigned long long)total,
                             (unsigned long long)c->cfg.mem_budget);
     if (waiting)
         return en_error_set(err, EPSNET_ELIMIT, c->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "pass %d: %llu vertices and %llu faces wait for vertices to be finalized (%llu bytes "
                             "in all), over the memory budget of %llu bytes (does the stream finalize its vertices?)",
-                            wp->index + 1, (unsigned long long)wp->ch.map.count, (unsigned long long)wp->ch.nfaces,
+                            wp->index + 1, (unsigned long long)wp->ch_vertices, (unsigned long long)wp->ch_faces,
                             (unsigned long long)total, (unsigned long long)c->cfg.mem_budget);
     return en_error_set(err, EPSNET_ELIMIT, c->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                         "pass %d: the output waits for vertex %llu, still open, and holds %llu bytes in all, "
                         "over the memory budget of %llu bytes (is a vertex used again far later in the stream?)",
                         wp->index + 1, (unsigned long long)wp->st_frontier, (unsigned long long)total,
                         (unsigned long long)c->cfg.mem_budget);
+}
+
+/* A slab work p is done with goes back to its chunker for a later cut: at
+ * once when the chunker is this thread's, else with the next batch. */
+static void pass_recycle(en_pass *p, en_slab_work *w)
+{
+    if (!p->batched) {
+        en_chunker_recycle(&p->ch, w);
+        return;
+    }
+    if (en_grow((void **)&p->returned, &p->returned_cap, p->nreturned + 1, sizeof *p->returned)) {
+        free_work(w);
+        return;
+    }
+    p->returned[p->nreturned++] = w;
 }
 
 /* The stitcher's output stage while a take runs: the take's records wait
@@ -221,7 +319,7 @@ static int stitch_retire(en_pass *p, epsnet_error *err)
     if (!en_jobring_retire(p->stitch_ring, &job, &result))
         return 0;
     stitch_job *j = job;
-    en_chunker_recycle(&p->ch, j->w);
+    pass_recycle(p, j->w);
     j->w = NULL;
     if (result) {
         *err = j->err;
@@ -235,7 +333,7 @@ static int stitch_submit(en_pass *p, en_slab_work *w, epsnet_error *err)
 {
     int rc = stitch_retire(p, err);
     if (rc) {
-        en_chunker_recycle(&p->ch, w);
+        pass_recycle(p, w);
         return rc;
     }
     p->job.p = p;
@@ -244,7 +342,7 @@ static int stitch_submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     rc = en_jobring_submit(p->stitch_ring, stitch_run, &p->job);
     if (rc) {
         p->job.w = NULL;
-        en_chunker_recycle(&p->ch, w);
+        pass_recycle(p, w);
         en_error_set(err, rc, p->chain->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE, "worker pool refused a seam");
     }
     return rc;
@@ -293,7 +391,7 @@ static int retire_one(en_pass *p, epsnet_error *err)
         }
         rc = take_samples(c, w, err);
     }
-    en_chunker_recycle(&p->ch, w);
+    pass_recycle(p, w);
     if (rc == 0)
         rc = check_budget(c, err);
     return rc;
@@ -338,14 +436,150 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     return rc;
 }
 
+/* The chunker on a worker (see chunk_job): the batch's records, then, at
+ * the end, what the stream left live; the slabs cut wait in the job. */
+static int chunk_run(void *job)
+{
+    chunk_job *j = job;
+    en_chunker *ch = &j->p->ch;
+    size_t asz = ch->attr_size, vi = 0;
+    int rc = 0;
+    for (size_t i = 0; i < j->ngive; i++)
+        en_chunker_recycle(ch, j->give[i]);
+    j->ngive = 0;
+    if (j->p->chunk_failed) /* the caller stops at that one; the chunker is not to be trusted */
+        return en_error_set(&j->err, EPSNET_EINTERNAL, ch->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "a batch after a failed one (a bug if reported)");
+    for (size_t i = 0; i < j->nrecs || (j->finish && rc == 0); i++) {
+        en_slab_work *w = NULL;
+        if (i < j->nrecs) {
+            epsnet_record rec = j->recs[i];
+            rec.attr = NULL;
+            if (rec.kind == EPSNET_REC_VERTEX && asz)
+                rec.attr = j->attr + vi++ * asz;
+            rc = en_chunker_put(ch, &rec, &w, &j->err);
+        } else {
+            rc = en_chunker_finish(ch, &w, &j->err);
+            if (rc == 0 && !w)
+                break;
+        }
+        if (rc)
+            break;
+        if (w && en_grow((void **)&j->cut, &j->cut_cap, j->ncut + 1, sizeof *j->cut)) {
+            free_work(w);
+            rc = en_error_set(&j->err, EPSNET_ENOMEM, ch->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                              "out of memory");
+            break;
+        }
+        if (w)
+            j->cut[j->ncut++] = w;
+    }
+    j->ch_bytes = en_chunker_bytes(ch);
+    j->ch_vertices = ch->map.count;
+    j->ch_faces = ch->nfaces;
+    j->p->chunk_failed = rc != 0;
+    return rc;
+}
+
+/* Wait for pass p's oldest chunk job in flight, if any, and submit the
+ * slabs it cut, in order. */
+static int chunk_retire(en_pass *p, epsnet_error *err)
+{
+    void *job;
+    int result;
+    if (!en_jobring_retire(p->chunk_ring, &job, &result))
+        return 0;
+    chunk_job *j = job;
+    p->ch_bytes = j->ch_bytes;
+    p->ch_vertices = j->ch_vertices;
+    p->ch_faces = j->ch_faces;
+    int rc = result;
+    if (rc)
+        *err = j->err;
+    size_t i = 0;
+    for (; i < j->ncut && rc == 0; i++)
+        rc = submit(p, j->cut[i], err); /* frees it on failure */
+    for (; i < j->ncut; i++)
+        free_work(j->cut[i]);
+    j->ncut = 0;
+    return rc ? rc : check_budget(p->chain, err);
+}
+
+/* The next batch to fill, with room for a whole batch made at once, so that
+ * batch_put, once per record on the calling thread, only copies.
+ * @return 0 or -1 (out of memory). */
+static int next_fill(en_pass *p)
+{
+    chunk_job *j = &p->chunk[p->chunk_submitted % p->nchunk];
+    j->nrecs = j->nattr = 0; /* retired (at most nchunk - 1 in flight), or never used */
+    p->fill = NULL;
+    if (en_grow((void **)&j->recs, &j->recs_cap, CHUNK_BATCH, sizeof *j->recs) ||
+        (p->batch_attr_size && en_grow((void **)&j->attr, &j->attr_cap, CHUNK_BATCH, p->batch_attr_size)))
+        return -1;
+    p->fill = j;
+    return 0;
+}
+
+/* Hand the batch being filled to the pool, behind those in flight; first
+ * retire those done (their slabs go on at once), and the oldest while the
+ * slot after this one, the next to fill, is still in flight. */
+static int chunk_submit(en_pass *p, int finish, epsnet_error *err)
+{
+    int rc = 0;
+    while (rc == 0 && (en_jobring_in_flight(p->chunk_ring) + 1 >= p->nchunk || en_jobring_ready(p->chunk_ring)))
+        rc = chunk_retire(p, err);
+    if (rc)
+        return rc;
+    chunk_job *j = p->fill;
+    j->finish = finish;
+    memset(&j->err, 0, sizeof j->err);
+    /* the slab works returned so far travel with the batch (see chunk_job) */
+    en_slab_work **t = j->give;
+    size_t tcap = j->give_cap;
+    j->give = p->returned, j->give_cap = p->returned_cap, j->ngive = p->nreturned;
+    p->returned = t, p->returned_cap = tcap, p->nreturned = 0;
+    rc = en_jobring_submit(p->chunk_ring, chunk_run, j);
+    if (rc)
+        return en_error_set(err, rc, p->chain->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "worker pool refused a batch of records");
+    p->chunk_submitted++;
+    if (next_fill(p))
+        return en_error_set(err, EPSNET_ENOMEM, p->chain->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "out of memory");
+    return 0;
+}
+
+/* A batched pass takes a record: a copy into the batch (its attribute bytes
+ * live only until the producer's next record). */
+static int batch_put(en_pass *p, const epsnet_record *rec, epsnet_error *err)
+{
+    chunk_job *j = p->fill;
+    size_t asz = p->batch_attr_size;
+    if (!j)
+        return en_error_set(err, EPSNET_ENOMEM, p->chain->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "out of memory");
+    memcpy(&j->recs[j->nrecs++], rec, sizeof *rec);
+    if (asz && rec->kind == EPSNET_REC_VERTEX) {
+        uint8_t *to = j->attr + j->nattr++ * asz;
+        if (rec->attr)
+            memcpy(to, rec->attr, asz);
+        else
+            memset(to, 0, asz);
+    }
+    return j->nrecs >= CHUNK_BATCH ? chunk_submit(p, 0, err) : 0;
+}
+
 static int pass_put(void *self, const epsnet_record *rec, epsnet_error *err)
 {
     en_pass *p = self;
+    p->records++;
+    if (p->batched)
+        return batch_put(p, rec, err);
     en_slab_work *w = NULL;
     int rc = en_chunker_put(&p->ch, rec, &w, err);
     if (rc == 0 && w)
         rc = submit(p, w, err);
-    if (rc == 0 && (p->ch.records & 4095) == 0)
+    if (rc == 0 && (p->records & 4095) == 0)
         rc = check_budget(p->chain, err);
     return rc;
 }
@@ -357,12 +591,18 @@ static int pass_end(void *self, epsnet_error *err)
         return 0;
     p->ended = 1;
     en_slab_work *w = NULL;
-    int rc;
-    do {
-        rc = en_chunker_finish(&p->ch, &w, err);
-        if (rc == 0 && w)
-            rc = submit(p, w, err);
-    } while (rc == 0 && w);
+    int rc = 0;
+    if (p->batched) {
+        rc = chunk_submit(p, 1, err);
+        while (rc == 0 && en_jobring_in_flight(p->chunk_ring))
+            rc = chunk_retire(p, err);
+    } else {
+        do {
+            rc = en_chunker_finish(&p->ch, &w, err);
+            if (rc == 0 && w)
+                rc = submit(p, w, err);
+        } while (rc == 0 && w);
+    }
     while (rc == 0 && en_jobring_in_flight(p->ring))
         rc = retire_one(p, err);
     if (rc || p->chain->cfg.mode != EN_SLAB_SIMPLIFY)
@@ -418,6 +658,16 @@ en_stage en_chain_input(en_chain *c)
     return (en_stage){ chain_put, chain_end, c };
 }
 
+/* Batch slots of a pass whose slabs own slab_vertices (see CHUNK_JOBS). */
+static size_t chunk_slots(uint32_t slab_vertices)
+{
+    uint64_t want = 4 * (uint64_t)slab_vertices / CHUNK_BATCH;
+    size_t n = CHUNK_JOBS_MIN;
+    while (n < want && n < CHUNK_JOBS)
+        n *= 2;
+    return n;
+}
+
 int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsnet_error *err)
 {
     *out = NULL;
@@ -453,10 +703,22 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             gauss_pass_rotation(cfg->seed, i + 1, &r);
             gauss_init(&p->g, cfg->sphere->n, &r);
         }
-        if (en_chunker_init(&p->ch, finish ? UINT32_MAX - 1 : cfg->slab_vertices, cfg->path) ||
+        p->batched = i > 0 || cfg->checked_input;
+        p->nchunk = chunk_slots(finish ? UINT32_MAX - 1 : cfg->slab_vertices);
+        if (p->batched && (p->chunk = en_calloc(p->nchunk, sizeof *p->chunk)) != NULL)
+            for (size_t k = 0; k < p->nchunk; k++)
+                p->chunk[k].p = p;
+        if ((p->batched && !p->chunk) ||
+            en_chunker_init(&p->ch, finish ? UINT32_MAX - 1 : cfg->slab_vertices, cfg->path) ||
             en_stitcher_init(&p->st, cfg->max_normal_dev, (en_stage){ buffer_put, buffer_end, p }) ||
             en_jobring_new(&p->ring, pool, cfg->ring_capacity) ||
+            (p->batched && en_jobring_new(&p->chunk_ring, pool, p->nchunk)) ||
             (c->cfg.mode == EN_SLAB_SIMPLIFY && en_jobring_new(&p->stitch_ring, pool, 1)))
+            rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+        if (p->chunk_ring) /* see chunk_job */
+            en_jobring_set_order(p->chunk_ring, 1, 1);
+        p->batch_attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? cfg->attr_size : 0;
+        if (rc == 0 && p->batched && next_fill(p))
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         p->ch.read_marks = finish;
         p->ch.attr_size = p->st.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? cfg->attr_size : 0;
@@ -503,9 +765,27 @@ void en_chain_free(en_chain **pc)
         return;
     for (int i = 0; c->pass && i < c->cfg.passes; i++) {
         en_pass *p = &c->pass[i];
-        /* the take in flight first: it reads a slab work and the stitcher */
+        /* the jobs in flight first: the chunk job reads the chunker and
+         * may take spare slab works, the take reads a slab work and the
+         * stitcher */
+        en_jobring_free(&p->chunk_ring, NULL);
         en_jobring_free(&p->stitch_ring, drop_stitch);
         en_jobring_free(&p->ring, free_work);
+        for (size_t k = 0; p->chunk && k < p->nchunk; k++) {
+            chunk_job *j = &p->chunk[k];
+            for (size_t n = 0; n < j->ncut; n++)
+                free_work(j->cut[n]);
+            for (size_t n = 0; n < j->ngive; n++)
+                free_work(j->give[n]);
+            en_free(j->cut);
+            en_free(j->give);
+            en_free(j->recs);
+            en_free(j->attr);
+        }
+        en_free(p->chunk);
+        for (size_t n = 0; n < p->nreturned; n++)
+            free_work(p->returned[n]);
+        en_free(p->returned);
         en_free(p->out);
         en_chunker_free(&p->ch);
         en_stitcher_free(&p->st);

@@ -47,6 +47,12 @@ typedef struct en_chain_config {
     uint32_t slab_vertices;
     uint64_t mem_budget;          /* bytes the chain may hold beyond the reader's; 0: none */
     size_t ring_capacity;         /* slabs in flight per pass */
+    /* The input records were checked before the chain (a reader front end,
+     * the sort): pass 1's chunker may then take them in batches on the pool
+     * (docs/architecture.md §10), its errors reported a batch later.
+     * 0: every record is checked as it is put, and a bad one fails that put
+     * (the push API). Later passes always take batches. */
+    int checked_input;
     en_stage out;                 /* SIMPLIFY: where the last pass's records go */
     en_sample_fn on_sample;       /* SAMPLE: where samples go */
     void *sample_opaque;
