@@ -174,8 +174,10 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
     double t0 = en_now();
     rc = en_sort_open(&in->sort, in_path, out_path, &ss, all ? 2 : keep != NULL, pool, err);
     *sort_seconds = en_now() - t0;
-    if (rc == 0)
+    if (rc == 0) {
         en_sort_info(in->sort, &in->info);
+        en_sort_lean(in->sort); /* the chain's memory grows beside pass 6 */
+    }
     return rc;
 }
 

@@ -174,6 +174,7 @@ struct en_sort {
     en_spill *vsorted;           /* vertices in rank order */
     en_spill *fraw;              /* input faces (old ids), input order */
     int in_core;                 /* rank_of/last_of arrays fit the budget */
+    int lean;                    /* en_sort_lean(): pass 6 keeps no arrays over the ranks */
     int narrow;                  /* ranks fit 32 bits: sorter F's items are 2 words, not 4 */
     int whole;                   /* everything is in memory (see whole_fits) */
     double *xyz;                 /* whole: input vertices, 3 each */
@@ -1224,7 +1225,7 @@ static int whole_emit(sort_job *j, epsnet_error *err)
 static int emit_arrays(sort_job *j, epsnet_error *err)
 {
     uint64_t nv = j->st.vertices;
-    if (!j->in_core || 3 * nv * sizeof(uint32_t) > j->set.mem / 2)
+    if (!j->in_core || j->lean || 3 * nv * sizeof(uint32_t) > j->set.mem / 2)
         return 0;
     int rc = whole_alloc(j, (void **)&j->out_id, nv, sizeof *j->out_id, err);
     if (rc || (rc = whole_alloc(j, (void **)&j->fin, nv, sizeof *j->fin, err)))
@@ -1584,6 +1585,11 @@ static int run_passes(sort_job *j, epsnet_error *err)
         return rc;
     j->phase = 5;
     return j->in_core ? pass_faces_in_core(j, err) : pass_faces(j, err);
+}
+
+void en_sort_lean(en_sort *s)
+{
+    s->lean = 1;
 }
 
 int en_sort_open(en_sort **out, const char *in_path, const char *owner, const epsnet_sort_settings *settings,

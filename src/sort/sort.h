@@ -73,6 +73,11 @@ int en_sort_open(en_sort **s, const char *in_path, const char *owner, const epsn
 /* What the output stream will be: coord_type, streaming, sorted_axis, nfaces,
  * vertex_attrs. */
 void en_sort_info(const en_sort *s, epsnet_mesh_info *info);
+/* Before en_sort_emit(), when the consumer's memory grows beside the sort's
+ * (the chain of a simplify run): pass 6 then keeps no arrays over the ranks
+ * (sort.c: emit_arrays), which at 20M faces are 84 MB on top of the chain;
+ * the live map stands for them, as wide as the stream. */
+void en_sort_lean(en_sort *s);
 /* Pass 6; once per en_sort. emit's non-zero return stops it and is returned. */
 int en_sort_emit(en_sort *s, en_sort_emit_fn emit, void *opaque, epsnet_error *err);
 /* Free everything (also after a failure), removing every temporary, and
