@@ -141,6 +141,31 @@ static int simplify_file(const char *in, const char *out, uint32_t slab, int thr
     return rc;
 }
 
+/* The output file of the first of several runs, kept to compare the later
+ * ones with. */
+typedef struct output_bytes {
+    unsigned char *b;
+    size_t n;
+} output_bytes;
+
+/* Read the file at out: the first time keep it in *first, later check it
+ * equals *first. @return 1 when it does (or is the first). */
+static int same_as_first(output_bytes *first, const char *out)
+{
+    size_t n;
+    unsigned char *b = tl_read_file(out, &n);
+    CHECK(b != NULL && n > 100);
+    if (!first->b) {
+        first->b = b;
+        first->n = n;
+        return 1;
+    }
+    int same = b && n == first->n && memcmp(b, first->b, n) == 0;
+    CHECK(same);
+    free(b);
+    return same;
+}
+
 /* docs/architecture.md §11: "same input and options give the same output bytes, for any
  * thread count" — slabs finish in any order on the workers. */
 TEST(same_bytes_for_threads_1_2_3_8)
@@ -154,27 +179,15 @@ TEST(same_bytes_for_threads_1_2_3_8)
     static const int passes[] = { 1, 3 };
     for (int p = 0; p < 2; p++)
         for (int k = 0; k < 2; k++) {
-            unsigned char *first = NULL;
-            size_t nfirst = 0;
+            output_bytes first = { 0 };
             static const int threads[] = { 1, 2, 3, 8 };
             for (int t = 0; t < 4; t++) {
                 CHECK_EQ_INT(simplify_file(in, out, slabs[k], threads[t], passes[p], NULL, &err), 0);
-                size_t n;
-                unsigned char *b = tl_read_file(out, &n);
-                CHECK(b != NULL && n > 100);
-                if (!first) {
-                    first = b;
-                    nfirst = n;
-                    continue;
-                }
-                int same = n == nfirst && memcmp(b, first, n) == 0;
-                if (!same)
-                    fprintf(stderr, "  slab %u, passes %d, %d threads: bytes differ (%zu vs %zu)\n", slabs[k],
-                            passes[p], threads[t], n, nfirst);
-                CHECK(same);
-                free(b);
+                if (!same_as_first(&first, out))
+                    fprintf(stderr, "  slab %u, passes %d, %d threads: bytes differ\n", slabs[k], passes[p],
+                            threads[t]);
             }
-            free(first);
+            free(first.b);
         }
 }
 
@@ -197,28 +210,16 @@ TEST(seam_jobs_give_the_same_bytes_for_any_thread_count)
         CHECK_EQ_INT(tl_gen_file(in, shapes[sh], 20000, NAN, 5, 0, &err), 0);
         for (int k = 0; k < 2; k++)
             for (int passes = 1; passes <= 2; passes++) {
-                unsigned char *first = NULL;
-                size_t nfirst = 0;
+                output_bytes first = { 0 };
                 for (int t = 0; t < 3; t++) {
                     epsnet_stats st;
                     CHECK_EQ_INT(simplify_file(in, out, slabs[k], threads[t], passes, &st, &err), 0);
                     CHECK(st.seam_collapses > 0);
-                    size_t n;
-                    unsigned char *b = tl_read_file(out, &n);
-                    CHECK(b != NULL && n > 100);
-                    if (!first) {
-                        first = b;
-                        nfirst = n;
-                        continue;
-                    }
-                    int same = b && n == nfirst && memcmp(b, first, n) == 0;
-                    if (!same)
+                    if (!same_as_first(&first, out))
                         fprintf(stderr, "  %s, slab %u, passes %d, %d threads: bytes differ\n", shapes[sh],
                                 slabs[k], passes, threads[t]);
-                    CHECK(same);
-                    free(b);
                 }
-                free(first);
+                free(first.b);
             }
     }
 }
