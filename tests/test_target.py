@@ -103,6 +103,31 @@ def streamed_target_is_exact_for_any_slab_size_and_threads():
 
 
 @case
+def a_target_whose_finish_is_over_the_budget_is_finished_on_slabs():
+    """When the thinned mesh does not fit --mem as one slab, the finish runs
+    on slabs too and its seams end it at the target (docs/architecture.md
+    §7): the count is still exact, for faces and for vertices, the bytes do
+    not depend on threads, and a closed surface stays closed."""
+    src = gen("bumpy", 40000, "bumpy40k_sorted.ply")
+    for opts, key in ((("--ratio", "0.1"), "output_faces"), (("--ratio", "0.3"), "output_faces"),
+                      (("--vertices", "2500"), "output_vertices")):
+        outs = []
+        for j in ("1", "2"):
+            out = path(f"finish_slabs_{opts[1]}_{j}.ply")
+            s, _ = simplify(src, out, *opts, "--slab", "1024", "--mem", "3M", "--ascii", "-j", j)
+            one, _ = simplify(src, path("finish_one.ply"), *opts, "--slab", "1024", "-j", j)
+            # the finish's slabs: more than the one of the finish within budget
+            assert s["passes"] == 2 and s["slabs"] > one["slabs"] + 1, (opts, s["slabs"], one["slabs"])
+            want = s["target"]["faces"] if key == "output_faces" else int(opts[1])
+            assert want - 1 <= s[key] <= want, (opts, j, s[key], want)
+            verts, faces = ascii_ply(out)
+            _, closed = euler_and_closed(verts, faces)
+            assert closed, (opts, j, "the closed sphere came out open")
+            outs.append(open(out, "rb").read())
+        assert outs[0] == outs[1], f"{opts}: -j1 and -j2 differ"
+
+
+@case
 def a_target_within_one_slab_does_not_depend_on_the_default_slab_size():
     """Without --slab, a mesh that fits the budget is one slab: --mem (which
     sets the ε-net pass's slabs) does not change the bytes."""

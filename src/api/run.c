@@ -45,41 +45,55 @@ int en_run_has_target(const epsnet_settings *set)
 
 /*
  * A streamed target (docs/architecture.md §7): a THIN pass on slabs, then a
- * FINISH pass over what it left, as one slab. The thin pass keeps half as
- * much again as the target (and a point more), so that the last collapses,
- * those that decide the result, are taken in one global order; less when
- * that would not fit the budget, down to the target itself.
+ * FINISH pass over what it left. The thin pass keeps half as much again as
+ * the target (and a point more) of what each slab can reach, so that the
+ * last collapses, those that decide the result, are ranked by the finish
+ * over more of the surface. When that fits the budget (0.4 of it for the
+ * thinned interiors; the seams, left whole, come on top: at the budget's
+ * own slab sizes a tenth to a fifth of the mesh), the finish is one slab:
+ * one global order, the target met exactly. Otherwise the thin pass thins
+ * its seams too, and the finish runs on slabs as large as the budget
+ * allows for the slabs in flight, its seams paced to end at the target
+ * (stitcher.c: seam_keep).
  */
-static int plan_streamed(en_run *run, const char *path, uint64_t nv, uint64_t nf,
-                         uint64_t budget, epsnet_error *err)
+static void plan_streamed(en_run *run, const epsnet_settings *set, uint64_t nv, uint64_t nf, uint32_t slab_vertices,
+                          uint64_t budget)
 {
     en_target *t = &run->target, *f = &run->finish;
-    uint64_t n_faces = t->faces ? t->faces : t->ratio > 0 ? (uint64_t)llround(t->ratio * (double)nf) : 0;
-    double share = t->vertices ? (double)t->vertices / (double)nv : (double)n_faces / (double)nf;
-    /* note: 0.4 of the budget for the thinned interiors; the seams the thin
-     * pass leaves whole come on top (at the budget's own slab sizes about a
-     * tenth to a fifth of the mesh). Thinning the seams too was tried: it
-     * over-thinned them, below the target at small slabs (RESULTS.md). */
-    double fits = budget ? 0.4 * (double)(budget / EN_ONE_SLAB_BYTES_PER_VERTEX) / (double)nv : 1;
+    int by_vertices = !t->faces && !(t->ratio > 0);
+    uint64_t n_faces = t->faces ? t->faces : (uint64_t)llround(t->ratio * (double)nf);
+    double share = by_vertices ? (double)t->vertices / (double)nv : (double)n_faces / (double)nf;
     double keep = 1.5 * share + 0.01;
-    keep = keep < fits ? keep : fits;
-    if (keep < 1.02 * share)
-        return en_error_set(err, EPSNET_ELIMIT, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "a target of %.1f%% of %llu vertices is more than one slab holds in the memory budget "
-                            "of %llu MB (about %d bytes a vertex); give more --mem or a smaller target",
-                            100 * share, (unsigned long long)nv, (unsigned long long)(budget >> 20),
-                            EN_ONE_SLAB_BYTES_PER_VERTEX);
+    keep = keep < 1 ? keep : 1;
+    uint64_t fit = budget ? 2 * budget / 5 / EN_ONE_SLAB_BYTES_PER_VERTEX : UINT64_MAX; /* vertices */
+    int one_slab = keep * (double)nv <= (double)fit;
     *f = *t;
     f->mode = EN_TARGET_FINISH;
-    f->faces = n_faces;
+    f->faces = f->vertices = 0;
     f->ratio = 0;
     f->choose_density = 0;
+    f->by_vertices = by_vertices;
+    f->goal = by_vertices ? t->vertices : n_faces;
+    /* what the thin pass is planned to leave: the pace of the finish's seams */
+    f->expected_in = (uint64_t)llround(keep * (double)(by_vertices ? nv : nf));
+    f->keep_share = share / keep;
+    f->skeleton_ratio = share;
+    f->one_slab = one_slab;
     t->mode = EN_TARGET_THIN;
-    t->ratio = share;
     t->faces = t->vertices = 0;
-    t->thin_keep = keep < 1 ? keep : 1;
+    t->ratio = 0;
+    t->by_vertices = 0;
+    t->keep_share = keep;
+    t->goal = (uint64_t)llround(keep * (double)nf);
+    t->expected_in = nf;
+    t->skeleton_ratio = share;
+    t->seams_whole = one_slab;
     run->passes = 2;
-    return 0;
+    /* a slab of the finish, over the slabs in flight (two a worker) */
+    uint64_t ring = 2 * (uint64_t)(en_run_workers(set) > 0 ? en_run_workers(set) : 1);
+    uint64_t finish = one_slab ? UINT32_MAX - 1 : fit / ring;
+    run->finish_slab_vertices = finish < slab_vertices ? slab_vertices : finish > UINT32_MAX - 1 ? UINT32_MAX - 1
+                                                                                                  : (uint32_t)finish;
 }
 
 /*
@@ -126,8 +140,10 @@ static int plan_target(en_run *run, const epsnet_settings *set, const char *path
     int over = known_v != EPSNET_COUNT_UNKNOWN && budget && known_v > budget / EN_ONE_SLAB_BYTES_PER_VERTEX;
     uint64_t large = set->slab_vertices ? set->slab_vertices : ONE_SLAB_SLABS * (uint64_t)en_run_slab_vertices(set);
     if (known_v != EPSNET_COUNT_UNKNOWN && known_f != EPSNET_COUNT_UNKNOWN && known_f > 0 && t->max_error < 0 &&
-        (over || known_v > large))
-        return plan_streamed(run, path, known_v, known_f, budget, err);
+        (over || known_v > large)) {
+        plan_streamed(run, set, known_v, known_f, *slab_vertices, budget);
+        return 0;
+    }
     if (known_v != EPSNET_COUNT_UNKNOWN && budget && known_v > budget / EN_ONE_SLAB_BYTES_PER_VERTEX)
         return en_error_set(err, EPSNET_ELIMIT, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "this target needs the whole mesh in one slab: %llu vertices take about %llu MB, over "
@@ -199,6 +215,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         .max_normal_dev = set->max_normal_dev,
         .target = target ? &run->target : NULL,
         .finish = run->passes == 2 ? &run->finish : NULL,
+        .finish_slab_vertices = run->finish_slab_vertices,
         .attr_size = mode == EN_SLAB_SIMPLIFY && in ? in->vertex_attrs.size : 0,
         .lock_offset = lock_offset,
         .lock_type = lock_type,

@@ -30,6 +30,7 @@ typedef struct en_run {
     en_stage input;               /* the chain's input stage */
     en_target target, finish;     /* SIMPLIFY with a target; the chain points here */
     int passes;                   /* 2 for a streamed target (THIN, FINISH) */
+    uint32_t finish_slab_vertices; /* FINISH's slabs */
     int has_target;
     int borrowed_pool;
     const char *path;

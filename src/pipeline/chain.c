@@ -219,7 +219,7 @@ static int check_budget(en_chain *c, epsnet_error *err)
         const en_pass *p = &c->pass[i];
         uint64_t cut = p->ch_bytes;
         /* a target's one slab: what the cut will hold, not just the chunker */
-        if (p->target && p->target->mode != EN_TARGET_THIN &&
+        if (p->target && (p->target->mode == EN_TARGET_WHOLE || p->target->one_slab) &&
             cut < p->ch_vertices * (uint64_t)EN_ONE_SLAB_BYTES_PER_VERTEX)
             cut = p->ch_vertices * (uint64_t)EN_ONE_SLAB_BYTES_PER_VERTEX;
         uint64_t held = c->cfg.mode == EN_SLAB_SIMPLIFY ? p->st_bytes : 0;
@@ -232,7 +232,7 @@ static int check_budget(en_chain *c, epsnet_error *err)
     }
     if (!c->cfg.mem_budget || total <= c->cfg.mem_budget)
         return 0;
-    if (waiting && wp->target && wp->target->mode != EN_TARGET_THIN)
+    if (waiting && wp->target && (wp->target->mode == EN_TARGET_WHOLE || wp->target->one_slab))
         return en_error_set(err, EPSNET_ELIMIT, c->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "pass %d holds the whole mesh as one slab to meet its target: %llu vertices so far, "
                             "about %llu bytes in all, over the memory budget of %llu bytes (give more --mem)",
@@ -372,7 +372,8 @@ static int retire_one(en_pass *p, epsnet_error *err)
         if (w->target && w->target->mode != EN_TARGET_THIN) {
             c->stats.skeleton_kept += w->skeleton_kept;
             c->stats.samples_given_up += w->given_up;
-            c->stats.target_faces += w->keep_faces;
+            if (w->target->mode == EN_TARGET_WHOLE)
+                c->stats.target_faces += w->keep_faces;
             c->stats.stopped_by_error |= w->stopped_by_error;
         }
         if (w->target && w->target->choose_density) {
@@ -704,12 +705,13 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             gauss_init(&p->g, cfg->sphere->n, &r);
         }
         p->batched = i > 0 || cfg->checked_input;
-        p->nchunk = chunk_slots(finish ? UINT32_MAX - 1 : cfg->slab_vertices);
+        uint32_t slab = finish ? cfg->finish_slab_vertices : cfg->slab_vertices;
+        p->nchunk = chunk_slots(slab);
         if (p->batched && (p->chunk = en_calloc(p->nchunk, sizeof *p->chunk)) != NULL)
             for (size_t k = 0; k < p->nchunk; k++)
                 p->chunk[k].p = p;
         if ((p->batched && !p->chunk) ||
-            en_chunker_init(&p->ch, finish ? UINT32_MAX - 1 : cfg->slab_vertices, cfg->path) ||
+            en_chunker_init(&p->ch, slab, cfg->path) ||
             en_stitcher_init(&p->st, cfg->max_normal_dev, (en_stage){ buffer_put, buffer_end, p }) ||
             en_jobring_new(&p->ring, pool, cfg->ring_capacity) ||
             (p->batched && en_jobring_new(&p->chunk_ring, pool, p->nchunk)) ||
@@ -722,7 +724,10 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         p->ch.read_marks = finish;
         p->ch.attr_size = p->st.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? cfg->attr_size : 0;
-        p->st.keep_seams = p->st.mark_samples = p->target && p->target->mode == EN_TARGET_THIN;
+        int streamed = p->target && p->target->mode != EN_TARGET_WHOLE;
+        p->st.target = streamed ? p->target : NULL;
+        p->st.mark_samples = streamed && p->target->mode == EN_TARGET_THIN;
+        p->ch.cut_last = streamed;
     }
     if (rc) {
         en_chain_free(&c);
@@ -750,6 +755,14 @@ void en_chain_stats_get(const en_chain *c, en_chain_stats *out)
     }
     if (chunk_active > out->max_active)
         out->max_active = chunk_active;
+    for (int i = 0; i < c->cfg.passes; i++) {
+        /* samples the seams of a finish gave up, counted by their slabs as kept */
+        const en_stitcher *st = &c->pass[i].st;
+        out->samples_given_up += st->given_up;
+        out->skeleton_kept -= st->given_up < out->skeleton_kept ? st->given_up : out->skeleton_kept;
+        if (st->target && st->target->mode == EN_TARGET_FINISH && !st->target->by_vertices)
+            out->target_faces = st->target->goal;
+    }
     if (c->cfg.mode == EN_SLAB_SIMPLIFY) {
         const en_stitch_stats *last = &c->pass[c->cfg.passes - 1].st.stats;
         out->output_vertices = last->out_vertices;

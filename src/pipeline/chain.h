@@ -39,12 +39,13 @@ typedef struct en_chain_config {
     double max_normal_dev;
     /* SIMPLIFY: a size or error target (docs/method.md §13), for pass 1;
      * NULL: none. finish: a last pass that takes a THIN pass's output to
-     * the target, as one slab; NULL: none. */
+     * the target, in slabs of finish_slab_vertices; NULL: none. */
     const en_target *target, *finish;
     uint32_t attr_size;           /* SIMPLIFY: vertex attribute bytes per record (0: none) */
     uint32_t lock_offset;         /* the lock property's bytes in them, */
     int lock_type;                /* and its epsnet_attr_type (0: no lock) */
     uint32_t slab_vertices;
+    uint32_t finish_slab_vertices;    /* the finish pass's slabs (with finish) */
     uint64_t mem_budget;          /* bytes the chain may hold beyond the reader's; 0: none */
     size_t ring_capacity;         /* slabs in flight per pass */
     /* The input records were checked before the chain (a reader front end,

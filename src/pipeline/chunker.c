@@ -187,6 +187,7 @@ static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
     }
     uint32_t k = c->next_slab;
     w->index = k;
+    w->last = c->ended;
     w->nowned = (uint32_t)c->nfin;
     w->live_vertices = c->map.count;
     w->live_faces = c->nfaces;
@@ -326,8 +327,9 @@ int en_chunker_finish(en_chunker *c, en_slab_work **out, epsnet_error *err)
             c->fin[c->nfin++] = i;
         }
     }
-    if (c->nfin == 0)
+    if (c->nfin == 0 && (!c->cut_last || c->last_cut))
         return 0;
+    c->last_cut = 1;
     return cut(c, out, err);
 }
 

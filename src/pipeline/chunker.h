@@ -38,6 +38,8 @@ typedef struct en_chunk_vertex {
 typedef struct en_chunker {
     uint32_t slab_vertices;
     int read_marks;            /* take EN_MARK_SKELETON into EN_V_SKELETON */
+    int cut_last;              /* the end always cuts a last slab (empty if need be): a streamed
+                                * target's stitcher aims its last take at the target */
     uint32_t attr_size;        /* vertex attribute bytes per record (0: none) */
     uint8_t *attr;             /* attr_size bytes per pool slot, beside v */
     size_t attr_cap;           /* slots */
@@ -55,7 +57,7 @@ typedef struct en_chunker {
     uint64_t low;              /* every gid below was owned by a cut slab */
     uint64_t records;          /* for messages */
     uint32_t next_slab;
-    int ended;
+    int ended, last_cut;
     uint64_t max_active;       /* largest live vertices + live faces seen at a cut */
     en_slab_work **spare;      /* handed back by en_chunker_recycle, for the next cuts */
     size_t nspare, spare_cap;

@@ -105,21 +105,58 @@ static int classify(en_slab_work *w)
     return 0;
 }
 
+static uint64_t vertices_on_faces(const en_slab *s)
+{
+    uint64_t n = 0;
+    for (uint32_t v = 0; v < s->nv; v++)
+        n += en_slab_degree(s, v) > 0;
+    return n;
+}
+
+/* Is the owned vertex v inside the slab (no neighbour owned elsewhere)? */
+static int inner(const en_slab_work *w, uint32_t v)
+{
+    return v < w->nowned && w->border[v] == EN_BORDER_INNER;
+}
+
+/* A finish whose one slab holds all of the thin pass's output: no seams
+ * are left to end it at the target, so the slab aims at it. */
+static int whole_finish(const en_slab_work *w)
+{
+    return w->target->mode == EN_TARGET_FINISH && w->index == 0 && w->last;
+}
+
 /* Faces and vertices the slab may keep under its target (0: no limit). */
 static void target_limits(const en_slab_work *w, uint64_t *keep_faces, uint64_t *keep_vertices)
 {
     const en_target *t = w->target;
-    if (t->mode == EN_TARGET_THIN) {
-        /* a share of the faces inside the slab, the only ones its
-         * collapses can reach; seam faces are left whole for the finish
-         * (measured: thinning a share of all its faces over-thins the
-         * inside of small slabs, whose seams cannot give their part) */
-        uint64_t inside = 0;
-        for (uint32_t f = 0; f < w->s.nt; f++)
-            inside += (w->fflags[f] & EN_F_INTERIOR) != 0;
-        uint64_t drop = (uint64_t)((1 - t->thin_keep) * (double)inside);
+    if (t->mode != EN_TARGET_WHOLE) {
+        /* Streamed (after mark_frozen): a share of what the slab's own
+         * collapses can reach, the faces on inner vertices only (or the
+         * inner vertices); the faces of frozen vertices go to the seams,
+         * whose share the stitcher takes. Measured: a share of all the
+         * slab's faces over-thins the inside of small slabs, whose seams
+         * cannot give their part. */
+        uint64_t reach = 0;
+        if (t->by_vertices) {
+            for (uint32_t v = 0; v < w->nowned; v++)
+                reach += inner(w, v) && en_slab_degree(&w->s, v) > 0;
+            uint64_t drop = (uint64_t)((1 - t->keep_share) * (double)reach), on = vertices_on_faces(&w->s);
+            *keep_faces = 0;
+            *keep_vertices = on > drop ? on - drop : 1;
+            if (whole_finish(w))
+                *keep_vertices = t->goal ? t->goal : 1;
+            return;
+        }
+        for (uint32_t f = 0; f < w->s.nt; f++) {
+            const uint32_t *c = w->s.tri + 3 * (size_t)f;
+            reach += (w->fflags[f] & EN_F_INTERIOR) && inner(w, c[0]) && inner(w, c[1]) && inner(w, c[2]);
+        }
+        uint64_t drop = (uint64_t)((1 - t->keep_share) * (double)reach);
         *keep_faces = w->s.nt > drop ? w->s.nt - drop : 1;
         *keep_vertices = 0;
+        if (whole_finish(w))
+            *keep_faces = t->goal ? t->goal : 1;
         return;
     }
     /* a ratio is of the faces the slab came with, membranes included */
@@ -151,24 +188,20 @@ static double slab_diagonal(const en_slab *s)
     return sqrt(d2);
 }
 
-static uint64_t vertices_on_faces(const en_slab *s)
-{
-    uint64_t n = 0;
-    for (uint32_t v = 0; v < s->nv; v++)
-        n += en_slab_degree(s, v) > 0;
-    return n;
-}
-
 /* The vertices the target keeps of this slab, which the skeleton takes a
  * share of (docs/method.md §13); 0 with no count (an error bound alone). */
 static uint64_t target_goal(const en_slab_work *w)
 {
+    const en_target *t = w->target;
+    uint64_t on_faces = vertices_on_faces(&w->s);
+    if (t->mode == EN_TARGET_THIN) /* the final target's share of this slab */
+        return (uint64_t)((double)on_faces * t->skeleton_ratio);
+    if (t->mode == EN_TARGET_FINISH)
+        return (uint64_t)((double)on_faces * t->keep_share);
     uint64_t keep_faces, keep_vertices;
     target_limits(w, &keep_faces, &keep_vertices);
-    uint64_t on_faces = vertices_on_faces(&w->s), goal = keep_vertices;
-    if (w->target->mode == EN_TARGET_THIN) /* the final target's share of this slab */
-        goal = (uint64_t)((double)on_faces * w->target->ratio);
-    else if (!goal && keep_faces && w->s.nt)
+    uint64_t goal = keep_vertices;
+    if (!goal && keep_faces && w->s.nt)
         goal = (uint64_t)((double)on_faces * (double)keep_faces / (double)w->s.nt);
     return goal;
 }
@@ -315,25 +348,42 @@ static int choose_density(en_slab_work *w)
  * finer ε-net elsewhere covers within the coarser ε as well), and the run
  * reports the coarsest. Each slab decides from its own vertices alone, so
  * the result does not depend on the order slabs finish in.
+ *
+ * note: a fine sphere's classification costs several coarse ones (a vertex
+ * visits every Gaussian vertex its normals wrap: `gen bumpy` 20M at 10%,
+ * 88 ms a slab at frequency 45 against 9 ms at 1), so a slab first looks
+ * at frequency 1 and predicts the pass's count from it, as choose_density
+ * does; when that is over, it goes straight to the predicted frequency.
+ * Measured on that run: classification 19.4 s of slab time before, 6.5 s
+ * with the look first, against the ε-net pass's 3.4 s (bench/RESULTS.md).
  */
 #define THIN_SLACK 2.0
 
 static int thin_density(en_slab_work *w)
 {
     w->chosen = *w->g;
-    int rc = classify(w);
+    uint32_t n_pass = w->g->n;
     double budget = skeleton_budget(w);
-    if (rc || budget <= 0 || (double)w->counts.samples <= THIN_SLACK * budget)
+    if (budget <= 0 || n_pass <= freq[0])
+        return classify(w);
+    uint64_t samples;
+    int rc = classify_at(w, freq[0], &samples, 0);
+    if (rc || (double)samples > budget)
+        return rc; /* even the coarsest is over: frequency 1, samples may go */
+    /* beyond the locked vertices, samples grow about like 4n^2 + 2 */
+    double locked = (double)w->counts.locked, free1 = (double)samples - locked;
+    double n_est = n_pass;
+    if (locked + free1 * (4.0 * n_pass * n_pass + 2) / 6 > THIN_SLACK * budget)
+        n_est = free1 > 0 ? sqrt((6 * (budget - locked) / free1 - 2) / 4) : n_pass;
+    else if ((rc = classify_at(w, n_pass, &samples, 0)) != 0 || (double)samples <= THIN_SLACK * budget)
         return rc;
-    /* first a jump to where the count predicts (beyond the locked vertices
-     * samples grow about like n^2, choose_density), then down a step at a
-     * time while still over */
-    uint64_t samples = w->counts.samples;
-    double locked = (double)w->counts.locked, over = (double)samples - locked;
-    double n_est = over > 0 && budget > locked ? w->chosen.n * sqrt((budget - locked) / over) : 1;
+    else /* predicted under, found over: from the count found */
+        n_est = samples > locked && budget > locked ? n_pass * sqrt((budget - locked) / ((double)samples - locked)) : 1;
     for (int i = NFREQ - 1; i >= 0 && rc == 0; i--) {
-        if (freq[i] >= w->chosen.n || (i > 0 && freq[i] > n_est))
+        if (freq[i] >= n_pass || (i > 0 && freq[i] > n_est))
             continue;
+        if (freq[i] == w->chosen.n)
+            break; /* classified there already, and under */
         rc = classify_at(w, freq[i], &samples, 0);
         if ((double)samples <= budget)
             break;
@@ -516,6 +566,14 @@ static int simplify(en_slab_work *w)
                                 (unsigned long long)(w->target->faces ? w->target->faces : w->target->vertices),
                                 w->target->faces ? "faces" : "vertices",
                                 (unsigned long long)(w->target->faces ? w->faces_in : vertices_on_faces(s)));
+        if (w->target->by_vertices) {
+            for (uint32_t v = 0; v < w->nowned; v++)
+                w->units_in += en_slab_degree(s, v) > 0;
+        } else {
+            w->units_in = w->membrane_faces;
+            for (uint32_t f = 0; f < s->nt; f++)
+                w->units_in += (w->fflags[f] & EN_F_HOME) != 0;
+        }
         cs.by_error = 1;
         cs.max_error = w->target->max_error >= 0 ? w->target->max_error * slab_diagonal(s) : -1;
         /* note: the quadrics are taken afresh once 1.25 times the target is
@@ -524,7 +582,7 @@ static int simplify(en_slab_work *w)
          * bench/quality: mean error 7-10% lower on the scans, 0-13% on the
          * CAD parts, normal deviation 2-5% (bench/RESULTS.md). Not with an error bound, which measures
          * against the input's planes, nor in a thinning pass, whose finish
-         * takes them afresh anyway. */
+         * takes them afresh anyway (its quadrics start from its own input). */
         if (w->target->max_error < 0 && w->target->mode != EN_TARGET_THIN)
             cs.refresh_faces = cs.keep_faces ? cs.keep_faces + cs.keep_faces / 4 : 5 * cs.keep_vertices / 2;
     }
@@ -554,8 +612,8 @@ static int simplify(en_slab_work *w)
  * docs/method.md §13) when their corners crowd the skeleton: the faces are
  * compacted and the stars built again, so that their corners are
  * classified as the surface they are on, not locked as non-manifold. A
- * THIN slab drops only sheets of interior faces (the others are held by
- * other slabs too: the finish drops them); a target they alone would
+ * streamed slab drops only sheets of interior faces (the others are held by
+ * other slabs too, and stay: the seams keep them); a target they alone would
  * overshoot keeps them all.
  */
 static int drop_membranes(en_slab_work *w)
@@ -565,15 +623,16 @@ static int drop_membranes(en_slab_work *w)
     if (room(&w->falive, &w->cap.falive, (size_t)s->nt + 1, 1)) /* scratch until simplify */
         return w->rc = oom(w);
     uint8_t *drop = w->falive;
-    int thin = w->target->mode == EN_TARGET_THIN;
-    int64_t n = en_find_membranes(s, thin ? w->fflags : NULL, EN_F_INTERIOR, drop);
+    int streamed = w->target->mode != EN_TARGET_WHOLE;
+    int64_t n = en_find_membranes(s, streamed ? w->fflags : NULL, EN_F_INTERIOR, drop);
     if (n < 0)
         return w->rc = oom(w);
     if (n == 0)
         return 0;
-    uint64_t keep_faces, keep_vertices;
-    if (thin) /* this slab's share of the final target */
-        keep_faces = (uint64_t)llround(w->target->ratio * (double)s->nt), keep_vertices = 0;
+    uint64_t keep_faces = 0, keep_vertices = 0;
+    uint64_t on = vertices_on_faces(s);
+    if (streamed && on) /* this slab's share of the final target */
+        keep_faces = (uint64_t)llround((double)target_goal(w) / (double)on * (double)s->nt);
     else
         target_limits(w, &keep_faces, &keep_vertices);
     if (keep_faces && s->nt - (uint64_t)n < keep_faces)

@@ -38,10 +38,11 @@ typedef enum en_slab_mode { EN_SLAB_SAMPLE, EN_SLAB_SIMPLIFY } en_slab_mode;
  */
 typedef enum en_target_mode {
     EN_TARGET_WHOLE,              /* one slab: choose the density, classify, collapse to the target */
-    EN_TARGET_THIN,               /* streamed pass: classify, collapse non-samples to a share of
-                                   * each slab's faces, leave seams whole, mark the samples */
-    EN_TARGET_FINISH,             /* one slab after a THIN pass: the marks are the skeleton,
-                                   * collapse to the target */
+    EN_TARGET_THIN,               /* streamed, first pass: classify; each slab and the seams keep
+                                   * keep_share of the mesh, samples stay and leave marked */
+    EN_TARGET_FINISH,             /* streamed, over THIN's output: the marks are the skeleton; each
+                                   * slab and the seams keep keep_share, and the seams end the
+                                   * pass at the target */
 } en_target_mode;
 
 /* Between the passes of a streamed target, a vertex record's v[0] carries
@@ -51,11 +52,24 @@ typedef enum en_target_mode {
 
 typedef struct en_target {
     en_target_mode mode;
-    uint64_t faces;               /* keep at most this many faces; 0: see ratio */
-    double ratio;                 /* keep this share of the slab's faces; 0: none */
-    double thin_keep;             /* THIN: keep this share of each slab's own faces */
-    uint64_t vertices;            /* keep at most this many vertices; 0: none */
+    uint64_t faces;               /* WHOLE: keep at most this many faces; 0: see ratio */
+    double ratio;                 /* WHOLE: keep this share of the slab's faces; 0: none */
+    uint64_t vertices;            /* WHOLE: keep at most this many vertices; 0: none */
     double max_error;             /* no collapse whose error (a distance) exceeds it; < 0: none */
+    /* Streamed (THIN, FINISH; docs/architecture.md §7): a slab keeps
+     * keep_share of the units (faces, or vertices with by_vertices) that
+     * its own collapses can reach; the stitcher paces the seams so that
+     * the pass keeps `goal` units of the `expected_in` it was planned to
+     * take (the last slab's take aims at `goal` itself). skeleton_ratio:
+     * the final target's share of the input, which the skeleton is sized
+     * from. */
+    double keep_share, skeleton_ratio;
+    int by_vertices;
+    uint64_t goal, expected_in;
+    /* THIN before a one-slab finish: the seams are left whole for it (the
+     * finish ranks them with the rest; measured better than thinning
+     * them, docs/architecture.md §7). FINISH: its one slab is the pass. */
+    int seams_whole, one_slab;
     /* Skeleton density: 0 = choose the finest geodesic frequency whose
      * samples take at most skeleton_share of the target's vertices;
      * otherwise the slab work's sphere as given. */
@@ -76,6 +90,7 @@ typedef struct en_slab_work {
     uint8_t *fflags;              /* EN_F_* per face */
     uint64_t frontier;            /* every global id below was finalized in a slab <= k */
     uint64_t live_vertices, live_faces; /* chunker's active set at the cut */
+    int last;                     /* cut at the end of the stream: no slab comes after it */
     /* Vertex attributes (docs/architecture.md §7): attr_size bytes per
      * local vertex, copied by the chunker, carried untouched (a kept vertex
      * is an input vertex) and read by the stitcher. */
@@ -120,6 +135,9 @@ typedef struct en_slab_work {
      * §13); s.nt is then faces_in - membrane_faces. */
     uint64_t faces_in, membrane_faces;
     uint64_t faces_left, vertices_left;
+    /* A streamed target's units (en_target) this slab brings to its pass:
+     * its home faces, membranes included, or its owned vertices on faces. */
+    uint64_t units_in;
     int stopped_by_error;
 
     /* Worker scratch, and the capacity of every array above: a slab work is

@@ -1,5 +1,6 @@
 #include "pipeline/stitcher.h"
 
+#include <math.h>
 #include <string.h>
 
 #include "common/alloc.h"
@@ -24,6 +25,7 @@ struct en_stitch_vertex {
     uint32_t remaining;    /* faces around it not yet written */
     uint32_t future;       /* faces still to come from later slabs */
     uint32_t wlocal;       /* scratch: index in W */
+    uint32_t take;         /* the take it arrived in (a streamed target's seams) */
     uint8_t border;        /* EN_BORDER_* */
     uint8_t state;         /* S_* */
 };
@@ -154,6 +156,7 @@ static int decide(en_stitcher *st, uint32_t idx)
 {
     if (en_grow((void **)&st->vheap, &st->vheap_cap, st->nvheap + 1, sizeof *st->vheap))
         return -1;
+    st->decided++;
     st->vheap[st->nvheap] = (en_vheap_entry){ st->v[idx].gid, idx };
     vheap_up(st->vheap, st->nvheap++);
     return 0;
@@ -167,6 +170,7 @@ static int final_face(en_stitcher *st, const uint32_t p[3])
     for (int j = 1; j < 3; j++)
         if (st->v[p[j]].gid > key)
             key = st->v[p[j]].gid;
+    st->faces_final++;
     en_out_face *f = &st->fheap[st->nfheap];
     f->key = key;
     f->seq = st->face_seq++;
@@ -195,12 +199,51 @@ static en_vertex_kind kind_in_w(const en_stitch_vertex *x, uint8_t vflags)
                              (x->state & S_FIXED) != 0);
 }
 
-/* One run of the slab core's collapses over W (paper §4.2, §5). */
-static int collapse_seams(en_stitcher *st, epsnet_error *err)
+/*
+ * Under a streamed target: how many units (faces, or vertices) W may keep
+ * after this take, so that the pass keeps the target's share of what it has
+ * taken in (docs/architecture.md §7). Units that cannot change yet (faces
+ * with a corner whose star is not whole, vertices not complete) are left
+ * out of both sides: they count when a later take can collapse them, so the
+ * seam next to the newest slab is not thinned for what is still to come. The
+ * slabs' own shortfalls and excesses are made up here, seam by seam, and the
+ * last take aims at the goal itself.
+ */
+static uint64_t seam_keep(const en_stitcher *st, int last)
 {
-    int any = 0;
-    for (size_t i = 0; i < st->nwv && !any; i++)
-        any = en_removable(kind_in_w(&st->v[st->wv[i]], 0));
+    const en_target *t = st->target;
+    uint64_t pending = 0, settled = 0;
+    if (t->by_vertices) {
+        for (size_t i = 0; i < st->nwv; i++) {
+            uint8_t state = st->v[st->wv[i]].state;
+            pending += !(state & S_COMPLETE);
+            settled += (state & S_SETTLED) != 0;
+        }
+    } else {
+        for (size_t f = 0; f < st->nwf; f++) {
+            const uint32_t *p = st->wf[f].v;
+            pending += !(st->v[p[0]].state & st->v[p[1]].state & st->v[p[2]].state & S_COMPLETE);
+        }
+    }
+    uint64_t done = st->taken > pending ? st->taken - pending : 0;
+    uint64_t goal = t->goal;
+    if (!last && t->expected_in && done < t->expected_in)
+        goal = (uint64_t)llround((double)t->goal * (double)done / (double)t->expected_in);
+    /* what the output already holds outside W */
+    uint64_t out = t->by_vertices ? st->decided - settled : st->faces_final;
+    return (goal > out ? goal - out : 0) + pending;
+}
+
+/* One run of the slab core's collapses over W (paper §4.2, §5). */
+static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
+{
+    if (st->target && st->target->seams_whole)
+        return 0; /* for the one-slab finish after this pass */
+    int any = 0, finish = st->target && st->target->mode == EN_TARGET_FINISH;
+    for (size_t i = 0; i < st->nwv && !any; i++) {
+        en_vertex_kind k = kind_in_w(&st->v[st->wv[i]], 0);
+        any = en_removable(k) || (finish && k == EN_VK_SAMPLE);
+    }
     if (!any)
         return 0;
     en_slab *ws = &st->ws;
@@ -231,18 +274,31 @@ static int collapse_seams(en_stitcher *st, epsnet_error *err)
     }
     for (size_t i = 0; i < st->nwv; i++) {
         const en_stitch_vertex *x = &st->v[st->wv[i]];
-        removable[i] = (uint8_t)en_removable(kind_in_w(x, ws->vflags[i]));
+        en_vertex_kind k = kind_in_w(x, ws->vflags[i]);
+        removable[i] = (uint8_t)en_removable(k);
+        if (finish && k == EN_VK_SAMPLE)
+            removable[i] = 2; /* the second tier, as in a slab (slab_work.c) */
         q[i] = x->q;
     }
     for (size_t f = 0; f < st->nwf; f++)
         memcpy(ref + 3 * f, st->wf[f].ref, 3 * sizeof *ref);
     en_collapse_settings cs = { .max_normal_dev_deg = st->max_normal_dev };
+    if (st->target) {
+        uint64_t keep = seam_keep(st, last);
+        if (keep >= (st->target->by_vertices ? st->nwv : st->nwf))
+            goto out; /* on course: nothing to collapse here */
+        /* 0 would be "no limit": one unit is the least there can be */
+        *(st->target->by_vertices ? &cs.keep_vertices : &cs.keep_faces) = keep ? keep : 1;
+        cs.by_error = 1;
+        cs.max_error = -1;
+    }
     en_collapse_counts cc;
     if (en_collapse_slab(ws, removable, q, ref, &cs, falive, valive, tri, &cc)) {
         rc = oom(err);
         goto out;
     }
     st->stats.seam_collapses += cc.collapses;
+    st->given_up += cc.given_up;
     st->stats.seam_steps++;
     /* Faces: every corner change moves a count of faces still to write. */
     size_t kept = 0;
@@ -284,9 +340,14 @@ out:
     return rc;
 }
 
-/* Settle what can no longer change and let its faces go (see the header). */
-static int settle(en_stitcher *st)
+/* Settle what can no longer change and let its faces go (see the header).
+ * Under a streamed target, what arrived in this take waits one take more,
+ * unless it is the last: the last take's seams, which end the pass at the
+ * target, then always hold the newest seam, even when the stream's end
+ * cuts an empty slab after it. */
+static int settle(en_stitcher *st, int last)
 {
+    int wait = st->target && !st->target->seams_whole && !last;
     for (size_t i = 0; i < st->nwv; i++)
         st->v[st->wv[i]].state &= (uint8_t)~(S_BLOCKED | S_IN_FACE);
     for (size_t f = 0; f < st->nwf; f++) {
@@ -300,7 +361,7 @@ static int settle(en_stitcher *st)
     }
     for (size_t i = 0; i < st->nwv; i++) {
         en_stitch_vertex *x = &st->v[st->wv[i]];
-        if ((x->state & (S_SETTLED | S_BLOCKED)) || !(x->state & S_COMPLETE))
+        if ((x->state & (S_SETTLED | S_BLOCKED)) || !(x->state & S_COMPLETE) || (wait && x->take == st->takes))
             continue;
         x->state |= S_SETTLED;
         if (decide(st, st->wv[i]))
@@ -415,6 +476,7 @@ static int take_vertices(en_stitcher *st, const en_slab_work *w, epsnet_error *e
             memcpy(st->attr + (size_t)idx * st->attr_size, w->attr + (size_t)l * st->attr_size, st->attr_size);
         x->q = w->q[l];
         x->out = UINT64_MAX;
+        x->take = st->takes;
         x->remaining = w->degree[l];
         x->future = w->future[l];
         x->border = w->border[l];
@@ -492,13 +554,15 @@ int en_stitcher_take(en_stitcher *st, const en_slab_work *w, epsnet_error *err)
 {
     st->stats.band_nonsamples += w->band_nonsamples;
     st->stats.inner_nonsamples += w->inner_nonsamples;
+    st->taken += w->units_in;
     int rc = take_vertices(st, w, err);
     if (rc == 0)
         rc = take_faces(st, w, err);
-    if (rc == 0 && !st->keep_seams)
-        rc = collapse_seams(st, err);
-    if (rc == 0 && settle(st))
+    if (rc == 0)
+        rc = collapse_seams(st, w->last, err);
+    if (rc == 0 && settle(st, w->last))
         rc = oom(err);
+    st->takes++;
     if (rc)
         return rc;
     uint64_t active = st->nwv + st->nwf + st->nvheap + st->nfheap;

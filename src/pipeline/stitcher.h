@@ -67,9 +67,18 @@ typedef struct en_stitcher {
     uint32_t *local;                  /* scratch: slab local id -> pool index */
     size_t local_cap;
     en_slab ws;                       /* scratch for W's collapses */
-    /* The first pass of a streamed target (docs/method.md §13): seams are
-     * left for the one-slab pass after it, and samples leave marked. */
-    int keep_seams, mark_samples;
+    /* A streamed target (docs/architecture.md §7; NULL: the ε-net pass,
+     * whose seams lose every non-sample they can): W's collapses go
+     * cheapest first and stop where the pass stays on course for the
+     * target's goal (seam_keep in stitcher.c). THIN: samples stay and leave
+     * marked (mark_samples); FINISH: they are the second tier. */
+    const en_target *target;
+    int mark_samples;
+    uint32_t takes;                   /* slabs taken */
+    uint64_t taken;                   /* target units the slabs taken so far brought */
+    uint64_t faces_final;             /* faces that left W, or never entered it, for the output */
+    uint64_t decided;                 /* vertices decided (kept) */
+    uint64_t given_up;                /* samples collapsed in W (FINISH) */
     /* Vertex attributes: attr_size bytes per pool slot (beside v), from
      * the slab works, into the vertex records it emits. */
     uint32_t attr_size;
