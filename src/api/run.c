@@ -56,9 +56,27 @@ int en_run_has_target(const epsnet_settings *set)
  * allows for the slabs in flight, its seams paced to end at the target
  * (stitcher.c: seam_keep).
  */
-static void plan_streamed(en_run *run, const epsnet_settings *set, uint64_t nv, uint64_t nf, uint32_t slab_vertices,
+static void plan_streamed(en_run *run, const epsnet_settings *set, uint64_t nv, uint64_t nf, uint32_t *slab,
                           uint64_t budget)
 {
+    /* note: wider thin slabs when the settings leave the size free: the
+     * seams they leave whole for the finish shrink with the slabs' count
+     * (sorted `gen bumpy` 20M at 10%: seams of 4.7M faces at 65,536
+     * vertices, 1.1M at 262,144; 38-41 s and 2.19 GB, then 30 s and 1.96
+     * GB; bench/RESULTS.md). At least 32 slabs, so that the first one,
+     * which runs alone while it chooses the density, stays a small part;
+     * at most four times the default, and two slabs a worker in flight
+     * within a tenth of the budget at about 1,000 bytes a vertex. */
+    int workers = en_run_workers(set) > 0 ? en_run_workers(set) : 1;
+    if (!set->slab_vertices && !set->mem) {
+        uint64_t wide = nv / 32, cap = 4 * (uint64_t)*slab;
+        uint64_t room = budget ? budget / 10 / (2 * (uint64_t)workers * 1000) : cap;
+        wide = wide < cap ? wide : cap;
+        wide = wide < room ? wide : room;
+        if (wide > *slab)
+            *slab = (uint32_t)wide;
+    }
+    uint32_t slab_vertices = *slab;
     en_target *t = &run->target, *f = &run->finish;
     int by_vertices = !t->faces && !(t->ratio > 0);
     uint64_t n_faces = t->faces ? t->faces : (uint64_t)llround(t->ratio * (double)nf);
@@ -90,7 +108,7 @@ static void plan_streamed(en_run *run, const epsnet_settings *set, uint64_t nv, 
     t->seams_whole = one_slab;
     run->passes = 2;
     /* a slab of the finish, over the slabs in flight (two a worker) */
-    uint64_t ring = 2 * (uint64_t)(en_run_workers(set) > 0 ? en_run_workers(set) : 1);
+    uint64_t ring = 2 * (uint64_t)workers;
     uint64_t finish = one_slab ? UINT32_MAX - 1 : fit / ring;
     run->finish_slab_vertices = finish < slab_vertices ? slab_vertices : finish > UINT32_MAX - 1 ? UINT32_MAX - 1
                                                                                                   : (uint32_t)finish;
@@ -141,7 +159,7 @@ static int plan_target(en_run *run, const epsnet_settings *set, const char *path
     uint64_t large = set->slab_vertices ? set->slab_vertices : ONE_SLAB_SLABS * (uint64_t)en_run_slab_vertices(set);
     if (known_v != EPSNET_COUNT_UNKNOWN && known_f != EPSNET_COUNT_UNKNOWN && known_f > 0 && t->max_error < 0 &&
         (over || known_v > large)) {
-        plan_streamed(run, set, known_v, known_f, *slab_vertices, budget);
+        plan_streamed(run, set, known_v, known_f, slab_vertices, budget);
         return 0;
     }
     if (known_v != EPSNET_COUNT_UNKNOWN && budget && known_v > budget / EN_ONE_SLAB_BYTES_PER_VERTEX)
