@@ -62,14 +62,15 @@ static void plan_streamed(en_run *run, const epsnet_settings *set, uint64_t nv, 
     /* note: wider thin slabs when the settings leave the size free: the
      * seams they leave whole for the finish shrink with the slabs' count
      * (sorted `gen bumpy` 20M at 10%: seams of 4.7M faces at 65,536
-     * vertices, 1.1M at 262,144; 38-41 s and 2.19 GB, then 30 s and 1.96
-     * GB; bench/RESULTS.md). At least 32 slabs, so that the first one,
-     * which runs alone while it chooses the density, stays a small part;
-     * at most four times the default, and two slabs a worker in flight
-     * within a tenth of the budget at about 1,000 bytes a vertex. */
+     * vertices, 2.3M at 131,072, 1.1M at 262,144), but a slab past the
+     * caches costs more a collapse (37% more at 262,144), so at most twice
+     * the default (bench/RESULTS.md). At least 32 slabs, so that the first
+     * one, which runs alone while it chooses the density, stays a small
+     * part; two slabs a worker in flight within a tenth of the budget at
+     * about 1,000 bytes a vertex. */
     int workers = en_run_workers(set) > 0 ? en_run_workers(set) : 1;
     if (!set->slab_vertices && !set->mem) {
-        uint64_t wide = nv / 32, cap = 4 * (uint64_t)*slab;
+        uint64_t wide = nv / 32, cap = 2 * (uint64_t)*slab;
         uint64_t room = budget ? budget / 10 / (2 * (uint64_t)workers * 1000) : cap;
         wide = wide < cap ? wide : cap;
         wide = wide < room ? wide : room;
