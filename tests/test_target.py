@@ -238,6 +238,37 @@ def a_larger_error_bound_never_gives_more_faces():
 
 
 @case
+def an_error_bound_over_the_budget_is_streamed():
+    """An error bound alone is held by every collapse wherever it runs: over
+    the budget (or the --slab given) it runs on slabs, on the whole mesh's
+    diagonal from the header (docs/architecture.md §7). The bytes do not
+    depend on threads, a larger bound never gives more faces, the counts
+    stay near one slab's, and a shuffled PLY, sorted first, streams too."""
+    src = gen("bumpy", 40000, "bumpy40k_sorted.ply")
+    last = None
+    for e in ("0.0003", "0.001", "0.003"):
+        outs = []
+        for j in ("1", "2"):
+            s, _ = simplify(src, path(f"bound_{e}_{j}.ply"), "--error", e, "--slab", "2048", "-j", j)
+            assert s["passes"] == 1 and s["slabs"] > 2, (e, s["passes"], s["slabs"])
+            outs.append(open(path(f"bound_{e}_{j}.ply"), "rb").read())
+        assert outs[0] == outs[1], f"--error {e}: -j1 and -j2 differ"
+        one, _ = simplify(src, path(f"bound_{e}_one.ply"), "--error", e)
+        assert one["slabs"] == 1, one["slabs"]
+        assert abs(s["output_faces"] - one["output_faces"]) <= 0.1 * one["output_faces"], (e, s["output_faces"],
+                                                                                             one["output_faces"])
+        assert last is None or s["output_faces"] <= last, (e, s["output_faces"], last)
+        last = s["output_faces"]
+    shuf = gen("bumpy", 40000, "bumpy40k_shuf.ply", "--shuffle")
+    s, _ = simplify(shuf, path("bound_shuf.ply"), "--error", "0.001", "--mem", "12M")
+    assert s["slabs"] > 1, s["slabs"]
+    # a count with it is not streamed: over the budget it is refused, clearly
+    rc, _, err = run("simplify", shuf, "-o", path("bound_count.ply"), "-q", "--error", "0.001", "--ratio", "0.1",
+                     "--mem", "12M")
+    assert rc != 0 and "error bound with a count" in err and len(err.strip().splitlines()) == 1, (rc, err)
+
+
+@case
 def below_the_skeleton_samples_are_given_up_and_counted():
     src = gen("cad", 20000, "cad20k.ply")
     s, err = simplify(src, path("tiny.ply"), "--faces", "40", "--level", "3")

@@ -594,8 +594,14 @@ typedef struct epsnet_settings {
      * A mesh of at most four slabs (slab_vertices, or the one mem gives:
      * 262,144 vertices by default) is then one slab, and the target is met
      * exactly; a larger one is thinned on slabs, in parallel, and finished
-     * in one slab, exactly when what is left fits mem (about 640 bytes a
-     * vertex; docs/architecture.md §7).
+     * in one slab when what is left fits mem (about 640 bytes a vertex), or
+     * else on slabs whose seams end it at the target: exactly either way,
+     * with more error on slabs (docs/architecture.md §7). An error bound
+     * alone is one slab while the mesh fits mem and slab_vertices (when
+     * given); beyond, it is held by every collapse of a pass on slabs, on
+     * the diagonal of the input's bounding box as its header or the sort
+     * gives it (of every vertex listed). An error bound with a count over
+     * mem is refused (EPSNET_ELIMIT).
      * Defaults: 0.
      */
     uint64_t target_faces;

@@ -727,7 +727,7 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
         int streamed = p->target && p->target->mode != EN_TARGET_WHOLE;
         p->st.target = streamed ? p->target : NULL;
         p->st.mark_samples = streamed && p->target->mode == EN_TARGET_THIN;
-        p->ch.cut_last = streamed;
+        p->ch.cut_last = streamed && p->target->mode != EN_TARGET_BOUND;
     }
     if (rc) {
         en_chain_free(&c);

@@ -130,6 +130,10 @@ static int whole_finish(const en_slab_work *w)
 static void target_limits(const en_slab_work *w, uint64_t *keep_faces, uint64_t *keep_vertices)
 {
     const en_target *t = w->target;
+    if (t->mode == EN_TARGET_BOUND) { /* no count: the error bound alone */
+        *keep_faces = *keep_vertices = 0;
+        return;
+    }
     if (t->mode != EN_TARGET_WHOLE) {
         /* Streamed (after mark_frozen): a share of what the slab's own
          * collapses can reach, the faces on inner vertices only (or the
@@ -575,7 +579,10 @@ static int simplify(en_slab_work *w)
                 w->units_in += (w->fflags[f] & EN_F_HOME) != 0;
         }
         cs.by_error = 1;
-        cs.max_error = w->target->max_error >= 0 ? w->target->max_error * slab_diagonal(s) : -1;
+        /* the diagonal is the whole mesh's: one slab's, or the header's in
+         * a streamed bound (a slab's own would bound each slab differently) */
+        double diagonal = w->target->mode == EN_TARGET_BOUND ? w->target->diagonal : slab_diagonal(s);
+        cs.max_error = w->target->max_error >= 0 ? w->target->max_error * diagonal : -1;
         /* note: the quadrics are taken afresh once 1.25 times the target is
          * left (a vertex target: twice that in faces, a closed surface's
          * count), measured on the real scans and CAD parts of

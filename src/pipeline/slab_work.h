@@ -43,6 +43,9 @@ typedef enum en_target_mode {
     EN_TARGET_FINISH,             /* streamed, over THIN's output: the marks are the skeleton; each
                                    * slab and the seams keep keep_share, and the seams end the
                                    * pass at the target */
+    EN_TARGET_BOUND,              /* streamed error bound alone: each slab and the seams collapse
+                                   * non-samples while the error stays within max_error times
+                                   * the whole mesh's diagonal */
 } en_target_mode;
 
 /* Between the passes of a streamed target, a vertex record's v[0] carries
@@ -56,6 +59,7 @@ typedef struct en_target {
     double ratio;                 /* WHOLE: keep this share of the slab's faces; 0: none */
     uint64_t vertices;            /* WHOLE: keep at most this many vertices; 0: none */
     double max_error;             /* no collapse whose error (a distance) exceeds it; < 0: none */
+    double diagonal;              /* BOUND: the whole mesh's bounding-box diagonal (its header's) */
     /* Streamed (THIN, FINISH; docs/architecture.md §7): a slab keeps
      * keep_share of the units (faces, or vertices with by_vertices) that
      * its own collapses can reach; the stitcher paces the seams so that

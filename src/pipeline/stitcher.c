@@ -283,7 +283,10 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
     for (size_t f = 0; f < st->nwf; f++)
         memcpy(ref + 3 * f, st->wf[f].ref, 3 * sizeof *ref);
     en_collapse_settings cs = { .max_normal_dev_deg = st->max_normal_dev };
-    if (st->target) {
+    if (st->target && st->target->mode == EN_TARGET_BOUND) {
+        cs.by_error = 1; /* the slabs' bound, on the whole mesh's diagonal */
+        cs.max_error = st->target->max_error * st->target->diagonal;
+    } else if (st->target) {
         uint64_t keep = seam_keep(st, last);
         if (keep >= (st->target->by_vertices ? st->nwv : st->nwf))
             goto out; /* on course: nothing to collapse here */
@@ -347,7 +350,7 @@ out:
  * cuts an empty slab after it. */
 static int settle(en_stitcher *st, int last)
 {
-    int wait = st->target && !st->target->seams_whole && !last;
+    int wait = st->target && !st->target->seams_whole && st->target->mode != EN_TARGET_BOUND && !last;
     for (size_t i = 0; i < st->nwv; i++)
         st->v[st->wv[i]].state &= (uint8_t)~(S_BLOCKED | S_IN_FACE);
     for (size_t f = 0; f < st->nwf; f++) {

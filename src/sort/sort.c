@@ -1633,6 +1633,10 @@ void en_sort_info(const en_sort *j, epsnet_mesh_info *info)
     info->streaming = 1;
     info->sorted_axis = j->axis;
     info->vertex_attrs = j->attrs;
+    /* of every vertex read, a face's or not */
+    info->has_bbox = j->st.vertices > 0;
+    for (int k = 0; info->has_bbox && k < 3; k++)
+        info->bbox_min[k] = j->lo[k], info->bbox_max[k] = j->hi[k];
 }
 
 int en_sort_emit(en_sort *j, en_sort_emit_fn emit, void *opaque, epsnet_error *err)
