@@ -267,6 +267,16 @@ static int classify_at(en_slab_work *w, uint32_t n, uint64_t *samples, int predi
     return rc;
 }
 
+/* From w classified at frequency 1 with samples1 samples: the frequency
+ * whose samples are about `budget`. Beyond the locked vertices, samples
+ * grow about like the sphere's 4n^2 + 2 vertices (6 at n = 1). */
+static double predicted_frequency(const en_slab_work *w, uint64_t samples1, double budget)
+{
+    double locked = (double)w->counts.locked, free1 = (double)samples1 - locked;
+    double grow = free1 > 0 ? (budget - locked) / free1 : 1e9;
+    return sqrt((6 * grow - 2) / 4);
+}
+
 static const uint32_t freq[] = { 1, 2, 3, 4, 6, 8, 11, 16, 23, 32, 45, 64, 91, 128 };
 #define NFREQ ((int)(sizeof freq / sizeof *freq))
 
@@ -301,9 +311,7 @@ static int choose_density(en_slab_work *w)
     int rc = classify_at(w, freq[0], &samples, 1);
     if (rc || (double)samples > budget)
         return rc; /* even the coarsest is over: frequency 1, samples may go */
-    double locked = (double)w->counts.locked, free1 = (double)samples - locked;
-    double grow = free1 > 0 ? (budget - locked) / free1 : 1e9; /* (4n^2 + 2) / 6 */
-    double n_est = sqrt((6 * grow - 2) / 4);
+    double n_est = predicted_frequency(w, samples, budget);
     int i = 0;
     while (i + 1 < nfreq && i < 4 && (double)freq[i + 1] <= n_est)
         i++; /* at most 4 steps at once: where the count stops growing
@@ -374,15 +382,15 @@ static int thin_density(en_slab_work *w)
     int rc = classify_at(w, freq[0], &samples, 0);
     if (rc || (double)samples > budget)
         return rc; /* even the coarsest is over: frequency 1, samples may go */
-    /* beyond the locked vertices, samples grow about like 4n^2 + 2 */
-    double locked = (double)w->counts.locked, free1 = (double)samples - locked;
     double n_est = n_pass;
-    if (locked + free1 * (4.0 * n_pass * n_pass + 2) / 6 > THIN_SLACK * budget)
-        n_est = free1 > 0 ? sqrt((6 * (budget - locked) / free1 - 2) / 4) : n_pass;
-    else if ((rc = classify_at(w, n_pass, &samples, 0)) != 0 || (double)samples <= THIN_SLACK * budget)
+    if (n_pass > predicted_frequency(w, samples, THIN_SLACK * budget)) {
+        n_est = predicted_frequency(w, samples, budget);
+    } else if ((rc = classify_at(w, n_pass, &samples, 0)) != 0 || (double)samples <= THIN_SLACK * budget) {
         return rc;
-    else /* predicted under, found over: from the count found */
+    } else { /* predicted under, found over: from the count found */
+        double locked = (double)w->counts.locked;
         n_est = samples > locked && budget > locked ? n_pass * sqrt((budget - locked) / ((double)samples - locked)) : 1;
+    }
     for (int i = NFREQ - 1; i >= 0 && rc == 0; i--) {
         if (freq[i] >= n_pass || (i > 0 && freq[i] > n_est))
             continue;
