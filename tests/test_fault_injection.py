@@ -136,11 +136,18 @@ def main():
     # Threads that cannot start: every one of the 3 x 2 pool threads in turn.
     walk("simplify_thread_creation", lambda o: ["simplify", smz, "-o", o + ".smz", "--slab", "200", "-j", "3",
                                                 "--passes", "2", "-q"], what="EPSNET_FAIL_THREAD")
-    # Targets: one slab, and streamed (a thinning pass, then one slab).
+    # Targets: one slab, and streamed (a thinning pass, then one slab) ...
     walk("simplify_target_one_slab", lambda o: ["simplify", smz, "-o", o + ".smz", "--ratio", "0.1", "-q"],
          max_points=600, stride=5)
     walk("simplify_target_streamed", lambda o: ["simplify", smz, "-o", o + ".smz", "--ratio", "0.1", "--slab", "300",
                                                 "-j", "3", "-q"], max_points=600, stride=7)
+    # ... whose finish is over --mem and runs on slabs, its seams paced to
+    # the target; and an error bound alone on slabs.
+    walk("simplify_target_finish_on_slabs", lambda o: ["simplify", smz, "-o", o + ".smz", "--ratio", "0.1", "--slab",
+                                                       "300", "--mem", "600K", "-j", "3", "-q"],
+         max_points=600, stride=7)
+    walk("simplify_error_bound_on_slabs", lambda o: ["simplify", smz, "-o", o + ".smz", "--error", "0.001", "--slab",
+                                                     "300", "-j", "3", "-q"], max_points=600, stride=7)
     # A glued double sheet (a fin on edge 0-1 of a tetrahedron), which a
     # target drops first (docs/method.md §13): its search and compaction.
     fin = os.path.join(TMP, "fin.ply")

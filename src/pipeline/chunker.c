@@ -15,7 +15,9 @@ int en_chunker_init(en_chunker *c, uint32_t slab_vertices, const char *path)
      * of vertices covers twice over in coherent streams; the rest go to the
      * idmap's hash. */
     size_t ring = 2 * (size_t)slab_vertices;
-    return en_idmap_init(&c->map, ring < ((size_t)1 << 20) ? ring : ((size_t)1 << 20)) ? EPSNET_ENOMEM : 0;
+    /* grown as ids come: a one-slab pass (slab_vertices near 2^32) would
+     * take 12 MB at once, the whole of a small --mem */
+    return en_idmap_init_growing(&c->map, ring < ((size_t)1 << 20) ? ring : ((size_t)1 << 20)) ? EPSNET_ENOMEM : 0;
 }
 
 void en_chunker_free(en_chunker *c)
