@@ -48,9 +48,8 @@ int en_run_has_target(const epsnet_settings *set)
  * FINISH pass over what it left. The thin pass keeps half as much again as
  * the target (and a point more) of what each slab can reach, so that the
  * last collapses, those that decide the result, are ranked by the finish
- * over more of the surface. When that fits the budget (0.4 of it for the
- * thinned interiors; the seams, left whole, come on top: at the budget's
- * own slab sizes a tenth to a fifth of the mesh), the finish is one slab:
+ * over more of the surface. When that fits the budget (0.4 of it, for
+ * twice keep: the seams, left whole, come on top), the finish is one slab:
  * one global order, the target met exactly. Otherwise the thin pass thins
  * its seams too, and the finish runs on slabs as large as the budget
  * allows for the slabs in flight, its seams paced to end at the target
