@@ -71,7 +71,9 @@ typedef struct en_stitcher {
      * whose seams lose every non-sample they can): W's collapses go
      * cheapest first and stop where the pass stays on course for the
      * target's goal (seam_keep in stitcher.c). THIN: samples stay and leave
-     * marked (mark_samples); FINISH: they are the second tier. */
+     * marked (mark_samples); FINISH: they are the second tier; BOUND: W's
+     * collapses stop at the error bound alone. Read only, set before the
+     * first take; the fields below are the take jobs' (one at a time). */
     const en_target *target;
     int mark_samples;
     uint32_t takes;                   /* slabs taken */
