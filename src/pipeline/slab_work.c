@@ -126,6 +126,17 @@ static int whole_finish(const en_slab_work *w)
     return w->target->mode == EN_TARGET_FINISH && w->index == 0 && w->last;
 }
 
+/* The share a streamed slab keeps of what it reaches: a finish's from what
+ * the thinning actually left (en_slab_work.thin_rate), when it says. */
+static double keep_share(const en_slab_work *w)
+{
+    const en_target *t = w->target;
+    if (t->mode != EN_TARGET_FINISH || w->thin_rate <= 0)
+        return t->keep_share;
+    double k = t->skeleton_ratio / w->thin_rate;
+    return k < 1 ? k : 1;
+}
+
 /* Faces and vertices the slab may keep under its target (0: no limit). */
 static void target_limits(const en_slab_work *w, uint64_t *keep_faces, uint64_t *keep_vertices)
 {
@@ -145,7 +156,7 @@ static void target_limits(const en_slab_work *w, uint64_t *keep_faces, uint64_t 
         if (t->by_vertices) {
             for (uint32_t v = 0; v < w->nowned; v++)
                 reach += inner(w, v) && en_slab_degree(&w->s, v) > 0;
-            uint64_t drop = (uint64_t)((1 - t->keep_share) * (double)reach), on = vertices_on_faces(&w->s);
+            uint64_t drop = (uint64_t)((1 - keep_share(w)) * (double)reach), on = vertices_on_faces(&w->s);
             *keep_faces = 0;
             *keep_vertices = on > drop ? on - drop : 1;
             if (whole_finish(w))
@@ -156,7 +167,7 @@ static void target_limits(const en_slab_work *w, uint64_t *keep_faces, uint64_t 
             const uint32_t *c = w->s.tri + 3 * (size_t)f;
             reach += (w->fflags[f] & EN_F_INTERIOR) && inner(w, c[0]) && inner(w, c[1]) && inner(w, c[2]);
         }
-        uint64_t drop = (uint64_t)((1 - t->keep_share) * (double)reach);
+        uint64_t drop = (uint64_t)((1 - keep_share(w)) * (double)reach);
         *keep_faces = w->s.nt > drop ? w->s.nt - drop : 1;
         *keep_vertices = 0;
         if (whole_finish(w))
@@ -201,7 +212,7 @@ static uint64_t target_goal(const en_slab_work *w)
     if (t->mode == EN_TARGET_THIN) /* the final target's share of this slab */
         return (uint64_t)((double)on_faces * t->skeleton_ratio);
     if (t->mode == EN_TARGET_FINISH)
-        return (uint64_t)((double)on_faces * t->keep_share);
+        return (uint64_t)((double)on_faces * keep_share(w));
     uint64_t keep_faces, keep_vertices;
     target_limits(w, &keep_faces, &keep_vertices);
     uint64_t goal = keep_vertices;

@@ -52,6 +52,10 @@ typedef enum en_target_mode {
  * this bit for a skeleton sample. Only the chain's own passes write it (the
  * stitcher's mark_samples) or read it (the chunker's read_marks). */
 #define EN_MARK_SKELETON 1u
+/* ... and v[1] the share of its input the thinning pass had kept when it
+ * wrote the record, times EN_RATE_ONE: the finish sizes its shares and
+ * paces its seams by what the thinning left, not by its plan. */
+#define EN_RATE_ONE ((double)(1u << 30))
 
 typedef struct en_target {
     en_target_mode mode;
@@ -95,6 +99,7 @@ typedef struct en_slab_work {
     uint64_t frontier;            /* every global id below was finalized in a slab <= k */
     uint64_t live_vertices, live_faces; /* chunker's active set at the cut */
     int last;                     /* cut at the end of the stream: no slab comes after it */
+    double thin_rate;             /* FINISH: its newest owned vertex's record's rate (EN_RATE_ONE), 0: none */
     /* Vertex attributes (docs/architecture.md §7): attr_size bytes per
      * local vertex, copied by the chunker, carried untouched (a kept vertex
      * is an input vertex) and read by the stitcher. */

@@ -226,9 +226,11 @@ static uint64_t seam_keep(const en_stitcher *st, int last)
         }
     }
     uint64_t done = st->taken > pending ? st->taken - pending : 0;
-    uint64_t goal = t->goal;
-    if (!last && t->expected_in && done < t->expected_in)
-        goal = (uint64_t)llround((double)t->goal * (double)done / (double)t->expected_in);
+    uint64_t goal = t->goal, expected = t->expected_in;
+    if (t->mode == EN_TARGET_FINISH && st->thin_rate > 0) /* what the thinning has left, not its plan */
+        expected = (uint64_t)llround((double)t->expected_in * st->thin_rate * t->keep_share / t->skeleton_ratio);
+    if (!last && expected && done < expected)
+        goal = (uint64_t)llround((double)t->goal * (double)done / (double)expected);
     /* what the output already holds outside W */
     uint64_t out = t->by_vertices ? st->decided - settled : st->faces_final;
     return (goal > out ? goal - out : 0) + pending;
@@ -433,7 +435,13 @@ static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
                 st->stats.inner_left++;
         }
         uint64_t mark = st->mark_samples && (x->state & S_SKELETON) ? EN_MARK_SKELETON : 0;
-        int rc = put(st, EPSNET_REC_VERTEX, mark, 0, 0, x->xyz,
+        /* between a streamed target's passes: the share of its input the
+         * thinning has kept so far (EN_RATE_ONE fixed point), read by the
+         * finish's chunker */
+        uint64_t rate = st->mark_samples && st->taken ? (uint64_t)((double)st->faces_final / (double)st->taken *
+                                                                     EN_RATE_ONE)
+                                                      : 0;
+        int rc = put(st, EPSNET_REC_VERTEX, mark, rate, 0, x->xyz,
                      st->attr_size ? st->attr + (size_t)e.idx * st->attr_size : NULL, err);
         if (rc)
             return rc;
@@ -558,6 +566,8 @@ int en_stitcher_take(en_stitcher *st, const en_slab_work *w, epsnet_error *err)
     st->stats.band_nonsamples += w->band_nonsamples;
     st->stats.inner_nonsamples += w->inner_nonsamples;
     st->taken += w->units_in;
+    if (w->thin_rate > 0)
+        st->thin_rate = w->thin_rate;
     int rc = take_vertices(st, w, err);
     if (rc == 0)
         rc = take_faces(st, w, err);

@@ -81,6 +81,7 @@ typedef struct en_stitcher {
     uint64_t faces_final;             /* faces that left W, or never entered it, for the output */
     uint64_t decided;                 /* vertices decided (kept) */
     uint64_t given_up;                /* samples collapsed in W (FINISH) */
+    double thin_rate;                 /* FINISH: the newest slab's en_slab_work.thin_rate */
     /* Vertex attributes: attr_size bytes per pool slot (beside v), from
      * the slab works, into the vertex records it emits. */
     uint32_t attr_size;
