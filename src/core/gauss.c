@@ -784,10 +784,25 @@ size_t gauss_vertices_near(const gauss_sphere *g, const double c[3], double cos_
     /* a direction within chord r of u, scaled to a lattice point p with
      * N / sqrt 3 <= |p| <= N, lies within N r of |p| u: a box per axis */
     double chord = sqrt(fmax(0.0, 2.0 - 2.0 * cr)) + 1e-9;
+    /* note: a tighter box from the same test. A point p that passes has
+     * d = p / |p| with d.u >= cr - 1e-9 sqrt 3 (|p| >= N / sqrt 3), so
+     * |d - u| <= wide; its 1-norm, N / |p|, is within sqrt 3 wide of u's,
+     * which bounds |p| far closer than [N / sqrt 3, N] does (a lattice
+     * unit of margin on each side covers the rounding). The points tested
+     * are still a superset of those kept, in the same order, so the list
+     * is the same; at frequency 32 the search costs a third fewer
+     * instructions (bench/RESULTS.md). */
+    double wide = sqrt(fmax(0.0, 2.0 - 2.0 * cr + 4e-9)) + 1e-9;
+    double l1 = fabs(u[0]) + fabs(u[1]) + fabs(u[2]);
+    double n1_lo = fmax(1.0, l1 - sqrt(3.0) * wide), n1_hi = fmin(sqrt(3.0), l1 + sqrt(3.0) * wide);
+    double pmin = n / n1_hi, pmax = n / n1_lo;
     int32_t lo[3], hi[3];
     for (int k = 0; k < 3; k++) {
         double e1 = u[k] * n / sqrt(3.0), e2 = u[k] * n;
         double l = fmin(e1, e2) - n * chord, h = fmax(e1, e2) + n * chord;
+        double a = u[k] - wide, b = u[k] + wide;
+        l = fmax(l, fmin(pmin * a, pmax * a) - 1.0);
+        h = fmin(h, fmax(pmin * b, pmax * b) + 1.0);
         lo[k] = l <= -n ? -n : (int32_t)floor(l);
         hi[k] = h >= n ? n : (int32_t)ceil(h);
     }

@@ -103,7 +103,14 @@ static void sv_free(en_stitcher *st, uint32_t idx)
     st->free_list[st->free_len++] = idx;
 }
 
-/* Binary min-heaps; ties cannot happen (ids and sequence numbers are unique). */
+/* 4-ary min-heaps; ties cannot happen (ids and sequence numbers are unique),
+ * so the order out is the same whatever the heap's shape.
+ *
+ * note: four children a node and a hole that moves instead of swaps: half
+ * the levels of a binary heap, one move a level. A whole finish (one slab,
+ * docs/architecture.md §7) pushes and pops every output vertex and face at
+ * once, and their writing was the largest part of the time after its
+ * collapses (bench/RESULTS.md). */
 static int vheap_less(const en_vheap_entry *a, const en_vheap_entry *b)
 {
     return a->gid < b->gid;
@@ -117,34 +124,33 @@ static int fheap_less(const en_out_face *a, const en_out_face *b)
 #define HEAP_FUNCS(name, type, less)                                                                            \
     static void name##_up(type *h, size_t i)                                                                    \
     {                                                                                                           \
+        type e = h[i];                                                                                          \
         while (i > 0) {                                                                                         \
-            size_t p = (i - 1) / 2;                                                                             \
-            if (!less(&h[i], &h[p]))                                                                            \
+            size_t p = (i - 1) / 4;                                                                             \
+            if (!less(&e, &h[p]))                                                                               \
                 break;                                                                                          \
-            type t = h[i];                                                                                      \
             h[i] = h[p];                                                                                        \
-            h[p] = t;                                                                                           \
             i = p;                                                                                              \
         }                                                                                                       \
+        h[i] = e;                                                                                               \
     }                                                                                                           \
     static type name##_pop(type *h, size_t *n)                                                                  \
     {                                                                                                           \
-        type top = h[0];                                                                                        \
-        h[0] = h[--*n];                                                                                         \
+        type top = h[0], e = h[--*n];                                                                           \
         size_t i = 0;                                                                                           \
         for (;;) {                                                                                              \
-            size_t l = 2 * i + 1, m = i;                                                                        \
-            if (l < *n && less(&h[l], &h[m]))                                                                   \
-                m = l;                                                                                          \
-            if (l + 1 < *n && less(&h[l + 1], &h[m]))                                                           \
-                m = l + 1;                                                                                      \
-            if (m == i)                                                                                         \
+            size_t c = 4 * i + 1, end = c + 4 < *n ? c + 4 : *n, m = c;                                         \
+            if (c >= *n)                                                                                        \
                 break;                                                                                          \
-            type t = h[i];                                                                                      \
+            for (size_t k = c + 1; k < end; k++)                                                                \
+                if (less(&h[k], &h[m]))                                                                         \
+                    m = k;                                                                                      \
+            if (!less(&h[m], &e))                                                                               \
+                break;                                                                                          \
             h[i] = h[m];                                                                                        \
-            h[m] = t;                                                                                           \
             i = m;                                                                                              \
         }                                                                                                       \
+        h[i] = e;                                                                                               \
         return top;                                                                                             \
     }
 
