@@ -994,6 +994,70 @@ TEST(stats_split_cpu_between_main_and_workers)
     }
 }
 
+/* What a run's progress callback saw of the bar. */
+typedef struct bar_watch {
+    int calls, backwards, finish_calls;
+    double last, share;
+    uint64_t other_totals; /* calls whose total was not the bar's */
+} bar_watch;
+
+static int watch_bar(void *opaque, uint64_t done, uint64_t total)
+{
+    bar_watch *b = opaque;
+    double f = total ? (double)done / (double)total : 0;
+    b->calls++;
+    b->other_totals += total != 1000000u;
+    b->backwards += f < b->last;
+    b->finish_calls += f > b->share + 1e-9 && f < 1;
+    b->last = f;
+    return 0;
+}
+
+/* docs/architecture.md §7: a streamed target's one-slab finish comes after
+ * the last record and takes a third of the run or more; the bar keeps the
+ * last part for it and moves while it runs, never backwards, from the
+ * sorted stream and from a file that is sorted first. The callback changes
+ * nothing in the output. */
+TEST(a_streamed_targets_finish_moves_the_progress_bar)
+{
+    char smz[512], ply[512], a[512], b[512];
+    snprintf(smz, sizeof smz, "%s", tl_path("bar_in.smz"));
+    snprintf(ply, sizeof ply, "%s", tl_path("bar_in.ply"));
+    snprintf(a, sizeof a, "%s", tl_path("bar_a.smz"));
+    snprintf(b, sizeof b, "%s", tl_path("bar_b.smz"));
+    epsnet_error err;
+    CHECK_EQ_INT(tl_gen_file(smz, "bumpy", 100000, NAN, 3, 0, &err), 0);
+    CHECK_EQ_INT(tl_gen_file(ply, "bumpy", 100000, NAN, 3, 1, &err), 0);
+    const char *inputs[] = { smz, ply };
+    for (int k = 0; k < 2; k++) {
+        for (int watched = 0; watched < 2; watched++) {
+            bar_watch w = { .share = 0.65 };
+            epsnet_settings set;
+            epsnet_default_settings(&set);
+            set.threads = 2;
+            set.slab_vertices = 4096;
+            set.target_ratio = 0.1;
+            if (watched) {
+                set.progress = watch_bar;
+                set.progress_opaque = &w;
+            }
+            epsnet_context *ctx = NULL;
+            CHECK_EQ_INT(epsnet_context_new(&ctx, &set, &err), 0);
+            CHECK_EQ_INT(epsnet_simplify_file(ctx, inputs[k], watched ? a : b, &err), 0);
+            CHECK_EQ_INT((int)epsnet_context_stats(ctx)->passes, 2); /* thin, then the finish */
+            epsnet_context_free(&ctx);
+            if (!watched)
+                continue;
+            CHECK(w.calls > 0);
+            CHECK_EQ_INT((int)w.other_totals, 0);
+            CHECK_EQ_INT(w.backwards, 0);
+            CHECK(w.finish_calls > 0);
+            CHECK(w.last <= 1);
+        }
+        CHECK(tl_same_file(a, b));
+    }
+}
+
 int main(void)
 {
     RUN(samples_equal_one_slab_for_any_slab_size);
@@ -1011,6 +1075,7 @@ int main(void)
     RUN(push_pull_matches_file_api);
     RUN(push_refuses_until_waiting_output_is_pulled);
     RUN(stats_split_cpu_between_main_and_workers);
+    RUN(a_streamed_targets_finish_moves_the_progress_bar);
     tl_cleanup();
     return tl_finish();
 }

@@ -520,7 +520,11 @@ typedef struct epsnet_settings {
     const char *tmpdir;
     /* Progress callback, called from the calling thread at most ~10 times a
      * second with bytes consumed so far and the total (0 if unknown); return
-     * non-zero to cancel (the run then fails with EPSNET_EINTR). Default: NULL. */
+     * non-zero to cancel (the run then fails with EPSNET_EINTR). When more
+     * than the reading is to come (an input sorted first; a target whose
+     * finish runs after the last record as one slab), done and total are
+     * parts of one bar for the whole run, the reading its first part.
+     * Default: NULL. */
     int (*progress)(void *opaque, uint64_t done, uint64_t total);
     void *progress_opaque;
     /* Simplification: this many ε-net passes (paper §4.2, §5); pass i > 1

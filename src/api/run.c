@@ -212,6 +212,41 @@ static int plan_target(en_run *run, const epsnet_settings *set, const char *path
     return 0;
 }
 
+/* The finish and its output took 33% of `gen bumpy` 2M at 10% and 42% of
+ * 20M (bench/RESULTS.md, session 8): the feed gets the first 65%. */
+#define FEED_SHARE_BEFORE_FINISH 0.65
+
+static double feed_share(const en_run *planned)
+{
+    return planned->passes == 2 && planned->finish.one_slab ? FEED_SHARE_BEFORE_FINISH : 1.0;
+}
+
+double en_run_feed_share(const epsnet_settings *set, const epsnet_mesh_info *in)
+{
+    if (!en_run_has_target(set) || !in)
+        return 1.0;
+    /* a PLY's faces may be polygons, so its triangles are counted by the
+     * sort; for the bar, a closed surface's two a vertex will do */
+    epsnet_mesh_info known = *in;
+    if (known.nfaces == EPSNET_COUNT_UNKNOWN && known.nverts != EPSNET_COUNT_UNKNOWN)
+        known.nfaces = 2 * known.nverts;
+    en_run scratch;
+    memset(&scratch, 0, sizeof scratch);
+    uint32_t slab = en_run_slab_vertices(set);
+    epsnet_error err;
+    return plan_target(&scratch, set, NULL, &known, &slab, &err) == 0 ? feed_share(&scratch) : 1.0;
+}
+
+/* The one-slab finish's share of the bar: the last 5% is for its output. */
+static int finish_tick(void *opaque, uint64_t done, uint64_t total)
+{
+    const en_run *run = opaque;
+    const epsnet_settings *set = &run->ctx->settings;
+    double f = total ? (double)done / (double)total : 0;
+    double bar = run->feed_share + (1 - run->feed_share) * 0.95 * f;
+    return set->progress(set->progress_opaque, (uint64_t)(bar * EN_RUN_BAR_UNITS), EN_RUN_BAR_UNITS);
+}
+
 int en_run_pool_new(en_pool **pool, const epsnet_settings *set, const char *path, epsnet_error *err)
 {
     int workers = en_run_workers(set);
@@ -243,6 +278,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
     int rc = target ? plan_target(run, set, path, in, &slab_vertices, err) : 0;
     if (rc)
         return rc;
+    run->feed_share = feed_share(run);
     uint32_t lock_offset = 0;
     int lock_type = 0;
     if (mode == EN_SLAB_SIMPLIFY && set->lock_property) {
@@ -281,6 +317,8 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
          * caller stitches the oldest one. */
         .ring_capacity = workers ? 2 * (size_t)workers : 1,
         .checked_input = checked,
+        .tick = set->progress && run->feed_share < 1 ? finish_tick : NULL,
+        .tick_opaque = run,
         .out = out,
         .on_sample = on_sample,
         .sample_opaque = sample_opaque,

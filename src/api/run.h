@@ -23,6 +23,17 @@ int en_run_workers(const epsnet_settings *set);
 /* Does set ask for a size or an error target? */
 int en_run_has_target(const epsnet_settings *set);
 
+/*
+ * One progress bar for a run (epsnet_settings.progress): EN_RUN_BAR_UNITS
+ * in all. Feeding the input (reading or sorting it) fills the first
+ * en_run_feed_share() of it; a streamed target's one-slab finish, which
+ * comes after the last record and takes a third of the run or more
+ * (bench/RESULTS.md, session 8), fills the rest as its collapses go. 1 when
+ * nothing long follows the feed. in: what is known of the input.
+ */
+#define EN_RUN_BAR_UNITS 1000000u
+double en_run_feed_share(const epsnet_settings *set, const epsnet_mesh_info *in);
+
 typedef struct en_run {
     epsnet_context *ctx;
     en_pool *pool;
@@ -36,6 +47,7 @@ typedef struct en_run {
     const char *path;
     double cpu_start;             /* calling thread's CPU clock at open */
     double wall_start;
+    double feed_share;            /* of the progress bar (en_run_feed_share) */
 } en_run;
 
 /*

@@ -32,15 +32,19 @@ static int writer_put(void *self, const epsnet_record *rec, epsnet_error *err)
  * sort, while records of pass 6 go through every ε-net pass as they leave,
  * which is most of the run (2M shuffled faces, -j2: 0.6 s of sorting in
  * 2.6, bench/RESULTS.md; more when the sort spills). So passes 1 to 5 fill
- * the first SORT_SHARE of the bar and pass 6 the rest, and the ETA
- * (elapsed / fraction) counts the stages still to come.
+ * the first SORT_SHARE of the feed's part of the bar and pass 6 the rest,
+ * and the ETA (elapsed / fraction) counts the stages still to come; a
+ * streamed target's one-slab finish has the bar's last part
+ * (en_run_feed_share).
  */
 #define SORT_SHARE 0.3
-#define BAR_UNITS 1000000u
 
+/* share: the part of the bar the feed fills (en_run_feed_share: a
+ * streamed target's one-slab finish fills the rest). */
 typedef struct chain_progress {
     int (*user)(void *opaque, uint64_t done, uint64_t total);
     void *opaque;
+    double share;
 } chain_progress;
 
 static int sort_progress(void *opaque, uint64_t done, uint64_t total)
@@ -48,7 +52,18 @@ static int sort_progress(void *opaque, uint64_t done, uint64_t total)
     const chain_progress *cp = opaque;
     double f = total ? (double)done / (double)total : 0, pass6 = 5.0 / 6.0;
     double bar = f < pass6 ? f / pass6 * SORT_SHARE : SORT_SHARE + (f - pass6) / (1 - pass6) * (1 - SORT_SHARE);
-    return cp->user(cp->opaque, (uint64_t)(bar * BAR_UNITS), BAR_UNITS);
+    return cp->user(cp->opaque, (uint64_t)(bar * cp->share * EN_RUN_BAR_UNITS), EN_RUN_BAR_UNITS);
+}
+
+/* The reader's bytes as the feed's part of the bar. */
+static int feed_progress(const epsnet_context *ctx, const en_run *run, const epsnet_reader *r)
+{
+    uint64_t done = epsnet_reader_bytes_read(r), total = epsnet_reader_file_size(r);
+    if (run->feed_share >= 1 || total == 0)
+        return ctx->settings.progress(ctx->settings.progress_opaque, done, total);
+    double bar = (double)(done < total ? done : total) / (double)total * run->feed_share;
+    return ctx->settings.progress(ctx->settings.progress_opaque, (uint64_t)(bar * EN_RUN_BAR_UNITS),
+                                  EN_RUN_BAR_UNITS);
 }
 
 /*
@@ -95,9 +110,7 @@ static int feed(epsnet_context *ctx, en_run *run, en_input *in, const char *path
     while ((rc = epsnet_reader_next(r, &rec, err)) == 1) {
         if ((rc = en_run_put(run, &rec, err)) != 0)
             return rc;
-        if (ctx->settings.progress && ++n % PROGRESS_EVERY == 0 &&
-            ctx->settings.progress(ctx->settings.progress_opaque, epsnet_reader_bytes_read(r),
-                                   epsnet_reader_file_size(r)))
+        if (ctx->settings.progress && ++n % PROGRESS_EVERY == 0 && feed_progress(ctx, run, r))
             return en_error_set(err, EPSNET_EINTR, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "cancelled");
     }
     if (rc < 0)
@@ -164,7 +177,8 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
     ss.tmpdir = dir;
     ss.threads = ctx->settings.threads;
     if (ctx->settings.progress) {
-        in->progress = (chain_progress){ ctx->settings.progress, ctx->settings.progress_opaque };
+        in->progress = (chain_progress){ ctx->settings.progress, ctx->settings.progress_opaque,
+                                         en_run_feed_share(&ctx->settings, &in->info) };
         ss.progress = sort_progress;
         ss.progress_opaque = &in->progress;
     }

@@ -9,6 +9,7 @@
 #ifndef EN_CORE_COLLAPSE_H
 #define EN_CORE_COLLAPSE_H
 
+#include <stdatomic.h>
 #include <stdint.h>
 
 #include "core/slab.h"
@@ -53,6 +54,9 @@ typedef struct en_collapse_settings {
      * the target's last collapses measure against the mesh near the
      * target, not against every plane each vertex has absorbed). */
     uint64_t refresh_faces;
+    /* When not NULL: the collapses done so far, stored now and then
+     * (relaxed) for a progress report read on another thread. */
+    _Atomic uint64_t *progress;
 } en_collapse_settings;
 
 typedef struct en_collapse_counts {

@@ -22,6 +22,7 @@
 
 #include <stdio.h>
 #include <string.h>
+#include <time.h>
 
 #include "common/alloc.h"
 #include "common/error.h"
@@ -124,6 +125,9 @@ struct en_pass {
     uint64_t st_bytes, st_active, st_frontier;
     int ended;
     uint64_t in_flight_elements;   /* vertices + faces of slabs in the ring */
+    /* A one-slab finish's collapses: its worker writes, the caller's
+     * thread reads while it waits (pass_end), both relaxed. */
+    en_slab_progress progress;
 };
 
 struct en_chain {
@@ -398,6 +402,32 @@ static int retire_one(en_pass *p, epsnet_error *err)
     return rc;
 }
 
+/* A one-slab finish, whose collapses the calling thread reports while it
+ * waits for them (en_chain_config.tick). */
+static int watched(const en_pass *p)
+{
+    return p->chain->cfg.tick && p->target && p->target->mode == EN_TARGET_FINISH && p->target->one_slab &&
+           p->chain->cfg.mode == EN_SLAB_SIMPLIFY;
+}
+
+/* One report of a watched slab: while in flight (then a tenth of a
+ * second's wait), or once it is done (all of it, without waiting). */
+static int tick(en_pass *p, int done_now, epsnet_error *err)
+{
+    const en_chain_config *cfg = &p->chain->cfg;
+    uint64_t done = atomic_load_explicit(&p->progress.done, memory_order_relaxed);
+    uint64_t total = atomic_load_explicit(&p->progress.total, memory_order_relaxed);
+    if (done_now || done > total)
+        done = total;
+    if (cfg->tick(cfg->tick_opaque, done, total))
+        return en_error_set(err, EPSNET_EINTR, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "cancelled");
+    if (!done_now) {
+        struct timespec ts = { 0, 100 * 1000 * 1000 };
+        nanosleep(&ts, NULL);
+    }
+    return 0;
+}
+
 static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
 {
     en_chain *c = p->chain;
@@ -410,6 +440,11 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     w->target = !p->target || c->cfg.mode != EN_SLAB_SIMPLIFY ? NULL
                 : p->target->mode == EN_TARGET_THIN && !choosing ? &p->fixed
                                                                   : p->target;
+    if (watched(p)) {
+        atomic_store_explicit(&p->progress.done, 0, memory_order_relaxed);
+        atomic_store_explicit(&p->progress.total, 0, memory_order_relaxed);
+        w->progress = &p->progress;
+    }
     int rc = 0;
     while (rc == 0 && en_jobring_full(p->ring))
         rc = retire_one(p, err);
@@ -605,7 +640,9 @@ static int pass_end(void *self, epsnet_error *err)
         } while (rc == 0 && w);
     }
     while (rc == 0 && en_jobring_in_flight(p->ring))
-        rc = retire_one(p, err);
+        rc = watched(p) && !en_jobring_ready(p->ring) ? tick(p, 0, err) : retire_one(p, err);
+    if (rc == 0 && watched(p))
+        rc = tick(p, 1, err); /* with one thread, the only report */
     if (rc || p->chain->cfg.mode != EN_SLAB_SIMPLIFY)
         return rc;
     rc = stitch_retire(p, err);

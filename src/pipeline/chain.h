@@ -54,6 +54,13 @@ typedef struct en_chain_config {
      * 0: every record is checked as it is put, and a bad one fails that put
      * (the push API). Later passes always take batches. */
     int checked_input;
+    /* While the calling thread waits for a one-slab finish's collapses
+     * (with workers; with none the slab runs inside its put): called about
+     * ten times a second with the collapses done and planned, and once
+     * more when they are over (done = total); non-zero cancels the run
+     * (EPSNET_EINTR). NULL: none. */
+    int (*tick)(void *opaque, uint64_t done, uint64_t total);
+    void *tick_opaque;
     en_stage out;                 /* SIMPLIFY: where the last pass's records go */
     en_sample_fn on_sample;       /* SAMPLE: where samples go */
     void *sample_opaque;

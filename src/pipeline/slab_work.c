@@ -612,6 +612,16 @@ static int simplify(en_slab_work *w)
         if (w->target->max_error < 0 && w->target->mode != EN_TARGET_THIN)
             cs.refresh_faces = cs.keep_faces ? cs.keep_faces + cs.keep_faces / 4 : 5 * cs.keep_vertices / 2;
     }
+    if (w->progress) {
+        /* what the limits leave to do: each collapse takes two faces, or one vertex */
+        uint64_t on = cs.keep_vertices ? vertices_on_faces(s) : 0, todo = 0;
+        if (cs.keep_faces && s->nt > cs.keep_faces)
+            todo = (s->nt - cs.keep_faces) / 2;
+        else if (cs.keep_vertices && on > cs.keep_vertices)
+            todo = on - cs.keep_vertices;
+        atomic_store_explicit(&w->progress->total, todo, memory_order_relaxed);
+        cs.progress = &w->progress->done;
+    }
     en_collapse_counts cc;
     if (nremovable == 0) {
         if (s->nt) /* a slab of isolated vertices has no face array at all */

@@ -19,6 +19,7 @@
 #ifndef EN_PIPELINE_SLAB_WORK_H
 #define EN_PIPELINE_SLAB_WORK_H
 
+#include <stdatomic.h>
 #include <stdint.h>
 
 #include "core/classify.h"
@@ -88,6 +89,13 @@ typedef struct en_target {
     double skeleton_share;
 } en_target;
 
+/* A slab's collapses as they go, read on another thread (a one-slab
+ * finish's progress, docs/architecture.md §7): `total` is set once before
+ * they start, `done` now and then; both relaxed. */
+typedef struct en_slab_progress {
+    _Atomic uint64_t done, total;
+} en_slab_progress;
+
 typedef struct en_slab_work {
     /* Input, filled by the chunker. Local vertices: the owned ones first
      * (s.vflags EN_V_OWNED), in increasing global id, then the ghosts. */
@@ -115,6 +123,7 @@ typedef struct en_slab_work {
     en_slab_mode mode;
     double max_normal_dev;
     const en_target *target;      /* NULL: the ε-net pass */
+    en_slab_progress *progress;   /* NULL, or where the collapses are reported (the chain's) */
 
     /* Output. */
     int rc;
