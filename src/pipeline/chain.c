@@ -440,11 +440,8 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     w->target = !p->target || c->cfg.mode != EN_SLAB_SIMPLIFY ? NULL
                 : p->target->mode == EN_TARGET_THIN && !choosing ? &p->fixed
                                                                   : p->target;
-    if (watched(p)) {
-        atomic_store_explicit(&p->progress.done, 0, memory_order_relaxed);
-        atomic_store_explicit(&p->progress.total, 0, memory_order_relaxed);
-        w->progress = &p->progress;
-    }
+    if (watched(p))
+        w->progress = &p->progress; /* its only slab: the counts start at zero */
     int rc = 0;
     while (rc == 0 && en_jobring_full(p->ring))
         rc = retire_one(p, err);
