@@ -212,8 +212,9 @@ static int plan_target(en_run *run, const epsnet_settings *set, const char *path
     return 0;
 }
 
-/* The finish and its output took 33% of `gen bumpy` 2M at 10% and 42% of
- * 20M (bench/RESULTS.md, session 8): the feed gets the first 65%. */
+/* The finish and its output took 30-35% of the run on `gen bumpy` 2M at
+ * 10%, and 35-42% at 20M (bench/RESULTS.md, session 8): the feed gets the
+ * first 65% of the bar. */
 #define FEED_SHARE_BEFORE_FINISH 0.65
 
 static double feed_share(const en_run *planned)
