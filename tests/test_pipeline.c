@@ -999,6 +999,7 @@ typedef struct bar_watch {
     int calls, backwards, finish_calls;
     double last, share;
     uint64_t other_totals; /* calls whose total was not the bar's */
+    int cancel_in_finish;  /* answer "cancel" once the finish reports */
 } bar_watch;
 
 static int watch_bar(void *opaque, uint64_t done, uint64_t total)
@@ -1010,7 +1011,7 @@ static int watch_bar(void *opaque, uint64_t done, uint64_t total)
     b->backwards += f < b->last;
     b->finish_calls += f > b->share + 1e-9 && f < 1;
     b->last = f;
-    return 0;
+    return b->cancel_in_finish && b->finish_calls > 0;
 }
 
 /* docs/architecture.md §7: a streamed target's one-slab finish comes after
@@ -1056,6 +1057,23 @@ TEST(a_streamed_targets_finish_moves_the_progress_bar)
         }
         CHECK(tl_same_file(a, b));
     }
+    /* cancelled while the finish runs: EPSNET_EINTR, and no output */
+    bar_watch w = { .share = 0.65, .cancel_in_finish = 1 };
+    epsnet_settings set;
+    epsnet_default_settings(&set);
+    set.threads = 2;
+    set.slab_vertices = 4096;
+    set.target_ratio = 0.1;
+    set.progress = watch_bar;
+    set.progress_opaque = &w;
+    char c[512];
+    snprintf(c, sizeof c, "%s", tl_path("bar_c.smz"));
+    epsnet_context *ctx = NULL;
+    CHECK_EQ_INT(epsnet_context_new(&ctx, &set, &err), 0);
+    CHECK_EQ_INT(epsnet_simplify_file(ctx, smz, c, &err), EPSNET_EINTR);
+    epsnet_context_free(&ctx);
+    CHECK_EQ_INT(w.finish_calls, 1);
+    CHECK(access(c, F_OK) != 0);
 }
 
 int main(void)

@@ -713,8 +713,11 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
                 continue;
             }
             rc = do_collapse(&st, e.v, e.u);
-            if (cs->progress && (st.collapses & 1023) == 0)
+            if (cs->progress && (st.collapses & 1023) == 0) {
                 atomic_store_explicit(cs->progress, st.collapses, memory_order_relaxed);
+                if (cs->stop && atomic_load_explicit(cs->stop, memory_order_relaxed))
+                    rc = EPSNET_EINTR; /* cancelled: the caller drops the slab */
+            }
         }
         met = (st.keep_faces && st.faces_alive <= st.keep_faces) ||
               (st.keep_vertices && st.vertices_alive <= st.keep_vertices);

@@ -55,8 +55,10 @@ typedef struct en_collapse_settings {
      * target, not against every plane each vertex has absorbed). */
     uint64_t refresh_faces;
     /* When not NULL: the collapses done so far, stored now and then
-     * (relaxed) for a progress report read on another thread. */
+     * (relaxed) for a progress report read on another thread; and a flag
+     * that other thread may raise to stop the run (EPSNET_EINTR). */
     _Atomic uint64_t *progress;
+    _Atomic int *stop;
 } en_collapse_settings;
 
 typedef struct en_collapse_counts {

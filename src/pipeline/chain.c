@@ -419,8 +419,12 @@ static int tick(en_pass *p, int done_now, epsnet_error *err)
     uint64_t total = atomic_load_explicit(&p->progress.total, memory_order_relaxed);
     if (done_now || done > total)
         done = total;
-    if (cfg->tick(cfg->tick_opaque, done, total))
+    if (cfg->tick(cfg->tick_opaque, done, total)) {
+        /* the slab stops within a thousand collapses, so the chain's end
+         * (which waits for it) is not held up by the rest of it */
+        atomic_store_explicit(&p->progress.stop, 1, memory_order_relaxed);
         return en_error_set(err, EPSNET_EINTR, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "cancelled");
+    }
     if (!done_now) {
         struct timespec ts = { 0, 100 * 1000 * 1000 };
         nanosleep(&ts, NULL);

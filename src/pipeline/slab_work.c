@@ -621,15 +621,18 @@ static int simplify(en_slab_work *w)
             todo = on - cs.keep_vertices;
         atomic_store_explicit(&w->progress->total, todo, memory_order_relaxed);
         cs.progress = &w->progress->done;
+        cs.stop = &w->progress->stop;
     }
     en_collapse_counts cc;
+    int crc;
     if (nremovable == 0) {
         if (s->nt) /* a slab of isolated vertices has no face array at all */
             memcpy(w->tri, s->tri, 3 * sizeof *w->tri * (size_t)s->nt);
         memset(w->falive, 1, nt);
         memset(w->valive, 1, nv);
-    } else if (en_collapse_slab(s, removable, w->q, w->ref, &cs, w->falive, w->valive, w->tri, &cc)) {
-        return oom(w);
+    } else if ((crc = en_collapse_slab(s, removable, w->q, w->ref, &cs, w->falive, w->valive, w->tri, &cc)) != 0) {
+        return crc == EPSNET_EINTR ? en_error_set(&w->err, crc, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE, "cancelled")
+                                   : oom(w);
     } else {
         w->collapses = cc.collapses;
         memcpy(w->refused, cc.refused, sizeof w->refused);
