@@ -125,8 +125,9 @@ struct en_pass {
     uint64_t st_bytes, st_active, st_frontier;
     int ended;
     uint64_t in_flight_elements;   /* vertices + faces of slabs in the ring */
-    /* A one-slab finish's collapses: its worker writes, the caller's
-     * thread reads while it waits (pass_end), both relaxed. */
+    /* A one-slab finish's collapses: its worker writes the counts, the
+     * caller's thread reads them while it waits (pass_end) and raises
+     * stop to cancel; all relaxed. */
     en_slab_progress progress;
 };
 

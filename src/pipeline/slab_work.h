@@ -90,7 +90,7 @@ typedef struct en_target {
 } en_target;
 
 /* A slab's collapses as they go, read on another thread (a one-slab
- * finish's progress, docs/architecture.md §7): `total` is set once before
+ * finish's progress, docs/architecture.md §10): `total` is set once before
  * they start, `done` now and then; `stop`, raised by that other thread,
  * ends them early (a cancelled run). All relaxed. */
 typedef struct en_slab_progress {
