@@ -5,7 +5,8 @@
  * several rings share one pool; in-flight jobs never exceed a ring's
  * capacity; an error rides in its job and surfaces in order; freeing a ring
  * with queued work finishes it cleanly; a serial ring's jobs run one at a
- * time, in order, beside other rings' jobs.
+ * time, in order, beside other rings' jobs; a timed wait tells a job still
+ * running from one done.
  * Also run under the thread sanitizer in CI (build-tsan).
  */
 #include <stdatomic.h>
@@ -265,6 +266,46 @@ TEST(a_serial_ring_runs_its_jobs_one_at_a_time_in_order)
     }
 }
 
+static atomic_int gate;
+
+/* Runs until the test opens the gate. */
+static int wait_for_gate(void *arg)
+{
+    (void)arg;
+    while (!atomic_load(&gate))
+        ;
+    return 0;
+}
+
+/* en_jobring_wait: a job still running is not ready when the time runs
+ * out; once it is done, the wait says so and retire takes it; nothing in
+ * flight, nothing to wait for; with no threads, a job submitted is done. */
+TEST(a_timed_wait_tells_a_running_job_from_a_done_one)
+{
+    for (int threads = 0; threads <= 2; threads += 2) {
+        en_pool *pool = NULL;
+        en_jobring *r = NULL;
+        CHECK_EQ_INT(en_pool_new(&pool, threads), 0);
+        CHECK_EQ_INT(en_jobring_new(&r, pool, 2), 0);
+        CHECK_EQ_INT(en_jobring_wait(r, 0.01), 0);
+        atomic_store(&gate, threads == 0);
+        CHECK_EQ_INT(en_jobring_submit(r, wait_for_gate, NULL), 0);
+        if (threads)
+            CHECK_EQ_INT(en_jobring_wait(r, 0.01), 0);
+        atomic_store(&gate, 1);
+        int done = 0;
+        for (int tries = 0; tries < 1000 && !done; tries++)
+            done = en_jobring_wait(r, 0.1);
+        CHECK_EQ_INT(done, 1);
+        void *job;
+        int result = -1;
+        CHECK_EQ_INT(en_jobring_retire(r, &job, &result), 1);
+        CHECK_EQ_INT(result, 0);
+        en_jobring_free(&r, NULL);
+        en_pool_free(&pool);
+    }
+}
+
 int main(void)
 {
     RUN(jobs_retire_in_submission_order_for_any_thread_count);
@@ -274,5 +315,6 @@ int main(void)
     RUN(capacity_rounds_up_to_a_power_of_two);
     RUN(rings_sharing_a_pool_each_retire_in_their_own_order);
     RUN(a_serial_ring_runs_its_jobs_one_at_a_time_in_order);
+    RUN(a_timed_wait_tells_a_running_job_from_a_done_one);
     return tl_finish();
 }

@@ -1,6 +1,8 @@
 #include "common/pool.h"
 
+#include <errno.h>
 #include <pthread.h>
+#include <time.h>
 
 #include "common/alloc.h"
 #include "common/thread.h"
@@ -228,6 +230,28 @@ int en_jobring_ready(const en_jobring *r)
     if (p->nthreads == 0)
         return 1;
     pthread_mutex_lock(&p->lock);
+    int done = s->state == SLOT_DONE;
+    pthread_mutex_unlock(&p->lock);
+    return done;
+}
+
+int en_jobring_wait(en_jobring *r, double seconds)
+{
+    if (r->retired == r->submitted)
+        return 0;
+    en_pool *p = r->pool;
+    const slot *s = &r->slots[r->retired & r->mask];
+    if (p->nthreads == 0)
+        return 1;
+    struct timespec until;
+    clock_gettime(CLOCK_REALTIME, &until); /* the clock of a default condition variable */
+    long ns = until.tv_nsec + (long)(seconds * 1e9);
+    until.tv_sec += ns / 1000000000L;
+    until.tv_nsec = ns % 1000000000L;
+    pthread_mutex_lock(&p->lock);
+    int timed_out = 0;
+    while (s->state != SLOT_DONE && !timed_out)
+        timed_out = pthread_cond_timedwait(&p->done, &p->lock, &until) == ETIMEDOUT;
     int done = s->state == SLOT_DONE;
     pthread_mutex_unlock(&p->lock);
     return done;

@@ -66,6 +66,11 @@ void en_jobring_set_order(en_jobring *ring, int serial, int urgent);
 /* 1 when the oldest job in flight is done (retire will not wait). */
 int en_jobring_ready(const en_jobring *ring);
 
+/* Wait at most `seconds` for the oldest job in flight to be done: 1 when
+ * it is (retire will not wait), 0 when the time ran out or nothing is in
+ * flight. For an owner that reports progress while it waits. */
+int en_jobring_wait(en_jobring *ring, double seconds);
+
 /* 1 when capacity jobs are in flight: retire before submitting. */
 int en_jobring_full(const en_jobring *ring);
 

@@ -22,7 +22,6 @@
 
 #include <stdio.h>
 #include <string.h>
-#include <time.h>
 
 #include "common/alloc.h"
 #include "common/error.h"
@@ -411,8 +410,8 @@ static int watched(const en_pass *p)
            p->chain->cfg.mode == EN_SLAB_SIMPLIFY;
 }
 
-/* One report of a watched slab: while in flight (then a tenth of a
- * second's wait), or once it is done (all of it, without waiting). */
+/* One report of a watched slab: while in flight, or once it is done (all
+ * of it). */
 static int tick(en_pass *p, int done_now, epsnet_error *err)
 {
     const en_chain_config *cfg = &p->chain->cfg;
@@ -425,10 +424,6 @@ static int tick(en_pass *p, int done_now, epsnet_error *err)
          * (which waits for it) is not held up by the rest of it */
         atomic_store_explicit(&p->progress.stop, 1, memory_order_relaxed);
         return en_error_set(err, EPSNET_EINTR, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "cancelled");
-    }
-    if (!done_now) {
-        struct timespec ts = { 0, 100 * 1000 * 1000 };
-        nanosleep(&ts, NULL);
     }
     return 0;
 }
@@ -642,7 +637,8 @@ static int pass_end(void *self, epsnet_error *err)
         } while (rc == 0 && w);
     }
     while (rc == 0 && en_jobring_in_flight(p->ring))
-        rc = watched(p) && !en_jobring_ready(p->ring) ? tick(p, 0, err) : retire_one(p, err);
+        /* a tenth of a second at most between reports, and none after the end */
+        rc = watched(p) && !en_jobring_wait(p->ring, 0.1) ? tick(p, 0, err) : retire_one(p, err);
     if (rc == 0 && watched(p))
         rc = tick(p, 1, err); /* with one thread, the only report */
     if (rc || p->chain->cfg.mode != EN_SLAB_SIMPLIFY)
