@@ -221,7 +221,9 @@ void en_jobring_set_order(en_jobring *r, int serial, int urgent)
     r->urgent = urgent;
 }
 
-int en_jobring_ready(const en_jobring *r)
+/* Is the oldest job in flight done? With `until`, waits for it up to that
+ * time (CLOCK_REALTIME, a default condition variable's clock). */
+static int oldest_done(const en_jobring *r, const struct timespec *until)
 {
     if (r->retired == r->submitted)
         return 0;
@@ -230,31 +232,26 @@ int en_jobring_ready(const en_jobring *r)
     if (p->nthreads == 0)
         return 1;
     pthread_mutex_lock(&p->lock);
+    while (until && s->state != SLOT_DONE && pthread_cond_timedwait(&p->done, &p->lock, until) != ETIMEDOUT)
+        ;
     int done = s->state == SLOT_DONE;
     pthread_mutex_unlock(&p->lock);
     return done;
 }
 
+int en_jobring_ready(const en_jobring *r)
+{
+    return oldest_done(r, NULL);
+}
+
 int en_jobring_wait(en_jobring *r, double seconds)
 {
-    if (r->retired == r->submitted)
-        return 0;
-    en_pool *p = r->pool;
-    const slot *s = &r->slots[r->retired & r->mask];
-    if (p->nthreads == 0)
-        return 1;
     struct timespec until;
-    clock_gettime(CLOCK_REALTIME, &until); /* the clock of a default condition variable */
+    clock_gettime(CLOCK_REALTIME, &until);
     long ns = until.tv_nsec + (long)(seconds * 1e9);
     until.tv_sec += ns / 1000000000L;
     until.tv_nsec = ns % 1000000000L;
-    pthread_mutex_lock(&p->lock);
-    int timed_out = 0;
-    while (s->state != SLOT_DONE && !timed_out)
-        timed_out = pthread_cond_timedwait(&p->done, &p->lock, &until) == ETIMEDOUT;
-    int done = s->state == SLOT_DONE;
-    pthread_mutex_unlock(&p->lock);
-    return done;
+    return oldest_done(r, &until);
 }
 
 int en_jobring_full(const en_jobring *r)
