@@ -423,6 +423,13 @@ static int put(en_stitcher *st, epsnet_record_kind kind, uint64_t a, uint64_t b,
 /* Write every decided vertex below frontier, each with the faces it ends. */
 static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
 {
+    /* between a streamed target's passes: the share of its input the
+     * thinning has kept so far (EN_RATE_ONE fixed point), written into each
+     * vertex record for the finish's chunker; it is the same for every
+     * vertex of this call */
+    uint64_t rate = st->mark_samples && st->taken
+                        ? (uint64_t)((double)st->faces_final / (double)st->taken * EN_RATE_ONE)
+                        : 0;
     while (st->nvheap && st->vheap[0].gid < frontier) {
         en_vheap_entry e = vheap_pop(st->vheap, &st->nvheap);
         en_stitch_vertex *x = &st->v[e.idx];
@@ -441,12 +448,6 @@ static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
                 st->stats.inner_left++;
         }
         uint64_t mark = st->mark_samples && (x->state & S_SKELETON) ? EN_MARK_SKELETON : 0;
-        /* between a streamed target's passes: the share of its input the
-         * thinning has kept so far (EN_RATE_ONE fixed point), read by the
-         * finish's chunker */
-        uint64_t rate = st->mark_samples && st->taken ? (uint64_t)((double)st->faces_final / (double)st->taken *
-                                                                     EN_RATE_ONE)
-                                                      : 0;
         int rc = put(st, EPSNET_REC_VERTEX, mark, rate, 0, x->xyz,
                      st->attr_size ? st->attr + (size_t)e.idx * st->attr_size : NULL, err);
         if (rc)
