@@ -3,6 +3,7 @@
 (docs/architecture.md §7): a kept vertex is an input vertex, so its colour,
 normal and any other per-vertex value come out exactly as they went in, for
 any thread count, slab size and target, through PLY and OBJ."""
+import json
 import os
 
 from clitest import case, f32, finish, path, read_ascii_ply, run
@@ -131,8 +132,10 @@ def obj_vertex_colours_survive_simplify():
 
 @case
 def locked_vertices_stay_in_every_mode():
-    """--lock PROPERTY keeps every vertex whose property is non-zero, in the
-    ε-net pass, with seams, and under a target (below the skeleton too)."""
+    """--lock PROPERTY keeps every vertex whose property is non-zero, in
+    every shape of a run: the ε-net pass, with seams, a target in one slab
+    (below the skeleton too), a streamed target whose finish is one slab or
+    runs on slabs (over --mem), and an error bound on slabs."""
     src = coloured_mesh()
     props, verts, faces = read_ascii_ply(src)
     p = path("locked.ply")
@@ -149,11 +152,26 @@ def locked_vertices_stay_in_every_mode():
             f.write("3 %d %d %d\n" % tuple(t))
     for prop, every in (("lock", 37), ("quality", 53)):
         locked = {key(v) for i, v in enumerate(verts) if i % every == 0}
-        for opts in ((), ("--slab", "1024", "-j", "2"), ("--ratio", "0.02"), ("--faces", "200"),
-                     ("--ratio", "0.05", "--slab", "2048")):
+        for opts, shape in (((), None), (("--slab", "1024", "-j", "2"), None), (("--ratio", "0.02"), None),
+                            (("--faces", "200"), None), (("--ratio", "0.05", "--slab", "2048"), "one"),
+                            (("--ratio", "0.02", "--slab", "256", "--mem", "1M", "-j", "2"), "slabs"),
+                            (("--error", "0.002", "--slab", "1024"), "bound")):
             out = path("locked_out.ply")
-            rc, _, err = run("simplify", p, "-o", out, "--ascii", "-q", "--lock", prop, *opts)
+            stats = path("locked_stats.json")
+            rc, _, err = run("simplify", p, "-o", out, "--ascii", "-q", "--lock", prop, "--stats", stats, *opts)
             assert rc == 0, err
+            s = json.load(open(stats))
+            if shape == "one":  # a streamed target: a thinning pass and a finish in one slab
+                assert s["passes"] == 2, (opts, s["passes"])
+            if shape == "slabs":  # ... and the finish on slabs of 256 (over --mem as one): more slabs
+                one = path("locked_one.json")
+                rc, _, err = run("simplify", p, "-o", path("locked_one.ply"), "-q", "--lock", prop, "--stats", one,
+                                 *opts[:4])
+                assert rc == 0, err
+                thin = json.load(open(one))["slabs"] - 1
+                assert s["passes"] == 2 and s["slabs"] > thin + 1, (opts, s["passes"], s["slabs"], thin)
+            if shape == "bound":
+                assert s["slabs"] > 1, (opts, s["slabs"])
             _, vout, _ = read_ascii_ply(out)
             have = {key(v) for v in vout}
             missing = locked - have

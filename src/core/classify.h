@@ -24,6 +24,7 @@ enum {
     EN_C_LOCKED = 1 << 2,    /* boundary / non-manifold (docs/method.md §6) */
     EN_C_NEEDLE = 1 << 3,    /* normals not in an open hemisphere */
     EN_C_MULTI = 1 << 4,     /* encloses more than one Gaussian vertex */
+    EN_C_USER = 1 << 5,      /* with EN_C_LOCKED: locked by the user (settings.lock_property) */
 };
 
 typedef struct en_classify_counts {

@@ -455,14 +455,16 @@ static int user_locked(const en_slab_work *w, uint32_t v)
 
 /* The user's locks join the topology's: an owned vertex whose lock property
  * is non-zero is EN_C_LOCKED, kept by every mode (never a collapse's v,
- * still a target) and handed to the stitcher as fixed. */
+ * still a target), and EN_C_USER, which the stitcher keeps with the vertex
+ * so that no seam of any pass removes it (a sample may go in a target's
+ * second tier, a user's lock never). */
 static void apply_user_locks(en_slab_work *w)
 {
     if (!w->lock_type || !w->attr)
         return;
     for (uint32_t v = 0; v < w->nowned; v++)
         if (user_locked(w, v))
-            w->vclass[v] |= EN_C_LOCKED;
+            w->vclass[v] |= EN_C_LOCKED | EN_C_USER;
 }
 
 /* Is owned vertex v locked for being non-manifold alone (not on a
@@ -470,8 +472,7 @@ static void apply_user_locks(en_slab_work *w)
 static int nonmanifold_only(const en_slab_work *w, uint32_t v)
 {
     uint8_t f = w->s.vflags[v];
-    return (f & EN_V_NONMANIFOLD) && !(f & (EN_V_BOUNDARY | EN_V_ISOLATED)) &&
-           !(w->lock_type && w->attr && user_locked(w, v));
+    return (f & EN_V_NONMANIFOLD) && !(f & (EN_V_BOUNDARY | EN_V_ISOLATED)) && !(w->vclass[v] & EN_C_USER);
 }
 
 static int owned_here(const en_slab_work *w, uint32_t v)

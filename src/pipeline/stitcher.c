@@ -15,6 +15,7 @@ enum {
     S_BLOCKED = 1 << 5,    /* scratch (settle): has a neighbour that is not complete */
     S_IN_FACE = 1 << 6,    /* scratch (settle): still a corner of a seam face */
     S_SKELETON = 1 << 7,   /* a sample by the sample rule, not by its topology: marked for a finish */
+    S_USER_LOCK = 1 << 8,  /* locked by the user: LOCKED wherever it is, never a second tier */
 };
 
 struct en_stitch_vertex {
@@ -27,7 +28,7 @@ struct en_stitch_vertex {
     uint32_t wlocal;       /* scratch: index in W */
     uint32_t take;         /* the take it arrived in (a streamed target's seams) */
     uint8_t border;        /* EN_BORDER_* */
-    uint8_t state;         /* S_* */
+    uint16_t state;        /* S_* */
 };
 
 struct en_seam_face {
@@ -201,8 +202,8 @@ static int add_seam_face(en_stitcher *st, const uint32_t p[3], const double ref[
  * FREE or SAMPLE, which only the removal test below tells apart). */
 static en_vertex_kind kind_in_w(const en_stitch_vertex *x, uint8_t vflags)
 {
-    return en_vertex_kind_of((x->state & S_COMPLETE) != 0, (x->state & S_SETTLED) != 0, en_seam_locked(vflags),
-                             (x->state & S_FIXED) != 0);
+    return en_vertex_kind_of((x->state & S_COMPLETE) != 0, (x->state & S_SETTLED) != 0,
+                             en_seam_locked(vflags) || (x->state & S_USER_LOCK), (x->state & S_FIXED) != 0);
 }
 
 /*
@@ -221,7 +222,7 @@ static uint64_t seam_keep(const en_stitcher *st, int last)
     uint64_t pending = 0, settled = 0;
     if (t->by_vertices) {
         for (size_t i = 0; i < st->nwv; i++) {
-            uint8_t state = st->v[st->wv[i]].state;
+            uint16_t state = st->v[st->wv[i]].state;
             pending += !(state & S_COMPLETE);
             settled += (state & S_SETTLED) != 0;
         }
@@ -360,7 +361,7 @@ static int settle(en_stitcher *st, int last)
 {
     int wait = st->target && !st->target->seams_whole && st->target->mode != EN_TARGET_BOUND && !last;
     for (size_t i = 0; i < st->nwv; i++)
-        st->v[st->wv[i]].state &= (uint8_t)~(S_BLOCKED | S_IN_FACE);
+        st->v[st->wv[i]].state &= (uint16_t)~(S_BLOCKED | S_IN_FACE);
     for (size_t f = 0; f < st->nwf; f++) {
         const uint32_t *p = st->wf[f].v;
         int open = 0;
@@ -398,7 +399,7 @@ static int settle(en_stitcher *st, int last)
         en_stitch_vertex *x = &st->v[st->wv[i]];
         if ((x->state & S_SETTLED) && !(x->state & S_IN_FACE)) {
             en_u64map_remove(&st->map, x->gid);
-            x->state &= (uint8_t)~S_IN_W;
+            x->state &= (uint16_t)~S_IN_W;
             continue;
         }
         st->wv[kept++] = st->wv[i];
@@ -498,7 +499,8 @@ static int take_vertices(en_stitcher *st, const en_slab_work *w, epsnet_error *e
         x->remaining = w->degree[l];
         x->future = w->future[l];
         x->border = w->border[l];
-        x->state = (uint8_t)(((w->vclass[l] & (EN_C_SAMPLE | EN_C_LOCKED)) ? S_FIXED : 0) | (w->band[l] ? S_BAND : 0));
+        x->state = (uint16_t)(((w->vclass[l] & (EN_C_SAMPLE | EN_C_LOCKED)) ? S_FIXED : 0) |
+                              ((w->vclass[l] & EN_C_USER) ? S_USER_LOCK : 0) | (w->band[l] ? S_BAND : 0));
         /* the finish finds boundaries and non-manifold spots again in its
          * own stars (docs/method.md §13: its membranes may be gone) */
         if ((w->vclass[l] & EN_C_SAMPLE) && !en_seam_locked(w->s.vflags[l]))
