@@ -338,6 +338,33 @@ def one_vertex_used_again_at_the_end_hits_the_budget():
     assert rc == 0 and "valid:       yes" in text, (text, err)
 
 
+@case
+def mem_is_one_total_split_once_among_the_parts():
+    """--mem is a total (docs/architecture.md §12): a stream gives a quarter
+    to the reader and the rest to the passes, an input sorted first half to
+    the sort and half to the passes, 2/5 is a target's one slab; --stats
+    reports the split, and the parts add up to no more than the total."""
+    import json
+    ply = path("split_in.ply")
+    smz = path("split_in.smz")
+    assert run("gen", "bumpy", "--faces", "4000", "--shuffle", "-o", ply, "-q")[0] == 0
+    assert run("sort", ply, "-o", smz, "-q")[0] == 0
+    mem = 24 << 20
+    for src, reader, sort in ((smz, mem // 4, 0), (ply, 0, mem // 2)):
+        stats = path("split.json")
+        rc, _, err = run("simplify", src, "-o", path("split_out.smz"), "--mem", "24M", "--stats", stats, "-q")
+        assert rc == 0, err
+        b = json.load(open(stats))["budget"]
+        assert b["total"] == mem and b["reader"] == reader and b["sort"] == sort, (src, b)
+        assert b["chain"] == mem - reader - sort and b["one_slab"] == mem // 5 * 2, (src, b)
+    # without --mem the total is half the memory, and the sort keeps its 512M
+    rc, _, err = run("simplify", ply, "-o", path("split_out.smz"), "--stats", stats, "-q")
+    b = json.load(open(stats))["budget"]
+    phys = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE") // 2
+    assert rc == 0 and b["total"] == phys and b["sort"] == min(phys // 2, 512 << 20), (b, err)
+    assert b["reader"] + b["sort"] + b["chain"] <= b["total"], b
+
+
 def obj_faces(p):
     """Triangles of an OBJ file as coordinate triples (rounded: a float32
     stream prints 1.1 as 1.10000002)."""

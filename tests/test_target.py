@@ -114,7 +114,7 @@ def a_target_whose_finish_is_over_the_budget_is_finished_on_slabs():
         outs = []
         for j in ("1", "2"):
             out = path(f"finish_slabs_{opts[1]}_{j}.ply")
-            s, _ = simplify(src, out, *opts, "--slab", "1024", "--mem", "3M", "--ascii", "-j", j)
+            s, _ = simplify(src, out, *opts, "--slab", "1024", "--mem", "6M", "--ascii", "-j", j)
             one, _ = simplify(src, path("finish_one.ply"), *opts, "--slab", "1024", "-j", j)
             # the finish's slabs: more than the one of the finish within budget
             assert s["passes"] == 2 and s["slabs"] > one["slabs"] + 1, (opts, s["slabs"], one["slabs"])

@@ -507,14 +507,19 @@ typedef struct epsnet_settings {
      * starts N workers for the slabs while the calling thread reads, cuts,
      * stitches and writes. The output never depends on it. Default: 0. */
     int threads;
-    /* Memory budget in bytes. It sets the slab size (see slab_vertices), the
-     * reader's budget for live vertices, the budget for output held back by
-     * a vertex that stays open (output leaves in input id order); when an
-     * input has to be sorted first, half of it is the sort's budget. Over it, a run
-     * stops with EPSNET_ELIMIT and a message that says what grew. 0 = none
-     * given: slabs of 65536 vertices, and half the physical memory as the
-     * limit for live vertices and held output (a clear error, never the OOM
-     * killer). Default: 0. */
+    /* Memory budget in bytes: a total for the whole run, split once among
+     * its parts (epsnet_stats.budget_*, docs/architecture.md §12). A stream
+     * (.smz, SMA, SMB) gives a quarter to the reader's live vertices and
+     * the rest to the passes (slabs cut and waiting, output held back by a
+     * vertex that stays open: output leaves in input id order); an input
+     * sorted first gives half to the sort and half to the passes; a whole
+     * mesh loaded in memory (sample with the mesh output, render with
+     * samples) takes all of it. 2/5 of it is what a target's one slab may
+     * hold. It also sets the slab size (see slab_vertices). Over a share, a
+     * run stops with EPSNET_ELIMIT and a message that says what grew. 0 =
+     * none given: slabs of 65536 vertices, the sort's 512 MiB, and half the
+     * physical memory as the total (a clear error, never the OOM killer).
+     * Default: 0. */
     uint64_t mem;
     /* Folder for temporary files; NULL = beside the output. Default: NULL. */
     const char *tmpdir;
@@ -598,14 +603,15 @@ typedef struct epsnet_settings {
      * A mesh of at most four slabs (slab_vertices, or the one mem gives:
      * 262,144 vertices by default) is then one slab, and the target is met
      * exactly; a larger one is thinned on slabs, in parallel, and finished
-     * in one slab when what is left fits mem (about 640 bytes a vertex), or
+     * in one slab when what is left fits mem's one-slab share (2/5 of it,
+     * at about 640 bytes a vertex), or
      * else on slabs whose seams end it at the target: exactly either way,
      * with more error on slabs (docs/architecture.md §7). An error bound
-     * alone is one slab while the mesh fits mem and slab_vertices (when
+     * alone is one slab while the mesh fits that share and slab_vertices (when
      * given); beyond, it is held by every collapse of a pass on slabs, on
      * the diagonal of the input's bounding box as its header or the sort
      * gives it (of every vertex listed). An error bound with a count over
-     * mem is refused (EPSNET_ELIMIT).
+     * that share is refused (EPSNET_ELIMIT).
      * Defaults: 0.
      */
     uint64_t target_faces;
@@ -703,6 +709,13 @@ typedef struct epsnet_stats {
     uint64_t samples_given_up;
     uint64_t membrane_faces;
     uint32_t skeleton_finest_frequency;
+    /* The memory budget (settings.mem, or half the physical memory without
+     * it) as the run split it, once, among the parts that hold what grows
+     * with the input (docs/architecture.md §12): the reader's held state (a
+     * stream's live vertices; 0 when the sort reads the file), the sort's
+     * buffers (0: the input was a stream), the passes' held state, and, of
+     * that, what a target's one slab may take. reader + sort + chain <= total. */
+    uint64_t budget_total, budget_reader, budget_sort, budget_chain, budget_one_slab;
 } epsnet_stats;
 
 typedef struct epsnet_context epsnet_context;

@@ -2,6 +2,7 @@
 
 #include <string.h>
 
+#include "api/budget.h"
 #include "common/alloc.h"
 #include "common/error.h"
 #include "common/util.h"
@@ -21,7 +22,9 @@ int en_job_load(epsnet_context *ctx, const char *in_path, en_slab *s, epsnet_coo
 {
     epsnet_reader_settings rs;
     epsnet_reader_default_settings(&rs);
-    rs.mem_limit = ctx->settings.mem;
+    en_budget b; /* the whole mesh in memory: all of the budget is the reader's */
+    en_budget_split(&b, &ctx->settings, EN_BUDGET_IN_CORE);
+    rs.mem_limit = b.reader;
     epsnet_reader *r = NULL;
     double t0 = en_now();
     int rc = epsnet_reader_open(&r, in_path, &rs, err);

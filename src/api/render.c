@@ -12,6 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "api/budget.h"
 #include "api/jobs.h"
 #include "api/stream_files.h"
 #include "common/alloc.h"
@@ -86,7 +87,9 @@ static int mesh_bbox(const epsnet_context *ctx, const char *path, double bmin[3]
 {
     epsnet_reader_settings rset;
     epsnet_reader_default_settings(&rset);
-    rset.mem_limit = ctx->settings.mem;
+    en_budget budget; /* a pass that only reads: the reader has it all */
+    en_budget_split(&budget, &ctx->settings, EN_BUDGET_IN_CORE);
+    rset.mem_limit = budget.reader;
     epsnet_reader *r = NULL;
     int rc = epsnet_reader_open(&r, path, &rset, err);
     if (rc)
@@ -159,14 +162,18 @@ static int draw_stream(epsnet_context *ctx, const char *path, en_raster *img, co
 {
     epsnet_reader_settings rset;
     epsnet_reader_default_settings(&rset);
-    rset.mem_limit = ctx->settings.mem;
+    /* a stream's split: the reader's live set, and the table of positions
+     * in the chain's place */
+    en_budget budget;
+    en_budget_split(&budget, &ctx->settings, EN_BUDGET_STREAM);
+    rset.mem_limit = budget.reader;
     epsnet_reader *r = NULL;
     double t0 = en_now();
     int rc = epsnet_reader_open(&r, path, &rset, err);
     if (rc)
         return rc;
     en_vertex_table table;
-    en_vertex_table_init(&table, epsnet_reader_info(r)->streaming, ctx->settings.mem);
+    en_vertex_table_init(&table, epsnet_reader_info(r)->streaming, budget.chain);
     epsnet_record rec;
     uint64_t records = 0, vertices = 0, faces = 0, peak = 0;
     while ((rc = epsnet_reader_next(r, &rec, err)) > 0) {

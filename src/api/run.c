@@ -8,27 +8,6 @@
 #include "common/error.h"
 #include "common/util.h"
 
-uint32_t en_run_slab_vertices(const epsnet_settings *set)
-{
-    if (set->slab_vertices)
-        return set->slab_vertices;
-    if (set->mem) {
-        uint64_t n = set->mem / 4800;
-        return n < 1024 ? 1024 : n > (1u << 24) ? (1u << 24) : (uint32_t)n;
-    }
-    return 65536;
-}
-
-uint64_t en_run_mem_budget(const epsnet_settings *set)
-{
-    if (set->mem)
-        return set->mem;
-    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
-    if (pages <= 0 || page <= 0)
-        return 0;
-    return (uint64_t)pages * (uint64_t)page / 2;
-}
-
 int en_run_workers(const epsnet_settings *set)
 {
     long n = set->threads > 0 ? set->threads : sysconf(_SC_NPROCESSORS_ONLN);
@@ -48,16 +27,16 @@ int en_run_has_target(const epsnet_settings *set)
  * FINISH pass over what it left. The thin pass keeps half as much again as
  * the target (and a point more) of what each slab can reach, so that the
  * last collapses, those that decide the result, are ranked by the finish
- * over more of the surface. When that fits the budget (0.4 of it, for
+ * over more of the surface. When that fits the budget's one slab (for
  * twice keep: the seams, left whole, come on top), the finish is one slab:
  * one global order, the target met exactly. Otherwise the thin pass thins
  * its seams too, and the finish runs on slabs as large as the budget
  * allows for the slabs in flight, its seams paced to end at the target
  * (stitcher.c: seam_keep).
  */
-static void plan_streamed(en_run *run, const epsnet_settings *set, uint64_t nv, uint64_t nf, uint32_t *slab,
-                          uint64_t budget)
+static void plan_streamed(en_run *run, const epsnet_settings *set, uint64_t nv, uint64_t nf, uint32_t *slab)
 {
+    const en_budget *b = &run->budget;
     /* note: wider thin slabs when the settings leave the size free: the
      * seams they leave whole for the finish shrink with the slabs' count
      * (sorted `gen bumpy` 20M at 10%: seams of 4.7M faces at 65,536
@@ -70,7 +49,7 @@ static void plan_streamed(en_run *run, const epsnet_settings *set, uint64_t nv, 
     int workers = en_run_workers(set) > 0 ? en_run_workers(set) : 1;
     if (!set->slab_vertices && !set->mem) {
         uint64_t wide = nv / 32, cap = 2 * (uint64_t)*slab;
-        uint64_t room = budget ? budget / 10 / (2 * (uint64_t)workers * 1000) : cap;
+        uint64_t room = b->total ? b->total / 10 / (2 * (uint64_t)workers * 1000) : cap;
         wide = wide < cap ? wide : cap;
         wide = wide < room ? wide : room;
         if (wide > *slab)
@@ -83,7 +62,7 @@ static void plan_streamed(en_run *run, const epsnet_settings *set, uint64_t nv, 
     double share = by_vertices ? (double)t->vertices / (double)nv : (double)n_faces / (double)nf;
     double keep = 1.5 * share + 0.01;
     keep = keep < 1 ? keep : 1;
-    uint64_t fit = budget ? 2 * budget / 5 / EN_ONE_SLAB_BYTES_PER_VERTEX : UINT64_MAX; /* vertices */
+    uint64_t fit = b->one_slab ? b->one_slab / EN_ONE_SLAB_BYTES_PER_VERTEX : UINT64_MAX; /* vertices */
     /* note: the finish holds more than keep of the mesh: the faces on the
      * thin slabs' frozen vertices, and the seams (measured: 1.11 times
      * keep at 2M faces, 1.27 at 20M, 4.2 on 6,000 faces in slabs of 300,
@@ -113,15 +92,16 @@ static void plan_streamed(en_run *run, const epsnet_settings *set, uint64_t nv, 
     run->passes = 2;
     /* A finish on slabs: its slabs are in flight beside the thin pass's,
      * so each pass's slabs get half of what one pass's would
-     * (en_run_slab_vertices: the budget over 4,800 bytes a vertex; measured
+     * (en_budget_slab_vertices: the total over 4,800 bytes a vertex; measured
      * on `gen bumpy` 20M in --mem 1G before the halving: 1.10 GB peak),
-     * and a finish slab is at most 0.4 of the budget over the slabs in
+     * and a finish slab is at most the budget's one slab over the slabs in
      * flight (two a worker). */
     if (one_slab) {
         run->finish_slab_vertices = UINT32_MAX - 1;
         return;
     }
-    uint64_t half = budget ? budget / (2 * 4800) : UINT32_MAX - 1, ring = 2 * (uint64_t)workers;
+    uint64_t half = b->total ? b->total / (2 * EN_BUDGET_BYTES_PER_SLAB_VERTEX) : UINT32_MAX - 1;
+    uint64_t ring = 2 * (uint64_t)workers;
     half = half < 1024 ? 1024 : half;
     if (*slab > half && !set->slab_vertices) /* a size the user gave stays */
         *slab = (uint32_t)half;
@@ -171,14 +151,15 @@ static int plan_target(en_run *run, const epsnet_settings *set, const char *path
         return en_error_set(err, EPSNET_EINVAL, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "a target of %llu vertices is more than the input's %llu",
                             (unsigned long long)t->vertices, (unsigned long long)known_v);
-    uint64_t budget = en_run_mem_budget(set);
-    /* streamed: over the budget, over the slab size the user asked for, or
-     * over a few of the slabs the settings give */
-    int over = known_v != EPSNET_COUNT_UNKNOWN && budget && known_v > budget / EN_ONE_SLAB_BYTES_PER_VERTEX;
-    uint64_t large = set->slab_vertices ? set->slab_vertices : ONE_SLAB_SLABS * (uint64_t)en_run_slab_vertices(set);
+    const en_budget *b = &run->budget;
+    /* streamed: over the budget's one slab, over the slab size the user
+     * asked for, or over a few of the slabs the settings give */
+    uint64_t one_slab = b->one_slab / EN_ONE_SLAB_BYTES_PER_VERTEX;
+    int over = known_v != EPSNET_COUNT_UNKNOWN && b->one_slab && known_v > one_slab;
+    uint64_t large = set->slab_vertices ? set->slab_vertices : ONE_SLAB_SLABS * (uint64_t)b->slab_vertices;
     int streams = known_v != EPSNET_COUNT_UNKNOWN && (over || known_v > large);
     if (streams && known_f != EPSNET_COUNT_UNKNOWN && known_f > 0 && t->max_error < 0) {
-        plan_streamed(run, set, known_v, known_f, slab_vertices, budget);
+        plan_streamed(run, set, known_v, known_f, slab_vertices);
         return 0;
     }
     int bound_streams = known_v != EPSNET_COUNT_UNKNOWN &&
@@ -200,14 +181,15 @@ static int plan_target(en_run *run, const epsnet_settings *set, const char *path
         t->choose_density = 0;
         return 0;
     }
-    if (known_v != EPSNET_COUNT_UNKNOWN && budget && known_v > budget / EN_ONE_SLAB_BYTES_PER_VERTEX)
+    if (over)
         return en_error_set(err, EPSNET_ELIMIT, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "this target needs the whole mesh in one slab: %llu vertices take about %llu MB, over "
-                            "the memory budget of %llu MB (an error bound with a count, or on an input without a "
-                            "bounding box, or an input whose face count is not known ahead, is not streamed)",
+                            "the %llu MB that a memory budget of %llu MB gives one slab (an error bound with a "
+                            "count, or on an input without a bounding box, or an input whose face count is not "
+                            "known ahead, is not streamed)",
                             (unsigned long long)known_v,
                             (unsigned long long)(known_v * EN_ONE_SLAB_BYTES_PER_VERTEX >> 20),
-                            (unsigned long long)(budget >> 20));
+                            (unsigned long long)(b->one_slab >> 20), (unsigned long long)(b->total >> 20));
     *slab_vertices = UINT32_MAX - 1;
     return 0;
 }
@@ -222,7 +204,7 @@ static double feed_share(const en_run *planned)
     return planned->passes == 2 && planned->finish.one_slab ? FEED_SHARE_BEFORE_FINISH : 1.0;
 }
 
-double en_run_feed_share(const epsnet_settings *set, const epsnet_mesh_info *in)
+double en_run_feed_share(const epsnet_settings *set, const epsnet_mesh_info *in, en_budget_input input)
 {
     if (!en_run_has_target(set) || !in)
         return 1.0;
@@ -233,7 +215,8 @@ double en_run_feed_share(const epsnet_settings *set, const epsnet_mesh_info *in)
         known.nfaces = 2 * known.nverts;
     en_run scratch;
     memset(&scratch, 0, sizeof scratch);
-    uint32_t slab = en_run_slab_vertices(set);
+    en_budget_split(&scratch.budget, set, input);
+    uint32_t slab = scratch.budget.slab_vertices;
     epsnet_error err;
     return plan_target(&scratch, set, NULL, &known, &slab, &err) == 0 ? feed_share(&scratch) : 1.0;
 }
@@ -246,6 +229,16 @@ static int finish_tick(void *opaque, uint64_t done, uint64_t total)
     double f = total ? (double)done / (double)total : 0;
     double bar = run->feed_share + (1 - run->feed_share) * 0.95 * f;
     return set->progress(set->progress_opaque, (uint64_t)(bar * EN_RUN_BAR_UNITS), EN_RUN_BAR_UNITS);
+}
+
+/* The split the run works within, as the statistics report it. */
+static void fill_budget_stats(epsnet_stats *st, const en_budget *b)
+{
+    st->budget_total = b->total;
+    st->budget_reader = b->reader;
+    st->budget_sort = b->sort;
+    st->budget_chain = b->chain;
+    st->budget_one_slab = b->one_slab;
 }
 
 int en_run_pool_new(en_pool **pool, const epsnet_settings *set, const char *path, epsnet_error *err)
@@ -261,10 +254,14 @@ int en_run_pool_new(en_pool **pool, const epsnet_settings *set, const char *path
 }
 
 int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char *path,
-                const epsnet_mesh_info *in, int checked, en_pool *pool, en_stage out, en_sample_fn on_sample,
-                void *sample_opaque, epsnet_error *err)
+                const epsnet_mesh_info *in, const en_budget *budget, int checked, en_pool *pool, en_stage out,
+                en_sample_fn on_sample, void *sample_opaque, epsnet_error *err)
 {
     memset(run, 0, sizeof *run);
+    if (budget)
+        run->budget = *budget;
+    else
+        en_budget_split(&run->budget, &ctx->settings, EN_BUDGET_PUSHED);
     run->ctx = ctx;
     run->path = path;
     run->cpu_start = en_thread_cpu_seconds();
@@ -272,8 +269,9 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
     memset(&ctx->stats, 0, sizeof ctx->stats);
     ctx->stats.gaussian_vertices = ctx->sphere.nverts;
     ctx->run_sphere = ctx->sphere;
+    fill_budget_stats(&ctx->stats, &run->budget);
     const epsnet_settings *set = &ctx->settings;
-    uint32_t slab_vertices = en_run_slab_vertices(set);
+    uint32_t slab_vertices = run->budget.slab_vertices;
     int target = mode == EN_SLAB_SIMPLIFY && en_run_has_target(set);
     run->has_target = target;
     int rc = target ? plan_target(run, set, path, in, &slab_vertices, err) : 0;
@@ -313,7 +311,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         .lock_offset = lock_offset,
         .lock_type = lock_type,
         .slab_vertices = slab_vertices,
-        .mem_budget = en_run_mem_budget(set),
+        .mem_budget = run->budget.chain,
         /* note: two slabs per worker keep every worker busy while the
          * caller stitches the oldest one. */
         .ring_capacity = workers ? 2 * (size_t)workers : 1,

@@ -7,16 +7,11 @@
 #ifndef EN_API_RUN_H
 #define EN_API_RUN_H
 
+#include "api/budget.h"
 #include "api/context.h"
 #include "common/pool.h"
 #include "pipeline/chain.h"
 
-/* Slab size the settings ask for (see epsnet_settings). */
-uint32_t en_run_slab_vertices(const epsnet_settings *set);
-/* The bytes live vertices and held output may take: settings.mem, or half
- * the physical memory when no budget is given (a clear error, never the OOM
- * killer). */
-uint64_t en_run_mem_budget(const epsnet_settings *set);
 /* Worker threads: 0 when one thread is asked for (jobs run inline). */
 int en_run_workers(const epsnet_settings *set);
 
@@ -32,13 +27,14 @@ int en_run_has_target(const epsnet_settings *set);
  * nothing long follows the feed. in: what is known of the input.
  */
 #define EN_RUN_BAR_UNITS 1000000u
-double en_run_feed_share(const epsnet_settings *set, const epsnet_mesh_info *in);
+double en_run_feed_share(const epsnet_settings *set, const epsnet_mesh_info *in, en_budget_input input);
 
 typedef struct en_run {
     epsnet_context *ctx;
     en_pool *pool;
     en_chain *chain;
     en_stage input;               /* the chain's input stage */
+    en_budget budget;             /* the split of --mem this run works within (api/budget.h) */
     en_target target, finish;     /* SIMPLIFY with a target; the chain points here */
     int passes;                   /* 2 for a streamed target (THIN, FINISH) */
     uint32_t finish_slab_vertices; /* FINISH's slabs */
@@ -57,6 +53,8 @@ typedef struct en_run {
  * used them too; it must outlive the run, and the caller then sets
  * cpu_start to where its own CPU count began), or NULL for a pool of the
  * run's own.
+ * budget: the split of --mem the caller made for what it reads (NULL: the
+ * push API's, the chain alone; api/budget.h).
  * out: SIMPLIFY's output stage; on_sample: SAMPLE's sample sink.
  * checked: the records were checked before the run (a reader front end,
  * the sort), so the chain may cut slabs on the pool and report a bad
@@ -66,8 +64,8 @@ typedef struct en_run {
  * running and run_close() is still safe).
  */
 int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char *path,
-                const epsnet_mesh_info *in, int checked, en_pool *pool, en_stage out, en_sample_fn on_sample,
-                void *sample_opaque, epsnet_error *err);
+                const epsnet_mesh_info *in, const en_budget *budget, int checked, en_pool *pool, en_stage out,
+                en_sample_fn on_sample, void *sample_opaque, epsnet_error *err);
 
 /* The run's one pool of -j workers (en_run_workers), made before the run
  * when the sort must share it. @return 0 or a negative code with err. */

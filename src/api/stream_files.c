@@ -77,6 +77,7 @@ typedef struct en_input {
     en_sort *sort;
     chain_progress progress;      /* the user's callback, behind sort_progress */
     epsnet_mesh_info info;
+    en_budget budget;             /* --mem split for a stream, or for the sort and the chain */
     int was_sorted;
     epsnet_sort_stats sorted;
 } en_input;
@@ -140,22 +141,18 @@ static void temp_folder(const epsnet_context *ctx, const char *out_path, char *d
  * the first chunker without a temporary copy. Without this the whole mesh
  * would be one slab: correct, but in memory.
  *
- * note: the budget split. The sort's buffers get half of --mem and the
- * chain keeps its own sizing from the whole of it: its slabs (and so the
- * output bytes) must be those of the same run on the sorted file, and the
- * sort's last pass, which runs beside the chain, holds only what passes 1
- * to 5 left within that half: the in-memory sort's arrays (at most half of
- * its share, src/sort/sort.c: whole_bytes), or the final merge of the
- * faces, the in-core last-use array and the live vertices, which the sort
- * itself stops at half of its share. With no --mem the sort keeps its
- * default (512M) and the chain its own limits.
+ * The budget (api/budget.h) is split for a stream first, which gives the
+ * reader its share while it tells what the file is, and again for the sort
+ * and the chain when the file must be sorted: the sort then reads the file
+ * itself, within its share.
  */
 static int open_input(epsnet_context *ctx, const char *in_path, const char *out_path, const en_format *keep,
                       en_pool *pool, en_input *in, double *sort_seconds, epsnet_error *err)
 {
     epsnet_reader_settings rs;
     epsnet_reader_default_settings(&rs);
-    rs.mem_limit = en_run_mem_budget(&ctx->settings);
+    en_budget_split(&in->budget, &ctx->settings, EN_BUDGET_STREAM);
+    rs.mem_limit = in->budget.reader;
     int rc = epsnet_reader_open(&in->r, in_path, &rs, err);
     /* note: the chain carries the vertex attributes the output's format
      * holds (keep; NULL: none, e.g. a picture or sample points); the
@@ -172,13 +169,14 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
     temp_folder(ctx, out_path, dir, sizeof dir);
     epsnet_sort_settings ss;
     epsnet_sort_default_settings(&ss);
-    if (ctx->settings.mem)
-        ss.mem = ctx->settings.mem / 2;
+    en_budget_split(&in->budget, &ctx->settings, EN_BUDGET_SORTED);
+    if (in->budget.sort)
+        ss.mem = in->budget.sort;
     ss.tmpdir = dir;
     ss.threads = ctx->settings.threads;
     if (ctx->settings.progress) {
         in->progress = (chain_progress){ ctx->settings.progress, ctx->settings.progress_opaque,
-                                         en_run_feed_share(&ctx->settings, &in->info) };
+                                         en_run_feed_share(&ctx->settings, &in->info, EN_BUDGET_SORTED) };
         ss.progress = sort_progress;
         ss.progress_opaque = &in->progress;
     }
@@ -222,7 +220,8 @@ static int file_run_open(file_run *fr, epsnet_context *ctx, const char *in_path,
 static int file_run_feed(file_run *fr, epsnet_context *ctx, en_slab_mode mode, const char *in_path, en_stage out,
                          en_sample_fn on_sample, void *sample_opaque, epsnet_error *err)
 {
-    int rc = en_run_open(&fr->run, ctx, mode, in_path, &fr->in.info, 1, fr->pool, out, on_sample, sample_opaque, err);
+    int rc = en_run_open(&fr->run, ctx, mode, in_path, &fr->in.info, &fr->in.budget, 1, fr->pool, out, on_sample,
+                         sample_opaque, err);
     fr->run.cpu_start = fr->cpu0; /* the sort before the run is its work too */
     if (rc == 0)
         en_reader_use_pool(fr->in.r, fr->pool); /* ENOMEM: it decodes alone, as before */
