@@ -196,6 +196,12 @@ def main():
          what="EPSNET_FAIL_WRITE")
     walk("full_disk_sample_points", lambda o: ["sample", smz, "-o", o + ".ply", "-q"],
          what="EPSNET_FAIL_WRITE")
+    # The STL and OFF writers: their position table, the facets or faces
+    # they keep in a temporary file, and the header patched at the end.
+    for ext in ("stl", "off", "off.zst", "stl.zst"):
+        walk("convert_to_" + ext, lambda o, ext=ext: ["convert", sma, "-o", o + "." + ext, "-q"])
+        walk("full_disk_convert_to_" + ext, lambda o, ext=ext: ["convert", sma, "-o", o + "." + ext, "-q"],
+             what="EPSNET_FAIL_WRITE")
     subprocess.run(["rm", "-rf", TMP])
     print(f"{failures} failed")
     sys.exit(1 if failures else 0)

@@ -743,8 +743,31 @@ TEST(header_errors_name_their_line)
                      ":4:", "unknown property type 'float128'");
     expect_error_str("no_end.ply", "ply\nformat ascii 1.0\nelement vertex 0\n", EPSNET_EFORMAT, ":3:",
                      "no 'end_header'");
-    expect_error_str("keyword.ply", "ply\nformat ascii 1.0\nelemnt vertex 0\nend_header\n", EPSNET_EFORMAT, ":3:",
-                     "unknown header keyword 'elemnt'");
+    /* a misspelt element: its line is skipped (below), so its property
+     * belongs to no element */
+    expect_error_str("keyword.ply", "ply\nformat ascii 1.0\nelemnt vertex 1\nproperty float x\nend_header\n",
+                     EPSNET_EFORMAT, ":4:", "before any element");
+}
+
+/* Some exporters write free text into the header ("Created by ..."): the
+ * line is skipped and named, the mesh read as if it were not there. */
+TEST(unknown_header_line_is_skipped_and_named)
+{
+    const char *p = tl_write_str("created_by.ply",
+                                 "ply\nformat ascii 1.0\nCreated by SomeScanner 2.1\nelement vertex 3\n"
+                                 "property float x\nproperty float y\nproperty float z\n"
+                                 "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                                 "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+    tl_mesh m;
+    epsnet_error err;
+    CHECK_EQ_INT(tl_read_mesh(p, &m, &err), 0);
+    CHECK_EQ_U64(m.nv, 3);
+    CHECK_EQ_U64(m.nt, 1);
+    tl_mesh_free(&m);
+    uint64_t n = 0;
+    char buf[256];
+    CHECK(strcmp(dropped_of(p, &n, buf, sizeof buf), "header line 'Created' (1)") == 0);
+    CHECK_EQ_U64(n, 1);
 }
 
 /* ---- writing ---- */
@@ -1229,6 +1252,7 @@ int main(void)
     RUN(non_finite_and_garbage_values_are_rejected);
     RUN(absurd_counts_fail_before_reading_data);
     RUN(header_errors_name_their_line);
+    RUN(unknown_header_line_is_skipped_and_named);
     RUN(tristrips_give_the_triangles_of_their_triangle_list_twin);
     RUN(strip_turns_are_skipped_and_keep_the_parity);
     RUN(strip_longer_than_the_read_window_is_read_in_pieces);

@@ -81,6 +81,8 @@ int cmd_convert(int argc, char **argv)
     cli_progress_end(&p);
     /* One line for everything lost: what the reader did not carry, then
      * the attributes the output format cannot hold (docs/architecture.md §5). */
+    if (rc == 0 && epsnet_reader_note(r))
+        cli_warning(NULL, epsnet_reader_note(r));
     const char *dropped = rc == 0 ? epsnet_reader_dropped(r, NULL) : NULL;
     const char *unheld = rc == 0 ? wdropped : NULL;
     if (dropped || unheld) {

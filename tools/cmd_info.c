@@ -131,6 +131,8 @@ done:
     const char *dropped = epsnet_reader_dropped(r, NULL);
     if (dropped)
         printf("not read:    %s\n", dropped);
+    if (epsnet_reader_note(r))
+        printf("note:        %s\n", epsnet_reader_note(r));
     if (nv)
         printf("bbox:        [%.9g %.9g %.9g] - [%.9g %.9g %.9g]\n", lo[0], lo[1], lo[2], hi_[0], hi_[1],
                hi_[2]);

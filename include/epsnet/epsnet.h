@@ -256,7 +256,9 @@ EPSNET_API void epsnet_reader_default_settings(epsnet_reader_settings *s);
 
 /*
  * Open a mesh file for reading. The format is chosen from the extension
- * (after stripping .zst) and checked against the content; zstd-compressed
+ * (after stripping .zst), unless the content names another one, which then
+ * wins (epsnet_reader_note() says so), or from the content when the
+ * extension is unknown; zstd-compressed
  * data is detected by its magic number whatever the name. path "-" reads
  * standard input (format must then be given, or be detectable by content).
  *
@@ -305,6 +307,14 @@ EPSNET_API uint64_t epsnet_reader_file_size(const epsnet_reader *r);
  * the number of distinct items named (0 with NULL).
  */
 EPSNET_API const char *epsnet_reader_dropped(epsnet_reader *r, uint64_t *count);
+
+/*
+ * A note the reader has for the user, one line, or NULL: when the file's
+ * content names a format (the PLY magic line, the .smz or SMB header, a
+ * binary STL whose face count gives its exact size) other than its
+ * extension's, the content wins and this says so. Valid while r is open.
+ */
+EPSNET_API const char *epsnet_reader_note(const epsnet_reader *r);
 
 /* Close the reader and set *r to NULL. Accepts NULL and *r == NULL. */
 EPSNET_API void epsnet_reader_close(epsnet_reader **r);
@@ -379,10 +389,11 @@ EPSNET_API int epsnet_writer_commit(epsnet_writer **w, epsnet_error *err);
  * bit for bit, so they are left out and named), texture coordinates
  * texture_u, texture_v (else s, t, else u, v) and normals nx, ny, nz, all
  * float32 and each group only whole, as `vt`, `vn` and `f v/vt/vn`; SMA, SMB, STL and OFF hold
- * none. Known from the open.
+ * none. STL also holds float32 coordinates only, and names float64 ones as
+ * rounded. Known from the open.
  * @return NULL when nothing is left out, else the text (owned by the
  * writer, valid until it is committed or aborted). *count, when count is
- * not NULL, receives the number of attributes named (0 with NULL).
+ * not NULL, receives the number of items named (0 with NULL).
  */
 EPSNET_API const char *epsnet_writer_dropped(const epsnet_writer *w, uint64_t *count);
 

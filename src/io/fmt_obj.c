@@ -104,6 +104,8 @@ typedef struct obj_reader {
     size_t bytes;                    /* of the four tables, held to settings.mem_limit */
     int at_end;                      /* the statements are all read */
     size_t tail;                     /* next position to check for a record at the end */
+    uint64_t unknown_line;           /* line of the first statement that is not OBJ's (0: none) */
+    char unknown[33];                /* ... its keyword */
 } obj_reader;
 
 /* ---- reader ---- */
@@ -481,6 +483,11 @@ static void drop_statement(epsnet_reader *r, const char *p)
     }
     kw[n] = '\0';
     en_reader_drop(r, kw, 1, 1);
+    obj_reader *st = r->state;
+    if (!st->unknown_line) {
+        st->unknown_line = r->src->lineno;
+        memcpy(st->unknown, kw, sizeof kw);
+    }
 }
 
 static int parse_statement(epsnet_reader *r, char *stmt)
@@ -688,6 +695,13 @@ static int obj_fill(epsnet_reader *r)
         if (st->at_end) {
             /* positions that no face names are vertices all the same, as
              * in a plain file; they come last, with zero vt and vn */
+            /* a file of statements none of which is a mesh's is not an
+             * OBJ, not an empty mesh (comments alone are one) */
+            if (st->npos == 0 && r->ntris == 0 && st->unknown_line)
+                return en_reader_fail(r, EPSNET_EFORMAT,
+                                      "no vertex: not an OBJ file (its first statement '%s', on line %llu, "
+                                      "is none of OBJ's)",
+                                      st->unknown, (unsigned long long)st->unknown_line);
             if (st->tail == st->npos)
                 return r->qlen > 0;
             uint64_t ignored;

@@ -15,6 +15,7 @@
  * and a float32 writer never rounds a value that was read as a double.
  */
 #include <inttypes.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "common/alloc.h"
@@ -323,6 +324,124 @@ static int off_probe(const uint8_t *head, size_t n)
     return 0;
 }
 
+/* ---- writer ----
+ *
+ * OFF wants both counts before the vertices, and every vertex before the
+ * first face, while a stream interleaves them and may not know its counts.
+ * So vertices go straight to the output after a counts line reserved at
+ * its widest and patched at the end, and faces wait in a temporary file;
+ * an output that cannot be patched (a pipe, .zst) keeps the vertices there
+ * too and writes both after the counts. Coordinates are printed in their
+ * shortest exact text (src/io/text_scan.h), so reading the file back gives
+ * the same bits. */
+
+#define OFF_COUNTS_WIDTH 20 /* digits of the widest count */
+
+typedef struct off_writer {
+    int patch;               /* the counts line is reserved and patched */
+    uint64_t counts_at;      /* its offset */
+    en_spill *verts, *faces; /* verts: only without patch */
+} off_writer;
+
+/* The counts line, padded to its widest when it is to be patched. */
+static int off_counts(epsnet_writer *w, int patch, char *buf, size_t cap)
+{
+    int width = patch ? OFF_COUNTS_WIDTH : 0;
+    return snprintf(buf, cap, "%-*" PRIu64 " %-*" PRIu64 " 0\n", width, w->nverts, width, w->ntris);
+}
+
+static int off_open_writer(epsnet_writer *w)
+{
+    off_writer *o = en_calloc(1, sizeof *o);
+    if (!o)
+        return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    w->state = o;
+    o->patch = en_sink_can_patch(w->sink);
+    if (!o->patch)
+        return 0;
+    int rc = en_writer_printf(w, "OFF\n");
+    o->counts_at = en_sink_offset(w->sink);
+    char line[2 * OFF_COUNTS_WIDTH + 8];
+    return rc ? rc : en_writer_bytes(w, line, (size_t)off_counts(w, 1, line, sizeof line));
+}
+
+static int off_vertex_line(epsnet_writer *w, const double xyz[3])
+{
+    char c[3][32]; /* en_text_format_coord: 32 bytes */
+    for (int k = 0; k < 3; k++)
+        en_format_coord(c[k], xyz[k], w->coord_type);
+    return en_writer_printf(w, "%s %s %s\n", c[0], c[1], c[2]);
+}
+
+static int off_put(epsnet_writer *w, const epsnet_record *rec)
+{
+    off_writer *o = w->state;
+    int rc;
+    switch (rec->kind) {
+    case EPSNET_REC_VERTEX:
+        if (o->patch)
+            return off_vertex_line(w, rec->xyz);
+        rc = en_writer_open_spill(w, &o->verts);
+        return rc ? rc : en_spill_write(o->verts, rec->xyz, sizeof rec->xyz, &w->err);
+    case EPSNET_REC_TRIANGLE:
+        rc = en_writer_open_spill(w, &o->faces);
+        return rc ? rc : en_spill_write(o->faces, rec->v, sizeof rec->v, &w->err);
+    default:
+        return 0;
+    }
+}
+
+/* Replay a spill of records of `size` bytes (3 doubles, or 3 uint64) as lines. */
+static int off_replay(epsnet_writer *w, en_spill *sp, int vertices)
+{
+    if (!sp)
+        return 0;
+    int rc = en_spill_rewind(sp, &w->err);
+    uint64_t buf[3 * 4096];
+    while (rc == 0) {
+        int64_t got = en_spill_read(sp, buf, sizeof buf, &w->err);
+        if (got <= 0)
+            return (int)got;
+        if ((size_t)got % (3 * sizeof *buf))
+            return en_error_set(&w->err, EPSNET_EIO, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "temporary file ended in the middle of a record");
+        for (size_t i = 0; rc == 0 && i < (size_t)got / (3 * sizeof *buf); i++) {
+            if (vertices) {
+                double xyz[3];
+                memcpy(xyz, buf + 3 * i, sizeof xyz);
+                rc = off_vertex_line(w, xyz);
+            } else {
+                rc = en_writer_printf(w, "3 %" PRIu64 " %" PRIu64 " %" PRIu64 "\n", buf[3 * i], buf[3 * i + 1],
+                                      buf[3 * i + 2]);
+            }
+        }
+    }
+    return rc;
+}
+
+static int off_finish(epsnet_writer *w)
+{
+    off_writer *o = w->state;
+    char line[2 * OFF_COUNTS_WIDTH + 8];
+    int n = off_counts(w, o->patch, line, sizeof line), rc;
+    if (o->patch)
+        rc = en_sink_patch(w->sink, o->counts_at, line, (size_t)n, &w->err);
+    else if ((rc = en_writer_printf(w, "OFF\n")) == 0 && (rc = en_writer_bytes(w, line, (size_t)n)) == 0)
+        rc = off_replay(w, o->verts, 1);
+    return rc ? rc : off_replay(w, o->faces, 0);
+}
+
+static void off_close_writer(epsnet_writer *w)
+{
+    off_writer *o = w->state;
+    if (!o)
+        return;
+    en_spill_close(&o->verts);
+    en_spill_close(&o->faces);
+    en_free(o);
+    w->state = NULL;
+}
+
 const en_format en_format_off = {
     .name = "off",
     .extensions = "off",
@@ -330,4 +449,8 @@ const en_format en_format_off = {
     .open_reader = off_open_reader,
     .fill = off_fill,
     .close_reader = off_close_reader,
+    .open_writer = off_open_writer,
+    .put = off_put,
+    .finish = off_finish,
+    .close_writer = off_close_writer,
 };

@@ -595,6 +595,17 @@ static void note_dropped(epsnet_reader *r, const ply_reader *p)
     }
 }
 
+
+/* note: some exporters write free text into the header ("Created by ..."),
+ * which the format does not allow; robust readers skip such a line, and so
+ * does this one, naming it (docs/architecture.md §5). */
+static int skip_header_line(epsnet_reader *r, const char *kw)
+{
+    char name[EN_DROP_NAME];
+    snprintf(name, sizeof name, "header line '%.64s'", kw);
+    en_reader_drop(r, name, 1, 1);
+    return 0;
+}
 static int read_header(epsnet_reader *r, ply_reader *p)
 {
     char *line;
@@ -622,14 +633,14 @@ static int read_header(epsnet_reader *r, ply_reader *p)
             break;
         if (strcmp(kw, "format") == 0)
             rc = header_format(r, p, rest, &seen_format);
+        else if (strcmp(kw, "element") != 0 && strcmp(kw, "property") != 0)
+            rc = skip_header_line(r, kw);
         else if (!seen_format)
             rc = en_reader_fail(r, EPSNET_EFORMAT, "'%s' before the 'format' line", kw);
         else if (strcmp(kw, "element") == 0)
             rc = header_element(r, p, rest);
-        else if (strcmp(kw, "property") == 0)
-            rc = header_property(r, p, rest);
         else
-            rc = en_reader_fail(r, EPSNET_EFORMAT, "unknown header keyword '%s'", kw);
+            rc = header_property(r, p, rest);
         if (rc)
             return rc;
     }
@@ -1601,31 +1612,6 @@ static int emit_face(epsnet_writer *w, const ply_writer *p, const uint32_t v[3])
     return en_writer_bytes(w, rec, PLY_FACE_BYTES);
 }
 
-/* Spill files go where the caller asked, else next to the destination. */
-static int open_spill(epsnet_writer *w, en_spill **sp)
-{
-    if (*sp)
-        return 0;
-    char *dir = NULL;
-    if (!w->settings.tmpdir && strcmp(w->path, "-") != 0) {
-        const char *slash = strrchr(w->path, '/');
-        if (!slash)
-            dir = en_strdup(".");
-        else if (slash == w->path)
-            dir = en_strdup("/");
-        else if ((dir = en_malloc((size_t)(slash - w->path) + 1))) {
-            memcpy(dir, w->path, (size_t)(slash - w->path));
-            dir[slash - w->path] = '\0';
-        }
-        if (!dir)
-            return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                                "out of memory");
-    }
-    int rc = en_spill_open(sp, w->settings.tmpdir ? w->settings.tmpdir : dir, w->path, &w->err);
-    en_free(dir);
-    return rc;
-}
-
 static int ply_open_writer(epsnet_writer *w)
 {
     ply_writer *p = en_calloc(1, sizeof *p);
@@ -1667,7 +1653,7 @@ static int put_vertex(epsnet_writer *w, ply_writer *p, const double xyz[3], cons
                             w->nverts, w->info.nverts);
     if (p->mode != WRITE_SPILL_ALL)
         return emit_vertex(w, p, xyz, attr);
-    int rc = open_spill(w, &p->verts);
+    int rc = en_writer_open_spill(w, &p->verts);
     if (rc)
         return rc;
     if (p->coord64)
@@ -1701,7 +1687,7 @@ static int put_triangle(epsnet_writer *w, ply_writer *p, const uint64_t v[3])
     }
     if (p->faces_direct)
         return emit_face(w, p, idx);
-    int rc = open_spill(w, &p->faces);
+    int rc = en_writer_open_spill(w, &p->faces);
     return rc ? rc : en_spill_write(p->faces, idx, sizeof idx, &w->err);
 }
 

@@ -1,6 +1,6 @@
 /*
- * STL reader (docs/architecture.md §13: ascii and binary, with coincident
- * corners welded exactly).
+ * STL reader and writer (docs/architecture.md §13: ascii and binary, with
+ * coincident corners welded exactly when read).
  *
  * STL stores three corners per facet and no indices. Corners are welded into
  * an indexed mesh when their float32 coordinates are bit-identical, with -0.0
@@ -22,6 +22,7 @@
 #include <string.h>
 
 #include "common/alloc.h"
+#include "common/idmap.h"
 #include "io/format.h"
 
 #define STL_HEADER 84
@@ -447,6 +448,206 @@ static int stl_probe(const uint8_t *head, size_t n)
     return 0;
 }
 
+/* ---- writer ----
+ *
+ * A facet is its three corners' coordinates (float32: a float64 stream is
+ * rounded, and says so in epsnet_writer_dropped()), after the unit normal
+ * of their plane (0 0 0 for a zero-area facet). Faces name vertices by
+ * index, so the writer keeps each vertex's position until its finalize
+ * record (all of them for a stream that finalizes nothing), in a pool of
+ * slots that finalized vertices hand back. Binary STL wants the facet
+ * count in its header: patched at the end, or, for an output that cannot
+ * be patched (a pipe, .zst), the facets wait in a temporary file. ASCII
+ * STL has no count and streams. */
+
+typedef struct stl_writer {
+    int ascii;
+    int patch;                /* binary: the count is patched at the end */
+    en_idmap live;            /* vertex index -> slot in pos */
+    float *pos;               /* 3 per slot */
+    uint32_t *free_slots;
+    size_t nslots, slot_cap, nfree, free_cap;
+    en_spill *facets;         /* binary without patch */
+} stl_writer;
+
+/* The 80 bytes before the count. note: not "solid", which readers take
+ * for an ascii file. */
+static void stl_title(uint8_t head[80])
+{
+    memset(head, ' ', 80);
+    memcpy(head, "binary STL written by epsnet", 28);
+}
+
+static int stl_oom(epsnet_writer *w)
+{
+    return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+}
+
+static int stl_open_writer(epsnet_writer *w)
+{
+    stl_writer *st = en_calloc(1, sizeof *st);
+    if (!st)
+        return stl_oom(w);
+    w->state = st;
+    if (en_idmap_init_growing(&st->live, (size_t)1 << 20))
+        return stl_oom(w);
+    st->ascii = w->settings.ascii != 0;
+    if (w->coord_type == EPSNET_COORD_FLOAT64 && en_writer_drop(w, "float64 coordinates (STL rounds them to float32)"))
+        return stl_oom(w);
+    if (st->ascii)
+        return en_writer_printf(w, "solid epsnet\n");
+    st->patch = en_sink_can_patch(w->sink);
+    if (!st->patch)
+        return 0;
+    uint8_t head[STL_HEADER];
+    stl_title(head);
+    memset(head + 80, 0, 4);
+    return en_writer_bytes(w, head, sizeof head);
+}
+
+static int stl_put_vertex(epsnet_writer *w, stl_writer *st, const double xyz[3])
+{
+    uint32_t slot;
+    if (st->nfree) {
+        slot = st->free_slots[--st->nfree];
+    } else {
+        if (st->nslots == UINT32_MAX ||
+            en_grow((void **)&st->pos, &st->slot_cap, st->nslots + 1, 3 * sizeof *st->pos))
+            return stl_oom(w);
+        slot = (uint32_t)st->nslots++;
+    }
+    for (int k = 0; k < 3; k++)
+        st->pos[3 * (size_t)slot + k] = (float)xyz[k];
+    return en_idmap_put(&st->live, w->nverts - 1, slot) ? stl_oom(w) : 0;
+}
+
+static int stl_finalize(epsnet_writer *w, stl_writer *st, uint64_t v)
+{
+    uint32_t slot;
+    if (!en_idmap_get(&st->live, v, &slot))
+        return 0;
+    en_idmap_remove(&st->live, v);
+    if (en_grow((void **)&st->free_slots, &st->free_cap, st->nfree + 1, sizeof *st->free_slots))
+        return stl_oom(w);
+    st->free_slots[st->nfree++] = slot;
+    return 0;
+}
+
+static void put_le32f(uint8_t *p, float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, 4);
+    p[0] = (uint8_t)u;
+    p[1] = (uint8_t)(u >> 8);
+    p[2] = (uint8_t)(u >> 16);
+    p[3] = (uint8_t)(u >> 24);
+}
+
+static int stl_put_facet(epsnet_writer *w, stl_writer *st, const uint64_t v[3])
+{
+    const float *c[3];
+    for (int k = 0; k < 3; k++) {
+        uint32_t slot;
+        if (!en_idmap_get(&st->live, v[k], &slot))
+            return en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "triangle %" PRIu64 " uses vertex %" PRIu64 " after it was finalized", w->ntris,
+                                v[k] + 1);
+        c[k] = st->pos + 3 * (size_t)slot;
+    }
+    double e1[3], e2[3], n[3];
+    for (int k = 0; k < 3; k++) {
+        e1[k] = (double)c[1][k] - c[0][k];
+        e2[k] = (double)c[2][k] - c[0][k];
+    }
+    n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+    n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+    n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+    double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    float nf[3];
+    for (int k = 0; k < 3; k++)
+        nf[k] = len > 0 ? (float)(n[k] / len) : 0.0f;
+    if (st->ascii) {
+        char t[12][32];
+        for (int k = 0; k < 3; k++)
+            en_format_coord(t[k], nf[k], EPSNET_COORD_FLOAT32);
+        for (int j = 0; j < 3; j++)
+            for (int k = 0; k < 3; k++)
+                en_format_coord(t[3 + 3 * j + k], c[j][k], EPSNET_COORD_FLOAT32);
+        return en_writer_printf(w,
+                                "facet normal %s %s %s\n outer loop\n  vertex %s %s %s\n  vertex %s %s %s\n"
+                                "  vertex %s %s %s\n endloop\nendfacet\n",
+                                t[0], t[1], t[2], t[3], t[4], t[5], t[6], t[7], t[8], t[9], t[10], t[11]);
+    }
+    uint8_t rec[STL_RECORD];
+    for (int k = 0; k < 3; k++)
+        put_le32f(rec + 4 * k, nf[k]);
+    for (int j = 0; j < 3; j++)
+        for (int k = 0; k < 3; k++)
+            put_le32f(rec + 12 + 12 * j + 4 * k, c[j][k]);
+    rec[48] = rec[49] = 0;
+    if (st->patch)
+        return en_writer_bytes(w, rec, sizeof rec);
+    int rc = en_writer_open_spill(w, &st->facets);
+    return rc ? rc : en_spill_write(st->facets, rec, sizeof rec, &w->err);
+}
+
+static int stl_put(epsnet_writer *w, const epsnet_record *rec)
+{
+    stl_writer *st = w->state;
+    switch (rec->kind) {
+    case EPSNET_REC_VERTEX: return stl_put_vertex(w, st, rec->xyz);
+    case EPSNET_REC_TRIANGLE: return stl_put_facet(w, st, rec->v);
+    case EPSNET_REC_FINALIZE: return stl_finalize(w, st, rec->v[0]);
+    default: return 0;
+    }
+}
+
+static int stl_finish(epsnet_writer *w)
+{
+    stl_writer *st = w->state;
+    if (st->ascii)
+        return en_writer_printf(w, "endsolid epsnet\n");
+    if (w->ntris > UINT32_MAX)
+        return en_error_set(&w->err, EPSNET_EUNSUPPORTED, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "binary STL holds at most 2^32 - 1 facets, not %" PRIu64, w->ntris);
+    uint8_t count[4];
+    uint32_t n = (uint32_t)w->ntris;
+    for (int k = 0; k < 4; k++)
+        count[k] = (uint8_t)(n >> (8 * k));
+    if (st->patch)
+        return en_sink_patch(w->sink, 80, count, 4, &w->err);
+    uint8_t head[80];
+    stl_title(head);
+    int rc = en_writer_bytes(w, head, 80);
+    if (rc == 0)
+        rc = en_writer_bytes(w, count, 4);
+    if (rc || !st->facets)
+        return rc;
+    if ((rc = en_spill_rewind(st->facets, &w->err)))
+        return rc;
+    uint8_t buf[STL_RECORD * 1024];
+    for (;;) {
+        int64_t got = en_spill_read(st->facets, buf, sizeof buf, &w->err);
+        if (got <= 0)
+            return (int)got;
+        if ((rc = en_writer_bytes(w, buf, (size_t)got)))
+            return rc;
+    }
+}
+
+static void stl_close_writer(epsnet_writer *w)
+{
+    stl_writer *st = w->state;
+    if (!st)
+        return;
+    en_idmap_free(&st->live);
+    en_free(st->pos);
+    en_free(st->free_slots);
+    en_spill_close(&st->facets);
+    en_free(st);
+    w->state = NULL;
+}
+
 const en_format en_format_stl = {
     .name = "stl",
     .extensions = "stl",
@@ -454,4 +655,8 @@ const en_format en_format_stl = {
     .open_reader = stl_open_reader,
     .fill = stl_fill,
     .close_reader = stl_close_reader,
+    .open_writer = stl_open_writer,
+    .put = stl_put,
+    .finish = stl_finish,
+    .close_writer = stl_close_writer,
 };

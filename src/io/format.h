@@ -78,6 +78,10 @@ struct epsnet_reader {
     int here_set;
     uint64_t here;
 
+    /* A note for the user, one line (epsnet_reader_note(): the content chose
+     * another format than the name); empty: none. */
+    char note[512];
+
     /* What the records do not carry (docs/architecture.md §5), for epsnet_reader_dropped(). */
     en_dropped drop[EN_DROP_MAX];
     size_t ndrop;
@@ -209,9 +213,9 @@ int en_reader_use_pool(epsnet_reader *r, struct en_pool *pool);
  * on the caller's thread). */
 int en_writer_use_pool(epsnet_writer *w, struct en_pool *pool);
 
-/* Pass what r dropped (epsnet_reader_dropped()) to a warning callback as
- * one line "PATH: dropped: ...": nothing when nothing is dropped or warning
- * is NULL. Call it once the mesh has been read to its end.
+/* Pass r's note (epsnet_reader_note()) as one line, then what r dropped
+ * (epsnet_reader_dropped()) as one line "PATH: dropped: ...", to a warning
+ * callback: nothing when there is neither or warning is NULL. Call it once the mesh has been read to its end.
  * @return the number of distinct items dropped. */
 uint64_t en_reader_warn_dropped(epsnet_reader *r, void (*warning)(void *opaque, const char *message),
                                 void *opaque);
@@ -223,6 +227,16 @@ static inline int en_writer_bytes(epsnet_writer *w, const void *p, size_t n)
     return en_sink_write(w->sink, p, n, &w->err);
 }
 int en_writer_printf(epsnet_writer *w, const char *fmt, ...) EN_PRINTF(2, 3);
+/* Open *sp, when it is not open yet, as an anonymous temporary file where
+ * the caller asked (settings.tmpdir), else beside the destination: a
+ * format that wants what the stream gives late (faces before vertices'
+ * ends, counts in a header) keeps it there. @return 0 or a code, w->err
+ * filled. */
+int en_writer_open_spill(epsnet_writer *w, en_spill **sp);
+/* Name a loss of the writer's own (not an attribute), once, for
+ * epsnet_writer_dropped(): "float64 coordinates (as float32)".
+ * @return 0 or -1 out of memory. */
+int en_writer_drop(epsnet_writer *w, const char *what);
 /* Shortest decimal text that reads back to exactly v (as float32 when the
  * writer's coord_type is FLOAT32). Returns the length written into buf
  * (buf must hold 32 bytes). */

@@ -113,6 +113,8 @@ uint64_t en_reader_warn_dropped(epsnet_reader *r, void (*warning)(void *opaque, 
 {
     uint64_t n = 0;
     const char *what = epsnet_reader_dropped(r, &n);
+    if (warning && r && r->note[0])
+        warning(opaque, r->note);
     if (!what || !warning)
         return n;
     size_t cap = strlen(r->path) + strlen(what) + 16;
@@ -281,16 +283,49 @@ int en_reader_push_finalize(epsnet_reader *r, uint64_t v)
     return queue_push(r, &rec);
 }
 
-static const en_format *detect(const epsnet_reader *r, const char *path, const char *forced)
+/* Content that names its format: a magic number (PLY's "ply" line, .smz's
+ * eight bytes, an SMB header that checks out) or a binary STL whose face
+ * count gives the file's exact size. NULL: the content says nothing sure. */
+static const en_format *format_by_magic(const en_source *s, size_t n)
+{
+    /* the exact size first: an STL title of zero bytes also passes SMB's
+     * header checks, which are weaker (no magic number, four small fields) */
+    if (!s->zstd && s->file_size >= 84 && n >= 84) {
+        const uint8_t *c = s->cur + 80;
+        uint64_t faces = (uint64_t)c[0] | (uint64_t)c[1] << 8 | (uint64_t)c[2] << 16 | (uint64_t)c[3] << 24;
+        if (84 + 50 * faces == s->file_size)
+            return en_format_by_name("stl");
+    }
+    static const char *const sure[] = { "ply", "smz", "smb" };
+    for (size_t k = 0; k < sizeof sure / sizeof *sure; k++) {
+        const en_format *f = en_format_by_name(sure[k]);
+        if (f && f->probe && f->probe(s->cur, n) >= 50)
+            return f;
+    }
+    return NULL;
+}
+
+/*
+ * The format: the one forced, else the extension's, else the content's.
+ * Content that names its format (format_by_magic) wins over an extension
+ * that says otherwise, with a note (a PLY renamed .obj was read as an OBJ
+ * of unknown statements: an empty mesh, and success).
+ */
+static const en_format *detect(epsnet_reader *r, const char *path, const char *forced)
 {
     if (forced)
         return en_format_by_name(forced);
-    const en_format *f = en_format_by_path(path);
+    en_source *s = r->src;
+    size_t n = en_source_fill(s, 4096);
+    const en_format *f = en_format_by_path(path), *magic = format_by_magic(s, n);
+    if (f && magic && magic != f) {
+        snprintf(r->note, sizeof r->note, "%s: named as %s but its content is %s: read as %s", path, f->name,
+                 magic->name, magic->name);
+        return magic;
+    }
     if (f)
         return f;
     /* Unknown extension: let the content decide. */
-    en_source *s = r->src;
-    size_t n = en_source_fill(s, 4096);
     int best = 0;
     for (size_t i = 0; en_formats[i]; i++) {
         int score = en_formats[i]->probe ? en_formats[i]->probe(s->cur, n) : 0;
@@ -300,6 +335,11 @@ static const en_format *detect(const epsnet_reader *r, const char *path, const c
         }
     }
     return best >= 50 ? f : NULL;
+}
+
+const char *epsnet_reader_note(const epsnet_reader *r)
+{
+    return r && r->note[0] ? r->note : NULL;
 }
 
 int epsnet_reader_open(epsnet_reader **out, const char *path,

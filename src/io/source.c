@@ -218,6 +218,23 @@ int en_source_error(const en_source *s, epsnet_error *err)
     return s->err.code ? s->err.code : EPSNET_EIO;
 }
 
+/* UTF-16 text: a byte-order mark, or ASCII with every other byte NUL (the
+ * first 32 bytes of the line say so; binary data rarely alternates). */
+static int looks_utf16(const uint8_t *p, size_t n)
+{
+    if (n >= 2 && ((p[0] == 0xff && p[1] == 0xfe) || (p[0] == 0xfe && p[1] == 0xff)))
+        return 1;
+    n = n < 32 ? n & ~(size_t)1 : 32;
+    if (n < 8)
+        return 0;
+    int even = 1, odd = 1;
+    for (size_t i = 0; i < n; i += 2) {
+        even &= p[i] == 0 && p[i + 1] >= 0x09 && p[i + 1] < 0x7f;
+        odd &= p[i + 1] == 0 && p[i] >= 0x09 && p[i] < 0x7f;
+    }
+    return even || odd;
+}
+
 int en_source_line(en_source *s, char **line, size_t *len, size_t max_len,
                    epsnet_error *err)
 {
@@ -276,6 +293,10 @@ too_long:
     return en_error_set(err, EPSNET_EFORMAT, s->path, s->lineno + 1, EPSNET_POS_NONE,
                         "line longer than %zu bytes", max_len);
 nul_byte:
+    if (looks_utf16(s->cur, (size_t)(s->end - s->cur)))
+        return en_error_set(err, EPSNET_EFORMAT, s->path, s->lineno + 1, EPSNET_POS_NONE,
+                            "UTF-16 text: convert it to UTF-8 first "
+                            "(iconv -f UTF-16 -t UTF-8)");
     return en_error_set(err, EPSNET_EFORMAT, s->path, s->lineno + 1, EPSNET_POS_NONE,
                         "NUL byte in a text file (binary data?)");
 }

@@ -34,6 +34,30 @@ int en_writer_printf(epsnet_writer *w, const char *fmt, ...)
     return en_writer_bytes(w, buf, (size_t)n);
 }
 
+int en_writer_open_spill(epsnet_writer *w, en_spill **sp)
+{
+    if (*sp)
+        return 0;
+    char *dir = NULL;
+    if (!w->settings.tmpdir && strcmp(w->path, "-") != 0) {
+        const char *slash = strrchr(w->path, '/');
+        if (!slash)
+            dir = en_strdup(".");
+        else if (slash == w->path)
+            dir = en_strdup("/");
+        else if ((dir = en_malloc((size_t)(slash - w->path) + 1))) {
+            memcpy(dir, w->path, (size_t)(slash - w->path));
+            dir[slash - w->path] = '\0';
+        }
+        if (!dir)
+            return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "out of memory");
+    }
+    int rc = en_spill_open(sp, w->settings.tmpdir ? w->settings.tmpdir : dir, w->path, &w->err);
+    en_free(dir);
+    return rc;
+}
+
 int en_format_coord(char *buf, double v, epsnet_coord_type t)
 {
     /* note: shortest text that parses back to the same bits, so ASCII
@@ -66,6 +90,19 @@ static int choose_attrs(epsnet_writer *w)
         w->ndrop++;
     }
     w->attrs_subset = w->attrs.count != in->count;
+    return 0;
+}
+
+int en_writer_drop(epsnet_writer *w, const char *what)
+{
+    size_t old = w->drop_text ? strlen(w->drop_text) : 0, cap = old + strlen(what) + 3;
+    char *t = en_malloc(cap);
+    if (!t)
+        return -1;
+    snprintf(t, cap, "%s%s%s", old ? w->drop_text : "", old ? ", " : "", what);
+    en_free(w->drop_text);
+    w->drop_text = t;
+    w->ndrop++;
     return 0;
 }
 

@@ -1,0 +1,170 @@
+#!/usr/bin/env python3
+"""Files as users bring them (docs/architecture.md §13): STL and OFF are
+written as well as read, bit for bit where the format allows; content that
+names its format wins over a wrong extension, with a note; a file that holds
+no mesh statement, or UTF-16 text, is a clear error; a PLY header's free-text
+line is skipped and named."""
+import os
+import shutil
+import struct
+import subprocess
+
+from clitest import EPSNET, case, f32, finish, path, read_ascii_ply, run
+
+
+def gen(name, faces=3000):
+    p = path(name)
+    if not os.path.exists(p):
+        rc, _, err = run("gen", "bumpy", "--faces", str(faces), "-o", p, "-q")
+        assert rc == 0, err
+    return p
+
+
+def triangles(p, *fmt):
+    """The triangles of a mesh file as sorted triples of float32 corner bits
+    (ASCII PLY in between: every writer's output is compared by geometry)."""
+    out = path("tri_%s.ply" % os.path.basename(p))
+    rc, _, err = run("convert", p, "-o", out, "--ascii", "-q", *fmt)
+    assert rc == 0, (p, err)
+    _, verts, faces = read_ascii_ply(out)
+    pos = [tuple(f32(v[a]) for a in "xyz") for v in verts]
+    # a triangle up to rotation of its corners
+    tris = []
+    for t in faces:
+        c = [pos[i] for i in t]
+        k = c.index(min(c))
+        tris.append(tuple(c[k:] + c[:k]))
+    return sorted(tris)
+
+
+@case
+def stl_and_off_are_written_and_read_back_bit_for_bit():
+    src = gen("rt.smz")
+    want = triangles(src)
+    outs = {}
+    for name, opts in (("rt.off", ()), ("rt.stl", ()), ("rt_ascii.stl", ("--ascii",)), ("rt.off.zst", ()),
+                       ("rt.stl.zst", ())):
+        out = path(name)
+        rc, _, err = run("convert", src, "-o", out, "-q", *opts)
+        assert rc == 0, (name, err)
+        assert triangles(out) == want, f"{name}: not the input's triangles"
+        outs[name] = open(out, "rb").read()
+    # a second trip through the same format gives the same bytes
+    for name, opts in (("rt.off", ()), ("rt.stl", ()), ("rt_ascii.stl", ("--ascii",))):
+        again = path("again_" + name)
+        rc, _, err = run("convert", path(name), "-o", again, "-q", *opts)
+        assert rc == 0, err
+        assert open(again, "rb").read() == outs[name], f"{name}: a second round trip changed the bytes"
+    # ascii STL to binary is the binary writer's file; a pipe gets the same bytes
+    rc, _, err = run("convert", path("rt_ascii.stl"), "-o", path("from_ascii.stl"), "-q")
+    assert rc == 0 and open(path("from_ascii.stl"), "rb").read() == outs["rt.stl"], err
+    # (an OFF file pads its counts line to patch it at the end; a pipe's
+    # is written last, unpadded)
+    for fmt, name in (("stl", "rt.stl"), ("off", "rt.off")):
+        p = subprocess.run([EPSNET, "convert", src, "-o", "-", "--format", fmt, "-q"], capture_output=True,
+                           timeout=120)
+        piped = path("piped." + fmt)
+        with open(piped, "wb") as f:
+            f.write(p.stdout)
+        assert p.returncode == 0 and triangles(piped) == want, f"{fmt} to a pipe: not the mesh"
+        assert fmt != "stl" or p.stdout == outs[name], "binary STL to a pipe differs from the file"
+    # binary STL: 80-byte title, the count, 50 bytes a facet
+    b = outs["rt.stl"]
+    n = struct.unpack("<I", b[80:84])[0]
+    assert not b.startswith(b"solid") and n == len(want) and len(b) == 84 + 50 * n, (b[:8], n, len(b))
+
+
+@case
+def simplify_writes_stl_and_off():
+    for name in ("part.stl", "part.off"):
+        src = path(name)
+        rc, _, err = run("convert", gen("rt.smz"), "-o", src, "-q")
+        assert rc == 0, err
+        out = path("small_" + name)
+        rc, _, err = run("simplify", src, "-o", out, "--faces", "600", "-q")
+        assert rc == 0, (name, err)
+        assert len(triangles(out)) == 600, name
+
+
+@case
+def stl_names_float64_coordinates_as_rounded():
+    src = path("double.obj")
+    with open(src, "w") as f:
+        f.write("v 0.1234567890123 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    rc, _, err = run("convert", src, "-o", path("double.stl"))
+    assert rc == 0 and "float64 coordinates" in err, (rc, err)
+    # OFF is text: the double comes back exactly
+    rc, _, err = run("convert", src, "-o", path("double.off"))
+    assert rc == 0 and "float64" not in err, err
+    rc, _, err = run("convert", path("double.off"), "-o", path("double.ply"), "--ascii", "-q")
+    _, verts, _ = read_ascii_ply(path("double.ply"))
+    assert rc == 0 and verts[0]["x"] == "0.1234567890123", (err, verts[0])
+
+
+@case
+def content_that_names_its_format_wins_over_the_extension():
+    smz = gen("named.smz")
+    want = triangles(smz)
+    cases = []
+    for fmt, opts in (("ply", ("--ascii",)), ("ply", ()), ("stl", ()), ("smz", ())):
+        real = path("real_%s%s.%s" % (fmt, "_ascii" if opts else "", fmt))
+        rc, _, err = run("convert", smz, "-o", real, "-q", *opts)
+        assert rc == 0, err
+        cases.append((fmt, real))
+    for fmt, real in cases:
+        for wrong in ("obj", "off", "ply"):
+            if wrong == fmt:
+                continue
+            p = path(os.path.basename(real) + "." + wrong)
+            shutil.copy(real, p)
+            out = path("fixed.smz")
+            rc, _, err = run("simplify", p, "-o", out, "-q")
+            lines = err.strip().splitlines()
+            assert rc == 0 and len(lines) == 1, (p, rc, err)
+            assert "named as %s but its content is %s" % (wrong, fmt) in lines[0], lines[0]
+            assert triangles(p) == want, f"{p}: not the mesh"
+
+
+@case
+def a_file_with_no_mesh_statement_is_an_error():
+    p = path("notes.obj")
+    with open(p, "w") as f:
+        f.write("these are my notes\nnothing here is a mesh\n")
+    out = path("notes_out.ply")
+    rc, _, err = run("simplify", p, "-o", out)
+    assert rc == 2 and "not an OBJ file" in err and "'these'" in err and len(err.strip().splitlines()) == 1, (rc, err)
+    assert not os.path.exists(out)
+    # comments alone are an empty mesh, which is valid
+    p = path("comments.obj")
+    with open(p, "w") as f:
+        f.write("# exported by hand\n\n# nothing yet\n")
+    rc, _, err = run("convert", p, "-o", path("comments.ply"), "-q")
+    assert rc == 0, err
+
+
+@case
+def utf16_text_is_named():
+    for enc in ("utf-16", "utf-16-le", "utf-16-be"):
+        p = path("wide_%s.obj" % enc)
+        with open(p, "wb") as f:
+            f.write("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".encode(enc))
+        rc, _, err = run("convert", p, "-o", path("wide.ply"))
+        assert rc == 2 and "UTF-16" in err and "NUL byte" not in err, (enc, rc, err)
+
+
+@case
+def a_ply_header_line_of_free_text_is_skipped_and_named():
+    smz = gen("created.smz")
+    plain = path("created_plain.ply")
+    rc, _, err = run("convert", smz, "-o", plain, "--ascii", "-q")
+    assert rc == 0, err
+    text = open(plain).read().replace("format ascii 1.0\n", "format ascii 1.0\nCreated by SomeScanner v2\n", 1)
+    p = path("created_by.ply")
+    with open(p, "w") as f:
+        f.write(text)
+    rc, _, err = run("simplify", p, "-o", path("created_out.ply"))
+    assert rc == 0 and "dropped: header line 'Created' (1)" in err, (rc, err)
+    assert triangles(p) == triangles(plain)
+
+
+finish()
