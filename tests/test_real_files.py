@@ -167,4 +167,42 @@ def a_ply_header_line_of_free_text_is_skipped_and_named():
     assert triangles(p) == triangles(plain)
 
 
+
+@case
+def render_refuses_a_name_that_is_not_png():
+    src = gen("rt.smz")
+    for name in ("pic.jpg", "pic", "pic.png.bak"):
+        rc, _, err = run("render", src, "-o", path(name))
+        assert rc == 5 and "PNG" in err and not os.path.exists(path(name)), (name, rc, err)
+    rc, _, err = run("render", src, "-o", path("pic.PNG"), "-q")
+    assert rc == 0 and open(path("pic.PNG"), "rb").read(8) == b"\x89PNG\r\n\x1a\n", err
+
+
+@case
+def a_missing_output_folder_is_named():
+    missing = path("no_such_folder")
+    for src in (gen("rt.smz"), path("rt.stl")):  # a stream, and a file sorted first (in the output's folder)
+        rc, _, err = run("simplify", src, "-o", os.path.join(missing, "out.ply"))
+        assert rc == 3 and missing in err and "does not exist" in err, (src, rc, err)
+
+
+@case
+def unreferenced_vertices_are_counted_and_named():
+    """The output is a surface: a vertex no face uses is not written, and
+    the run says so and counts it (docs/architecture.md §5)."""
+    import json
+    src = path("lonely.obj")
+    with open(src, "w") as f:
+        f.write("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 5 5 5\nv 6 6 6\nf 1 2 3\n")
+    smz = path("lonely.smz")
+    rc, _, err = run("convert", src, "-o", smz, "-q")
+    assert rc == 0, err
+    for p in (src, smz):  # sorted first, and read as a stream
+        stats = path("lonely.json")
+        rc, _, err = run("simplify", p, "-o", path("lonely_out.ply"), "--stats", stats)
+        s = json.load(open(stats))
+        assert rc == 0 and "2 vertices that no face uses are not written" in err, (p, err)
+        assert s["vertices"] == 5 and s["isolated_vertices"] == 2 and s["output_vertices"] == 3, (p, s)
+
+
 finish()

@@ -1122,13 +1122,13 @@ EPSNET_API void epsnet_render_default_settings(epsnet_render_settings *s);
 
 /*
  * Render the mesh at in (any readable format, optionally .zst) into the PNG
- * out_png ("-" = stdout). ctx supplies the method settings for samples and
+ * out_png, whose name must end in .png ("-" = stdout). ctx supplies the method settings for samples and
  * simplified, and the memory budget; its statistics afterwards hold the
  * input's vertex and face counts and, when they ran, those of the
  * classification and simplification.
  * in must be a file, not "-": it is read twice (bounding box, drawing).
  * @return 0, or a negative code with err filled: EPSNET_EINVAL for bad
- * settings, EPSNET_EUNSUPPORTED for in "-", the reader's codes for bad
+ * settings, EPSNET_EUNSUPPORTED for in "-" or an out_png not named .png, the reader's codes for bad
  * input, EPSNET_ELIMIT over the memory budget, EPSNET_EIO, EPSNET_ENOMEM.
  * Nothing is left at out_png on failure.
  * Ownership: nothing is kept; rs may be NULL for defaults.

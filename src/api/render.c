@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "api/budget.h"
 #include "api/jobs.h"
@@ -343,6 +344,12 @@ int epsnet_render_file(epsnet_context *ctx, const char *in, const char *out_png,
         return en_error_set(err, EPSNET_EUNSUPPORTED, "-", EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "render reads its input twice (bounding box, then drawing): give a file, "
                             "not standard input");
+    /* a picture is a PNG: any other name would hold a PNG under a name
+     * that says otherwise (render -o pic.jpg) */
+    size_t n = strlen(out_png);
+    if (strcmp(out_png, "-") != 0 && (n < 4 || strcasecmp(out_png + n - 4, ".png") != 0))
+        return en_error_set(err, EPSNET_EUNSUPPORTED, out_png, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "render writes PNG pictures only: name the output .png");
     memset(&ctx->stats, 0, sizeof ctx->stats);
     snprintf(ctx->command, sizeof ctx->command, "render");
     ctx->stats.gaussian_vertices = ctx->sphere.nverts;

@@ -261,6 +261,11 @@ int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *n
         snprintf(msg, sizeof msg, "%s: %llu vertices but no faces: nothing to simplify, the output is empty",
                  in_path, (unsigned long long)nv);
         ctx->settings.warning(ctx->settings.warning_opaque, msg);
+    } else if (rc == 0 && fr.in.was_sorted) {
+        /* the sort passes on only vertices on faces: the stats count the
+         * input's own vertices, and those it left out as isolated */
+        ctx->stats.vertices = fr.in.sorted.vertices;
+        ctx->stats.isolated_vertices += fr.in.sorted.unreferenced;
     }
     ctx->stats.seconds_simplify = en_now() - t0;
     return rc;
@@ -325,6 +330,17 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
         rc = epsnet_writer_commit(&f.w, err);
     else
         epsnet_writer_abort(&f.w);
+    if (rc == 0 && ctx->stats.isolated_vertices && ctx->stats.faces && ctx->settings.warning) {
+        /* the output is a surface: a vertex no face uses is not on it and
+         * is not written (the sort or the stitcher leaves it out); named
+         * (docs/architecture.md §5) once the output is there (a mesh of no
+         * face at all was said above) */
+        char msg[PATH_MAX + 160];
+        snprintf(msg, sizeof msg, "%s: %llu vertices that no face uses%s are not written", in_path,
+                 (unsigned long long)ctx->stats.isolated_vertices,
+                 ctx->stats.membrane_faces ? " (once the glued membranes' faces are removed)" : "");
+        ctx->settings.warning(ctx->settings.warning_opaque, msg);
+    }
     ctx->stats.peak_rss = en_peak_rss_bytes();
     return rc;
 }

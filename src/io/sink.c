@@ -240,6 +240,12 @@ int en_sink_open(en_sink **out, const char *path, int zstd_level, epsnet_error *
         return en_error_set(err, EPSNET_EIO, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "output path is a directory");
     }
+    if (stat(s->dir, &st) != 0 || !S_ISDIR(st.st_mode)) {
+        int rc = en_error_set(err, EPSNET_EIO, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                              "the output's folder %s does not exist", s->dir);
+        en_sink_abort(&s);
+        return rc;
+    }
     if (stat(path, &st) == 0 && !S_ISREG(st.st_mode)) {
         /* note: a device or pipe (-o /dev/null, a FIFO) is written in place;
          * renaming a temporary over it would replace the device itself. */
@@ -508,6 +514,9 @@ static int spill_open(en_spill **out, const char *dir, const char *owner, int pl
     if (sp->fd < 0) {
         int e = errno;
         en_spill_close(&sp);
+        if (e == ENOENT || e == ENOTDIR)
+            return en_error_set(err, EPSNET_EIO, dir, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "cannot create a temporary file: the folder %s does not exist", dir);
         return en_error_set(err, en_error_from_errno(e), dir, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "cannot create a temporary file: %s", strerror(e));
     }
