@@ -141,11 +141,16 @@ def main():
          max_points=600, stride=5)
     walk("simplify_target_streamed", lambda o: ["simplify", smz, "-o", o + ".smz", "--ratio", "0.1", "--slab", "300",
                                                 "-j", "3", "-q"], max_points=600, stride=7)
-    # ... whose finish is over --mem and runs on slabs, its seams paced to
-    # the target; and an error bound alone on slabs.
-    walk("simplify_target_finish_on_slabs", lambda o: ["simplify", smz, "-o", o + ".smz", "--ratio", "0.1", "--slab",
+    # ... whose thinned mesh is over --mem's one slab: the target stage's
+    # rounds under a global cost ceiling and its last round on slabs, its
+    # seams paced to the target (a full disk too: the stage keeps the
+    # thinned stream in a temporary file); and an error bound alone on slabs.
+    walk("simplify_target_rounds", lambda o: ["simplify", smz, "-o", o + ".smz", "--ratio", "0.1", "--slab",
                                                        "300", "--mem", "600K", "-j", "3", "-q"],
          max_points=600, stride=7)
+    walk("full_disk_simplify_target_rounds", lambda o: ["simplify", smz, "-o", o + ".smz", "--ratio", "0.1",
+                                                        "--slab", "300", "--mem", "600K", "-j", "3", "-q"],
+         what="EPSNET_FAIL_WRITE")
     walk("simplify_error_bound_on_slabs", lambda o: ["simplify", smz, "-o", o + ".smz", "--error", "0.001", "--slab",
                                                      "300", "-j", "3", "-q"], max_points=600, stride=7)
     # A glued double sheet (a fin on edge 0-1 of a tetrahedron), which a

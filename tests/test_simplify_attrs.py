@@ -134,8 +134,9 @@ def obj_vertex_colours_survive_simplify():
 def locked_vertices_stay_in_every_mode():
     """--lock PROPERTY keeps every vertex whose property is non-zero, in
     every shape of a run: the ε-net pass, with seams, a target in one slab
-    (below the skeleton too), a streamed target whose finish is one slab or
-    runs on slabs (over --mem), and an error bound on slabs."""
+    (below the skeleton too), a streamed target whose last round is one slab
+    or, over --mem, goes through rounds on slabs, and an error bound on
+    slabs."""
     src = coloured_mesh()
     props, verts, faces = read_ascii_ply(src)
     p = path("locked.ply")
@@ -169,13 +170,13 @@ def locked_vertices_stay_in_every_mode():
             s = json.load(open(stats))
             if shape == "one":  # a streamed target: a thinning pass and a finish in one slab
                 assert s["passes"] == 2, (opts, s["passes"])
-            if shape == "slabs":  # ... and the finish on slabs of 256 (over --mem as one): more slabs
+            if shape == "slabs":  # ... and, over --mem's one slab, rounds and a last round on slabs of 256
                 one = path("locked_one.json")
                 rc, _, err = run("simplify", src, "-o", path("locked_one.ply"), "-q", "--lock", prop, "--stats", one,
                                  *opts[:4])
                 assert rc == 0, err
                 thin = json.load(open(one))["slabs"] - 1
-                assert s["passes"] == 2 and s["slabs"] > thin + 1, (opts, s["passes"], s["slabs"], thin)
+                assert s["passes"] >= 3 and s["slabs"] > thin + 1, (opts, s["passes"], s["slabs"], thin)
             if shape == "bound":
                 assert s["slabs"] > 1, (opts, s["slabs"])
             _, vout, _ = read_ascii_ply(out)

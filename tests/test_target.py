@@ -103,21 +103,25 @@ def streamed_target_is_exact_for_any_slab_size_and_threads():
 
 
 @case
-def a_target_whose_finish_is_over_the_budget_is_finished_on_slabs():
-    """When the thinned mesh does not fit --mem as one slab, the finish runs
-    on slabs too and its seams end it at the target (docs/architecture.md
-    §7): the count is still exact, for faces and for vertices, the bytes do
-    not depend on threads, and a closed surface stays closed."""
+def a_target_whose_finish_is_over_the_budget_goes_through_rounds_on_slabs():
+    """When the thinned mesh does not fit --mem's one slab, the target stage
+    takes it through rounds under a global cost ceiling, on slabs, and a
+    last round on slabs whose seams end it at the target
+    (docs/architecture.md §7): the count is still exact, for faces and for
+    vertices, the bytes do not depend on threads, and a closed surface
+    stays closed."""
     src = gen("bumpy", 40000, "bumpy40k_sorted.ply")
     for opts, key in ((("--ratio", "0.1"), "output_faces"), (("--ratio", "0.3"), "output_faces"),
                       (("--vertices", "2500"), "output_vertices")):
         outs = []
         for j in ("1", "2"):
             out = path(f"finish_slabs_{opts[1]}_{j}.ply")
-            s, _ = simplify(src, out, *opts, "--slab", "1024", "--mem", "6M", "--ascii", "-j", j)
+            s, _ = simplify(src, out, *opts, "--slab", "1024", "--mem", "4M", "--ascii", "-j", j)
             one, _ = simplify(src, path("finish_one.ply"), *opts, "--slab", "1024", "-j", j)
-            # the finish's slabs: more than the one of the finish within budget
-            assert s["passes"] == 2 and s["slabs"] > one["slabs"] + 1, (opts, s["slabs"], one["slabs"])
+            # the thinning, at least one round, the last round on slabs: more
+            # passes and slabs than a thinning and a one-slab finish
+            assert one["passes"] == 2 and s["passes"] >= 3, (opts, s["passes"], one["passes"])
+            assert s["slabs"] > one["slabs"] + 1, (opts, s["slabs"], one["slabs"])
             want = s["target"]["faces"] if key == "output_faces" else int(opts[1])
             assert want - 1 <= s[key] <= want, (opts, j, s[key], want)
             verts, faces = ascii_ply(out)
@@ -126,8 +130,8 @@ def a_target_whose_finish_is_over_the_budget_is_finished_on_slabs():
             outs.append(open(out, "rb").read())
         assert outs[0] == outs[1], f"{opts}: -j1 and -j2 differ"
     # A low target in a small budget: the thinning cannot take its seams as
-    # far as it plans, and the finish goes by what it left (the rate its
-    # records carry), so the count stays exact.
+    # far as it plans, and the target stage goes by what it kept, so the
+    # count stays exact.
     smz = gen("bumpy", 60000, "bumpy60k.smz")
     for ratio, mem in (("0.01", "2M"), ("0.02", "3M")):
         outs = []
@@ -135,7 +139,7 @@ def a_target_whose_finish_is_over_the_budget_is_finished_on_slabs():
             out = path(f"finish_low_{ratio}_{j}.smz")
             s, _ = simplify(smz, out, "--ratio", ratio, "--slab", "2048", "--mem", mem, "-j", j)
             want = s["target"]["faces"]
-            assert s["passes"] == 2 and want - 1 <= s["output_faces"] <= want, (ratio, j, s["output_faces"], want)
+            assert s["passes"] >= 2 and want - 1 <= s["output_faces"] <= want, (ratio, j, s["output_faces"], want)
             outs.append(open(out, "rb").read())
         assert outs[0] == outs[1], f"--ratio {ratio}: -j1 and -j2 differ"
 

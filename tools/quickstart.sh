@@ -50,8 +50,8 @@ test)
     # Thread sanitizer over the tests that run threads.
     [ -d build-tsan ] || meson setup build-tsan -Dwerror=true -Db_sanitize=thread -Db_lundef=false \
         --buildtype=debug -Dslow_tests=false >/dev/null
-    ninja -C build-tsan tests/test_pool tests/test_hausdorff tests/test_pipeline >/dev/null
-    TSAN_OPTIONS=halt_on_error=1 meson test -C build-tsan --no-rebuild pool hausdorff pipeline \
+    ninja -C build-tsan tests/test_pool tests/test_hausdorff tests/test_pipeline tools/epsnet >/dev/null
+    TSAN_OPTIONS=halt_on_error=1 meson test -C build-tsan --no-rebuild pool hausdorff pipeline target_rounds \
         --num-processes "$jobs" --print-errorlogs || status=1
     exit $status
     ;;

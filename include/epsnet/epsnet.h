@@ -613,11 +613,12 @@ typedef struct epsnet_settings {
      *
      * A mesh of at most four slabs (slab_vertices, or the one mem gives:
      * 262,144 vertices by default) is then one slab, and the target is met
-     * exactly; a larger one is thinned on slabs, in parallel, and finished
-     * in one slab when what is left fits mem's one-slab share (2/5 of it,
-     * at about 640 bytes a vertex), or
-     * else on slabs whose seams end it at the target: exactly either way,
-     * with more error on slabs (docs/architecture.md §7). An error bound
+     * exactly; a larger one is thinned on slabs, in parallel, kept in a
+     * temporary file, taken towards the target by rounds on slabs under a
+     * rising global ceiling on collapse cost, and finished exactly: in one
+     * slab when what is left fits a few slabs and mem's one-slab share
+     * (2/5 of it, at about 640 bytes a vertex), else on slabs whose seams
+     * end it at the target (docs/architecture.md §7). An error bound
      * alone is one slab while the mesh fits that share and slab_vertices (when
      * given); beyond, it is held by every collapse of a pass on slabs, on
      * the diagonal of the input's bounding box as its header or the sort

@@ -40,7 +40,7 @@ uint32_t en_budget_slab_vertices(const epsnet_settings *set)
         uint64_t n = set->mem / EN_BUDGET_BYTES_PER_SLAB_VERTEX;
         return n < 1024 ? 1024 : n > (1u << 24) ? (1u << 24) : (uint32_t)n;
     }
-    return 65536;
+    return EN_BUDGET_DEFAULT_SLAB;
 }
 
 void en_budget_split(en_budget *b, const epsnet_settings *set, en_budget_input input)

@@ -43,6 +43,8 @@ typedef struct en_budget {
  * passes' slabs in flight counted: the budget over this is the slab size
  * when --mem is given (measured, bench/RESULTS.md). */
 #define EN_BUDGET_BYTES_PER_SLAB_VERTEX 4800
+/* The slabs' size without --mem or --slab. */
+#define EN_BUDGET_DEFAULT_SLAB 65536u
 
 /* The split of settings.mem (see en_budget) for a run reading `input`. */
 void en_budget_split(en_budget *b, const epsnet_settings *set, en_budget_input input);

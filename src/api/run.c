@@ -23,51 +23,26 @@ int en_run_has_target(const epsnet_settings *set)
 }
 
 /*
- * A streamed target (docs/architecture.md §7): a THIN pass on slabs, then a
- * FINISH pass over what it left. The thin pass keeps half as much again as
- * the target (and a point more) of what each slab can reach, so that the
- * last collapses, those that decide the result, are ranked by the finish
- * over more of the surface. When that fits the budget's one slab (for
- * twice keep: the seams, left whole, come on top), the finish is one slab:
- * one global order, the target met exactly. Otherwise the thin pass thins
- * its seams too, and the finish runs on slabs as large as the budget
- * allows for the slabs in flight, its seams paced to end at the target
- * (stitcher.c: seam_keep).
+ * A streamed target (docs/architecture.md §7): a THIN pass on slabs, then
+ * the target stage over what it left (pipeline/target_stage.h): rounds
+ * under a rising global cost ceiling, on slabs, and a last round that meets
+ * the count. The thin pass keeps half as much again as the target (and a
+ * point more) of what each slab can reach, so that the collapses that
+ * decide the result are ranked by the rounds, in one global order.
  */
-static void plan_streamed(en_run *run, const epsnet_settings *set, uint64_t nv, uint64_t nf, uint32_t *slab)
+static void plan_streamed(en_run *run, uint64_t nv, uint64_t nf)
 {
-    const en_budget *b = &run->budget;
-    /* note: wider thin slabs when the settings leave the size free: the
-     * seams they leave whole for the finish shrink with the slabs' count
-     * (sorted `gen bumpy` 20M at 10%: seams of 4.7M faces at 65,536
-     * vertices, 2.3M at 131,072, 1.1M at 262,144), but a slab past the
-     * caches costs more a collapse (37% more at 262,144), so at most twice
-     * the default (bench/RESULTS.md). At least 32 slabs, so that the first
-     * one, which runs alone while it chooses the density, stays a small
-     * part; two slabs a worker in flight within a tenth of the budget at
-     * about 1,000 bytes a vertex. */
-    int workers = en_run_workers(set) > 0 ? en_run_workers(set) : 1;
-    if (!set->slab_vertices && !set->mem) {
-        uint64_t wide = nv / 32, cap = 2 * (uint64_t)*slab;
-        uint64_t room = b->total ? b->total / 10 / (2 * (uint64_t)workers * 1000) : cap;
-        wide = wide < cap ? wide : cap;
-        wide = wide < room ? wide : room;
-        if (wide > *slab)
-            *slab = (uint32_t)wide;
-    }
-
+    /* note: the thinning's slabs were twice the default while a one-slab
+     * finish took its whole seams (fewer slabs, smaller seams); with the
+     * rounds after it they are the default's, whose cost a collapse is
+     * lower (a slab past the caches cost 37% more at 262,144 vertices) and
+     * whose memory is the default path's (bench/RESULTS.md). */
     en_target *t = &run->target, *f = &run->finish;
     int by_vertices = !t->faces && !(t->ratio > 0);
     uint64_t n_faces = t->faces ? t->faces : (uint64_t)llround(t->ratio * (double)nf);
     double share = by_vertices ? (double)t->vertices / (double)nv : (double)n_faces / (double)nf;
     double keep = 1.5 * share + 0.01;
     keep = keep < 1 ? keep : 1;
-    uint64_t fit = b->one_slab ? b->one_slab / EN_ONE_SLAB_BYTES_PER_VERTEX : UINT64_MAX; /* vertices */
-    /* note: the finish holds more than keep of the mesh: the faces on the
-     * thin slabs' frozen vertices, and the seams (measured: 1.11 times
-     * keep at 2M faces, 1.27 at 20M, 4.2 on 6,000 faces in slabs of 300,
-     * which then overran --mem 1M); twice keep, or the finish on slabs */
-    int one_slab = 2 * keep * (double)nv <= (double)fit;
     *f = *t;
     f->mode = EN_TARGET_FINISH;
     f->faces = f->vertices = 0;
@@ -75,11 +50,7 @@ static void plan_streamed(en_run *run, const epsnet_settings *set, uint64_t nv, 
     f->choose_density = 0;
     f->by_vertices = by_vertices;
     f->goal = by_vertices ? t->vertices : n_faces;
-    /* what the thin pass is planned to leave: the pace of the finish's seams */
-    f->expected_in = (uint64_t)llround(keep * (double)(by_vertices ? nv : nf));
-    f->keep_share = share / keep;
     f->skeleton_ratio = share;
-    f->one_slab = one_slab;
     t->mode = EN_TARGET_THIN;
     t->faces = t->vertices = 0;
     t->ratio = 0;
@@ -88,29 +59,14 @@ static void plan_streamed(en_run *run, const epsnet_settings *set, uint64_t nv, 
     t->goal = (uint64_t)llround(keep * (double)nf);
     t->expected_in = nf;
     t->skeleton_ratio = share;
-    t->seams_whole = one_slab;
-    run->passes = 2;
-    /* A finish on slabs: its slabs are in flight beside the thin pass's,
-     * so each pass's slabs get half of what one pass's would
-     * (en_budget_slab_vertices: the total over 4,800 bytes a vertex; measured
-     * on `gen bumpy` 20M in --mem 1G before the halving: 1.10 GB peak),
-     * and a finish slab is at most the budget's one slab over the slabs in
-     * flight (two a worker). */
-    if (one_slab) {
-        run->finish_slab_vertices = UINT32_MAX - 1;
-        return;
-    }
-    uint64_t half = b->total ? b->total / (2 * EN_BUDGET_BYTES_PER_SLAB_VERTEX) : UINT32_MAX - 1;
-    uint64_t ring = 2 * (uint64_t)workers;
-    half = half < 1024 ? 1024 : half;
-    if (*slab > half && !set->slab_vertices) /* a size the user gave stays */
-        *slab = (uint32_t)half;
-    /* at least the thin pass's: a finish slab not much wider than its seams
-     * leaves the count to them, and the last take cannot make up the rest
-     * (`gen bumpy` 60K at 1% in --mem 2M, slabs of 2048: 1,312 faces for
-     * 590 with finish slabs of 1024) */
-    uint64_t finish = fit / ring < half ? fit / ring : half;
-    run->finish_slab_vertices = finish < *slab ? *slab : (uint32_t)finish;
+    /* note: the seams stay whole for the rounds, which order them with the
+     * rest (thinned by their own pacing, they took the mean error up by a
+     * quarter on the shared scans, bench/RESULTS.md), unless they would not
+     * fit the budget: a finish in one slab held 1.11 times keep at 2M
+     * faces, 1.27 at 20M, 4.2 on 6,000 faces in slabs of 300 */
+    t->seams_whole = 2 * keep * (double)nv * EN_ONE_SLAB_BYTES_PER_VERTEX <= (double)run->budget.one_slab;
+    run->passes = 1;
+    run->staged = 1;
 }
 
 /*
@@ -159,7 +115,7 @@ static int plan_target(en_run *run, const epsnet_settings *set, const char *path
     uint64_t large = set->slab_vertices ? set->slab_vertices : ONE_SLAB_SLABS * (uint64_t)b->slab_vertices;
     int streams = known_v != EPSNET_COUNT_UNKNOWN && (over || known_v > large);
     if (streams && known_f != EPSNET_COUNT_UNKNOWN && known_f > 0 && t->max_error < 0) {
-        plan_streamed(run, set, known_v, known_f, slab_vertices);
+        plan_streamed(run, known_v, known_f);
         return 0;
     }
     int bound_streams = known_v != EPSNET_COUNT_UNKNOWN &&
@@ -196,12 +152,12 @@ static int plan_target(en_run *run, const epsnet_settings *set, const char *path
 
 /* The finish and its output took 30-35% of the run on `gen bumpy` 2M at
  * 10%, and 35-42% at 20M (bench/RESULTS.md, session 8): the feed gets the
- * first 65% of the bar. */
+ * first 65% of the bar, and the target stage the rest. */
 #define FEED_SHARE_BEFORE_FINISH 0.65
 
 static double feed_share(const en_run *planned)
 {
-    return planned->passes == 2 && planned->finish.one_slab ? FEED_SHARE_BEFORE_FINISH : 1.0;
+    return planned->staged ? FEED_SHARE_BEFORE_FINISH : 1.0;
 }
 
 double en_run_feed_share(const epsnet_settings *set, const epsnet_mesh_info *in, en_budget_input input)
@@ -297,6 +253,35 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         return rc;
     }
     int workers = en_pool_threads(run->pool);
+    size_t ring = workers ? 2 * (size_t)workers : 1;
+    if (run->staged) {
+        /* the target stage after the thinning pass (pipeline/target_stage.h) */
+        en_target_stage_config tc = {
+            .path = path,
+            .sphere = &ctx->sphere,
+            .max_normal_dev = set->max_normal_dev,
+            .attr_size = in ? in->vertex_attrs.size : 0,
+            .lock_offset = lock_offset,
+            .lock_type = lock_type,
+            .slab_vertices = slab_vertices,
+            .mem_budget = run->budget.chain,
+            .one_slab_bytes = run->budget.one_slab,
+            /* a few slabs: the thinning's, or the default's at least,
+             * so that memory does not grow with the mesh (a larger one
+             * goes through rounds on slabs first) */
+            .one_slab_vertices = ONE_SLAB_SLABS * (slab_vertices > EN_BUDGET_DEFAULT_SLAB ? slab_vertices
+                                                                                           : EN_BUDGET_DEFAULT_SLAB),
+            .ring_capacity = ring,
+            .tmpdir = ctx->tmpdir,
+            .finish = run->finish,
+            .tick = set->progress ? finish_tick : NULL,
+            .tick_opaque = run,
+            .out = out,
+        };
+        if ((rc = en_target_stage_new(&run->stage, &tc, run->pool, err)) != 0)
+            return rc;
+        out = en_target_stage_input(run->stage);
+    }
     en_chain_config cfg = {
         .mode = mode,
         .path = path,
@@ -305,19 +290,16 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         .passes = run->passes ? run->passes : set->passes,
         .max_normal_dev = set->max_normal_dev,
         .target = target ? &run->target : NULL,
-        .finish = run->passes == 2 ? &run->finish : NULL,
-        .finish_slab_vertices = run->finish_slab_vertices,
         .attr_size = mode == EN_SLAB_SIMPLIFY && in ? in->vertex_attrs.size : 0,
+        .quadrics_out = run->staged, /* the target stage goes on from them */
         .lock_offset = lock_offset,
         .lock_type = lock_type,
         .slab_vertices = slab_vertices,
         .mem_budget = run->budget.chain,
         /* note: two slabs per worker keep every worker busy while the
          * caller stitches the oldest one. */
-        .ring_capacity = workers ? 2 * (size_t)workers : 1,
+        .ring_capacity = ring,
         .checked_input = checked,
-        .tick = set->progress && run->feed_share < 1 ? finish_tick : NULL,
-        .tick_opaque = run,
         .out = out,
         .on_sample = on_sample,
         .sample_opaque = sample_opaque,
@@ -325,6 +307,8 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
     rc = en_chain_new(&run->chain, &cfg, run->pool, err);
     if (rc == 0)
         run->input = en_chain_input(run->chain);
+    if (rc == 0 && run->stage)
+        en_target_stage_after(run->stage, run->chain);
     return rc;
 }
 
@@ -389,7 +373,7 @@ static void warn_missed_target(const en_run *run, const epsnet_stats *st, int st
                  "of %llu",
                  run->path ? run->path : "input", set->target_error, (unsigned long long)got,
                  faces ? "faces" : "vertices", (unsigned long long)want);
-    else if (run->passes == 2 && !run->finish.one_slab && got - want > want / 200)
+    else if (run->staged && got - want > want / 200)
         /* docs/architecture.md §7, "known weak points" */
         snprintf(msg, sizeof msg,
                  "%s: target of %llu %s missed by %llu: the finish ran on slabs (the thinned mesh was over "
@@ -417,6 +401,9 @@ int en_run_end(en_run *run, epsnet_error *err)
     epsnet_stats *st = &run->ctx->stats;
     en_chain_stats cs;
     en_chain_stats_get(run->chain, &cs);
+    int rounds = 0;
+    if (run->stage)
+        en_target_stage_stats(run->stage, &cs, &rounds);
     fill_stats(st, &cs);
     if (cs.skeleton_frequency && cs.skeleton_frequency != run->ctx->sphere.n) {
         /* the stats report the sphere the skeleton was taken at */
@@ -441,6 +428,7 @@ int en_run_end(en_run *run, epsnet_error *err)
 void en_run_close(en_run *run)
 {
     en_chain_free(&run->chain);
+    en_target_stage_free(&run->stage);
     if (!run->borrowed_pool)
         en_pool_free(&run->pool);
     run->pool = NULL;

@@ -11,6 +11,7 @@
 #include "api/context.h"
 #include "common/pool.h"
 #include "pipeline/chain.h"
+#include "pipeline/target_stage.h"
 
 /* Worker threads: 0 when one thread is asked for (jobs run inline). */
 int en_run_workers(const epsnet_settings *set);
@@ -35,9 +36,10 @@ typedef struct en_run {
     en_chain *chain;
     en_stage input;               /* the chain's input stage */
     en_budget budget;             /* the split of --mem this run works within (api/budget.h) */
-    en_target target, finish;     /* SIMPLIFY with a target; the chain points here */
-    int passes;                   /* 2 for a streamed target (THIN, FINISH) */
-    uint32_t finish_slab_vertices; /* FINISH's slabs */
+    en_target target, finish;     /* SIMPLIFY with a target: the chain's, and the target stage's plan */
+    int passes;                   /* the chain's passes (1 with a streamed target: THIN) */
+    int staged;                   /* a streamed target: the target stage follows the chain */
+    en_target_stage *stage;
     int has_target;
     int borrowed_pool;
     const char *path;

@@ -152,6 +152,8 @@ typedef struct state {
     uint64_t faces_alive, vertices_alive;
     uint64_t given_up;
     int stopped_by_error;
+    double ceiling;           /* cost_ceiling, +inf when none */
+    int stopped_by_ceiling;
 } state;
 
 static int entry_less(const heap_entry *a, const heap_entry *b)
@@ -672,6 +674,7 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
     st.max_cost = cs->by_error && cs->max_error >= 0 ? cs->max_error * cs->max_error : INFINITY;
     st.keep_faces = cs->keep_faces;
     st.keep_vertices = cs->keep_vertices;
+    st.ceiling = cs->cost_ceiling != 0 ? cs->cost_ceiling : INFINITY;
     st.faces_alive = s->nt;
     for (uint32_t v = 0; v < s->nv; v++) {
         st.vertices_alive += st.vx[v].vf_count > 0;
@@ -702,6 +705,14 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
                 rc = queue_cheapest(&st, e.v);
                 continue;
             }
+            if (e.cost > st.ceiling) {
+                /* the cheapest collapse left is above the round's ceiling,
+                 * and so is every other (the queue holds lower bounds):
+                 * the round ends here; v waits for the next one */
+                rc = heap_set(&st, e.v, e.cost, e.u);
+                st.stopped_by_ceiling = 1;
+                break;
+            }
             if (st.by_error && collapse_error2(&st, e.v, e.u, e.cost) > st.max_cost) {
                 /* over the error bound: v waits (a later collapse nearby
                  * may bring its error down, since the area grows too) */
@@ -721,7 +732,7 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
         }
         met = (st.keep_faces && st.faces_alive <= st.keep_faces) ||
               (st.keep_vertices && st.vertices_alive <= st.keep_vertices);
-        if (rc || met || tier2 || !(st.keep_faces || st.keep_vertices))
+        if (rc || met || tier2 || st.stopped_by_ceiling || !(st.keep_faces || st.keep_vertices))
             break;
         /* The first tier is spent and the target is not met: the second
          * tier joins, cheapest first like the rest. */
@@ -738,11 +749,19 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
         counts->faces_left = st.faces_alive;
         counts->vertices_left = st.vertices_alive;
         counts->stopped_by_error = st.stopped_by_error;
+        counts->stopped_by_ceiling = st.stopped_by_ceiling;
+        if (cs->bucket_of) {
+            for (uint32_t v = 0; v < s->nv; v++)
+                cs->bucket_of[v] = EN_COST_NONE;
+            for (size_t i = 0; i < st.heap_len; i++)
+                if (removable[st.heap[i].v] == 1)
+                    cs->bucket_of[st.heap[i].v] = (uint16_t)en_cost_bucket(st.heap[i].cost);
+        }
         for (uint32_t v = 0; v < s->nv && rc == 0; v++) {
             if (!st.vx[v].removable || !st.vx[v].alive)
                 continue;
             counts->remaining++;
-            if (met)
+            if (met || st.stopped_by_ceiling)
                 continue; /* left by the target, not refused */
             rc = queue_best_valid(&st, v); /* fresh reasons; the queue is not used again */
             for (int k = 0; k < EN_REFUSE_KINDS; k++)

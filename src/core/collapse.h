@@ -9,6 +9,7 @@
 #ifndef EN_CORE_COLLAPSE_H
 #define EN_CORE_COLLAPSE_H
 
+#include <math.h>
 #include <stdatomic.h>
 #include <stdint.h>
 
@@ -54,6 +55,18 @@ typedef struct en_collapse_settings {
      * the target's last collapses measure against the mesh near the
      * target, not against every plane each vertex has absorbed). */
     uint64_t refresh_faces;
+    /* A target's round (docs/architecture.md §7): stop before the first
+     * collapse whose quadric cost is above cost_ceiling (0: no such stop;
+     * below 0: before any collapse, only pricing what waits, bucket_of).
+     * Every collapse below it is done, cheapest first, so the same
+     * ceiling held by every slab and seam is the streaming form of one
+     * global order. */
+    double cost_ceiling;
+    /* When not NULL (one per vertex): at the end, the cost bucket
+     * (en_cost_bucket) of each first-tier vertex's cheapest collapse still
+     * waiting, EN_COST_NONE for every other vertex: what the target stage
+     * counts to set its next round's ceiling. */
+    uint16_t *bucket_of;
     /* When not NULL: the collapses done so far, stored now and then
      * (relaxed) for a progress report read on another thread; and a flag
      * that other thread may raise to stop the run (EPSNET_EINTR). */
@@ -61,11 +74,38 @@ typedef struct en_collapse_settings {
     _Atomic int *stop;
 } en_collapse_settings;
 
+/* Log buckets of quadric costs, sixteen to an octave (a ceiling between
+ * two is then at most 4.4% off), from 2^-300 up; bucket 0 holds zero and
+ * everything below. Histograms of them add up across slabs, seams and
+ * threads in any order (integer counts). */
+#define EN_COST_BUCKETS 8192
+#define EN_COST_BUCKET_EXP0 (-300)
+#define EN_COST_NONE UINT16_MAX
+static inline int en_cost_bucket(double c)
+{
+    if (!(c > 0))
+        return 0;
+    int e;
+    double m = frexp(c, &e); /* c = m * 2^e, m in [0.5, 1) */
+    long b = (long)(e - 1 - EN_COST_BUCKET_EXP0) * 16 + (long)((m - 0.5) * 32.0) + 1;
+    return b < 1 ? 1 : b >= EN_COST_BUCKETS ? EN_COST_BUCKETS - 1 : (int)b;
+}
+/* The upper edge of bucket b, which holds the costs from the edge of b - 1
+ * up to it: a ceiling there takes the whole bucket. */
+static inline double en_cost_bucket_top(int b)
+{
+    if (b <= 0)
+        return 0;
+    int k = b - 1;
+    return ldexp(0.5 + (k % 16 + 1) / 32.0, k / 16 + EN_COST_BUCKET_EXP0 + 1);
+}
+
 typedef struct en_collapse_counts {
     uint64_t collapses;
     uint64_t given_up;           /* collapses of second-tier vertices (removable == 2) */
     uint64_t faces_left, vertices_left; /* alive faces; alive vertices on a face */
     int stopped_by_error;        /* a collapse past max_error was left undone */
+    int stopped_by_ceiling;      /* the cheapest collapse left is above cost_ceiling */
     uint64_t remaining;          /* removable vertices still present */
     uint64_t refused[EN_REFUSE_KINDS]; /* remaining vertices refused for each reason */
 } en_collapse_counts;

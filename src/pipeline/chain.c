@@ -136,6 +136,7 @@ struct en_chain {
     int failed;
     epsnet_error failure;
     en_chain_stats stats;          /* pass-summed counts; seam counts are added at the end */
+    uint64_t *cost_hist;           /* THIN, ROUND: the slabs' costs left (EN_COST_BUCKETS), summed at retire */
 };
 
 static int pass_put(void *self, const epsnet_record *rec, epsnet_error *err);
@@ -373,7 +374,11 @@ static int retire_one(en_pass *p, epsnet_error *err)
             en_classify_counts_add(&c->stats.counts, &w->counts);
         c->stats.collapses += w->collapses;
         c->stats.membrane_faces += w->membrane_faces;
-        if (w->target && w->target->mode != EN_TARGET_THIN) {
+        if (w->cost_hist && c->cost_hist && w->target &&
+            (w->target->mode == EN_TARGET_THIN || w->target->mode == EN_TARGET_ROUND))
+            for (int b = 0; b < EN_COST_BUCKETS; b++)
+                c->cost_hist[b] += w->cost_hist[b];
+        if (w->target && w->target->mode != EN_TARGET_THIN && w->target->mode != EN_TARGET_ROUND) {
             c->stats.skeleton_kept += w->skeleton_kept;
             c->stats.samples_given_up += w->given_up;
             if (w->target->mode == EN_TARGET_WHOLE)
@@ -434,6 +439,7 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     w->g = &p->g;
     w->mode = c->cfg.mode;
     w->max_normal_dev = c->cfg.max_normal_dev;
+    w->quadric_at = c->cfg.quadrics_in ? c->cfg.attr_size : UINT32_MAX;
     w->lock_offset = c->cfg.lock_offset;
     w->lock_type = c->cfg.mode == EN_SLAB_SIMPLIFY ? c->cfg.lock_type : 0;
     int choosing = p->density_pending;
@@ -649,6 +655,15 @@ static int pass_end(void *self, epsnet_error *err)
     if (rc == 0)
         rc = flush(p, err);
     if (rc == 0) {
+        /* the pass is over: what it holds goes before the next stage's end,
+         * which may run long (a target's rounds, pipeline/target_stage.h) */
+        uint64_t max_active = p->ch.max_active;
+        en_chunker_free(&p->ch);
+        p->ch.max_active = max_active;
+        en_stitcher_release(&p->st);
+        for (size_t n = 0; n < p->nreturned; n++)
+            free_work(p->returned[n]);
+        p->nreturned = 0;
         en_stage next = downstream(p->chain, p->index);
         rc = en_stage_end(&next, err);
     }
@@ -734,6 +749,7 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             p->density_pending = p->target->mode == EN_TARGET_THIN && p->target->choose_density;
         }
         int finish = p->target && p->target->mode == EN_TARGET_FINISH;
+        int round = p->target && p->target->mode == EN_TARGET_ROUND;
         if (i > 0 && !finish) {
             gauss_rotation r;
             gauss_pass_rotation(cfg->seed, i + 1, &r);
@@ -754,14 +770,26 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         if (p->chunk_ring) /* see chunk_job */
             en_jobring_set_order(p->chunk_ring, 1, 1);
-        p->batch_attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? cfg->attr_size : 0;
+        /* the records' bytes: the attributes, and a carried quadric */
+        size_t in_size = cfg->attr_size + (cfg->quadrics_in ? sizeof(en_quadric) : 0);
+        p->batch_attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? in_size : 0;
         if (rc == 0 && p->batched && next_fill(p))
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
-        p->ch.read_marks = finish;
-        p->ch.attr_size = p->st.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? cfg->attr_size : 0;
+        p->ch.read_marks = finish || round;
+        p->ch.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? (uint32_t)in_size : 0;
+        p->st.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? cfg->attr_size : 0;
+        if (cfg->mode == EN_SLAB_SIMPLIFY && (cfg->quadrics_in || cfg->quadrics_out)) {
+            p->st.attr_size += (uint32_t)sizeof(en_quadric);
+            p->st.quadric_at = cfg->attr_size;
+            p->st.write_quadrics = cfg->quadrics_out;
+        }
         int streamed = p->target && p->target->mode != EN_TARGET_WHOLE;
         p->st.target = streamed ? p->target : NULL;
-        p->st.mark_samples = streamed && p->target->mode == EN_TARGET_THIN;
+        p->st.mark_samples = streamed && (p->target->mode == EN_TARGET_THIN || round);
+        if (rc == 0 && streamed && (p->target->mode == EN_TARGET_THIN || round) &&
+            (!(p->st.cost_hist = en_calloc(EN_COST_BUCKETS, sizeof *p->st.cost_hist)) ||
+             (!c->cost_hist && !(c->cost_hist = en_calloc(EN_COST_BUCKETS, sizeof *c->cost_hist)))))
+            rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         p->ch.cut_last = streamed && p->target->mode != EN_TARGET_BOUND;
     }
     if (rc) {
@@ -806,6 +834,15 @@ void en_chain_stats_get(const en_chain *c, en_chain_stats *out)
     }
 }
 
+void en_chain_cost_hist(const en_chain *c, uint64_t *add)
+{
+    for (int b = 0; c->cost_hist && b < EN_COST_BUCKETS; b++)
+        add[b] += c->cost_hist[b];
+    for (int i = 0; i < c->cfg.passes; i++)
+        for (int b = 0; c->pass[i].st.cost_hist && b < EN_COST_BUCKETS; b++)
+            add[b] += c->pass[i].st.cost_hist[b];
+}
+
 void en_chain_free(en_chain **pc)
 {
     en_chain *c = pc ? *pc : NULL;
@@ -839,6 +876,7 @@ void en_chain_free(en_chain **pc)
         en_stitcher_free(&p->st);
     }
     en_free(c->pass);
+    en_free(c->cost_hist);
     en_free(c);
     *pc = NULL;
 }

@@ -42,6 +42,12 @@ typedef struct en_chain_config {
      * the target, in slabs of finish_slab_vertices; NULL: none. */
     const en_target *target, *finish;
     uint32_t attr_size;           /* SIMPLIFY: vertex attribute bytes per record (0: none) */
+    /* A target stage's passes (pipeline/target_stage.h): the input records'
+     * attribute bytes end in each vertex's accumulated quadric
+     * (quadrics_in: the slabs start from it, not from their faces), and the
+     * output records' do (quadrics_out), after the attr_size bytes of the
+     * input's own attributes. */
+    int quadrics_in, quadrics_out;
     uint32_t lock_offset;         /* the lock property's bytes in them, */
     int lock_type;                /* and its epsnet_attr_type (0: no lock) */
     uint32_t slab_vertices;
@@ -96,6 +102,11 @@ en_stage en_chain_input(en_chain *chain);
 
 /* Counts so far (complete after the end). */
 void en_chain_stats_get(const en_chain *chain, en_chain_stats *stats);
+
+/* A target's THIN or ROUND passes (after the end): add into add[] (EN_COST_BUCKETS)
+ * the costs of the collapses they left, one count per vertex that may still
+ * go, in its cheapest collapse's bucket (pipeline/target_stage.h). */
+void en_chain_cost_hist(const en_chain *chain, uint64_t *add);
 
 /* Wait for the slabs in flight, free everything; sets *chain to NULL.
  * Accepts NULL. */

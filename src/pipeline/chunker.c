@@ -91,7 +91,6 @@ static int new_vertex(en_chunker *c, const epsnet_record *rec, epsnet_error *err
     v->local_slab = -1;
     v->owner = EN_OWNER_LIVE;
     v->skeleton = c->read_marks && (rec->v[0] & EN_MARK_SKELETON);
-    v->rate = c->read_marks && rec->v[1] <= UINT32_MAX ? (uint32_t)rec->v[1] : 0;
     if (en_idmap_put(&c->map, c->next_gid, i)) {
         if (i + 1 == c->v_len)
             c->v_len--;
@@ -197,7 +196,6 @@ static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
     if (w->live_vertices + w->live_faces > c->max_active)
         c->max_active = w->live_vertices + w->live_faces;
     int rc = sort_fin_by_gid(c);
-    w->thin_rate = rc == 0 && c->nfin ? c->v[c->fin[c->nfin - 1]].rate / EN_RATE_ONE : 0;
     for (size_t j = 0; j < c->nfin && rc == 0; j++) {
         c->v[c->fin[j]].owner = k;
         rc = add_local(c, w, c->fin[j], EN_V_OWNED);

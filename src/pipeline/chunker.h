@@ -30,7 +30,6 @@ typedef struct en_chunk_vertex {
     int64_t local_slab;   /* ... valid when this equals that slab's index */
     int64_t owner;        /* owning slab; EN_OWNER_LIVE / EN_OWNER_FINAL before its cut */
     uint8_t skeleton;     /* its record carried EN_MARK_SKELETON (read_marks only) */
-    uint32_t rate;        /* its record's v[1] (read_marks only; EN_RATE_ONE is 2^30) */
 } en_chunk_vertex;
 
 #define EN_OWNER_LIVE (-1)

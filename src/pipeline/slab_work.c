@@ -12,6 +12,7 @@ void en_slab_work_init(en_slab_work *w)
 {
     memset(w, 0, sizeof *w);
     en_slab_init(&w->s);
+    w->quadric_at = UINT32_MAX;
 }
 
 void en_slab_work_free(en_slab_work *w)
@@ -34,6 +35,8 @@ void en_slab_work_free(en_slab_work *w)
     en_free(w->ftri);
     en_free(w->removable);
     en_free(w->attr);
+    en_free(w->cost_hist);
+    en_free(w->bucket_of);
     en_slab_work_init(w);
 }
 
@@ -46,7 +49,7 @@ void en_slab_work_reset(en_slab_work *w)
 #define KEEP(field) w->field = keep.field
     KEEP(owner), KEEP(fflags), KEEP(vclass), KEEP(vgvertex), KEEP(q), KEEP(ref), KEEP(tri), KEEP(falive);
     KEEP(valive), KEEP(border), KEEP(future), KEEP(degree), KEEP(band), KEEP(fnormal), KEEP(ftri), KEEP(removable);
-    KEEP(attr);
+    KEEP(attr), KEEP(cost_hist), KEEP(bucket_of);
     KEEP(cap);
 #undef KEEP
 }
@@ -126,22 +129,18 @@ static int whole_finish(const en_slab_work *w)
     return w->target->mode == EN_TARGET_FINISH && w->index == 0 && w->last;
 }
 
-/* The share a streamed slab keeps of what it reaches: a finish's from what
- * the thinning actually left (en_slab_work.thin_rate), when it says. */
+/* The share a streamed slab keeps of what it reaches (a finish's: of what
+ * the target stage kept, counted, pipeline/target_stage.h). */
 static double keep_share(const en_slab_work *w)
 {
-    const en_target *t = w->target;
-    if (t->mode != EN_TARGET_FINISH || w->thin_rate <= 0)
-        return t->keep_share;
-    double k = t->skeleton_ratio / w->thin_rate;
-    return k < 1 ? k : 1;
+    return w->target->keep_share;
 }
 
 /* Faces and vertices the slab may keep under its target (0: no limit). */
 static void target_limits(const en_slab_work *w, uint64_t *keep_faces, uint64_t *keep_vertices)
 {
     const en_target *t = w->target;
-    if (t->mode == EN_TARGET_BOUND) { /* no count: the error bound alone */
+    if (t->mode == EN_TARGET_BOUND || t->mode == EN_TARGET_ROUND) { /* no count: the bound or the ceiling */
         *keep_faces = *keep_vertices = 0;
         return;
     }
@@ -554,6 +553,11 @@ static int simplify(en_slab_work *w)
         return oom(w);
     uint8_t *removable = w->removable;
     en_quadrics_from_faces(s, w->q, w->ref);
+    if (w->quadric_at != UINT32_MAX && w->attr)
+        /* what the passes before took in, so that costs go on rising from
+         * where they stood (a target's rounds, pipeline/target_stage.h) */
+        for (uint32_t v = 0; v < s->nv; v++)
+            memcpy(&w->q[v], w->attr + (size_t)v * w->attr_size + w->quadric_at, sizeof w->q[v]);
     mark_frozen(w);
     /* The seam rules (pipeline/seam.h): an owned inner vertex has its whole
      * star here; a frozen one and the ghosts do not. */
@@ -568,7 +572,7 @@ static int simplify(en_slab_work *w)
         /* under a target, samples are the second tier (en_collapse_slab),
          * and so are the non-manifold vertices, which are kept as samples
          * (docs/method.md §6, §13); boundaries and the user's locks stay */
-        if (w->target && w->target->mode != EN_TARGET_THIN &&
+        if (w->target && w->target->mode != EN_TARGET_THIN && w->target->mode != EN_TARGET_ROUND &&
             (k == EN_VK_SAMPLE || (k == EN_VK_LOCKED && nonmanifold_only(w, v))))
             removable[v] = 2;
         s->vflags[v] = (uint8_t)((s->vflags[v] & ~EN_V_TARGET) | (en_receives(k) ? EN_V_TARGET : 0));
@@ -610,8 +614,19 @@ static int simplify(en_slab_work *w)
          * CAD parts, normal deviation 2-5% (bench/RESULTS.md). Not with an error bound, which measures
          * against the input's planes, nor in a thinning pass, whose finish
          * takes them afresh anyway (its quadrics start from its own input). */
-        if (w->target->max_error < 0 && w->target->mode != EN_TARGET_THIN)
+        if (w->target->max_error < 0 && w->target->mode != EN_TARGET_THIN && w->target->mode != EN_TARGET_ROUND)
             cs.refresh_faces = cs.keep_faces ? cs.keep_faces + cs.keep_faces / 4 : 5 * cs.keep_vertices / 2;
+        if (w->target->mode == EN_TARGET_ROUND)
+            cs.cost_ceiling = w->target->cost_ceiling;
+        if (w->target->mode == EN_TARGET_THIN || w->target->mode == EN_TARGET_ROUND) {
+            if ((!w->cost_hist && !(w->cost_hist = en_malloc(EN_COST_BUCKETS * sizeof *w->cost_hist))) ||
+                room(&w->bucket_of, &w->cap.bucket_of, nv, sizeof *w->bucket_of))
+                return oom(w);
+            memset(w->cost_hist, 0, EN_COST_BUCKETS * sizeof *w->cost_hist);
+            for (size_t v = 0; v < nv; v++)
+                w->bucket_of[v] = EN_COST_NONE;
+            cs.bucket_of = w->bucket_of;
+        }
     }
     if (w->progress) {
         /* what the limits leave to do: each collapse takes two faces, or one vertex */
@@ -644,6 +659,11 @@ static int simplify(en_slab_work *w)
         for (uint32_t v = 0; v < w->nowned; v++)
             w->skeleton_kept += (w->vclass[v] & EN_C_SAMPLE) && w->valive[v] && !(s->vflags[v] & EN_V_ISOLATED);
     mark_bands(w);
+    if (cs.bucket_of) /* what this slab decides; the ring is the seams' to count */
+        for (uint32_t v = 0; v < w->nowned; v++)
+            if (w->valive[v] && cs.bucket_of[v] != EN_COST_NONE &&
+                (w->border[v] == EN_BORDER_INNER || w->border[v] == EN_BORDER_OUTER))
+                w->cost_hist[cs.bucket_of[v]]++;
     return 0;
 }
 
@@ -727,7 +747,7 @@ int en_slab_work_run(void *arg)
         w->rc = oom(w);
     else if (w->target && w->mode == EN_SLAB_SIMPLIFY && drop_membranes(w))
         ; /* w->rc and w->err are set */
-    else if (w->target && w->target->mode == EN_TARGET_FINISH)
+    else if (w->target && (w->target->mode == EN_TARGET_FINISH || w->target->mode == EN_TARGET_ROUND))
         w->rc = skeleton_from_marks(w);
     else if (w->target && w->target->choose_density && w->mode == EN_SLAB_SIMPLIFY)
         w->rc = choose_density(w);

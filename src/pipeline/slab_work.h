@@ -47,16 +47,15 @@ typedef enum en_target_mode {
     EN_TARGET_BOUND,              /* streamed error bound alone: each slab and the seams collapse
                                    * non-samples while the error stays within max_error times
                                    * the whole mesh's diagonal */
+    EN_TARGET_ROUND,              /* a round between THIN and FINISH (pipeline/target_stage.h):
+                                   * the marks are the skeleton; each slab and the seams do every
+                                   * collapse below cost_ceiling, cheapest first; samples stay */
 } en_target_mode;
 
 /* Between the passes of a streamed target, a vertex record's v[0] carries
  * this bit for a skeleton sample. Only the chain's own passes write it (the
  * stitcher's mark_samples) or read it (the chunker's read_marks). */
 #define EN_MARK_SKELETON 1u
-/* ... and v[1] the share of its input the thinning pass had kept when it
- * wrote the record, times EN_RATE_ONE: the finish sizes its shares and
- * paces its seams by what the thinning left, not by its plan. */
-#define EN_RATE_ONE ((double)(1u << 30))
 
 typedef struct en_target {
     en_target_mode mode;
@@ -87,6 +86,8 @@ typedef struct en_target {
      * over its share may take a coarser one (slab_work.c: thin_density). */
     int may_coarsen;
     double skeleton_share;
+    /* ROUND: the round's global ceiling on a collapse's quadric cost. */
+    double cost_ceiling;
 } en_target;
 
 /* A slab's collapses as they go, read on another thread (a one-slab
@@ -109,12 +110,14 @@ typedef struct en_slab_work {
     uint64_t frontier;            /* every global id below was finalized in a slab <= k */
     uint64_t live_vertices, live_faces; /* chunker's active set at the cut */
     int last;                     /* cut at the end of the stream: no slab comes after it */
-    double thin_rate;             /* FINISH: its newest owned vertex's record's rate (EN_RATE_ONE), 0: none */
     /* Vertex attributes (docs/architecture.md §7): attr_size bytes per
      * local vertex, copied by the chunker, carried untouched (a kept vertex
      * is an input vertex) and read by the stitcher. */
     uint32_t attr_size;
     uint8_t *attr;
+    /* A target stage's pass: each vertex's bytes end in its quadric, at
+     * this offset, which the slab starts from (UINT32_MAX: none). */
+    uint32_t quadric_at;
     /* The user's lock (settings.lock_property): the offset of that
      * attribute in a vertex's bytes and its type; lock_type 0: none. */
     uint32_t lock_offset;
@@ -159,6 +162,11 @@ typedef struct en_slab_work {
      * its home faces, membranes included, or its owned vertices on faces. */
     uint64_t units_in;
     int stopped_by_error;
+    /* THIN and ROUND: the costs of the collapses left to do (EN_COST_BUCKETS
+     * counts, en_cost_bucket) at the vertices this slab decides (inner and
+     * outer; the ring's go with the seams, whose stitcher counts them),
+     * which the target stage sums to set the next round's ceiling. */
+    uint64_t *cost_hist;
 
     /* Worker scratch, and the capacity of every array above: a slab work is
      * reused for a later cut (en_slab_work_reset), so a run in its steady
@@ -166,9 +174,10 @@ typedef struct en_slab_work {
     double *fnormal;
     int32_t *ftri;
     uint8_t *removable;
+    uint16_t *bucket_of;          /* THIN, ROUND: en_collapse_settings.bucket_of */
     struct {
         size_t owner, fflags, vclass, vgvertex, q, ref, tri, falive, valive, border, future, degree, band, fnormal,
-            ftri, removable, attr;
+            ftri, removable, attr, bucket_of;
     } cap;
 } en_slab_work;
 

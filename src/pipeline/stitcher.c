@@ -29,6 +29,7 @@ struct en_stitch_vertex {
     uint32_t take;         /* the take it arrived in (a streamed target's seams) */
     uint8_t border;        /* EN_BORDER_* */
     uint16_t state;        /* S_* */
+    uint16_t bucket;       /* THIN, ROUND: its cheapest collapse left at W's last run (EN_COST_NONE: none) */
 };
 
 struct en_seam_face {
@@ -67,7 +68,28 @@ void en_stitcher_free(en_stitcher *st)
     en_free(st->local);
     en_slab_free(&st->ws);
     en_free(st->attr);
+    en_free(st->cost_hist);
     memset(st, 0, sizeof *st);
+}
+
+void en_stitcher_release(en_stitcher *st)
+{
+    en_free(st->v);
+    en_free(st->free_list);
+    en_u64map_free(&st->map);
+    en_free(st->wv);
+    en_free(st->wf);
+    en_free(st->vheap);
+    en_free(st->fheap);
+    en_free(st->local);
+    en_slab_free(&st->ws);
+    en_free(st->attr);
+    st->v = NULL, st->free_list = NULL, st->wv = NULL, st->wf = NULL, st->vheap = NULL, st->fheap = NULL;
+    st->local = NULL, st->attr = NULL;
+    st->v_len = st->v_cap = st->free_len = st->free_cap = 0;
+    st->nwv = st->wv_cap = st->nwf = st->wf_cap = st->nvheap = st->vheap_cap = st->nfheap = st->fheap_cap = 0;
+    st->local_cap = st->attr_cap = 0;
+    en_slab_init(&st->ws);
 }
 
 static int oom(epsnet_error *err)
@@ -234,8 +256,6 @@ static uint64_t seam_keep(const en_stitcher *st, int last)
     }
     uint64_t done = st->taken > pending ? st->taken - pending : 0;
     uint64_t goal = t->goal, expected = t->expected_in;
-    if (t->mode == EN_TARGET_FINISH && st->thin_rate > 0) /* what the thinning has left, not its plan */
-        expected = (uint64_t)llround((double)t->expected_in * st->thin_rate * t->keep_share / t->skeleton_ratio);
     if (!last && expected && done < expected)
         goal = (uint64_t)llround((double)t->goal * (double)done / (double)expected);
     /* what the output already holds outside W */
@@ -246,8 +266,11 @@ static uint64_t seam_keep(const en_stitcher *st, int last)
 /* One run of the slab core's collapses over W (paper §4.2, §5). */
 static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
 {
-    if (st->target && st->target->seams_whole)
-        return 0; /* for the one-slab finish after this pass */
+    /* seams left whole for what follows: only priced, for the target
+     * stage's first ceiling (its histogram counts every vertex that may go) */
+    int price_only = st->target && st->target->seams_whole;
+    if (price_only && !st->cost_hist)
+        return 0;
     int any = 0, finish = st->target && st->target->mode == EN_TARGET_FINISH;
     for (size_t i = 0; i < st->nwv && !any; i++) {
         en_vertex_kind k = kind_in_w(&st->v[st->wv[i]], 0);
@@ -276,6 +299,7 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
     en_quadric *q = en_malloc(nv * sizeof *q);
     double *ref = en_malloc(3 * nt * sizeof *ref);
     uint32_t *tri = en_malloc(3 * nt * sizeof *tri);
+    uint16_t *bucket_of = NULL;
     int rc = 0;
     if (!removable || !valive || !falive || !q || !ref || !tri) {
         rc = oom(err);
@@ -295,6 +319,10 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
     if (st->target && st->target->mode == EN_TARGET_BOUND) {
         cs.by_error = 1; /* the slabs' bound, on the whole mesh's diagonal */
         cs.max_error = st->target->max_error * st->target->diagonal;
+    } else if (st->target && st->target->mode == EN_TARGET_ROUND) {
+        cs.cost_ceiling = st->target->cost_ceiling; /* the slabs' ceiling */
+    } else if (price_only) {
+        cs.cost_ceiling = -1;
     } else if (st->target) {
         uint64_t keep = seam_keep(st, last);
         if (keep >= (st->target->by_vertices ? st->nwv : st->nwf))
@@ -305,6 +333,11 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
         cs.max_error = -1;
     }
     en_collapse_counts cc;
+    if (st->cost_hist && !(bucket_of = en_malloc(nv * sizeof *bucket_of))) {
+        rc = oom(err);
+        goto out;
+    }
+    cs.bucket_of = bucket_of;
     if (en_collapse_slab(ws, removable, q, ref, &cs, falive, valive, tri, &cc)) {
         rc = oom(err);
         goto out;
@@ -339,10 +372,13 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
             continue;
         }
         st->v[idx].q = q[i];
+        if (bucket_of)
+            st->v[idx].bucket = bucket_of[i];
         st->wv[kept++] = idx;
     }
     st->nwv = kept;
 out:
+    en_free(bucket_of);
     en_free(removable);
     en_free(valive);
     en_free(falive);
@@ -424,13 +460,6 @@ static int put(en_stitcher *st, epsnet_record_kind kind, uint64_t a, uint64_t b,
 /* Write every decided vertex below frontier, each with the faces it ends. */
 static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
 {
-    /* between a streamed target's passes: the share of its input the
-     * thinning has kept so far (EN_RATE_ONE fixed point), written into each
-     * vertex record for the finish's chunker; it is the same for every
-     * vertex of this call */
-    uint64_t rate = st->mark_samples && st->taken
-                        ? (uint64_t)((double)st->faces_final / (double)st->taken * EN_RATE_ONE)
-                        : 0;
     while (st->nvheap && st->vheap[0].gid < frontier) {
         en_vheap_entry e = vheap_pop(st->vheap, &st->nvheap);
         en_stitch_vertex *x = &st->v[e.idx];
@@ -441,6 +470,8 @@ static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
         }
         x->out = st->next_out++;
         st->stats.out_vertices++;
+        if (st->cost_hist && x->bucket != EN_COST_NONE && !(x->state & S_FIXED))
+            st->cost_hist[x->bucket]++; /* what W left it to do, once */
         if (!(x->state & S_FIXED)) {
             st->stats.remaining_nonsamples++;
             if (x->state & S_BAND)
@@ -449,7 +480,9 @@ static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
                 st->stats.inner_left++;
         }
         uint64_t mark = st->mark_samples && (x->state & S_SKELETON) ? EN_MARK_SKELETON : 0;
-        int rc = put(st, EPSNET_REC_VERTEX, mark, rate, 0, x->xyz,
+        if (st->write_quadrics)
+            memcpy(st->attr + (size_t)e.idx * st->attr_size + st->quadric_at, &x->q, sizeof x->q);
+        int rc = put(st, EPSNET_REC_VERTEX, mark, 0, 0, x->xyz,
                      st->attr_size ? st->attr + (size_t)e.idx * st->attr_size : NULL, err);
         if (rc)
             return rc;
@@ -491,11 +524,13 @@ static int take_vertices(en_stitcher *st, const en_slab_work *w, epsnet_error *e
         en_stitch_vertex *x = &st->v[idx];
         x->gid = w->s.gid[l];
         memcpy(x->xyz, w->s.pos + 3 * (size_t)l, sizeof x->xyz);
-        if (st->attr_size)
-            memcpy(st->attr + (size_t)idx * st->attr_size, w->attr + (size_t)l * st->attr_size, st->attr_size);
+        if (st->attr_size && w->attr_size) /* the slab's bytes may lack the quadric this writes */
+            memcpy(st->attr + (size_t)idx * st->attr_size, w->attr + (size_t)l * w->attr_size,
+                   w->attr_size < st->attr_size ? w->attr_size : st->attr_size);
         x->q = w->q[l];
         x->out = UINT64_MAX;
         x->take = st->takes;
+        x->bucket = EN_COST_NONE;
         x->remaining = w->degree[l];
         x->future = w->future[l];
         x->border = w->border[l];
@@ -575,8 +610,6 @@ int en_stitcher_take(en_stitcher *st, const en_slab_work *w, epsnet_error *err)
     st->stats.band_nonsamples += w->band_nonsamples;
     st->stats.inner_nonsamples += w->inner_nonsamples;
     st->taken += w->units_in;
-    if (w->thin_rate > 0)
-        st->thin_rate = w->thin_rate;
     int rc = take_vertices(st, w, err);
     if (rc == 0)
         rc = take_faces(st, w, err);

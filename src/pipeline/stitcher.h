@@ -72,7 +72,8 @@ typedef struct en_stitcher {
      * cheapest first and stop where the pass stays on course for the
      * target's goal (seam_keep in stitcher.c). THIN: samples stay and leave
      * marked (mark_samples); FINISH: they are the second tier; BOUND: W's
-     * collapses stop at the error bound alone. Read only, set before the
+     * collapses stop at the error bound alone; ROUND: at the round's cost
+     * ceiling, samples staying and leaving marked. Read only, set before the
      * first take; the fields below are the take jobs' (one at a time). */
     const en_target *target;
     int mark_samples;
@@ -81,12 +82,20 @@ typedef struct en_stitcher {
     uint64_t faces_final;             /* faces that left W, or never entered it, for the output */
     uint64_t decided;                 /* vertices decided (kept) */
     uint64_t given_up;                /* samples collapsed in W (FINISH) */
-    double thin_rate;                 /* FINISH: the newest slab's en_slab_work.thin_rate */
+    /* THIN and ROUND: the costs of the collapses W left to do, one count per
+     * W vertex as it is written, in its last W run's bucket
+     * (en_slab_work.cost_hist has the slabs' own); NULL otherwise. */
+    uint64_t *cost_hist;
     /* Vertex attributes: attr_size bytes per pool slot (beside v), from
      * the slab works, into the vertex records it emits. */
     uint32_t attr_size;
     uint8_t *attr;
     size_t attr_cap;
+    /* With write_quadrics, each vertex record's bytes end in its
+     * accumulated quadric, at quadric_at (a target stage's passes,
+     * en_chain_config.quadrics_out). */
+    uint32_t quadric_at;
+    int write_quadrics;
     en_stitch_stats stats;
 } en_stitcher;
 
@@ -100,6 +109,10 @@ int en_stitcher_take(en_stitcher *st, const en_slab_work *w, epsnet_error *err);
 
 /* After the last slab: everything must have been emitted (EINTERNAL if not). */
 int en_stitcher_finish(en_stitcher *st, epsnet_error *err);
+
+/* After en_stitcher_finish: free the seams' and queues' memory; the
+ * counts stay (stats, given_up, cost_hist), and so does the target. */
+void en_stitcher_release(en_stitcher *st);
 
 /* Bytes held by the seams and the output queues (capacities, not just
  * what is in use), for the memory budget. */

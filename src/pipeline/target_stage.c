@@ -1,0 +1,408 @@
+#include "pipeline/target_stage.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "common/alloc.h"
+#include "common/error.h"
+#include "io/sink.h"
+
+/*
+ * note: the numbers of the rounds (docs/architecture.md §7).
+ * - ROUND_AIM: a round's ceiling is set where the histogram holds this
+ *   share of the collapses still needed, when much is still to go. The
+ *   quadrics ride along from pass to pass (en_chain_config.quadrics_in),
+ *   so the histogram prices the next round's collapses as they will be
+ *   priced; but a collapse changes its neighbours' costs, and measured on
+ *   `gen bumpy` 2M at 10% a round did 72-87% of what it aimed at (and,
+ *   with coarser buckets, once 124% when little was left: a bucket holds
+ *   many vertices of about one cost).
+ *   So the aim falls to ROUND_AIM_NEAR when the gap is small, and rounds
+ *   stop at ROUND_CLOSE: the last round's own order decides the rest.
+ * - ROUND_STALL: a round that takes less than this share of the gap says
+ *   the rest is held by refusals or by the skeleton: the last round sees to it.
+ */
+#define ROUND_AIM 0.9
+#define ROUND_AIM_NEAR 0.6
+#define ROUND_NEAR 0.2
+#define ROUND_CLOSE 0.05
+#define ROUND_STALL 0.05
+#define ROUND_MAX 12
+
+/* One record of the kept stream, as the chain's stitcher wrote it (a
+ * vertex's v[0] is its skeleton mark);
+ * each vertex is followed by its attribute bytes (attr_size) and its
+ * accumulated quadric (kept_attr in all). */
+typedef struct kept_record {
+    uint64_t v[3];
+    double xyz[3];
+    uint32_t kind;
+    uint32_t pad;
+} kept_record;
+
+/* A kept stream: the temporary file and what it holds. Records pass
+ * through buf a block at a time: one zstd call per record cost more than
+ * the round's collapses (0.35 s of feeding for 335K faces). */
+#define KEPT_BLOCK ((size_t)1 << 18)
+typedef struct kept {
+    en_spill *sp;
+    uint64_t vertices, faces;
+    uint8_t *buf;
+    size_t len, pos;              /* writing: bytes in buf; reading: [pos, len) not yet parsed */
+} kept;
+
+struct en_target_stage {
+    en_target_stage_config cfg;
+    en_pool *pool;
+    const en_chain *thin;
+    kept in;                      /* what the stage's input (the thinning, or a round) wrote */
+    uint64_t *hist;               /* EN_COST_BUCKETS: the costs the last pass left */
+    uint32_t kept_attr;           /* a kept vertex's bytes: its attributes, then its quadric */
+    uint8_t *attr;                /* one vertex's, for replay */
+    en_chain_stats rounds;        /* the rounds' counts, summed */
+    en_chain_stats last;          /* the last round's */
+    int nrounds;
+    int failed;
+    epsnet_error failure;
+};
+
+static int kept_open(en_target_stage *ts, kept *k, epsnet_error *err)
+{
+    memset(k, 0, sizeof *k);
+    if (!(k->buf = en_malloc(KEPT_BLOCK)))
+        return en_error_set(err, EPSNET_ENOMEM, ts->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    return en_spill_open(&k->sp, ts->cfg.tmpdir, ts->cfg.path ? ts->cfg.path : "target stage", err);
+}
+
+static void kept_close(kept *k)
+{
+    en_spill_close(&k->sp);
+    en_free(k->buf);
+    memset(k, 0, sizeof *k);
+}
+
+static int kept_write(kept *k, const void *p, size_t n, epsnet_error *err)
+{
+    if (k->len + n > KEPT_BLOCK) {
+        int rc = en_spill_write(k->sp, k->buf, k->len, err);
+        if (rc)
+            return rc;
+        k->len = 0;
+    }
+    memcpy(k->buf + k->len, p, n);
+    k->len += n;
+    return 0;
+}
+
+/* The next n bytes of the kept stream (n <= KEPT_BLOCK / 2), or NULL at
+ * its end (*got: how many it had, for a torn record) or on an error (rc). */
+static const uint8_t *kept_read(kept *k, size_t n, size_t *got, int *rc, epsnet_error *err)
+{
+    if (k->len - k->pos < n) {
+        memmove(k->buf, k->buf + k->pos, k->len - k->pos);
+        k->len -= k->pos;
+        k->pos = 0;
+        int64_t r = en_spill_read(k->sp, k->buf + k->len, KEPT_BLOCK - k->len, err);
+        if (r < 0) {
+            *rc = (int)r;
+            return NULL;
+        }
+        k->len += (size_t)r;
+        if (k->len < n) {
+            *got = k->len;
+            return NULL;
+        }
+    }
+    const uint8_t *p = k->buf + k->pos;
+    k->pos += n;
+    return p;
+}
+
+/* A stage that appends records to a kept stream. */
+typedef struct kept_sink {
+    en_target_stage *ts;
+    kept *k;
+} kept_sink;
+
+static int kept_put(void *self, const epsnet_record *rec, epsnet_error *err)
+{
+    kept_sink *to = self;
+    kept_record r = { { rec->v[0], rec->v[1], rec->v[2] },
+                      { rec->xyz[0], rec->xyz[1], rec->xyz[2] },
+                      (uint32_t)rec->kind,
+                      0 };
+    int rc = kept_write(to->k, &r, sizeof r, err);
+    if (rc == 0 && rec->kind == EPSNET_REC_VERTEX)
+        rc = kept_write(to->k, rec->attr, to->ts->kept_attr, err);
+    to->k->vertices += rec->kind == EPSNET_REC_VERTEX;
+    to->k->faces += rec->kind == EPSNET_REC_TRIANGLE;
+    return rc;
+}
+
+static int kept_end(void *self, epsnet_error *err)
+{
+    (void)self;
+    (void)err;
+    return 0;
+}
+
+/* Push the kept stream k into `into`, then end it. */
+static int replay(en_target_stage *ts, kept *k, en_stage into, epsnet_error *err)
+{
+    int rc = k->len ? en_spill_write(k->sp, k->buf, k->len, err) : 0;
+    k->len = k->pos = 0;
+    if (rc == 0)
+        rc = en_spill_rewind(k->sp, err);
+    while (rc == 0) {
+        size_t got = 0;
+        const uint8_t *p = kept_read(k, sizeof(kept_record), &got, &rc, err);
+        if (!p) {
+            if (rc == 0 && got == 0)
+                return en_stage_end(&into, err); /* the end, between records */
+            break;
+        }
+        kept_record r;
+        memcpy(&r, p, sizeof r);
+        epsnet_record rec = { .kind = (epsnet_record_kind)r.kind };
+        memcpy(rec.v, r.v, sizeof rec.v);
+        memcpy(rec.xyz, r.xyz, sizeof rec.xyz);
+        if (rec.kind == EPSNET_REC_VERTEX) {
+            if (!(p = kept_read(k, ts->kept_attr, &got, &rc, err)))
+                break;
+            memcpy(ts->attr, p, ts->kept_attr); /* stays valid while the record is put */
+            rec.attr = ts->attr;
+        }
+        rc = en_stage_put(&into, &rec, err);
+    }
+    return rc ? rc
+              : en_error_set(err, EPSNET_EIO, ts->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                             "the target stage's temporary file ended in the middle of a record");
+}
+
+/* The ceiling that takes `want` of the collapses the histogram counts
+ * (all of them when it holds fewer). */
+static double ceiling_for(const uint64_t *hist, double want)
+{
+    double sum = 0;
+    int top = 0;
+    for (int b = 0; b < EN_COST_BUCKETS; b++) {
+        if (!hist[b])
+            continue;
+        top = b;
+        sum += (double)hist[b];
+        if (sum >= want)
+            return en_cost_bucket_top(b);
+    }
+    return en_cost_bucket_top(top);
+}
+
+static void add_counts(en_chain_stats *to, const en_chain_stats *from)
+{
+    to->slabs += from->slabs;
+    to->collapses += from->collapses;
+    to->seam_faces += from->seam_faces;
+    to->seam_collapses += from->seam_collapses;
+    to->membrane_faces += from->membrane_faces;
+    if (from->max_active > to->max_active)
+        to->max_active = from->max_active;
+}
+
+/* A round's slabs: a sixteenth of what is kept, so that a round much
+ * smaller than the thinning's input still keeps every worker busy, but no
+ * smaller than ROUND_SLAB_MIN (seams grow as slabs shrink) and no larger
+ * than the thinning's. */
+#define ROUND_SLABS 16
+#define ROUND_SLAB_MIN 8192
+static uint32_t round_slab(const en_target_stage *ts, const kept *from)
+{
+    uint64_t n = from->vertices / (uint64_t)ROUND_SLABS;
+    n = n < ROUND_SLAB_MIN ? ROUND_SLAB_MIN : n;
+    return n < ts->cfg.slab_vertices ? (uint32_t)n : ts->cfg.slab_vertices;
+}
+
+/* One chain over the kept stream `from`: a round into `to`, or the last one
+ * into cfg.out (to NULL). */
+static int run_chain(en_target_stage *ts, const en_target *t, kept *from, kept *to, int last, en_chain_stats *got,
+                     epsnet_error *err)
+{
+    const en_target_stage_config *cfg = &ts->cfg;
+    kept_sink sink = { ts, to };
+    en_chain_config cc = {
+        .mode = EN_SLAB_SIMPLIFY,
+        .path = cfg->path,
+        .sphere = cfg->sphere,
+        .passes = 1,
+        .max_normal_dev = cfg->max_normal_dev,
+        .target = last ? NULL : t,
+        .finish = last ? t : NULL,
+        .finish_slab_vertices = t->one_slab ? UINT32_MAX - 1 : round_slab(ts, from),
+        .attr_size = cfg->attr_size,
+        .quadrics_in = !last, /* the last round starts afresh, as its refresh would (slab_work.c) */
+        .quadrics_out = !last,
+        .lock_offset = cfg->lock_offset,
+        .lock_type = cfg->lock_type,
+        .slab_vertices = round_slab(ts, from),
+        .mem_budget = cfg->mem_budget,
+        .ring_capacity = cfg->ring_capacity,
+        .checked_input = 1, /* a stitcher wrote it */
+        .tick = last ? cfg->tick : NULL,
+        .tick_opaque = cfg->tick_opaque,
+        .out = last ? cfg->out : (en_stage){ kept_put, kept_end, &sink },
+    };
+    en_chain *c = NULL;
+    int rc = en_chain_new(&c, &cc, ts->pool, err);
+    if (rc == 0)
+        rc = replay(ts, from, en_chain_input(c), err);
+    if (rc == 0) {
+        en_chain_stats_get(c, got);
+        if (!last) {
+            memset(ts->hist, 0, EN_COST_BUCKETS * sizeof *ts->hist);
+            en_chain_cost_hist(c, ts->hist);
+        }
+    }
+    en_chain_free(&c);
+    return rc;
+}
+
+static int stage_fail(en_target_stage *ts, int rc, const epsnet_error *err)
+{
+    if (!ts->failed) {
+        ts->failed = rc;
+        ts->failure = *err;
+    }
+    return rc;
+}
+
+static int stage_put(void *self, const epsnet_record *rec, epsnet_error *err)
+{
+    en_target_stage *ts = self;
+    if (ts->failed) {
+        *err = ts->failure;
+        return ts->failed;
+    }
+    kept_sink sink = { ts, &ts->in };
+    int rc = kept_put(&sink, rec, err);
+    return rc ? stage_fail(ts, rc, err) : 0;
+}
+
+/* Does what is kept fit the last round's one slab? */
+static int fits_one_slab(const en_target_stage *ts)
+{
+    return ts->in.vertices <= ts->cfg.one_slab_vertices &&
+           ts->in.vertices * (uint64_t)EN_ONE_SLAB_BYTES_PER_VERTEX <= ts->cfg.one_slab_bytes;
+}
+
+/* The thinning's stream is all here: rounds, then the last one. */
+static int stage_end(void *self, epsnet_error *err)
+{
+    en_target_stage *ts = self;
+    if (ts->failed) {
+        *err = ts->failure;
+        return ts->failed;
+    }
+    const en_target *plan = &ts->cfg.finish;
+    int by_vertices = plan->by_vertices;
+    uint64_t goal = plan->goal;
+    if (ts->thin)
+        en_chain_cost_hist(ts->thin, ts->hist);
+    int rc = 0;
+    for (; ts->nrounds < ROUND_MAX && rc == 0; ts->nrounds++) {
+        uint64_t left = by_vertices ? ts->in.vertices : ts->in.faces;
+        if ((double)left <= (double)goal * (1 + ROUND_CLOSE) || fits_one_slab(ts))
+            break;
+        /* a collapse takes one vertex, and two faces inside a surface */
+        double need = (double)(left - goal) / (by_vertices ? 1.0 : 2.0);
+        en_target round = *plan;
+        round.mode = EN_TARGET_ROUND;
+        double gap = (double)(left - goal) / (double)goal;
+        round.cost_ceiling = ceiling_for(ts->hist, (gap > ROUND_NEAR ? ROUND_AIM : ROUND_AIM_NEAR) * need);
+        round.one_slab = round.seams_whole = 0;
+        round.max_error = -1;
+        kept next;
+        en_chain_stats got;
+        if ((rc = kept_open(ts, &next, err)) == 0)
+            rc = run_chain(ts, &round, &ts->in, &next, 0, &got, err);
+        if (rc) {
+            kept_close(&next);
+            break;
+        }
+        add_counts(&ts->rounds, &got);
+        kept_close(&ts->in);
+        ts->in = next;
+        uint64_t now = by_vertices ? ts->in.vertices : ts->in.faces;
+        if ((double)(left - now) < ROUND_STALL * (double)(left - goal)) {
+            ts->nrounds++;
+            break;
+        }
+    }
+    if (rc)
+        return stage_fail(ts, rc, err);
+    /* The last round: the exact count, by its plan from what is kept. */
+    en_target fin = *plan;
+    uint64_t left = by_vertices ? ts->in.vertices : ts->in.faces;
+    fin.mode = EN_TARGET_FINISH;
+    fin.expected_in = left;
+    fin.keep_share = left ? fmin(1.0, (double)goal / (double)left) : 1.0;
+    fin.one_slab = fits_one_slab(ts);
+    fin.seams_whole = 0;
+    rc = run_chain(ts, &fin, &ts->in, NULL, 1, &ts->last, err);
+    return rc ? stage_fail(ts, rc, err) : 0;
+}
+
+int en_target_stage_new(en_target_stage **out, const en_target_stage_config *cfg, en_pool *pool, epsnet_error *err)
+{
+    *out = NULL;
+    en_target_stage *ts = en_calloc(1, sizeof *ts);
+    if (!ts || !(ts->hist = en_calloc(EN_COST_BUCKETS, sizeof *ts->hist)) ||
+        !(ts->attr = en_malloc(cfg->attr_size + sizeof(en_quadric)))) {
+        en_target_stage_free(&ts);
+        return en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    }
+    ts->cfg = *cfg;
+    ts->pool = pool;
+    ts->kept_attr = cfg->attr_size + (uint32_t)sizeof(en_quadric);
+    int rc = kept_open(ts, &ts->in, err);
+    if (rc) {
+        en_target_stage_free(&ts);
+        return rc;
+    }
+    *out = ts;
+    return 0;
+}
+
+en_stage en_target_stage_input(en_target_stage *ts)
+{
+    return (en_stage){ stage_put, stage_end, ts };
+}
+
+void en_target_stage_after(en_target_stage *ts, const en_chain *thin)
+{
+    ts->thin = thin;
+}
+
+void en_target_stage_stats(const en_target_stage *ts, en_chain_stats *cs, int *rounds)
+{
+    add_counts(cs, &ts->rounds);
+    add_counts(cs, &ts->last);
+    cs->output_vertices = ts->last.output_vertices;
+    cs->output_faces = ts->last.output_faces;
+    cs->remaining_nonsamples = ts->last.remaining_nonsamples;
+    cs->skeleton_kept = ts->last.skeleton_kept;
+    cs->samples_given_up = ts->last.samples_given_up;
+    cs->target_faces = ts->last.target_faces;
+    cs->stopped_by_error |= ts->last.stopped_by_error;
+    cs->passes += (uint64_t)ts->nrounds + 1;
+    *rounds = ts->nrounds;
+}
+
+void en_target_stage_free(en_target_stage **pts)
+{
+    en_target_stage *ts = pts ? *pts : NULL;
+    if (!ts)
+        return;
+    kept_close(&ts->in);
+    en_free(ts->hist);
+    en_free(ts->attr);
+    en_free(ts);
+    *pts = NULL;
+}

@@ -1,0 +1,83 @@
+/*
+ * The size target's stage (docs/architecture.md §7, "target stage"): rounds
+ * under a rising global cost threshold, on slabs, after the thinning pass.
+ *
+ * The thinning pass (a chain pass in THIN mode: it chooses the skeleton,
+ * classifies and collapses each slab to a share of the target) hands its
+ * output stream to this stage, which keeps it in a compressed temporary
+ * file. At the end of that stream the stage knows what no streamed step
+ * knows before it: how many faces are left, and what the collapses still
+ * to do cost (a histogram the thinning's slabs and seams filled). Then:
+ *
+ *  - rounds: while what is left is well above the target, one more pass
+ *    over the kept stream, on slabs of the one pool, does every collapse
+ *    below a global ceiling on quadric cost, in every slab and seam alike,
+ *    cheapest first: the same ceiling held everywhere is the streaming form
+ *    of one global cheapest-first order (an error bound held by every
+ *    collapse is slab-invariant, docs/architecture.md §7). The ceiling is
+ *    set from the histogram so that the round removes a part of what is
+ *    still to go, never more; each round counts the costs it leaves for
+ *    the next one;
+ *  - the last round meets the count exactly: a FINISH pass, in one slab
+ *    when what is left is small, else on slabs whose seams pace it to the
+ *    target (stitcher.c: seam_keep), over a mesh already close to it.
+ *
+ * The skeleton's samples ride through the rounds as marks (never removed
+ * by a round; the last one gives them up only when the target needs it),
+ * and so do the user's locks, which every slab reads from the attributes.
+ *
+ * Threads: the stage runs on the calling thread, as the chain's output
+ * stage; each round is a chain of its own on the run's pool.
+ */
+#ifndef EN_PIPELINE_TARGET_STAGE_H
+#define EN_PIPELINE_TARGET_STAGE_H
+
+#include <stdint.h>
+
+#include "common/pool.h"
+#include "common/stage.h"
+#include "pipeline/chain.h"
+
+typedef struct en_target_stage en_target_stage;
+
+typedef struct en_target_stage_config {
+    const char *path;             /* names the input in messages */
+    const gauss_sphere *sphere;   /* the chains' (unused by rounds: their skeleton is marked) */
+    double max_normal_dev;
+    uint32_t attr_size, lock_offset;
+    int lock_type;
+    uint32_t slab_vertices;       /* the rounds' slabs: the thinning pass's */
+    uint64_t mem_budget;          /* each round's chain (budget.h: the chain's share) */
+    uint64_t one_slab_bytes;      /* what a last round in one slab may hold (budget.h) */
+    uint32_t one_slab_vertices;   /* ... and at most this many vertices (a few slabs) */
+    size_t ring_capacity;
+    const char *tmpdir;           /* the kept stream's temporary file (NULL: $TMPDIR or /tmp) */
+    /* The target as the thinning pass was planned against: goal (faces or,
+     * with by_vertices, vertices), skeleton_ratio; the stage makes the
+     * FINISH of it. */
+    en_target finish;
+    int (*tick)(void *opaque, uint64_t done, uint64_t total); /* en_chain_config.tick, for the last round */
+    void *tick_opaque;
+    en_stage out;                 /* where the last round's records go */
+} en_target_stage_config;
+
+/* @return 0, or a negative code with err filled. */
+int en_target_stage_new(en_target_stage **ts, const en_target_stage_config *cfg, en_pool *pool,
+                        epsnet_error *err);
+
+/* The stage the thinning chain writes into. Its end runs the rounds and
+ * the last one, and ends cfg.out. */
+en_stage en_target_stage_input(en_target_stage *ts);
+
+/* The thinning chain, whose costs left (en_chain_cost_hist) the first
+ * round's ceiling comes from; set before the chain's end. */
+void en_target_stage_after(en_target_stage *ts, const en_chain *thin);
+
+/* The rounds' counts added into *cs (collapses, slabs, seams), and the
+ * last round's output, skeleton and target figures put in its place.
+ * rounds: how many rounds ran before the last one. */
+void en_target_stage_stats(const en_target_stage *ts, en_chain_stats *cs, int *rounds);
+
+void en_target_stage_free(en_target_stage **ts);
+
+#endif
