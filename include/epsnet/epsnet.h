@@ -728,6 +728,9 @@ typedef struct epsnet_stats {
      * buffers (0: the input was a stream), the passes' held state, and, of
      * that, what a target's one slab may take. reader + sort + chain <= total. */
     uint64_t budget_total, budget_reader, budget_sort, budget_chain, budget_one_slab;
+    /* A streamed target (docs/architecture.md §7): the rounds its target
+     * stage ran under a global cost ceiling before the last one (0: none). */
+    uint32_t target_rounds;
 } epsnet_stats;
 
 typedef struct epsnet_context epsnet_context;

@@ -405,6 +405,7 @@ int en_run_end(en_run *run, epsnet_error *err)
     if (run->stage)
         en_target_stage_stats(run->stage, &cs, &rounds);
     fill_stats(st, &cs);
+    st->target_rounds = (uint32_t)rounds;
     if (cs.skeleton_frequency && cs.skeleton_frequency != run->ctx->sphere.n) {
         /* the stats report the sphere the skeleton was taken at */
         gauss_sphere chosen;

@@ -58,22 +58,16 @@ int en_stitcher_init(en_stitcher *st, double max_normal_dev, en_stage out)
 
 void en_stitcher_free(en_stitcher *st)
 {
-    en_free(st->v);
-    en_free(st->free_list);
-    en_u64map_free(&st->map);
-    en_free(st->wv);
-    en_free(st->wf);
-    en_free(st->vheap);
-    en_free(st->fheap);
-    en_free(st->local);
-    en_slab_free(&st->ws);
-    en_free(st->attr);
+    en_stitcher_release(st);
     en_free(st->cost_hist);
     memset(st, 0, sizeof *st);
 }
 
 void en_stitcher_release(en_stitcher *st)
 {
+    en_free(st->scratch);
+    st->scratch = NULL;
+    st->scratch_cap = 0;
     en_free(st->v);
     en_free(st->free_list);
     en_u64map_free(&st->map);
@@ -294,17 +288,21 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
     }
     if (en_slab_build_stars(ws))
         return oom(err);
+    /* the run's arrays, in one buffer the stitcher keeps from take to take
+     * (a steady run allocates nothing per take) */
     size_t nv = st->nwv + 1, nt = st->nwf + 1;
-    uint8_t *removable = en_malloc(nv), *valive = en_malloc(nv), *falive = en_malloc(nt);
-    en_quadric *q = en_malloc(nv * sizeof *q);
-    double *ref = en_malloc(3 * nt * sizeof *ref);
-    uint32_t *tri = en_malloc(3 * nt * sizeof *tri);
-    uint16_t *bucket_of = NULL;
+    size_t at[8] = { 0 }, size[7] = { nv * sizeof(en_quadric), 3 * nt * sizeof(double), 3 * nt * sizeof(uint32_t),
+                                       nv * sizeof(uint16_t), nv, nv, nt };
+    for (int k = 0; k < 7; k++)
+        at[k + 1] = at[k] + (size[k] + 7) / 8 * 8;
+    if (en_grow((void **)&st->scratch, &st->scratch_cap, at[7], 1))
+        return oom(err);
+    en_quadric *q = (en_quadric *)(void *)st->scratch;
+    double *ref = (double *)(void *)(st->scratch + at[1]);
+    uint32_t *tri = (uint32_t *)(void *)(st->scratch + at[2]);
+    uint16_t *bucket_of = st->cost_hist ? (uint16_t *)(void *)(st->scratch + at[3]) : NULL;
+    uint8_t *removable = st->scratch + at[4], *valive = st->scratch + at[5], *falive = st->scratch + at[6];
     int rc = 0;
-    if (!removable || !valive || !falive || !q || !ref || !tri) {
-        rc = oom(err);
-        goto out;
-    }
     for (size_t i = 0; i < st->nwv; i++) {
         const en_stitch_vertex *x = &st->v[st->wv[i]];
         en_vertex_kind k = kind_in_w(x, ws->vflags[i]);
@@ -333,10 +331,6 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
         cs.max_error = -1;
     }
     en_collapse_counts cc;
-    if (st->cost_hist && !(bucket_of = en_malloc(nv * sizeof *bucket_of))) {
-        rc = oom(err);
-        goto out;
-    }
     cs.bucket_of = bucket_of;
     if (en_collapse_slab(ws, removable, q, ref, &cs, falive, valive, tri, &cc)) {
         rc = oom(err);
@@ -378,13 +372,6 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
     }
     st->nwv = kept;
 out:
-    en_free(bucket_of);
-    en_free(removable);
-    en_free(valive);
-    en_free(falive);
-    en_free(q);
-    en_free(ref);
-    en_free(tri);
     return rc;
 }
 

@@ -96,6 +96,9 @@ typedef struct en_stitcher {
      * en_chain_config.quadrics_out). */
     uint32_t quadric_at;
     int write_quadrics;
+    uint8_t *scratch;                 /* a run over W's arrays, kept from take to take (a worker's
+                                       * scratch: not in en_stitcher_bytes, docs/architecture.md §12) */
+    size_t scratch_cap;
     en_stitch_stats stats;
 } en_stitcher;
 
