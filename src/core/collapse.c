@@ -749,7 +749,6 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
         counts->faces_left = st.faces_alive;
         counts->vertices_left = st.vertices_alive;
         counts->stopped_by_error = st.stopped_by_error;
-        counts->stopped_by_ceiling = st.stopped_by_ceiling;
         if (cs->bucket_of) {
             for (uint32_t v = 0; v < s->nv; v++)
                 cs->bucket_of[v] = EN_COST_NONE;

@@ -72,22 +72,16 @@ static int choose_attrs(epsnet_writer *w)
 {
     const epsnet_attr_layout *in = &w->info.vertex_attrs;
     memset(&w->attrs, 0, sizeof w->attrs);
-    size_t cap = 1, len = 0;
-    for (uint32_t i = 0; i < in->count; i++)
-        cap += strlen(in->attr[i].name) + 24;
     for (uint32_t i = 0; i < in->count; i++) {
         if (w->fmt->holds_attr && w->fmt->holds_attr(in, i)) {
             w->attr_from[w->attrs.count] = in->attr[i].offset;
             (void)epsnet_attr_layout_add(&w->attrs, in->attr[i].name, in->attr[i].type);
             continue;
         }
-        if (!w->drop_text && !(w->drop_text = en_malloc(cap)))
+        char what[EPSNET_ATTR_NAME_MAX + 24];
+        snprintf(what, sizeof what, "vertex property %s", in->attr[i].name);
+        if (en_writer_drop(w, what))
             return -1;
-        int n = snprintf(w->drop_text + len, cap - len, "%svertex property %s", len ? ", " : "",
-                         in->attr[i].name);
-        if (n > 0)
-            len += (size_t)n;
-        w->ndrop++;
     }
     w->attrs_subset = w->attrs.count != in->count;
     return 0;

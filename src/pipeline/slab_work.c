@@ -129,13 +129,6 @@ static int whole_finish(const en_slab_work *w)
     return w->target->mode == EN_TARGET_FINISH && w->index == 0 && w->last;
 }
 
-/* The share a streamed slab keeps of what it reaches (a finish's: of what
- * the target stage kept, counted, pipeline/target_stage.h). */
-static double keep_share(const en_slab_work *w)
-{
-    return w->target->keep_share;
-}
-
 /* Faces and vertices the slab may keep under its target (0: no limit). */
 static void target_limits(const en_slab_work *w, uint64_t *keep_faces, uint64_t *keep_vertices)
 {
@@ -155,7 +148,7 @@ static void target_limits(const en_slab_work *w, uint64_t *keep_faces, uint64_t 
         if (t->by_vertices) {
             for (uint32_t v = 0; v < w->nowned; v++)
                 reach += inner(w, v) && en_slab_degree(&w->s, v) > 0;
-            uint64_t drop = (uint64_t)((1 - keep_share(w)) * (double)reach), on = vertices_on_faces(&w->s);
+            uint64_t drop = (uint64_t)((1 - t->keep_share) * (double)reach), on = vertices_on_faces(&w->s);
             *keep_faces = 0;
             *keep_vertices = on > drop ? on - drop : 1;
             if (whole_finish(w))
@@ -166,7 +159,7 @@ static void target_limits(const en_slab_work *w, uint64_t *keep_faces, uint64_t 
             const uint32_t *c = w->s.tri + 3 * (size_t)f;
             reach += (w->fflags[f] & EN_F_INTERIOR) && inner(w, c[0]) && inner(w, c[1]) && inner(w, c[2]);
         }
-        uint64_t drop = (uint64_t)((1 - keep_share(w)) * (double)reach);
+        uint64_t drop = (uint64_t)((1 - t->keep_share) * (double)reach);
         *keep_faces = w->s.nt > drop ? w->s.nt - drop : 1;
         *keep_vertices = 0;
         if (whole_finish(w))
@@ -211,7 +204,7 @@ static uint64_t target_goal(const en_slab_work *w)
     if (t->mode == EN_TARGET_THIN) /* the final target's share of this slab */
         return (uint64_t)((double)on_faces * t->skeleton_ratio);
     if (t->mode == EN_TARGET_FINISH)
-        return (uint64_t)((double)on_faces * keep_share(w));
+        return (uint64_t)((double)on_faces * t->keep_share);
     uint64_t keep_faces, keep_vertices;
     target_limits(w, &keep_faces, &keep_vertices);
     uint64_t goal = keep_vertices;
@@ -623,9 +616,7 @@ static int simplify(en_slab_work *w)
                 room(&w->bucket_of, &w->cap.bucket_of, nv, sizeof *w->bucket_of))
                 return oom(w);
             memset(w->cost_hist, 0, EN_COST_BUCKETS * sizeof *w->cost_hist);
-            for (size_t v = 0; v < nv; v++)
-                w->bucket_of[v] = EN_COST_NONE;
-            cs.bucket_of = w->bucket_of;
+            cs.bucket_of = w->bucket_of; /* filled by the collapse core, when it runs */
         }
     }
     if (w->progress) {
@@ -659,7 +650,7 @@ static int simplify(en_slab_work *w)
         for (uint32_t v = 0; v < w->nowned; v++)
             w->skeleton_kept += (w->vclass[v] & EN_C_SAMPLE) && w->valive[v] && !(s->vflags[v] & EN_V_ISOLATED);
     mark_bands(w);
-    if (cs.bucket_of) /* what this slab decides; the ring is the seams' to count */
+    if (cs.bucket_of && nremovable) /* what this slab decides; the ring is the seams' to count */
         for (uint32_t v = 0; v < w->nowned; v++)
             if (w->valive[v] && cs.bucket_of[v] != EN_COST_NONE &&
                 (w->border[v] == EN_BORDER_INNER || w->border[v] == EN_BORDER_OUTER))

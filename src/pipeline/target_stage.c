@@ -227,6 +227,7 @@ static int run_chain(en_target_stage *ts, const en_target *t, kept *from, kept *
 {
     const en_target_stage_config *cfg = &ts->cfg;
     kept_sink sink = { ts, to };
+    uint32_t slab = round_slab(ts, from);
     en_chain_config cc = {
         .mode = EN_SLAB_SIMPLIFY,
         .path = cfg->path,
@@ -235,13 +236,13 @@ static int run_chain(en_target_stage *ts, const en_target *t, kept *from, kept *
         .max_normal_dev = cfg->max_normal_dev,
         .target = last ? NULL : t,
         .finish = last ? t : NULL,
-        .finish_slab_vertices = t->one_slab ? UINT32_MAX - 1 : round_slab(ts, from),
+        .finish_slab_vertices = t->one_slab ? UINT32_MAX - 1 : slab,
         .attr_size = cfg->attr_size,
         .quadrics_in = !last, /* the last round starts afresh, as its refresh would (slab_work.c) */
         .quadrics_out = !last,
         .lock_offset = cfg->lock_offset,
         .lock_type = cfg->lock_type,
-        .slab_vertices = round_slab(ts, from),
+        .slab_vertices = slab,
         .mem_budget = cfg->mem_budget,
         .ring_capacity = cfg->ring_capacity,
         .checked_input = 1, /* a stitcher wrote it */
