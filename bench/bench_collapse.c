@@ -70,7 +70,7 @@ int main(int argc, char **argv)
     for (int k = 0; k < reps; k++) {
         double t0 = en_now();
         en_quadrics_from_faces(&s, q, ref);
-        if (en_collapse_slab(&s, removable, q, ref, &cs, fa, va, tri, &counts)) {
+        if (en_collapse_slab(&s, removable, q, ref, &cs, fa, va, tri, &counts, NULL)) {
             fprintf(stderr, "bench_collapse: out of memory\n");
             return 1;
         }

@@ -55,6 +55,7 @@ static void *decode_blocks(void *arg)
     ZSTD_DCtx *dctx = ZSTD_createDCtx();
     uint8_t *raw = malloc(EN_SMZ_MAX_RAW_BYTES);
     epsnet_record *recs = malloc(EN_SMZ_MAX_RECORDS * sizeof *recs);
+    en_smz_scratch sc = { 0 };
     char why[200];
     double c0 = clock_s(CLOCK_THREAD_CPUTIME_ID);
     for (uint64_t b = j->first; b < j->idx->trailer.blocks; b += j->step) {
@@ -62,7 +63,7 @@ static void *decode_blocks(void *arg)
         en_smz_block_header bh;
         if (en_smz_block_header_decode(j->file + e->offset, &bh, why, sizeof why) ||
             en_smz_unpack(dctx, j->file + e->offset + EN_SMZ_BLOCK_HEADER_BYTES, &bh, raw, why, sizeof why) ||
-            en_smz_decode_block_h(raw, &bh, &j->idx->header, NULL, recs, why, sizeof why)) {
+            en_smz_decode_block_h(raw, &bh, &j->idx->header, NULL, &sc, recs, why, sizeof why)) {
             fprintf(stderr, "block %llu: %s\n", (unsigned long long)b, why);
             j->failed = 1;
             break;
@@ -73,6 +74,7 @@ static void *decode_blocks(void *arg)
     j->cpu = clock_s(CLOCK_THREAD_CPUTIME_ID) - c0;
     free(raw);
     free(recs);
+    en_smz_scratch_free(&sc);
     ZSTD_freeDCtx(dctx);
     return NULL;
 }

@@ -29,7 +29,7 @@ static void build(run *r, const double (*p)[3], int nv, const uint32_t (*f)[3], 
 static int collapse(run *r, double max_dev)
 {
     en_collapse_settings cs = { .max_normal_dev_deg = max_dev };
-    return en_collapse_slab(&r->s, r->removable, r->q, r->ref, &cs, r->falive, r->valive, r->tri, &r->cc);
+    return en_collapse_slab(&r->s, r->removable, r->q, r->ref, &cs, r->falive, r->valive, r->tri, &r->cc, NULL);
 }
 
 /*
@@ -137,7 +137,7 @@ static void build_grid(grid *g, double bump, int tier2_from)
 
 static int collapse_grid(grid *g, const en_collapse_settings *cs)
 {
-    return en_collapse_slab(&g->s, g->removable, g->q, g->ref, cs, g->falive, g->valive, g->tri, &g->cc);
+    return en_collapse_slab(&g->s, g->removable, g->q, g->ref, cs, g->falive, g->valive, g->tri, &g->cc, NULL);
 }
 
 static uint64_t alive_faces(const grid *g)

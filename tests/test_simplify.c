@@ -398,7 +398,7 @@ TEST(no_face_turns_past_the_bound_from_its_input_normal)
         en_quadrics_from_faces(&s, q, ref);
         en_collapse_settings cs = { .max_normal_dev_deg = bounds[b] };
         en_collapse_counts cc;
-        CHECK_EQ_INT(en_collapse_slab(&s, removable, q, ref, &cs, fa, va, tri, &cc), 0);
+        CHECK_EQ_INT(en_collapse_slab(&s, removable, q, ref, &cs, fa, va, tri, &cc, NULL), 0);
         CHECK(cc.collapses > s.nv / 2);
         double worst = 0;
         for (uint32_t f = 0; f < s.nt; f++) {

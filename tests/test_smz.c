@@ -265,7 +265,9 @@ TEST(blocks_decode_independently_through_the_index)
         unsigned char *raw = malloc(bh.raw_bytes);
         epsnet_record *recs = malloc(bh.records * sizeof *recs);
         CHECK_EQ_INT(en_smz_unpack(dctx, bytes + e->offset + EN_SMZ_BLOCK_HEADER_BYTES, &bh, raw, why, sizeof why), 0);
-        CHECK_EQ_INT(en_smz_decode_block_h(raw, &bh, &idx.header, NULL, recs, why, sizeof why), 0);
+        en_smz_scratch sc = { 0 };
+        CHECK_EQ_INT(en_smz_decode_block_h(raw, &bh, &idx.header, NULL, &sc, recs, why, sizeof why), 0);
+        en_smz_scratch_free(&sc);
         /* where this block starts in the sequential stream */
         at = 0;
         for (uint64_t k = 0; k < b; k++)

@@ -252,6 +252,8 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
     } else if ((rc = en_run_pool_new(&run->pool, set, path, err)) != 0) {
         return rc;
     }
+    if (en_chain_spares_new(&run->spares))
+        return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     int workers = en_pool_threads(run->pool);
     size_t ring = workers ? 2 * (size_t)workers : 1;
     if (run->staged) {
@@ -276,6 +278,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
             .finish = run->finish,
             .tick = set->progress ? finish_tick : NULL,
             .tick_opaque = run,
+            .spares = &run->spares,
             .out = out,
         };
         if ((rc = en_target_stage_new(&run->stage, &tc, run->pool, err)) != 0)
@@ -303,6 +306,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         .out = out,
         .on_sample = on_sample,
         .sample_opaque = sample_opaque,
+        .spares = &run->spares,
     };
     rc = en_chain_new(&run->chain, &cfg, run->pool, err);
     if (rc == 0)
@@ -430,6 +434,7 @@ void en_run_close(en_run *run)
 {
     en_chain_free(&run->chain);
     en_target_stage_free(&run->stage);
+    en_chain_spares_free(&run->spares);
     if (!run->borrowed_pool)
         en_pool_free(&run->pool);
     run->pool = NULL;

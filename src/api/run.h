@@ -40,6 +40,7 @@ typedef struct en_run {
     int passes;                   /* the chain's passes (1 with a streamed target: THIN) */
     int staged;                   /* a streamed target: the target stage follows the chain */
     en_target_stage *stage;
+    en_chain_spares spares;       /* slab works and collapse arrays, from chain to chain */
     int has_target;
     int borrowed_pool;
     const char *path;

@@ -622,19 +622,38 @@ static void refresh_quadrics(state *st)
         st->vx[v].self_err = quadric_eval(&st->vx[v].q, s->pos + 3 * (size_t)v);
 }
 
-static void state_free(state *st)
+void en_collapse_scratch_free(en_collapse_scratch *scratch)
 {
-    en_free(st->pool);
-    en_free(st->vx_alloc);
-    en_free(st->heap);
-    en_free(st->cand);
-    en_free(st->faces);
+    en_free(scratch->pool);
+    en_free(scratch->vx);
+    en_free(scratch->heap);
+    en_free(scratch->cand);
+    en_free(scratch->faces);
+    memset(scratch, 0, sizeof *scratch);
+}
+
+/* The state's arrays back to the caller's scratch, grown or not (or freed
+ * with the call's own). */
+static void state_release(state *st, en_collapse_scratch *own, en_collapse_scratch *scratch)
+{
+    own->pool = st->pool, own->pool_cap = st->pool_cap;
+    own->heap = st->heap, own->heap_cap = st->heap_cap;
+    own->cand = st->cand, own->cand_cap = st->cand_cap;
+    own->faces = st->faces, own->faces_cap = st->faces_cap;
+    own->vx = st->vx_alloc;
+    if (scratch)
+        *scratch = *own;
+    else
+        en_collapse_scratch_free(own);
 }
 
 int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, const double *ref_normal,
                      const en_collapse_settings *cs, uint8_t *face_alive, uint8_t *vertex_alive,
-                     uint32_t *tri_out, en_collapse_counts *counts)
+                     uint32_t *tri_out, en_collapse_counts *counts, en_collapse_scratch *scratch)
 {
+    en_collapse_scratch own = { 0 };
+    if (scratch)
+        own = *scratch;
     state st = { 0 };
     st.s = s;
     st.cos_bound = cos(cs->max_normal_dev_deg * (M_PI / 180.0));
@@ -645,14 +664,20 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
     memset(st.falive, 1, s->nt);
     memset(st.valive, 1, s->nv);
     st.ref_normal = ref_normal;
-    st.pool_cap = 3 * (size_t)s->nt + 8;
-    st.pool = en_malloc(st.pool_cap * sizeof *st.pool);
-    st.vx_alloc = en_malloc(((size_t)s->nv + 1) * sizeof *st.vx + 63);
+    st.pool = own.pool, st.pool_cap = own.pool_cap;
+    st.heap = own.heap, st.heap_cap = own.heap_cap;
+    st.cand = own.cand, st.cand_cap = own.cand_cap;
+    st.faces = own.faces, st.faces_cap = own.faces_cap;
     int rc = 0;
-    if (!st.pool || !st.vx_alloc) {
+    /* (vx's old contents need no keeping, but growing it as the others
+     * grow keeps a run of slightly larger slabs from allocating anew) */
+    if (en_grow((void **)&st.pool, &st.pool_cap, 3 * (size_t)s->nt + 8, sizeof *st.pool) ||
+        en_grow(&own.vx, &own.vx_bytes, ((size_t)s->nv + 1) * sizeof *st.vx + 63, 1)) {
+        st.vx_alloc = own.vx;
         rc = EPSNET_ENOMEM;
         goto out;
     }
+    st.vx_alloc = own.vx;
     st.vx = (vrec *)(((uintptr_t)st.vx_alloc + 63) & ~(uintptr_t)63);
     memcpy(st.pool, s->star, s->star_start[s->nv] * sizeof *st.pool);
     st.pool_len = s->star_start[s->nv];
@@ -768,7 +793,7 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
         }
     }
 out:
-    state_free(&st);
+    state_release(&st, &own, scratch);
     return rc;
 }
 

@@ -69,6 +69,7 @@ typedef struct smz_job {
     size_t payload_cap;
     uint8_t *raw;                  /* worker */
     size_t raw_cap;
+    en_smz_scratch sc;             /* worker: the decoder's working arrays */
     epsnet_record *recs;           /* worker; vertex records' attr point into attrs */
     size_t recs_cap;
     uint8_t *attrs;                /* worker */
@@ -84,6 +85,7 @@ struct smz_reader {
     size_t payload_cap;
     uint8_t *raw;
     size_t raw_cap;
+    en_smz_scratch sc;
     epsnet_record *recs;
     size_t recs_cap;
     uint8_t *attrs;                /* the current block's vertex attribute bytes */
@@ -275,7 +277,7 @@ static int read_block(epsnet_reader *r, smz_reader *st)
         return rc;
     }
     if (en_smz_unpack(st->dctx, st->payload, &b, st->raw, why, sizeof why) ||
-        en_smz_decode_block_h(st->raw, &b, &st->header, st->attrs, st->recs, why, sizeof why))
+        en_smz_decode_block_h(st->raw, &b, &st->header, st->attrs, &st->sc, st->recs, why, sizeof why))
         return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset, "block %llu is corrupt: %s",
                                  (unsigned long long)st->block_no, why);
     block_decoded(r, st, &b, st->recs);
@@ -407,13 +409,13 @@ static int decode_job(void *job)
     smz_job *j = job;
     if (j->read_rc == 0)
         j->bad = en_smz_unpack(j->dctx, j->payload, &j->b, j->raw, j->why, sizeof j->why) ||
-                 en_smz_decode_block_h(j->raw, &j->b, j->h, j->attrs, j->recs, j->why, sizeof j->why);
+                 en_smz_decode_block_h(j->raw, &j->b, j->h, j->attrs, &j->sc, j->recs, j->why, sizeof j->why);
     return 0;
 }
 
 static size_t job_bytes(const smz_job *j)
 {
-    return j->payload_cap + j->raw_cap + j->recs_cap * sizeof *j->recs + j->attrs_cap;
+    return j->payload_cap + j->raw_cap + j->recs_cap * sizeof *j->recs + j->attrs_cap + en_smz_scratch_bytes(&j->sc);
 }
 
 /* Whether the job slots may grow to hold `more` bytes more: the blocks read
@@ -461,7 +463,8 @@ static void read_ahead(epsnet_reader *r, smz_reader *st)
         if (need > before && !ahead_fits(r, st, need - before))
             break; /* waits for the blocks in flight to be used up */
         if (block_room(&st->header, &b, &j->payload, &j->payload_cap, &j->raw, &j->raw_cap, &j->recs,
-                       &j->recs_cap, &j->attrs, &j->attrs_cap)) {
+                       &j->recs_cap, &j->attrs, &j->attrs_cap) ||
+            en_smz_scratch_reserve(&j->sc, &b, &st->header)) {
             st->ahead_bytes += job_bytes(j) - before;
             st->ahead_stop = 1;
             break;
@@ -531,6 +534,7 @@ static void jobs_free(smz_reader *st)
         en_free(st->jobs[i].raw);
         en_free(st->jobs[i].recs);
         en_free(st->jobs[i].attrs);
+        en_smz_scratch_free(&st->jobs[i].sc);
     }
     en_free(st->jobs);
     st->jobs = NULL;
@@ -609,6 +613,7 @@ static void smz_close_reader(epsnet_reader *r)
     en_free(st->raw);
     en_free(st->recs);
     en_free(st->attrs);
+    en_smz_scratch_free(&st->sc);
     en_free(st);
     r->state = NULL;
 }

@@ -529,6 +529,39 @@ typedef struct pred_ref {
     int32_t p[PRED_MAX][3];     /* a, b, c of each: predicts a + b - c */
 } pred_ref;
 
+/* bytes of room at *p (a scratch array), grown only when too small. */
+static void *scratch(void **p, size_t *cap, size_t bytes)
+{
+    return en_grow(p, cap, bytes, 1) ? NULL : *p;
+}
+
+void en_smz_scratch_free(en_smz_scratch *sc)
+{
+    en_free(sc->vrec);
+    en_free(sc->tri);
+    en_free(sc->pos);
+    en_free(sc->ref);
+    en_free(sc->head);
+    en_free(sc->edge);
+    en_free(sc->raw);
+    memset(sc, 0, sizeof *sc);
+}
+
+typedef struct pred_edge {
+    int32_t next, nb, opp;
+} pred_edge;
+
+/* Room in sc for predicting a block of nverts vertices and ntris
+ * triangles: positions, refs, and predict_refs' edge lists. */
+static int reserve_predict(en_smz_scratch *sc, uint32_t nverts, size_t ntris)
+{
+    size_t nv = (size_t)nverts + 1;
+    return !scratch(&sc->pos, &sc->pos_cap, 3 * nv * sizeof(double)) ||
+           !scratch(&sc->ref, &sc->ref_cap, nv * sizeof(pred_ref)) ||
+           !scratch(&sc->head, &sc->head_cap, nv * sizeof(int32_t)) ||
+           !scratch(&sc->edge, &sc->edge_cap, (3 * ntris + 1) * sizeof(pred_edge));
+}
+
 /* refs of the block's nverts vertices from its triangles (global corners,
  * in stream order). @return 0 or -1 out of memory.
  * note: the edge table of docs/smz.md is kept as a list of edges per
@@ -536,21 +569,17 @@ typedef struct pred_ref {
  * is the edge's latest third corner, as a table that replaces would give,
  * and a sorted stream's lists are short and recently touched, which makes
  * this several times faster than hashing every edge. */
-static int predict_refs(const uint64_t *tri, size_t ntris, uint64_t first, uint32_t nverts, pred_ref *ref)
+static int predict_refs(const uint64_t *tri, size_t ntris, uint64_t first, uint32_t nverts, pred_ref *ref,
+                        en_smz_scratch *sc)
 {
     for (uint32_t v = 0; v < nverts; v++) {
         ref[v].a = ref[v].b = -1;
         ref[v].n = 0;
     }
-    int32_t *head = en_malloc(((size_t)nverts + 1) * sizeof *head);
-    struct edge {
-        int32_t next, nb, opp;
-    } *edge = en_malloc((3 * ntris + 1) * sizeof *edge);
-    if (!head || !edge) {
-        en_free(head);
-        en_free(edge);
+    if (reserve_predict(sc, nverts, ntris))
         return -1;
-    }
+    int32_t *head = sc->head;
+    pred_edge *edge = sc->edge;
     for (uint32_t v = 0; v < nverts; v++)
         head[v] = -1;
     int32_t nedge = 0;
@@ -587,12 +616,10 @@ static int predict_refs(const uint64_t *tri, size_t ntris, uint64_t first, uint3
         for (int k = 0; k < 3; k++) {
             int32_t p = l[k], q = l[(k + 1) % 3];
             int32_t lo = p < q ? p : q;
-            edge[nedge] = (struct edge){ head[lo], p < q ? q : p, l[(k + 2) % 3] };
+            edge[nedge] = (pred_edge){ head[lo], p < q ? q : p, l[(k + 2) % 3] };
             head[lo] = nedge++;
         }
     }
-    en_free(head);
-    en_free(edge);
     return 0;
 }
 
@@ -746,34 +773,60 @@ static void decode_attrs(const uint8_t *sec, uint32_t nverts, const epsnet_attr_
 }
 
 static int decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet_coord_type ct, int version,
-                        int axis, const epsnet_attr_layout *l, uint8_t *attr_out, epsnet_record *out, char *why,
-                        size_t why_len);
+                        int axis, const epsnet_attr_layout *l, uint8_t *attr_out, en_smz_scratch *sc,
+                        epsnet_record *out, char *why, size_t why_len);
+
+/* Room in sc for decoding block b as version 2 (a version 1 block needs
+ * none): its vertices' records, its corners, and the predictions. */
+static int reserve_decode(en_smz_scratch *sc, const en_smz_block_header *b)
+{
+    return !scratch(&sc->vrec, &sc->vrec_cap, ((size_t)b->nverts + 1) * sizeof(uint32_t)) ||
+           !scratch(&sc->tri, &sc->tri_cap, ((size_t)b->ntris * 3 + 1) * sizeof(uint64_t)) ||
+           reserve_predict(sc, b->nverts, b->ntris);
+}
+
+int en_smz_scratch_reserve(en_smz_scratch *sc, const en_smz_block_header *b, const en_smz_header *h)
+{
+    return h->version >= 2 && reserve_decode(sc, b) ? -1 : 0;
+}
+
+size_t en_smz_scratch_bytes(const en_smz_scratch *sc)
+{
+    return sc->vrec_cap + sc->tri_cap + sc->pos_cap + sc->ref_cap + sc->head_cap + sc->edge_cap + sc->raw_cap;
+}
 
 int en_smz_decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet_coord_type ct,
                         epsnet_record *out, char *why, size_t why_len)
 {
-    return decode_block(raw, b, ct, 1, -1, NULL, NULL, out, why, why_len);
+    en_smz_scratch sc = { 0 };
+    int rc = decode_block(raw, b, ct, 1, -1, NULL, NULL, &sc, out, why, why_len);
+    en_smz_scratch_free(&sc);
+    return rc;
 }
 
 int en_smz_decode_block_h(const uint8_t *raw, const en_smz_block_header *b, const en_smz_header *h,
-                          uint8_t *attr_out, epsnet_record *out, char *why, size_t why_len)
+                          uint8_t *attr_out, en_smz_scratch *sc, epsnet_record *out, char *why, size_t why_len)
 {
-    return decode_block(raw, b, h->coord_type, (int)h->version, h->axis, &h->attrs, attr_out, out, why, why_len);
+    return decode_block(raw, b, h->coord_type, (int)h->version, h->axis, &h->attrs, attr_out, sc, out, why,
+                        why_len);
 }
 
 /* Version 2: the coordinates of the block's vertices from their residuals
  * against the predictions (the triangles are decoded by now). */
 static int decode_predicted(const raw_sections *s, const en_smz_block_header *b, epsnet_coord_type ct, int axis,
                             const epsnet_attr_layout *l, uint8_t *attr_out, const uint32_t *vrec,
-                            const uint64_t *tri, epsnet_record *out, char *why, size_t why_len)
+                            const uint64_t *tri, en_smz_scratch *sc, epsnet_record *out, char *why,
+                            size_t why_len)
 {
     int w = coord_width(ct);
     uint32_t nv = b->nverts;
-    double *pos = en_malloc(((size_t)nv * 3 + 1) * sizeof *pos);
-    pred_ref *ref = en_malloc(((size_t)nv + 1) * sizeof *ref);
-    if (!pos || !ref || predict_refs(tri, b->ntris, b->first_vertex, nv, ref)) {
-        en_free(pos);
-        en_free(ref);
+    if (reserve_predict(sc, nv, b->ntris)) {
+        set_why(why, why_len, "out of memory");
+        return -1;
+    }
+    double *pos = sc->pos;
+    pred_ref *ref = sc->ref;
+    if (predict_refs(tri, b->ntris, b->first_vertex, nv, ref, sc)) {
         set_why(why, why_len, "out of memory");
         return -1;
     }
@@ -790,26 +843,22 @@ static int decode_predicted(const raw_sections *s, const en_smz_block_header *b,
         memcpy(out[vrec[v]].xyz, pos + 3 * (size_t)v, sizeof out->xyz);
     if (l && l->size)
         decode_attrs(s->attrs, nv, l, ref, attr_out);
-    en_free(pos);
-    en_free(ref);
     return 0;
 }
 
 static int decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet_coord_type ct, int version,
-                        int axis, const epsnet_attr_layout *l, uint8_t *attr_out, epsnet_record *out, char *why,
-                        size_t why_len)
+                        int axis, const epsnet_attr_layout *l, uint8_t *attr_out, en_smz_scratch *sc,
+                        epsnet_record *out, char *why, size_t why_len)
 {
     int width = coord_width(ct);
     uint32_t asz = l ? l->size : 0;
     int predicted = version >= 2;
-    uint32_t *vrec = NULL;
-    uint64_t *tri = NULL;
-    if (predicted && (!(vrec = en_malloc(((size_t)b->nverts + 1) * sizeof *vrec)) ||
-                      !(tri = en_malloc(((size_t)b->ntris * 3 + 1) * sizeof *tri)))) {
-        en_free(vrec);
+    if (predicted && reserve_decode(sc, b)) {
         set_why(why, why_len, "out of memory");
         return -1;
     }
+    uint32_t *vrec = predicted ? sc->vrec : NULL;
+    uint64_t *tri = predicted ? sc->tri : NULL;
     int rc = -1;
     raw_sections s;
     if (split_sections(raw, b, width, asz, &s, why, why_len))
@@ -905,13 +954,11 @@ static int decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet
         set_why(why, why_len, "payload has unused bytes");
         goto done;
     }
-    rc = predicted ? decode_predicted(&s, b, ct, axis, l, attr_out, vrec, tri, out, why, why_len) : 0;
+    rc = predicted ? decode_predicted(&s, b, ct, axis, l, attr_out, vrec, tri, sc, out, why, why_len) : 0;
     goto done;
 counts:
     set_why(why, why_len, "record kinds disagree with the block's counts");
 done:
-    en_free(vrec);
-    en_free(tri);
     return rc;
 }
 
@@ -943,6 +990,7 @@ struct en_smz_encoder {
     int run_kind;
     uint64_t run_len;
     recent_list recent;         /* of this block's triangles */
+    en_smz_scratch sc;          /* flush's working arrays, kept from block to block */
 };
 
 en_smz_encoder *en_smz_encoder_new(epsnet_coord_type ct)
@@ -975,6 +1023,7 @@ void en_smz_encoder_free(en_smz_encoder **pe)
     en_free(e->bits);
     en_free(e->abytes);
     en_free(e->tri);
+    en_smz_scratch_free(&e->sc);
     en_free(e);
     *pe = NULL;
 }
@@ -1060,7 +1109,7 @@ int en_smz_encoder_flush(en_smz_encoder *e, void *cctx, uint8_t **out, size_t *o
     size_t cb = (size_t)e->nverts * 3 * (size_t)width;
     size_t ab = (size_t)e->nverts * e->attrs.size;
     size_t raw_len = RAW_PREFIX_BYTES + e->kinds.len + cb + ab + e->tris.len + e->fins.len;
-    uint8_t *raw = en_malloc(raw_len);
+    uint8_t *raw = scratch(&e->sc.raw, &e->sc.raw_cap, raw_len);
     if (!raw)
         return -1;
     put32(raw, (uint32_t)e->kinds.len);
@@ -1077,14 +1126,12 @@ int en_smz_encoder_flush(en_smz_encoder *e, void *cctx, uint8_t **out, size_t *o
     pred_ref *ref = NULL;
     if (e->version >= 2) {
         /* version 2: residuals against the predictions (predict_coord) */
-        double *pos = en_malloc(((size_t)e->nverts * 3 + 1) * sizeof *pos);
-        ref = en_malloc(((size_t)e->nverts + 1) * sizeof *ref);
-        if (!pos || !ref || predict_refs(e->tri, e->ntris, e->first_vertex, e->nverts, ref)) {
-            en_free(pos);
-            en_free(ref);
-            en_free(raw);
+        if (reserve_predict(&e->sc, e->nverts, e->ntris))
             return -1;
-        }
+        double *pos = e->sc.pos;
+        ref = e->sc.ref;
+        if (predict_refs(e->tri, e->ntris, e->first_vertex, e->nverts, ref, &e->sc))
+            return -1;
         for (size_t i = 0; i < (size_t)e->nverts * 3; i++)
             pos[i] = bits_coord(e->bits[i], e->ct);
         for (uint32_t i = 0; i < e->nverts; i++)
@@ -1094,7 +1141,6 @@ int en_smz_encoder_flush(en_smz_encoder *e, void *cctx, uint8_t **out, size_t *o
                 for (int j = 0; j < width; j++)
                     p[((size_t)k * (size_t)width + (size_t)j) * e->nverts + i] = (uint8_t)(z >> (8 * j));
             }
-        en_free(pos);
     } else {
         for (int k = 0; k < 3; k++) {
             uint64_t prev = 0;
@@ -1126,7 +1172,6 @@ int en_smz_encoder_flush(en_smz_encoder *e, void *cctx, uint8_t **out, size_t *o
         }
         p += w * e->nverts;
     }
-    en_free(ref);
     if (e->tris.len)
         memcpy(p, e->tris.p, e->tris.len);
     p += e->tris.len;
@@ -1135,15 +1180,12 @@ int en_smz_encoder_flush(en_smz_encoder *e, void *cctx, uint8_t **out, size_t *o
     size_t bound = ZSTD_compressBound(raw_len);
     if (bound > *out_cap) {
         uint8_t *n = en_realloc(*out, bound);
-        if (!n) {
-            en_free(raw);
+        if (!n)
             return -1;
-        }
         *out = n;
         *out_cap = bound;
     }
     size_t z = ZSTD_compress2(cctx, *out, *out_cap, raw, raw_len);
-    en_free(raw);
     if (ZSTD_isError(z))
         return -1;
     b->compressed_bytes = (uint32_t)z;

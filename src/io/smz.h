@@ -124,12 +124,29 @@ int en_smz_unpack(void *dctx, const uint8_t *payload, const en_smz_block_header 
  */
 int en_smz_decode_block(const uint8_t *raw, const en_smz_block_header *b, epsnet_coord_type ct,
                         epsnet_record *out, char *why, size_t why_len);
+/* Working arrays of a decoder or encoder, kept from block to block (one
+ * per thread that decodes): fresh ones per block were faulted in anew each
+ * time (bench/RESULTS.md, session 10). Zero-initialise. */
+typedef struct en_smz_scratch {
+    void *vrec, *tri, *pos, *ref, *head, *edge, *raw;
+    size_t vrec_cap, tri_cap, pos_cap, ref_cap, head_cap, edge_cap, raw_cap;
+} en_smz_scratch;
+
+void en_smz_scratch_free(en_smz_scratch *sc);
+/* Grow sc to what decoding block b of a file with header h needs, so that
+ * the decoding itself allocates nothing (a reader sizes its jobs' memory
+ * before they run). @return 0 or -1 out of memory. */
+int en_smz_scratch_reserve(en_smz_scratch *sc, const en_smz_block_header *b, const en_smz_header *h);
+/* The bytes sc holds. */
+size_t en_smz_scratch_bytes(const en_smz_scratch *sc);
+
 /* en_smz_decode_block() decodes version 1 payloads only; this one any
  * version, by the file's header h (version, axis, attributes): each vertex
  * record's attr points into attr_out, which holds b->nverts *
- * h->attrs.size bytes (NULL when there are none). */
+ * h->attrs.size bytes (NULL when there are none). sc: working arrays, kept
+ * by the caller. */
 int en_smz_decode_block_h(const uint8_t *raw, const en_smz_block_header *b, const en_smz_header *h,
-                          uint8_t *attr_out, epsnet_record *out, char *why, size_t why_len);
+                          uint8_t *attr_out, en_smz_scratch *sc, epsnet_record *out, char *why, size_t why_len);
 
 /* ---- encoder ---- */
 

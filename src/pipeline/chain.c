@@ -137,7 +137,37 @@ struct en_chain {
     epsnet_error failure;
     en_chain_stats stats;          /* pass-summed counts; seam counts are added at the end */
     uint64_t *cost_hist;           /* THIN, ROUND: the slabs' costs left (EN_COST_BUCKETS), summed at retire */
+    en_chain_spares own;           /* without cfg.spares */
+    en_chain_spares *spares;       /* cfg.spares, or &own */
 };
+
+static void destroy_collapse_scratch(void *item)
+{
+    en_collapse_scratch_free(item);
+    en_free(item);
+}
+
+static void destroy_slab_work(void *item)
+{
+    en_slab_work_free(item);
+    en_free(item);
+}
+
+int en_chain_spares_new(en_chain_spares *sp)
+{
+    if (en_ctxpool_new(&sp->slab_works, destroy_slab_work) ||
+        en_ctxpool_new(&sp->collapse_scratch, destroy_collapse_scratch)) {
+        en_chain_spares_free(sp);
+        return EPSNET_ENOMEM;
+    }
+    return 0;
+}
+
+void en_chain_spares_free(en_chain_spares *sp)
+{
+    en_ctxpool_free(&sp->slab_works);
+    en_ctxpool_free(&sp->collapse_scratch);
+}
 
 static int pass_put(void *self, const epsnet_record *rec, epsnet_error *err);
 static int pass_end(void *self, epsnet_error *err);
@@ -439,6 +469,7 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     w->g = &p->g;
     w->mode = c->cfg.mode;
     w->max_normal_dev = c->cfg.max_normal_dev;
+    w->collapse_scratch = c->spares->collapse_scratch;
     w->quadric_at = c->cfg.quadrics_in ? c->cfg.attr_size : UINT32_MAX;
     w->lock_offset = c->cfg.lock_offset;
     w->lock_type = c->cfg.mode == EN_SLAB_SIMPLIFY ? c->cfg.lock_type : 0;
@@ -662,7 +693,7 @@ static int pass_end(void *self, epsnet_error *err)
         p->ch.max_active = max_active;
         en_stitcher_release(&p->st);
         for (size_t n = 0; n < p->nreturned; n++)
-            free_work(p->returned[n]);
+            en_ctxpool_give(p->chain->spares->slab_works, p->returned[n]);
         p->nreturned = 0;
         en_stage next = downstream(p->chain, p->index);
         rc = en_stage_end(&next, err);
@@ -733,7 +764,10 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
         en_free(c);
         return en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     }
-    int rc = 0;
+    c->spares = cfg->spares ? cfg->spares : &c->own;
+    int rc = cfg->spares ? 0 : en_chain_spares_new(&c->own);
+    if (rc)
+        rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     for (int i = 0; i < c->cfg.passes && rc == 0; i++) {
         en_pass *p = &c->pass[i];
         p->chain = c;
@@ -776,6 +810,8 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
         if (rc == 0 && p->batched && next_fill(p))
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         p->ch.read_marks = finish || round;
+        p->ch.stash = c->spares->slab_works;
+        p->st.collapse_scratch = c->spares->collapse_scratch;
         p->ch.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? (uint32_t)in_size : 0;
         p->st.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? cfg->attr_size : 0;
         if (cfg->mode == EN_SLAB_SIMPLIFY && (cfg->quadrics_in || cfg->quadrics_out)) {
@@ -869,7 +905,7 @@ void en_chain_free(en_chain **pc)
         }
         en_free(p->chunk);
         for (size_t n = 0; n < p->nreturned; n++)
-            free_work(p->returned[n]);
+            en_ctxpool_give(c->spares->slab_works, p->returned[n]);
         en_free(p->returned);
         en_free(p->out);
         en_chunker_free(&p->ch);
@@ -877,6 +913,7 @@ void en_chain_free(en_chain **pc)
     }
     en_free(c->pass);
     en_free(c->cost_hist);
+    en_chain_spares_free(&c->own);
     en_free(c);
     *pc = NULL;
 }

@@ -13,6 +13,7 @@
 
 #include <stdint.h>
 
+#include "common/ctxpool.h"
 #include "common/pool.h"
 #include "common/stage.h"
 #include "core/collapse.h"
@@ -29,6 +30,18 @@ typedef int (*en_sample_fn)(void *opaque, uint64_t gid, const double xyz[3], int
 #define EN_ONE_SLAB_BYTES_PER_VERTEX 640
 
 typedef struct en_chain en_chain;
+
+/* Slab works (en_slab_work) and collapse arrays (en_collapse_scratch)
+ * kept warm from chain to chain: a chain's fresh ones are faulted in page
+ * by page, which measured a tenth of a 20M-face run's time with a target
+ * of 4 rounds (bench/RESULTS.md, session 10). Thread-safe. */
+typedef struct en_chain_spares {
+    en_ctxpool *slab_works, *collapse_scratch;
+} en_chain_spares;
+
+/* @return 0 or EPSNET_ENOMEM. */
+int en_chain_spares_new(en_chain_spares *sp);
+void en_chain_spares_free(en_chain_spares *sp);
 
 typedef struct en_chain_config {
     en_slab_mode mode;
@@ -67,6 +80,10 @@ typedef struct en_chain_config {
      * (EPSNET_EINTR). NULL: none. */
     int (*tick)(void *opaque, uint64_t done, uint64_t total);
     void *tick_opaque;
+    /* Where the chain's slab works and collapse arrays come from and go
+     * back to at its end, for the chains after it (a target stage's
+     * rounds); NULL: the chain's own, freed with it. */
+    en_chain_spares *spares;
     en_stage out;                 /* SIMPLIFY: where the last pass's records go */
     en_sample_fn on_sample;       /* SAMPLE: where samples go */
     void *sample_opaque;

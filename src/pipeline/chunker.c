@@ -28,6 +28,10 @@ void en_chunker_free(en_chunker *c)
     en_free(c->faces);
     en_free(c->fin);
     for (size_t i = 0; i < c->nspare; i++) {
+        if (c->stash) {
+            en_ctxpool_give(c->stash, c->spare[i]);
+            continue;
+        }
         en_slab_work_free(c->spare[i]);
         en_free(c->spare[i]);
     }
@@ -163,8 +167,10 @@ static int add_local(en_chunker *c, en_slab_work *w, uint32_t i, uint8_t flags)
         return -1;
     c->pool_of[l] = i;
     if (c->attr_size) {
-        size_t need = (size_t)l + 1;
-        if (w->cap.attr < need && en_grow((void **)&w->attr, &w->cap.attr, need, c->attr_size))
+        /* in bytes: a slab work may come from a chain whose records had
+         * another size (en_chain_spares) */
+        size_t need = ((size_t)l + 1) * c->attr_size;
+        if (w->cap.attr < need && en_grow((void **)&w->attr, &w->cap.attr, need, 1))
             return -1;
         memcpy(w->attr + (size_t)l * c->attr_size, c->attr + (size_t)i * c->attr_size, c->attr_size);
     }
@@ -178,8 +184,9 @@ static int add_local(en_chunker *c, en_slab_work *w, uint32_t i, uint8_t flags)
 static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
 {
     en_slab_work *w;
-    if (c->nspare) {
-        w = c->spare[--c->nspare];
+    if (c->nspare || (w = en_ctxpool_take(c->stash)) != NULL) {
+        if (c->nspare)
+            w = c->spare[--c->nspare];
         en_slab_work_reset(w);
     } else {
         w = en_malloc(sizeof *w);

@@ -18,6 +18,7 @@
 
 #include <stdint.h>
 
+#include "common/ctxpool.h"
 #include "common/idmap.h"
 #include "epsnet/epsnet.h"
 #include "pipeline/slab_work.h"
@@ -61,6 +62,8 @@ typedef struct en_chunker {
     uint64_t max_active;       /* largest live vertices + live faces seen at a cut */
     en_slab_work **spare;      /* handed back by en_chunker_recycle, for the next cuts */
     size_t nspare, spare_cap;
+    en_ctxpool *stash;         /* NULL, or where cuts take slab works from when spare is empty,
+                                * and where spare goes at the end (en_chain_spares) */
     uint32_t *pool_of;         /* scratch of a cut: pool index per local vertex */
     size_t pool_of_cap;
     uint32_t *sort_tmp;        /* scratch of a cut: radix sort of fin by gid */

@@ -22,6 +22,7 @@
 #include <stdatomic.h>
 #include <stdint.h>
 
+#include "common/ctxpool.h"
 #include "core/classify.h"
 #include "core/collapse.h"
 #include "core/gauss.h"
@@ -129,6 +130,7 @@ typedef struct en_slab_work {
     double max_normal_dev;
     const en_target *target;      /* NULL: the ε-net pass */
     en_slab_progress *progress;   /* NULL, or where the collapses are reported (the chain's) */
+    en_ctxpool *collapse_scratch; /* en_collapse_scratch items lent to the collapses (the chain's) */
 
     /* Output. */
     int rc;
@@ -175,7 +177,7 @@ typedef struct en_slab_work {
     int32_t *ftri;
     uint8_t *removable;
     uint16_t *bucket_of;          /* THIN, ROUND: en_collapse_settings.bucket_of */
-    struct {
+    struct { /* in elements; attr in bytes */
         size_t owner, fflags, vclass, vgvertex, q, ref, tri, falive, valive, border, future, degree, band, fnormal,
             ftri, removable, attr, bucket_of;
     } cap;

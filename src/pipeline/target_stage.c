@@ -248,6 +248,7 @@ static int run_chain(en_target_stage *ts, const en_target *t, kept *from, kept *
         .checked_input = 1, /* a stitcher wrote it */
         .tick = last ? cfg->tick : NULL,
         .tick_opaque = cfg->tick_opaque,
+        .spares = cfg->spares,
         .out = last ? cfg->out : (en_stage){ kept_put, kept_end, &sink },
     };
     en_chain *c = NULL;
@@ -346,6 +347,12 @@ static int stage_end(void *self, epsnet_error *err)
     fin.keep_share = left ? fmin(1.0, (double)goal / (double)left) : 1.0;
     fin.one_slab = fits_one_slab(ts);
     fin.seams_whole = 0;
+    if (fin.one_slab && ts->cfg.spares) {
+        /* the rounds' slab works and arrays are the wrong size for one
+         * slab of the whole: they go before it is built */
+        en_ctxpool_trim(ts->cfg.spares->slab_works);
+        en_ctxpool_trim(ts->cfg.spares->collapse_scratch);
+    }
     rc = run_chain(ts, &fin, &ts->in, NULL, 1, &ts->last, err);
     return rc ? stage_fail(ts, rc, err) : 0;
 }

@@ -58,6 +58,7 @@ typedef struct en_target_stage_config {
     en_target finish;
     int (*tick)(void *opaque, uint64_t done, uint64_t total); /* en_chain_config.tick, for the last round */
     void *tick_opaque;
+    en_chain_spares *spares;      /* the rounds' chains' (en_chain_config.spares) */
     en_stage out;                 /* where the last round's records go */
 } en_target_stage_config;
 
