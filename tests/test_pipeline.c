@@ -1032,7 +1032,7 @@ TEST(a_streamed_targets_finish_moves_the_progress_bar)
     const char *inputs[] = { smz, ply };
     for (int k = 0; k < 2; k++) {
         for (int watched = 0; watched < 2; watched++) {
-            bar_watch w = { .share = 0.65 };
+            bar_watch w = { .share = 0.55 };
             epsnet_settings set;
             epsnet_default_settings(&set);
             set.threads = 2;
@@ -1058,7 +1058,7 @@ TEST(a_streamed_targets_finish_moves_the_progress_bar)
         CHECK(tl_same_file(a, b));
     }
     /* cancelled while the finish runs: EPSNET_EINTR, and no output */
-    bar_watch w = { .share = 0.65, .cancel_in_finish = 1 };
+    bar_watch w = { .share = 0.55, .cancel_in_finish = 1 };
     epsnet_settings set;
     epsnet_default_settings(&set);
     set.threads = 2;
@@ -1074,6 +1074,46 @@ TEST(a_streamed_targets_finish_moves_the_progress_bar)
     epsnet_context_free(&ctx);
     CHECK_EQ_INT(w.finish_calls, 1);
     CHECK(access(c, F_OK) != 0);
+}
+
+/* The same bar through rounds on slabs (a budget whose one slab the
+ * thinned mesh is over): the stage's part moves in every round, by an
+ * estimate of the rounds to come, never backwards, and a cancel in a round
+ * stops the run with no output. */
+TEST(the_progress_bar_moves_through_a_target_stages_rounds)
+{
+    char smz[512], out[512];
+    snprintf(smz, sizeof smz, "%s", tl_path("rounds_in.smz"));
+    epsnet_error err;
+    CHECK_EQ_INT(tl_gen_file(smz, "bumpy", 200000, NAN, 3, 0, &err), 0);
+    for (int cancel = 0; cancel < 2; cancel++) {
+        snprintf(out, sizeof out, "%s", tl_path(cancel ? "rounds_cancelled.smz" : "rounds_out.smz"));
+        bar_watch w = { .share = 0.55, .cancel_in_finish = cancel };
+        epsnet_settings set;
+        epsnet_default_settings(&set);
+        set.threads = 2;
+        set.slab_vertices = 1024;
+        set.mem = 2u << 20;
+        set.target_ratio = 0.02;
+        set.progress = watch_bar;
+        set.progress_opaque = &w;
+        epsnet_context *ctx = NULL;
+        CHECK_EQ_INT(epsnet_context_new(&ctx, &set, &err), 0);
+        int rc = epsnet_simplify_file(ctx, smz, out, &err);
+        uint32_t rounds = epsnet_context_stats(ctx)->target_rounds;
+        epsnet_context_free(&ctx);
+        if (cancel) {
+            CHECK_EQ_INT(rc, EPSNET_EINTR);
+            CHECK_EQ_INT(w.finish_calls, 1);
+            CHECK(access(out, F_OK) != 0);
+            continue;
+        }
+        CHECK_EQ_INT(rc, 0);
+        CHECK(rounds >= 1);
+        CHECK_EQ_INT(w.backwards, 0);
+        CHECK((uint32_t)w.finish_calls >= rounds + 1); /* each round and the last report at least once */
+        CHECK(w.last > 0.9 && w.last <= 1);
+    }
 }
 
 int main(void)
@@ -1094,6 +1134,7 @@ int main(void)
     RUN(push_refuses_until_waiting_output_is_pulled);
     RUN(stats_split_cpu_between_main_and_workers);
     RUN(a_streamed_targets_finish_moves_the_progress_bar);
+    RUN(the_progress_bar_moves_through_a_target_stages_rounds);
     tl_cleanup();
     return tl_finish();
 }

@@ -150,10 +150,12 @@ static int plan_target(en_run *run, const epsnet_settings *set, const char *path
     return 0;
 }
 
-/* The finish and its output took 30-35% of the run on `gen bumpy` 2M at
- * 10%, and 35-42% at 20M (bench/RESULTS.md, session 8): the feed gets the
- * first 65% of the bar, and the target stage the rest. */
-#define FEED_SHARE_BEFORE_FINISH 0.65
+/* The target stage (its rounds, last round and output) took 47% of the
+ * run on `gen bumpy` 20M at 10%, 28% at 1%, 55-60% at 2M and 4M at 10%
+ * (session 10, `-j 2`): the feed gets the first 55% of the bar, and the
+ * stage the rest, which it fills by its own estimate of the rounds to
+ * come (pipeline/target_stage.h: tick). */
+#define FEED_SHARE_BEFORE_FINISH 0.55
 
 static double feed_share(const en_run *planned)
 {
@@ -177,8 +179,9 @@ double en_run_feed_share(const epsnet_settings *set, const epsnet_mesh_info *in,
     return plan_target(&scratch, set, NULL, &known, &slab, &err) == 0 ? feed_share(&scratch) : 1.0;
 }
 
-/* The one-slab finish's share of the bar: the last 5% is for its output. */
-static int finish_tick(void *opaque, uint64_t done, uint64_t total)
+/* The target stage's share of the bar: the last 5% is for the output's
+ * commit. */
+static int stage_tick(void *opaque, uint64_t done, uint64_t total)
 {
     const en_run *run = opaque;
     const epsnet_settings *set = &run->ctx->settings;
@@ -276,7 +279,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
             .ring_capacity = ring,
             .tmpdir = ctx->tmpdir,
             .finish = run->finish,
-            .tick = set->progress ? finish_tick : NULL,
+            .tick = set->progress ? stage_tick : NULL,
             .tick_opaque = run,
             .spares = &run->spares,
             .out = out,

@@ -56,7 +56,11 @@ typedef struct en_target_stage_config {
      * with by_vertices, vertices), skeleton_ratio; the stage makes the
      * FINISH of it. */
     en_target finish;
-    int (*tick)(void *opaque, uint64_t done, uint64_t total); /* en_chain_config.tick, for the last round */
+    /* The stage's progress, now and then: done of total units of its whole
+     * work, rounds to come included (an estimate that firms up as they
+     * run; done/total never falls); non-zero cancels (EPSNET_EINTR).
+     * NULL: none. */
+    int (*tick)(void *opaque, uint64_t done, uint64_t total);
     void *tick_opaque;
     en_chain_spares *spares;      /* the rounds' chains' (en_chain_config.spares) */
     en_stage out;                 /* where the last round's records go */
