@@ -105,7 +105,8 @@ struct en_pass {
     size_t nchunk;                 /* a power of two, CHUNK_JOBS_MIN ... CHUNK_JOBS */
     uint64_t chunk_submitted;      /* caller: chunk[chunk_submitted % nchunk] is filling */
     chunk_job *fill;               /* caller: that one, with room for CHUNK_BATCH records */
-    size_t batch_attr_size;        /* caller: the chunker's attr_size, fixed at init */
+    size_t batch_attr_size;        /* caller: a vertex record's bytes in a batch, fixed at init: the
+                                    * chunker's attr_size, and the carried block it reads marks from */
     int chunk_failed;              /* chunk jobs only: one failed, the later ones do nothing */
     en_slab_work **returned;       /* caller: slab works done with, for the next batch's give */
     size_t nreturned, returned_cap;
@@ -512,7 +513,7 @@ static int chunk_run(void *job)
 {
     chunk_job *j = job;
     en_chunker *ch = &j->p->ch;
-    size_t asz = ch->attr_size, vi = 0;
+    size_t asz = j->p->batch_attr_size, vi = 0; /* the records' bytes (the chunker may keep fewer) */
     int rc = 0;
     for (size_t i = 0; i < j->ngive; i++)
         en_chunker_recycle(ch, j->give[i]);
@@ -804,18 +805,21 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         if (p->chunk_ring) /* see chunk_job */
             en_jobring_set_order(p->chunk_ring, 1, 1);
-        /* the records' bytes: the attributes, and a carried quadric */
+        /* the records' bytes: the attributes, then the carried block (slab_work.h)
+         * where the marks are read; the chunker keeps a quadric it starts from */
+        int marked = finish || round;
         size_t in_size = cfg->attr_size + (cfg->quadrics_in ? sizeof(en_quadric) : 0);
-        p->batch_attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? in_size : 0;
+        p->batch_attr_size =
+            cfg->mode != EN_SLAB_SIMPLIFY ? 0 : cfg->attr_size + (marked || cfg->quadrics_in ? EN_CARRIED_BYTES : 0);
         if (rc == 0 && p->batched && next_fill(p))
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
-        p->ch.read_marks = finish || round;
+        p->ch.mark_at = marked ? cfg->attr_size + (uint32_t)EN_CARRIED_MARKS_AT : UINT32_MAX;
         p->ch.stash = c->spares->slab_works;
         p->st.collapse_scratch = c->spares->collapse_scratch;
         p->ch.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? (uint32_t)in_size : 0;
         p->st.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? cfg->attr_size : 0;
         if (cfg->mode == EN_SLAB_SIMPLIFY && (cfg->quadrics_in || cfg->quadrics_out)) {
-            p->st.attr_size += (uint32_t)sizeof(en_quadric);
+            p->st.attr_size += (uint32_t)EN_CARRIED_BYTES;
             p->st.quadric_at = cfg->attr_size;
             p->st.write_quadrics = cfg->quadrics_out;
         }

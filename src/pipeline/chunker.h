@@ -30,7 +30,7 @@ typedef struct en_chunk_vertex {
     uint32_t local;       /* its local id in the slab being cut ... */
     int64_t local_slab;   /* ... valid when this equals that slab's index */
     int64_t owner;        /* owning slab; EN_OWNER_LIVE / EN_OWNER_FINAL before its cut */
-    uint8_t skeleton;     /* its record carried EN_MARK_SKELETON (read_marks only) */
+    uint8_t skeleton;     /* its record's marks held EN_MARK_SKELETON (with mark_at) */
 } en_chunk_vertex;
 
 #define EN_OWNER_LIVE (-1)
@@ -38,7 +38,9 @@ typedef struct en_chunk_vertex {
 
 typedef struct en_chunker {
     uint32_t slab_vertices;
-    int read_marks;            /* take EN_MARK_SKELETON into EN_V_SKELETON */
+    uint32_t mark_at;          /* where a vertex record's attribute bytes hold its marks
+                                * (EN_CARRIED_MARKS_AT), whose EN_MARK_SKELETON becomes
+                                * EN_V_SKELETON; UINT32_MAX: nowhere (the default) */
     int cut_last;              /* the end always cuts a last slab (empty if need be): a streamed
                                 * target's stitcher aims its last take at the target */
     uint32_t attr_size;        /* vertex attribute bytes per record (0: none) */

@@ -53,10 +53,16 @@ typedef enum en_target_mode {
                                    * collapse below cost_ceiling, cheapest first; samples stay */
 } en_target_mode;
 
-/* Between the passes of a streamed target, a vertex record's v[0] carries
- * this bit for a skeleton sample. Only the chain's own passes write it (the
- * stitcher's mark_samples) or read it (the chunker's read_marks). */
-#define EN_MARK_SKELETON 1u
+/* Between the passes of a target stage (pipeline/target_stage.h), a vertex
+ * record's attribute bytes end, after the input's own, in a carried block:
+ * the vertex's accumulated quadric, then a word of marks (EN_MARK_*), at
+ * EN_CARRIED_MARKS_AT in the block. The public record's fields keep their
+ * meaning. Only the chain's own passes write the block (the stitcher's
+ * write_quadrics) or read it (the chunker's mark_at, the slab work's
+ * quadric_at). */
+#define EN_CARRIED_MARKS_AT sizeof(en_quadric)
+#define EN_CARRIED_BYTES (sizeof(en_quadric) + sizeof(uint64_t))
+#define EN_MARK_SKELETON 1u            /* a skeleton sample */
 
 typedef struct en_target {
     en_target_mode mode;

@@ -474,10 +474,13 @@ static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
             else
                 st->stats.inner_left++;
         }
-        uint64_t mark = st->mark_samples && (x->state & S_SKELETON) ? EN_MARK_SKELETON : 0;
-        if (st->write_quadrics)
-            memcpy(st->attr + (size_t)e.idx * st->attr_size + st->quadric_at, &x->q, sizeof x->q);
-        int rc = put(st, EPSNET_REC_VERTEX, mark, 0, 0, x->xyz,
+        if (st->write_quadrics) {
+            uint64_t marks = st->mark_samples && (x->state & S_SKELETON) ? EN_MARK_SKELETON : 0;
+            uint8_t *block = st->attr + (size_t)e.idx * st->attr_size + st->quadric_at;
+            memcpy(block, &x->q, sizeof x->q);
+            memcpy(block + EN_CARRIED_MARKS_AT, &marks, sizeof marks);
+        }
+        int rc = put(st, EPSNET_REC_VERTEX, 0, 0, 0, x->xyz,
                      st->attr_size ? st->attr + (size_t)e.idx * st->attr_size : NULL, err);
         if (rc)
             return rc;

@@ -92,9 +92,9 @@ typedef struct en_stitcher {
     uint32_t attr_size;
     uint8_t *attr;
     size_t attr_cap;
-    /* With write_quadrics, each vertex record's bytes end in its
-     * accumulated quadric, at quadric_at (a target stage's passes,
-     * en_chain_config.quadrics_out). */
+    /* With write_quadrics, each vertex record's bytes end in the carried
+     * block (EN_CARRIED_BYTES): its accumulated quadric, at quadric_at, and
+     * its marks (a target stage's passes, en_chain_config.quadrics_out). */
     uint32_t quadric_at;
     int write_quadrics;
     uint8_t *scratch;                 /* a run over W's arrays, kept from take to take (a worker's

@@ -38,10 +38,9 @@
 /* Records between two reports while a round takes its input. */
 #define TICK_RECORDS 65536
 
-/* One record of the kept stream, as the chain's stitcher wrote it (a
- * vertex's v[0] is its skeleton mark);
- * each vertex is followed by its attribute bytes (attr_size) and its
- * accumulated quadric (kept_attr in all). */
+/* One record of the kept stream, as the chain's stitcher wrote it; each
+ * vertex is followed by its attribute bytes (attr_size) and the carried
+ * block, its accumulated quadric and marks (kept_attr in all). */
 typedef struct kept_record {
     uint64_t v[3];
     double xyz[3];
@@ -444,13 +443,13 @@ int en_target_stage_new(en_target_stage **out, const en_target_stage_config *cfg
     *out = NULL;
     en_target_stage *ts = en_calloc(1, sizeof *ts);
     if (!ts || !(ts->hist = en_calloc(EN_COST_BUCKETS, sizeof *ts->hist)) ||
-        !(ts->attr = en_malloc(cfg->attr_size + sizeof(en_quadric)))) {
+        !(ts->attr = en_malloc(cfg->attr_size + EN_CARRIED_BYTES))) {
         en_target_stage_free(&ts);
         return en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     }
     ts->cfg = *cfg;
     ts->pool = pool;
-    ts->kept_attr = cfg->attr_size + (uint32_t)sizeof(en_quadric);
+    ts->kept_attr = cfg->attr_size + (uint32_t)EN_CARRIED_BYTES;
     int rc = kept_open(ts, &ts->in, err);
     if (rc) {
         en_target_stage_free(&ts);
