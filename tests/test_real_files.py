@@ -205,4 +205,68 @@ def unreferenced_vertices_are_counted_and_named():
         assert s["vertices"] == 5 and s["isolated_vertices"] == 2 and s["output_vertices"] == 3, (p, s)
 
 
+def flat_shaded_obj(name, faces=6000):
+    """A closed bumpy surface written as a flat-shaded OBJ: one vn per face,
+    so that no two faces share a corner (every vertex is split by its
+    normals)."""
+    src = path(name + "_src.obj")
+    rc, _, err = run("gen", "bumpy", "--faces", str(faces), "-o", src, "-q")
+    assert rc == 0, err
+    vs, fs = [], []
+    for line in open(src):
+        if line.startswith("v "):
+            vs.append(tuple(float(x) for x in line.split()[1:4]))
+        elif line.startswith("f "):
+            fs.append(tuple(int(t.split("/")[0]) for t in line.split()[1:4]))
+    p = path(name + ".obj")
+    with open(p, "w") as f:
+        for v in vs:
+            f.write("v %r %r %r\n" % v)
+        for a, b, c in fs:
+            A, B, C = vs[a - 1], vs[b - 1], vs[c - 1]
+            u = [B[k] - A[k] for k in range(3)]
+            w = [C[k] - A[k] for k in range(3)]
+            n = [u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]]
+            norm = sum(x * x for x in n) ** 0.5 or 1.0
+            f.write("vn %.6f %.6f %.6f\n" % tuple(x / norm for x in n))
+        for i, (a, b, c) in enumerate(fs):
+            f.write("f %d//%d %d//%d %d//%d\n" % (a, i + 1, b, i + 1, c, i + 1))
+    return p, vs, len(fs)
+
+
+@case
+def a_flat_shaded_obj_simplifies_with_drop_normals():
+    """Issue 25: an OBJ whose corners differ by their normal is all seams;
+    --drop-normals reads it as one surface, meets --ratio 0.1, writes no
+    normals and says so; without it, the miss names the way out."""
+    p, vs, nf = flat_shaded_obj("flat")
+    want = round(0.1 * nf)
+    out = path("flat_out.obj")
+    rc, _, err = run("simplify", p, "-o", out, "--ratio", "0.1", "--drop-normals")
+    assert rc == 0, err
+    assert "vertex normals (--drop-normals" in err, err
+    lines = open(out).read().splitlines()
+    got = sum(1 for l in lines if l.startswith("f "))
+    assert abs(got - want) <= max(1, want // 200), (got, want)
+    assert not any(l.startswith("vn ") for l in lines), "normals written"
+    inputs = {tuple(f32(repr(x)) for x in v) for v in vs}
+    for l in lines:
+        if l.startswith("v "):
+            assert tuple(f32(x) for x in l.split()[1:4]) in inputs, l
+    # the same mesh without the option: nothing to remove, and the warning says why
+    rc, _, err = run("simplify", p, "-o", path("flat_kept.obj"), "--ratio", "0.1")
+    assert rc == 0 and "--drop-normals" in err, err
+    # a PLY's normals go the same way: the output has none
+    ply = path("normals.ply")
+    rc, _, err = run("convert", p, "-o", ply, "--ascii", "-q")
+    assert rc == 0, err
+    props, _, _ = read_ascii_ply(ply)
+    assert "nx" in [n for n, _ in props], props
+    rc, _, err = run("simplify", ply, "-o", path("normals_out.ply"), "--ascii", "--ratio", "0.5", "--drop-normals")
+    assert rc == 0 and "vertex normals" in err, err
+    props, _, _ = read_ascii_ply(path("normals_out.ply"))
+    names = [n for n, _ in props]
+    assert not {"nx", "ny", "nz"} & set(names), names
+
+
 finish()

@@ -24,6 +24,9 @@ static void simplify_help(void)
            "      --lock PROPERTY     keep every vertex whose per-vertex PROPERTY is\n"
            "                          non-zero (a PLY uchar 'lock', MeshLab's exported\n"
            "                          'quality' selection); by every mode\n"
+           "      --drop-normals      read no vertex normals, so that an OBJ split by\n"
+           "                          them (flat shading, hard edges) simplifies as one\n"
+           "                          surface; the output has none\n"
            "\n"
            "To a size or an error bound (docs/method.md §13): the samples of one ε-net\n"
            "pass are kept as a feature skeleton, every other vertex may go, smallest\n"
@@ -57,6 +60,7 @@ int cmd_simplify(int argc, char **argv)
         { "faces", required_argument, NULL, 'F' },   { "ratio", required_argument, NULL, 'R' },
         { "vertices", required_argument, NULL, 'V' }, { "error", required_argument, NULL, 'E' },
         { "lock", required_argument, NULL, 'L' },
+        { "drop-normals", no_argument, NULL, 'N' },
         CLI_METHOD_OPTIONS,                          { 0, 0, 0, 0 },
     };
     cli_method m;
@@ -117,6 +121,9 @@ int cmd_simplify(int argc, char **argv)
             if (!*optarg)
                 return cli_usage_error("simplify", "--lock needs a property name");
             m.settings.lock_property = optarg;
+            break;
+        case 'N':
+            m.settings.drop_normals = 1;
             break;
         case 'a': m.settings.ascii = 1; break;
         case 'q': cli_quiet = 1; break;

@@ -639,7 +639,13 @@ typedef struct epsnet_settings {
      * output format cannot hold it, a warning names it. An input without
      * it is an error (EPSNET_EINVAL). NULL: none. Default: NULL. */
     const char *lock_property;
-    uint8_t reserved[48];
+    /* Simplification: read no vertex normals (PLY nx, ny, nz; OBJ vn), so
+     * that an OBJ whose corners differ only by their normal (flat shading,
+     * hard edges) is one surface, not pieces whose every border stays;
+     * the output then has no normals (a viewer computes them from the
+     * faces), and the dropped warning says so. Default: 0. */
+    int drop_normals;
+    uint8_t reserved[44];
 } epsnet_settings;
 
 EPSNET_API void epsnet_default_settings(epsnet_settings *s);

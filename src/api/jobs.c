@@ -31,7 +31,7 @@ int en_job_load(epsnet_context *ctx, const char *in_path, en_slab *s, epsnet_coo
     if (rc == 0) {
         /* note: the in-core jobs' outputs carry no attributes: named as
          * dropped, never lost silently (docs/architecture.md §5) */
-        en_reader_keep_attrs(r, NULL);
+        en_reader_keep_attrs(r, NULL, 0, 0);
         *ct = epsnet_reader_info(r)->coord_type;
         rc = en_slab_read_all(s, r, in_path, err);
     }

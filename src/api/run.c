@@ -233,6 +233,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
     uint32_t slab_vertices = run->budget.slab_vertices;
     int target = mode == EN_SLAB_SIMPLIFY && en_run_has_target(set);
     run->has_target = target;
+    run->has_normals = in && epsnet_attr_layout_find(&in->vertex_attrs, "nx") >= 0;
     int rc = target ? plan_target(run, set, path, in, &slab_vertices, err) : 0;
     if (rc)
         return rc;
@@ -391,12 +392,16 @@ static void warn_missed_target(const en_run *run, const epsnet_stats *st, int st
     else
         snprintf(msg, sizeof msg,
                  "%s: target of %llu %s missed by %llu: %llu removable vertices were refused every collapse "
-                 "(link %llu, normal %llu, zero-area %llu, duplicate %llu); boundary vertices (%llu) are kept",
+                 "(link %llu, normal %llu, zero-area %llu, duplicate %llu); boundary vertices (%llu) are kept%s",
                  run->path ? run->path : "input", (unsigned long long)want, faces ? "faces" : "vertices",
                  (unsigned long long)(got - want), (unsigned long long)st->remaining_nonsamples,
                  (unsigned long long)st->refused_link, (unsigned long long)st->refused_normal,
                  (unsigned long long)st->refused_zero_area, (unsigned long long)st->refused_duplicate,
-                 (unsigned long long)st->boundary_vertices);
+                 (unsigned long long)st->boundary_vertices,
+                 run->has_normals && st->boundary_vertices
+                     ? " (a mesh split along its normals, as flat shading or hard edges split an OBJ, simplifies "
+                       "as one surface with --drop-normals)"
+                     : "");
     set->warning(set->warning_opaque, msg);
 }
 

@@ -42,6 +42,7 @@ typedef struct en_run {
     en_target_stage *stage;
     en_chain_spares spares;       /* slab works and collapse arrays, from chain to chain */
     int has_target;
+    int has_normals;              /* the input's vertices carry normals (nx): its seams may be theirs */
     int borrowed_pool;
     const char *path;
     double cpu_start;             /* calling thread's CPU clock at open */

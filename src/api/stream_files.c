@@ -158,8 +158,8 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
      * holds (keep; NULL: none, e.g. a picture or sample points); the
      * others are named in the one dropped warning (docs/architecture.md §5). */
     int all = keep && ctx->settings.lock_property; /* the lock travels even where the output drops it */
-    if (rc == 0 && !all)
-        en_reader_keep_attrs(in->r, keep);
+    if (rc == 0)
+        en_reader_keep_attrs(in->r, keep, all, ctx->settings.drop_normals);
     if (rc == 0)
         in->info = *epsnet_reader_info(in->r);
     if (rc || in->info.streaming)
@@ -184,7 +184,10 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
     ss.warning_opaque = ctx->settings.warning_opaque;
     in->was_sorted = 1;
     double t0 = en_now();
-    rc = en_sort_open(&in->sort, in_path, out_path, &ss, all ? 2 : keep != NULL, pool, err);
+    int keep_attrs = all ? EN_SORT_KEEP_ALL : keep ? EN_SORT_KEEP_FORMAT : 0;
+    if (ctx->settings.drop_normals)
+        keep_attrs |= EN_SORT_DROP_NORMALS;
+    rc = en_sort_open(&in->sort, in_path, out_path, &ss, keep_attrs, pool, err);
     *sort_seconds = en_now() - t0;
     if (rc == 0) {
         en_sort_info(in->sort, &in->info);

@@ -180,11 +180,14 @@ int en_reader_add_attr(epsnet_reader *r, const char *name, epsnet_attr_type type
 
 /*
  * Before the first epsnet_reader_next(): keep only the attributes that a
- * writer of format out (NULL: no format, so none) holds, naming the others
- * as dropped ("vertex property red"), so that one warning line tells every
- * loss (docs/architecture.md §5). info.vertex_attrs changes accordingly.
+ * writer of format out (NULL: no format, so none) holds, or all with
+ * keep_all, naming the others as dropped ("vertex property red"), so that
+ * one warning line tells every loss (docs/architecture.md §5); and never the
+ * vertex normals (nx, ny, nz) with drop_normals, named once as such. An
+ * OBJ's corners then differ by position and vt only (no normal seams).
+ * info.vertex_attrs changes accordingly.
  */
-void en_reader_keep_attrs(epsnet_reader *r, const en_format *out);
+void en_reader_keep_attrs(epsnet_reader *r, const en_format *out, int keep_all, int drop_normals);
 /* Push a triangle of 0-based global indices: rejects out-of-range and
  * finalized references. */
 int en_reader_push_triangle(epsnet_reader *r, uint64_t a, uint64_t b, uint64_t c);

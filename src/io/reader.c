@@ -161,13 +161,22 @@ int en_reader_add_attr(epsnet_reader *r, const char *name, epsnet_attr_type type
     return 1;
 }
 
-void en_reader_keep_attrs(epsnet_reader *r, const en_format *out)
+static int is_normal(const char *name)
+{
+    return !strcmp(name, "nx") || !strcmp(name, "ny") || !strcmp(name, "nz");
+}
+
+void en_reader_keep_attrs(epsnet_reader *r, const en_format *out, int keep_all, int drop_normals)
 {
     const epsnet_attr_layout *f = &r->file_attrs;
     epsnet_attr_layout kept;
     memset(&kept, 0, sizeof kept);
     for (uint32_t i = 0; i < f->count; i++) {
-        if (out && out->holds_attr && out->holds_attr(f, i)) {
+        if (drop_normals && is_normal(f->attr[i].name)) {
+            en_reader_drop(r, "vertex normals (--drop-normals: a viewer computes them from the faces)", 0, 0);
+            continue;
+        }
+        if (keep_all || (out && out->holds_attr && out->holds_attr(f, i))) {
             r->attr_from[kept.count] = f->attr[i].offset;
             (void)epsnet_attr_layout_add(&kept, f->attr[i].name, f->attr[i].type);
             continue;

@@ -207,7 +207,7 @@ struct en_sort {
      * in the whole path's arrays. */
     epsnet_attr_layout attrs;
     size_t asz, aw, vrec;
-    int keep_attrs;              /* 0: the consumer carries none (named as dropped) */
+    int keep_attrs;              /* EN_SORT_KEEP_* | EN_SORT_DROP_NORMALS; 0: the consumer carries none */
     uint8_t *vbuf;               /* BATCH vertex records of vrec bytes */
     uint64_t *fbuf;              /* BATCH faces */
     uint64_t *group;             /* faces of one last corner: 5 words each */
@@ -1435,10 +1435,11 @@ static int open_job(sort_job *j, epsnet_error *err)
     /* note: only what the consumer can hold is sorted; the rest is named
      * in the reader's one warning line (docs/architecture.md §5). */
     const en_format *out = NULL;
-    if (j->keep_attrs)
+    if (j->keep_attrs & EN_SORT_KEEP_FORMAT)
         out = j->set.format ? en_format_by_name(j->set.format) : en_format_by_path(j->owner);
-    if (j->keep_attrs != 2) /* 2: every attribute (a lock property the output may not hold) */
-        en_reader_keep_attrs(j->r, out);
+    /* KEEP_ALL: every attribute (a lock property the output may not hold) */
+    en_reader_keep_attrs(j->r, out, (j->keep_attrs & EN_SORT_KEEP_ALL) != 0,
+                         (j->keep_attrs & EN_SORT_DROP_NORMALS) != 0);
     j->attrs = epsnet_reader_info(j->r)->vertex_attrs;
     j->asz = j->attrs.size;
     j->aw = (j->asz + 7) / 8;
@@ -1677,7 +1678,7 @@ int epsnet_sort_file(const char *in_path, const char *out_path, const epsnet_sor
                             "epsnet_sort_file: NULL path");
     en_sort *j = NULL;
     epsnet_writer *w = NULL;
-    int rc = en_sort_open(&j, in_path, out_path, settings, 1, NULL, err);
+    int rc = en_sort_open(&j, in_path, out_path, settings, EN_SORT_KEEP_FORMAT, NULL, err);
     if (rc == 0) {
         epsnet_writer_settings ws;
         epsnet_writer_default_settings(&ws);

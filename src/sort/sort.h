@@ -62,12 +62,17 @@ typedef int (*en_sort_emit_fn)(void *opaque, const epsnet_record *rec, epsnet_er
  * pool: the workers to use (the run's one pool, docs/architecture.md §10;
  * it must outlive the sort), or NULL to start threads of its own as
  * settings->threads asks.
- * keep_attrs: 1 to carry the vertex attributes that owner's format
- * (settings->format, else owner's extension) holds, 2 to carry all of them
- * (the consumer names what its output drops), 0 to carry none; those
- * left out are named in the reader's dropped warning.
+ * keep_attrs: EN_SORT_KEEP_FORMAT to carry the vertex attributes that
+ * owner's format (settings->format, else owner's extension) holds,
+ * EN_SORT_KEEP_ALL to carry all of them (the consumer names what its
+ * output drops), 0 to carry none; with EN_SORT_DROP_NORMALS added, never
+ * the normals (en_reader_keep_attrs); those left out are named in the
+ * reader's dropped warning.
  * @return 0 or a negative code; *s is set in both cases (NULL only when
  * nothing was allocated) and en_sort_close() frees it. */
+#define EN_SORT_KEEP_FORMAT 1
+#define EN_SORT_KEEP_ALL 2
+#define EN_SORT_DROP_NORMALS 4
 int en_sort_open(en_sort **s, const char *in_path, const char *owner, const epsnet_sort_settings *settings,
                  int keep_attrs, en_pool *pool, epsnet_error *err);
 /* What the output stream will be: coord_type, streaming, sorted_axis, nfaces,
