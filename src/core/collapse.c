@@ -622,38 +622,40 @@ static void refresh_quadrics(state *st)
         st->vx[v].self_err = quadric_eval(&st->vx[v].q, s->pos + 3 * (size_t)v);
 }
 
-void en_collapse_scratch_free(en_collapse_scratch *scratch)
+/* One set of the working arrays, kept between calls in an
+ * en_collapse_arrays_new() pool: a state's arrays with their capacities. */
+typedef struct arrays {
+    uint32_t *pool;
+    void *vx_alloc;
+    heap_entry *heap;
+    target *cand;
+    uint32_t *faces;
+    size_t pool_cap, vx_bytes, heap_cap, cand_cap, faces_cap;
+} arrays;
+
+static void arrays_destroy(void *item)
 {
-    en_free(scratch->pool);
-    en_free(scratch->vx);
-    en_free(scratch->heap);
-    en_free(scratch->cand);
-    en_free(scratch->faces);
-    memset(scratch, 0, sizeof *scratch);
+    arrays *a = item;
+    en_free(a->pool);
+    en_free(a->vx_alloc);
+    en_free(a->heap);
+    en_free(a->cand);
+    en_free(a->faces);
+    en_free(a);
 }
 
-/* The state's arrays back to the caller's scratch, grown or not (or freed
- * with the call's own). */
-static void state_release(state *st, en_collapse_scratch *own, en_collapse_scratch *scratch)
+int en_collapse_arrays_new(en_ctxpool **pool)
 {
-    own->pool = st->pool, own->pool_cap = st->pool_cap;
-    own->heap = st->heap, own->heap_cap = st->heap_cap;
-    own->cand = st->cand, own->cand_cap = st->cand_cap;
-    own->faces = st->faces, own->faces_cap = st->faces_cap;
-    own->vx = st->vx_alloc;
-    if (scratch)
-        *scratch = *own;
-    else
-        en_collapse_scratch_free(own);
+    return en_ctxpool_new(pool, arrays_destroy);
 }
 
 int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, const double *ref_normal,
                      const en_collapse_settings *cs, uint8_t *face_alive, uint8_t *vertex_alive,
-                     uint32_t *tri_out, en_collapse_counts *counts, en_collapse_scratch *scratch)
+                     uint32_t *tri_out, en_collapse_counts *counts, en_ctxpool *pool)
 {
-    en_collapse_scratch own = { 0 };
-    if (scratch)
-        own = *scratch;
+    arrays *own = en_ctxpool_take(pool);
+    if (!own && !(own = en_calloc(1, sizeof *own)))
+        return EPSNET_ENOMEM;
     state st = { 0 };
     st.s = s;
     st.cos_bound = cos(cs->max_normal_dev_deg * (M_PI / 180.0));
@@ -664,20 +666,19 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
     memset(st.falive, 1, s->nt);
     memset(st.valive, 1, s->nv);
     st.ref_normal = ref_normal;
-    st.pool = own.pool, st.pool_cap = own.pool_cap;
-    st.heap = own.heap, st.heap_cap = own.heap_cap;
-    st.cand = own.cand, st.cand_cap = own.cand_cap;
-    st.faces = own.faces, st.faces_cap = own.faces_cap;
+    st.pool = own->pool, st.pool_cap = own->pool_cap;
+    st.heap = own->heap, st.heap_cap = own->heap_cap;
+    st.cand = own->cand, st.cand_cap = own->cand_cap;
+    st.faces = own->faces, st.faces_cap = own->faces_cap;
     int rc = 0;
     /* (vx's old contents need no keeping, but growing it as the others
      * grow keeps a run of slightly larger slabs from allocating anew) */
     if (en_grow((void **)&st.pool, &st.pool_cap, 3 * (size_t)s->nt + 8, sizeof *st.pool) ||
-        en_grow(&own.vx, &own.vx_bytes, ((size_t)s->nv + 1) * sizeof *st.vx + 63, 1)) {
-        st.vx_alloc = own.vx;
+        en_grow(&own->vx_alloc, &own->vx_bytes, ((size_t)s->nv + 1) * sizeof *st.vx + 63, 1)) {
         rc = EPSNET_ENOMEM;
         goto out;
     }
-    st.vx_alloc = own.vx;
+    st.vx_alloc = own->vx_alloc;
     st.vx = (vrec *)(((uintptr_t)st.vx_alloc + 63) & ~(uintptr_t)63);
     memcpy(st.pool, s->star, s->star_start[s->nv] * sizeof *st.pool);
     st.pool_len = s->star_start[s->nv];
@@ -793,7 +794,15 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
         }
     }
 out:
-    state_release(&st, &own, scratch);
+    /* the arrays, grown or not, back to the pool (or freed with the call's own) */
+    own->pool = st.pool, own->pool_cap = st.pool_cap;
+    own->heap = st.heap, own->heap_cap = st.heap_cap;
+    own->cand = st.cand, own->cand_cap = st.cand_cap;
+    own->faces = st.faces, own->faces_cap = st.faces_cap;
+    if (pool)
+        en_ctxpool_give(pool, own);
+    else
+        arrays_destroy(own);
     return rc;
 }
 

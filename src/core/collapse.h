@@ -13,6 +13,7 @@
 #include <stdatomic.h>
 #include <stdint.h>
 
+#include "common/ctxpool.h"
 #include "core/slab.h"
 
 /* Symmetric 4x4 plane quadric, upper triangle (Garland & Heckbert 1997). */
@@ -115,17 +116,13 @@ typedef struct en_collapse_counts {
  * is measured against. One pass, since both need the same normal. */
 void en_quadrics_from_faces(const en_slab *s, en_quadric *q, double *unit_normal);
 
-/* The collapse's working arrays (per-vertex records, face lists, queue),
- * kept by a caller that collapses slab after slab: a worker's slab work,
- * the stitcher. Returning them to the system between slabs and faulting
- * them in again cost a third of a 20M-face run's time (bench/RESULTS.md,
- * session 10). Zero-initialise; en_collapse_scratch_free() at the end. */
-typedef struct en_collapse_scratch {
-    void *pool, *vx, *heap, *cand, *faces;
-    size_t pool_cap, vx_bytes, heap_cap, cand_cap, faces_cap;
-} en_collapse_scratch;
-
-void en_collapse_scratch_free(en_collapse_scratch *scratch);
+/* A pool of the collapse's working arrays (per-vertex records, face
+ * lists, queue), for callers that collapse slab after slab on several
+ * threads (a chain's slabs and seams): each call borrows one set and gives
+ * it back, so they stay warm. Returning them to the system between slabs
+ * and faulting them in again cost a third of a 20M-face run's time
+ * (bench/RESULTS.md, session 10). @return 0 or EPSNET_ENOMEM. */
+int en_collapse_arrays_new(en_ctxpool **arrays);
 
 /*
  * Collapse every vertex v with removable[v] != 0 that can go, cheapest first,
@@ -138,13 +135,13 @@ void en_collapse_scratch_free(en_collapse_scratch *scratch);
  * how far any face may turn.
  * On return face_alive[f] says which faces remain (nt entries) and
  * vertex_alive[v] which vertices were not collapsed away (nv entries).
- * scratch: where the working arrays come from and go back to (NULL: this
- * call's own).
+ * arrays: a pool (en_collapse_arrays_new) the working arrays are
+ * borrowed from (NULL: this call's own).
  * @return 0 or EPSNET_ENOMEM.
  */
 int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, const double *ref_normal,
                      const en_collapse_settings *cs, uint8_t *face_alive, uint8_t *vertex_alive,
-                     uint32_t *tri_out, en_collapse_counts *counts, en_collapse_scratch *scratch);
+                     uint32_t *tri_out, en_collapse_counts *counts, en_ctxpool *arrays);
 
 /*
  * Build the slab of what remains: alive faces (with corners from tri) and

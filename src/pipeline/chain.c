@@ -142,12 +142,6 @@ struct en_chain {
     en_chain_spares *spares;       /* cfg.spares, or &own */
 };
 
-static void destroy_collapse_scratch(void *item)
-{
-    en_collapse_scratch_free(item);
-    en_free(item);
-}
-
 static void destroy_slab_work(void *item)
 {
     en_slab_work_free(item);
@@ -157,7 +151,7 @@ static void destroy_slab_work(void *item)
 int en_chain_spares_new(en_chain_spares *sp)
 {
     if (en_ctxpool_new(&sp->slab_works, destroy_slab_work) ||
-        en_ctxpool_new(&sp->collapse_scratch, destroy_collapse_scratch)) {
+        en_collapse_arrays_new(&sp->collapse_arrays)) {
         en_chain_spares_free(sp);
         return EPSNET_ENOMEM;
     }
@@ -167,7 +161,7 @@ int en_chain_spares_new(en_chain_spares *sp)
 void en_chain_spares_free(en_chain_spares *sp)
 {
     en_ctxpool_free(&sp->slab_works);
-    en_ctxpool_free(&sp->collapse_scratch);
+    en_ctxpool_free(&sp->collapse_arrays);
 }
 
 static int pass_put(void *self, const epsnet_record *rec, epsnet_error *err);
@@ -470,7 +464,7 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     w->g = &p->g;
     w->mode = c->cfg.mode;
     w->max_normal_dev = c->cfg.max_normal_dev;
-    w->collapse_scratch = c->spares->collapse_scratch;
+    w->collapse_arrays = c->spares->collapse_arrays;
     w->quadric_at = c->cfg.quadrics_in ? c->cfg.attr_size : UINT32_MAX;
     w->lock_offset = c->cfg.lock_offset;
     w->lock_type = c->cfg.mode == EN_SLAB_SIMPLIFY ? c->cfg.lock_type : 0;
@@ -815,7 +809,7 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         p->ch.mark_at = marked ? cfg->attr_size + (uint32_t)EN_CARRIED_MARKS_AT : UINT32_MAX;
         p->ch.stash = c->spares->slab_works;
-        p->st.collapse_scratch = c->spares->collapse_scratch;
+        p->st.collapse_arrays = c->spares->collapse_arrays;
         p->ch.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? (uint32_t)in_size : 0;
         p->st.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? cfg->attr_size : 0;
         if (cfg->mode == EN_SLAB_SIMPLIFY && (cfg->quadrics_in || cfg->quadrics_out)) {
@@ -824,9 +818,10 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             p->st.write_quadrics = cfg->quadrics_out;
         }
         int streamed = p->target && p->target->mode != EN_TARGET_WHOLE;
+        int priced = p->target && (p->target->mode == EN_TARGET_THIN || round); /* leaves marks and costs */
         p->st.target = streamed ? p->target : NULL;
-        p->st.mark_samples = streamed && (p->target->mode == EN_TARGET_THIN || round);
-        if (rc == 0 && streamed && (p->target->mode == EN_TARGET_THIN || round) &&
+        p->st.mark_samples = priced;
+        if (rc == 0 && priced &&
             (!(p->st.cost_hist = en_calloc(EN_COST_BUCKETS, sizeof *p->st.cost_hist)) ||
              (!c->cost_hist && !(c->cost_hist = en_calloc(EN_COST_BUCKETS, sizeof *c->cost_hist)))))
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");

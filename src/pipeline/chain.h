@@ -31,12 +31,12 @@ typedef int (*en_sample_fn)(void *opaque, uint64_t gid, const double xyz[3], int
 
 typedef struct en_chain en_chain;
 
-/* Slab works (en_slab_work) and collapse arrays (en_collapse_scratch)
+/* Slab works (en_slab_work) and collapse arrays (en_collapse_arrays_new)
  * kept warm from chain to chain: a chain's fresh ones are faulted in page
  * by page, which measured a tenth of a 20M-face run's time with a target
  * of 4 rounds (bench/RESULTS.md, session 10). Thread-safe. */
 typedef struct en_chain_spares {
-    en_ctxpool *slab_works, *collapse_scratch;
+    en_ctxpool *slab_works, *collapse_arrays;
 } en_chain_spares;
 
 /* @return 0 or EPSNET_ENOMEM. */

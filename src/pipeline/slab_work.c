@@ -54,20 +54,6 @@ void en_slab_work_reset(en_slab_work *w)
 #undef KEEP
 }
 
-/* en_collapse_slab on w's arrays, in working arrays borrowed from the
- * chain's (kept warm from slab to slab, docs/architecture.md §10). */
-static int collapse(en_slab_work *w, const uint8_t *removable, const en_collapse_settings *cs,
-                    en_collapse_counts *cc)
-{
-    en_collapse_scratch *scratch = en_ctxpool_take(w->collapse_scratch);
-    if (!scratch && w->collapse_scratch && !(scratch = en_calloc(1, sizeof *scratch)))
-        return EPSNET_ENOMEM;
-    int rc = en_collapse_slab(&w->s, removable, w->q, w->ref, cs, w->falive, w->valive, w->tri, cc, scratch);
-    if (scratch)
-        en_ctxpool_give(w->collapse_scratch, scratch);
-    return rc;
-}
-
 /* Room for n elements in *p, grown only when the last job's was too small. */
 static int room(void *p, size_t *cap, size_t n, size_t size)
 {
@@ -651,7 +637,8 @@ static int simplify(en_slab_work *w)
             memcpy(w->tri, s->tri, 3 * sizeof *w->tri * (size_t)s->nt);
         memset(w->falive, 1, nt);
         memset(w->valive, 1, nv);
-    } else if ((crc = collapse(w, removable, &cs, &cc)) != 0) {
+    } else if ((crc = en_collapse_slab(s, removable, w->q, w->ref, &cs, w->falive, w->valive, w->tri, &cc,
+                                       w->collapse_arrays)) != 0) {
         return crc == EPSNET_EINTR ? en_error_set(&w->err, crc, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE, "cancelled")
                                    : oom(w);
     } else {

@@ -136,7 +136,7 @@ typedef struct en_slab_work {
     double max_normal_dev;
     const en_target *target;      /* NULL: the ε-net pass */
     en_slab_progress *progress;   /* NULL, or where the collapses are reported (the chain's) */
-    en_ctxpool *collapse_scratch; /* en_collapse_scratch items lent to the collapses (the chain's) */
+    en_ctxpool *collapse_arrays;  /* the chain's en_collapse_arrays_new() pool */
 
     /* Output. */
     int rc;

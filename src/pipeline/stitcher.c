@@ -332,15 +332,7 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
     }
     en_collapse_counts cc;
     cs.bucket_of = bucket_of;
-    en_collapse_scratch *scratch = en_ctxpool_take(st->collapse_scratch);
-    if (!scratch && st->collapse_scratch && !(scratch = en_calloc(1, sizeof *scratch))) {
-        rc = oom(err);
-        goto out;
-    }
-    rc = en_collapse_slab(ws, removable, q, ref, &cs, falive, valive, tri, &cc, scratch);
-    if (scratch)
-        en_ctxpool_give(st->collapse_scratch, scratch);
-    if (rc) {
+    if (en_collapse_slab(ws, removable, q, ref, &cs, falive, valive, tri, &cc, st->collapse_arrays)) {
         rc = oom(err);
         goto out;
     }

@@ -100,7 +100,7 @@ typedef struct en_stitcher {
     uint8_t *scratch;                 /* a run over W's arrays, kept from take to take (a worker's
                                        * scratch: not in en_stitcher_bytes, docs/architecture.md §12) */
     size_t scratch_cap;
-    en_ctxpool *collapse_scratch;     /* NULL, or where W's collapses borrow their working arrays */
+    en_ctxpool *collapse_arrays;      /* NULL, or the pool W's collapses borrow their arrays from */
     en_stitch_stats stats;
 } en_stitcher;
 

@@ -168,9 +168,10 @@ static int fits_one_slab_n(const en_target_stage *ts, double v)
            v * (double)EN_ONE_SLAB_BYTES_PER_VERTEX <= (double)ts->cfg.one_slab_bytes;
 }
 
-/* The records the rounds after the current one will take, from v vertices
- * kept after it: the rounds' loop in stage_end, with each round leaving
- * ROUND_LEFT_EST of its gap, then the last round. 0 during the last. */
+/* The records the rounds after the current one will take, which has v
+ * vertices: the rounds' loop in stage_end, with each round leaving
+ * ROUND_LEFT_EST of its gap to the goal, then the last round. 0 during the
+ * last. */
 static double records_ahead(const en_target_stage *ts, double v)
 {
     if (ts->in_last_round)
@@ -178,11 +179,12 @@ static double records_ahead(const en_target_stage *ts, double v)
     const en_target *plan = &ts->cfg.finish;
     double goal = plan->by_vertices ? (double)plan->goal : (double)plan->goal / 2; /* two faces a vertex */
     double sum = 0;
-    for (int r = ts->nrounds + 1; r < ROUND_MAX && v > goal * (1 + ROUND_CLOSE) && !fits_one_slab_n(ts, v); r++) {
+    for (int r = ts->nrounds + 1;; r++) {
+        v = v > goal ? goal + (v - goal) * ROUND_LEFT_EST : goal; /* what the round before r leaves */
+        if (r >= ROUND_MAX || v <= goal * (1 + ROUND_CLOSE) || fits_one_slab_n(ts, v))
+            return sum + 3 * v; /* the last round */
         sum += 3 * v; /* a vertex and two faces */
-        v = goal + (v - goal) * ROUND_LEFT_EST;
     }
-    return sum + 3 * v;
 }
 
 /* Report the stage's progress to cfg.tick. */
@@ -193,11 +195,7 @@ static int report(en_target_stage *ts, epsnet_error *err)
     double now = ts->round_taken;
     if (ts->in_last_round && ts->last_one_slab)
         now = ts->round_taken * LAST_FEED_SHARE + ts->round_records * (1 - LAST_FEED_SHARE) * ts->last_collapsed;
-    const en_target *plan = &ts->cfg.finish;
-    double goal = plan->by_vertices ? (double)plan->goal : (double)plan->goal / 2;
-    double v = ts->round_records / 3; /* the current round's vertices */
-    double after = goal + (v - goal) * ROUND_LEFT_EST;
-    double total = ts->records_done + ts->round_records + records_ahead(ts, after > goal ? after : goal);
+    double total = ts->records_done + ts->round_records + records_ahead(ts, ts->round_records / 3);
     double f = total > 0 ? (ts->records_done + now) / total : 0;
     if (f > ts->reported)
         ts->reported = f < 1 ? f : 1;
@@ -429,7 +427,7 @@ static int stage_end(void *self, epsnet_error *err)
         /* the rounds' slab works and arrays are the wrong size for one
          * slab of the whole: they go before it is built */
         en_ctxpool_trim(ts->cfg.spares->slab_works);
-        en_ctxpool_trim(ts->cfg.spares->collapse_scratch);
+        en_ctxpool_trim(ts->cfg.spares->collapse_arrays);
     }
     rc = run_chain(ts, &fin, &ts->in, NULL, 1, &ts->last, err);
     ts->last_collapsed = 1;
