@@ -59,12 +59,15 @@ static void plan_streamed(en_run *run, uint64_t nv, uint64_t nf)
     t->goal = (uint64_t)llround(keep * (double)nf);
     t->expected_in = nf;
     t->skeleton_ratio = share;
-    /* note: the seams stay whole for the rounds, which order them with the
-     * rest (thinned by their own pacing, they took the mean error up by a
-     * quarter on the shared scans, bench/RESULTS.md), unless they would not
-     * fit the budget: a finish in one slab held 1.11 times keep at 2M
-     * faces, 1.27 at 20M, 4.2 on 6,000 faces in slabs of 300 */
-    t->seams_whole = 2 * keep * (double)nv * EN_ONE_SLAB_BYTES_PER_VERTEX <= (double)run->budget.one_slab;
+    /* note: the seams go only to their slabs' level, and the rounds order
+     * the rest with everything else (thinned by their own pacing to the
+     * share, they took the mean error up by a quarter on the shared scans;
+     * whole, they held a third of the thinning's output at 20M faces:
+     * bench/RESULTS.md), unless what they keep would not fit the budget: a
+     * finish in one slab after whole seams held 1.11 times keep at 2M
+     * faces, 1.27 at 20M, 4.2 on 6,000 faces in slabs of 300; then they
+     * are paced */
+    t->seams_leveled = 2 * keep * (double)nv * EN_ONE_SLAB_BYTES_PER_VERTEX <= (double)run->budget.one_slab;
     run->passes = 1;
     run->staged = 1;
 }

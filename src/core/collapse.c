@@ -153,6 +153,7 @@ typedef struct state {
     uint64_t given_up;
     int stopped_by_error;
     double ceiling;           /* cost_ceiling, +inf when none */
+    double top_cost;          /* the highest cost collapsed so far */
     int stopped_by_ceiling;
 } state;
 
@@ -750,6 +751,7 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
                 continue;
             }
             rc = do_collapse(&st, e.v, e.u);
+            st.top_cost = e.cost > st.top_cost ? e.cost : st.top_cost;
             if (cs->progress && (st.collapses & 1023) == 0) {
                 atomic_store_explicit(cs->progress, st.collapses, memory_order_relaxed);
                 if (cs->stop && atomic_load_explicit(cs->stop, memory_order_relaxed))
@@ -775,6 +777,7 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
         counts->faces_left = st.faces_alive;
         counts->vertices_left = st.vertices_alive;
         counts->stopped_by_error = st.stopped_by_error;
+        counts->top_cost = st.top_cost;
         if (cs->bucket_of) {
             for (uint32_t v = 0; v < s->nv; v++)
                 cs->bucket_of[v] = EN_COST_NONE;

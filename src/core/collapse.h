@@ -106,6 +106,8 @@ typedef struct en_collapse_counts {
     uint64_t given_up;           /* collapses of second-tier vertices (removable == 2) */
     uint64_t faces_left, vertices_left; /* alive faces; alive vertices on a face */
     int stopped_by_error;        /* a collapse past max_error was left undone */
+    double top_cost;             /* the highest quadric cost of a collapse done (0: none): the
+                                  * level a run stopped by a count reached */
     uint64_t remaining;          /* removable vertices still present */
     uint64_t refused[EN_REFUSE_KINDS]; /* remaining vertices refused for each reason */
 } en_collapse_counts;

@@ -646,6 +646,7 @@ static int simplify(en_slab_work *w)
         memcpy(w->refused, cc.refused, sizeof w->refused);
         w->given_up = cc.given_up;
         w->stopped_by_error = cc.stopped_by_error;
+        w->level = cc.top_cost;
     }
     if (w->target)
         for (uint32_t v = 0; v < w->nowned; v++)

@@ -81,10 +81,12 @@ typedef struct en_target {
     double keep_share, skeleton_ratio;
     int by_vertices;
     uint64_t goal, expected_in;
-    /* THIN before a one-slab finish: the seams are left whole for it (the
-     * finish ranks them with the rest; measured better than thinning
-     * them, docs/architecture.md §7). FINISH: its one slab is the pass. */
-    int seams_whole, one_slab;
+    /* THIN: the seams go only to the level of the slabs around them
+     * (their highest collapse cost, en_slab_work.level), not to the
+     * share, which the rounds then rank with the rest (measured better
+     * than pacing them, docs/architecture.md §7). FINISH: its one slab is
+     * the pass. */
+    int seams_leveled, one_slab;
     /* Skeleton density: 0 = choose the finest geodesic frequency whose
      * samples take at most skeleton_share of the target's vertices;
      * otherwise the slab work's sphere as given. */
@@ -170,6 +172,9 @@ typedef struct en_slab_work {
      * its home faces, membranes included, or its owned vertices on faces. */
     uint64_t units_in;
     int stopped_by_error;
+    /* THIN: the highest quadric cost the slab's collapses reached before
+     * its count stopped them (0: none), the level its seams go to. */
+    double level;
     /* THIN and ROUND: the costs of the collapses left to do (EN_COST_BUCKETS
      * counts, en_cost_bucket) at the vertices this slab decides (inner and
      * outer; the ring's go with the seams, whose stitcher counts them),

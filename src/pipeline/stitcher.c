@@ -260,10 +260,11 @@ static uint64_t seam_keep(const en_stitcher *st, int last)
 /* One run of the slab core's collapses over W (paper §4.2, §5). */
 static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
 {
-    /* seams left whole for what follows: only priced, for the target
-     * stage's first ceiling (its histogram counts every vertex that may go) */
-    int price_only = st->target && st->target->seams_whole;
-    if (price_only && !st->cost_hist)
+    /* THIN: seams only go to the level of the slabs around them, and are
+     * priced for the target stage's first ceiling (its histogram counts
+     * every vertex that may go) */
+    int leveled = st->target && st->target->seams_leveled;
+    if (leveled && !st->cost_hist && !(st->seam_level > 0))
         return 0;
     int any = 0, finish = st->target && st->target->mode == EN_TARGET_FINISH;
     for (size_t i = 0; i < st->nwv && !any; i++) {
@@ -319,8 +320,12 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
         cs.max_error = st->target->max_error * st->target->diagonal;
     } else if (st->target && st->target->mode == EN_TARGET_ROUND) {
         cs.cost_ceiling = st->target->cost_ceiling; /* the slabs' ceiling */
-    } else if (price_only) {
-        cs.cost_ceiling = -1;
+    } else if (leveled) {
+        /* the seam goes to the level its slabs reached (below 0: none,
+         * only priced), so that the thinning keeps no more of a seam than
+         * of the slabs around it: whole seams held a third of its output
+         * at 20M faces (docs/architecture.md §7) */
+        cs.cost_ceiling = st->seam_level > 0 ? st->seam_level : -1;
     } else if (st->target) {
         uint64_t keep = seam_keep(st, last);
         if (keep >= (st->target->by_vertices ? st->nwv : st->nwf))
@@ -382,7 +387,7 @@ out:
  * cuts an empty slab after it. */
 static int settle(en_stitcher *st, int last)
 {
-    int wait = st->target && !st->target->seams_whole && st->target->mode != EN_TARGET_BOUND && !last;
+    int wait = st->target && !st->target->seams_leveled && st->target->mode != EN_TARGET_BOUND && !last;
     for (size_t i = 0; i < st->nwv; i++)
         st->v[st->wv[i]].state &= (uint16_t)~(S_BLOCKED | S_IN_FACE);
     for (size_t f = 0; f < st->nwf; f++) {
@@ -600,6 +605,11 @@ int en_stitcher_take(en_stitcher *st, const en_slab_work *w, epsnet_error *err)
     st->stats.band_nonsamples += w->band_nonsamples;
     st->stats.inner_nonsamples += w->inner_nonsamples;
     st->taken += w->units_in;
+    if (st->target && st->target->seams_leveled) {
+        double before = st->takes ? st->level_before : w->level;
+        st->seam_level = fmin(before, w->level);
+        st->level_before = w->level;
+    }
     int rc = take_vertices(st, w, err);
     if (rc == 0)
         rc = take_faces(st, w, err);

@@ -83,6 +83,10 @@ typedef struct en_stitcher {
     uint64_t faces_final;             /* faces that left W, or never entered it, for the output */
     uint64_t decided;                 /* vertices decided (kept) */
     uint64_t given_up;                /* samples collapsed in W (FINISH) */
+    /* THIN with whole seams: the level the two newest slabs' counts
+     * stopped their collapses at (en_slab_work.level); W collapses below
+     * the lower of them, as those slabs did (0: price only). */
+    double level_before, seam_level;
     /* THIN and ROUND: the costs of the collapses W left to do, one count per
      * W vertex as it is written, in its last W run's bucket
      * (en_slab_work.cost_hist has the slabs' own); NULL otherwise. */

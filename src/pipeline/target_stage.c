@@ -394,7 +394,7 @@ static int stage_end(void *self, epsnet_error *err)
         round.mode = EN_TARGET_ROUND;
         double gap = (double)(left - goal) / (double)goal;
         round.cost_ceiling = ceiling_for(ts->hist, (gap > ROUND_NEAR ? ROUND_AIM : ROUND_AIM_NEAR) * need);
-        round.one_slab = round.seams_whole = 0;
+        round.one_slab = round.seams_leveled = 0;
         round.max_error = -1;
         kept next;
         en_chain_stats got;
@@ -422,7 +422,7 @@ static int stage_end(void *self, epsnet_error *err)
     fin.expected_in = left;
     fin.keep_share = left ? fmin(1.0, (double)goal / (double)left) : 1.0;
     fin.one_slab = fits_one_slab(ts);
-    fin.seams_whole = 0;
+    fin.seams_leveled = 0;
     if (fin.one_slab && ts->cfg.spares) {
         /* the rounds' slab works and arrays are the wrong size for one
          * slab of the whole: they go before it is built */
