@@ -196,11 +196,17 @@ TEST(skipped_statements_are_named_with_their_counts)
     CHECK_EQ_INT(rc, 0);
     /* vt and vn are carried (the faces name them): not dropped */
     const char *what = epsnet_reader_dropped(r, &n);
-    CHECK(what && strcmp(what, "mtllib (1), o (1), usemtl (2), vertex w (1), vertex colour (2), ?bad (1)") == 0);
-    if (what && strcmp(what, "mtllib (1), o (1), usemtl (2), vertex w (1), vertex colour (2), ?bad (1)") != 0)
+    /* and so are the materials (a usemtl comes before the first face) */
+    CHECK(what && strcmp(what, "o (1), vertex w (1), vertex colour (2), ?bad (1)") == 0);
+    if (what && strcmp(what, "o (1), vertex w (1), vertex colour (2), ?bad (1)") != 0)
         fprintf(stderr, "  got: %s\n", what);
-    CHECK_EQ_U64(n, 6);
-    CHECK_EQ_U64(epsnet_reader_info(r)->vertex_attrs.count, 5);
+    CHECK_EQ_U64(n, 4);
+    const epsnet_mesh_info *info = epsnet_reader_info(r);
+    CHECK_EQ_U64(info->vertex_attrs.count, 6);
+    CHECK(epsnet_attr_layout_find(&info->vertex_attrs, "material_index") == 5);
+    CHECK(info->materials && info->materials->count == 2 && strcmp(info->materials->names[0], "red") == 0 &&
+          strcmp(info->materials->names[1], "blue") == 0 && info->materials->library &&
+          strcmp(info->materials->library, "scene.mtl") == 0);
     epsnet_reader_close(&r);
 
     /* vt and vn that no face names are not carried, and so named */

@@ -127,8 +127,8 @@ def without_seams_obj_and_ply_round_trip_every_corner():
     out = path("smooth_out.obj")
     rc, _, err = run("convert", src, "-o", out)
     assert rc == 0, err
-    # vt and vn are carried: only what no record holds is named
-    assert err.splitlines() == [f"warning: {src}: dropped: mtllib (1), o (1), usemtl (1), s (1)"], err
+    # vt, vn and the material are carried: only what no record holds is named
+    assert err.splitlines() == [f"warning: {src}: dropped: o (1), s (1)"], err
     tout, counts_out = read_obj(out)
     assert sorted(map(rotated, tout)) == sorted(map(rotated, tin)), "OBJ -> OBJ changed a corner"
     # one record per position, welded back: the file's own shape
@@ -137,7 +137,7 @@ def without_seams_obj_and_ply_round_trip_every_corner():
     rc, _, err = run("convert", src, "-o", ply, "--ascii", "-q")
     assert rc == 0, err
     names, verts, faces = read_ascii_ply(ply)
-    assert names == ["x", "y", "z", "texture_u", "texture_v", "nx", "ny", "nz"], names
+    assert names == ["x", "y", "z", "texture_u", "texture_v", "nx", "ny", "nz", "material_index"], names
     assert len(verts) == counts[0], (len(verts), counts)
     corner = lambda v: (bits([v["x"], v["y"], v["z"]]), bits([v["texture_u"], v["texture_v"]]),
                         bits([v["nx"], v["ny"], v["nz"]]))
@@ -215,7 +215,7 @@ def texture_coordinates_alone_and_through_ply():
     rc, _, err = run("simplify", src, "-o", ply, "-q", "--ascii", "--ratio", "0.2")
     assert rc == 0, err
     names, verts, faces = read_ascii_ply(ply)
-    assert names == ["x", "y", "z", "texture_u", "texture_v"], names
+    assert names == ["x", "y", "z", "texture_u", "texture_v", "material_index"], names
     for t in faces:
         for i in t:
             v = verts[i]
@@ -315,12 +315,13 @@ def what_is_not_carried_is_named_and_vt_vn_are_not():
                 "usemtl red\nf 1/1/1 2/2/1 3/2/1\nl 1 2\n")
     rc, _, err = run("convert", src, "-o", path("named.ply"))
     assert rc == 0, err
-    assert err.splitlines() == [f"warning: {src}: dropped: mtllib (1), g (1), vt w (1), usemtl (1), l (1)"], err
+    assert err.splitlines() == [f"warning: {src}: dropped: g (1), vt w (1), l (1), material names (usemtl, mtllib) "
+                                f"({path('named.ply')} cannot hold them)"], err
     # an output without vt and vn says that it drops them
     smb = path("named.smb")
     rc, _, err = run("convert", src, "-o", smb)
     assert rc == 0, err
-    assert "texture_u" in err and "nz" in err and "usemtl" in err, err
+    assert "texture_u" in err and "nz" in err and "material_index" in err and "usemtl" in err, err
 
 
 finish()

@@ -269,4 +269,89 @@ def a_flat_shaded_obj_simplifies_with_drop_normals():
     assert not {"nx", "ny", "nz"} & set(names), names
 
 
+def two_material_obj(name, n=40):
+    """A bumpy grid in an OBJ with vt, a mtllib and two materials: the
+    faces left of x = 0.5 use matA, the others matB, and the usemtl runs
+    switch row by row."""
+    p = path(name + ".obj")
+    with open(p, "w") as f:
+        f.write("mtllib %s.mtl\n" % name)
+        for j in range(n + 1):
+            for i in range(n + 1):
+                f.write("v %r %r %r\n" % (i / n, j / n, 0.01 * ((i * 7 + j * 3) % 5)))
+        for j in range(n + 1):
+            for i in range(n + 1):
+                f.write("vt %r %r\n" % (i / n, j / n))
+        cur = None
+        for j in range(n):
+            for i in range(n):
+                m = "matA" if i < n // 2 else "matB"
+                if m != cur:
+                    f.write("usemtl %s\n" % m)
+                    cur = m
+                a, b = j * (n + 1) + i + 1, j * (n + 1) + i + 2
+                c, d = b + n + 1, a + n + 1
+                f.write("f %d/%d %d/%d %d/%d\n" % (a, a, b, b, c, c))
+                f.write("f %d/%d %d/%d %d/%d\n" % (a, a, c, c, d, d))
+    with open(path(name + ".mtl"), "w") as f:
+        f.write("newmtl matA\nKd 1 0 0\nnewmtl matB\nKd 0 0 1\n")
+    return p, 2 * n * n
+
+
+def obj_faces_by_material(p):
+    """[(material, [x of the three corners])] of an OBJ, and its mtllib lines."""
+    xs, faces, libs, cur = [], [], [], None
+    for line in open(p):
+        t = line.split()
+        if not t:
+            continue
+        if t[0] == "v":
+            xs.append(float(t[1]))
+        elif t[0] == "usemtl":
+            cur = t[1] if len(t) > 1 else ""
+        elif t[0] == "mtllib":
+            libs.append(" ".join(t[1:]))
+        elif t[0] == "f":
+            faces.append((cur, [xs[int(c.split("/")[0]) - 1] for c in t[1:4]]))
+    return faces, libs
+
+
+@case
+def materials_travel_with_their_faces():
+    """Issue 25: an OBJ's mtllib and usemtl survive simplify and convert;
+    no face changes material (every face keeps to its side of the material
+    boundary), the boundary is not smeared, and a format that cannot hold
+    the names says so."""
+    p, nf = two_material_obj("mat")
+    for args in (["--ratio", "0.25"], ["--ratio", "0.25", "--slab", "300"], []):
+        out = path("mat_out.obj")
+        rc, _, err = run("simplify", p, "-o", out, "-q", *args)
+        assert rc == 0, (args, err)
+        faces, libs = obj_faces_by_material(out)
+        assert libs == ["mat.mtl"], (args, libs)
+        assert {m for m, _ in faces} == {"matA", "matB"}, args
+        for m, xs in faces:
+            if min(xs) == max(xs) == 0.5:
+                continue  # a sliver standing on the boundary belongs to either side
+            side = "matA" if max(xs) <= 0.5 else "matB" if min(xs) >= 0.5 else None
+            assert side == m, (args, m, xs)
+        if args[:1] == ["--ratio"]:
+            want = round(0.25 * nf)
+            assert abs(len(faces) - want) <= max(1, want // 200), (args, len(faces), want)
+    # convert keeps every face's material and the runs
+    rc, _, err = run("convert", p, "-o", path("mat_copy.obj"), "-q")
+    assert rc == 0, err
+    faces, libs = obj_faces_by_material(path("mat_copy.obj"))
+    assert libs == ["mat.mtl"] and len(faces) == nf
+    assert [m for m, _ in faces] == ["matA" if (i // 2) % 40 < 20 else "matB" for i in range(nf)]
+    # PLY keeps the index as a vertex property and names the names as dropped
+    rc, _, err = run("simplify", p, "-o", path("mat_out.ply"), "--ascii", "--ratio", "0.25")
+    assert rc == 0 and "material names (usemtl, mtllib)" in err, err
+    props, _, _ = read_ascii_ply(path("mat_out.ply"))
+    assert ("material_index", "ushort") in props, props
+    # STL holds neither: usemtl is named as dropped
+    rc, _, err = run("simplify", p, "-o", path("mat_out.stl"), "--ratio", "0.25")
+    assert rc == 0 and "usemtl" in err, err
+
+
 finish()

@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "common/alloc.h"
 #include "io/format.h"
 
 static const struct {
@@ -107,4 +108,32 @@ int en_format_holds_every_attr(const epsnet_attr_layout *l, uint32_t i)
     (void)l;
     (void)i;
     return 1;
+}
+
+int en_materials_copy_of(en_materials_copy *to, const epsnet_materials *from)
+{
+    memset(to, 0, sizeof *to);
+    size_t bytes = (size_t)from->count * sizeof(char *) + (from->library ? strlen(from->library) + 1 : 0);
+    for (uint32_t i = 0; i < from->count; i++)
+        bytes += strlen(from->names[i]) + 1;
+    if (!(to->storage = en_malloc(bytes ? bytes : 1)))
+        return EPSNET_ENOMEM;
+    const char **names = to->storage;
+    char *text = (char *)(names + from->count);
+    for (uint32_t i = 0; i < from->count; i++) {
+        size_t n = strlen(from->names[i]) + 1;
+        names[i] = memcpy(text, from->names[i], n);
+        text += n;
+    }
+    if (from->library)
+        to->mat.library = memcpy(text, from->library, strlen(from->library) + 1);
+    to->mat.count = from->count;
+    to->mat.names = names;
+    return 0;
+}
+
+void en_materials_copy_free(en_materials_copy *c)
+{
+    en_free(c->storage);
+    memset(c, 0, sizeof *c);
 }

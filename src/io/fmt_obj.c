@@ -58,8 +58,8 @@
 #define OBJ_MAX_VERTEX_VALUES 7
 
 /* Bytes a face corner adds to its position: texture_u, texture_v and nx,
- * ny, nz, all float32. */
-#define OBJ_KEY_MAX 20
+ * ny, nz, all float32, and material_index, uint16. */
+#define OBJ_KEY_MAX 22
 /* Indices of the corner tables are uint32 (they are held in memory). */
 #define OBJ_TABLE_MAX ((size_t)UINT32_MAX - 1)
 
@@ -91,6 +91,16 @@ typedef struct obj_reader {
     int file_uv, file_normals;
     int uv, normals;
     int mute_vt, mute_vn;
+    /* Materials (epsnet.h epsnet_materials): file_materials when a
+     * `usemtl` comes before the first face, materials while
+     * material_index is kept; the current `usemtl` (UINT16_MAX: none yet),
+     * the names, and the `mtllib` text. */
+    int file_materials, materials;
+    uint16_t material;
+    epsnet_materials mat;
+    char **names;
+    size_t names_cap;
+    char *library;
     int started;
     size_t key_size;
     obj_position *pos;
@@ -413,6 +423,41 @@ static int corner_record(epsnet_reader *r, obj_reader *st, uint64_t v, const uin
     return 0;
 }
 
+/* `usemtl name`: the material of the faces that follow, its index the
+ * order of first use (epsnet.h epsnet_materials). */
+static int use_material(epsnet_reader *r, obj_reader *st, const char *name, size_t n)
+{
+    for (uint32_t i = 0; i < st->mat.count; i++)
+        if (strlen(st->names[i]) == n && memcmp(st->names[i], name, n) == 0) {
+            st->material = (uint16_t)i;
+            return 0;
+        }
+    if (st->mat.count >= EPSNET_MATERIALS_MAX)
+        return en_reader_fail(r, EPSNET_ELIMIT, "more than %d materials (usemtl)", EPSNET_MATERIALS_MAX);
+    if (en_grow((void **)&st->names, &st->names_cap, st->mat.count + 1, sizeof *st->names))
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    char *copy = en_malloc(n + 1);
+    if (!copy)
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    memcpy(copy, name, n);
+    copy[n] = '\0';
+    st->names[st->mat.count] = copy;
+    st->mat.names = (const char *const *)st->names;
+    st->material = (uint16_t)st->mat.count++;
+    return 0;
+}
+
+/* The rest of a statement after its keyword, without the blanks around it. */
+static const char *statement_text(const char *p, size_t *n)
+{
+    p = en_text_skip_blanks((char *)p);
+    size_t k = strlen(p);
+    while (k && (en_text_is_blank(p[k - 1]) || p[k - 1] == '\r'))
+        k--;
+    *n = k;
+    return p;
+}
+
 /* The record a corner names: in a plain file the position itself; in a file
  * whose records are corners, the record of (position, vt, vn). */
 static int corner_vertex(epsnet_reader *r, obj_reader *st, const int64_t idx[3], const int has[3], uint64_t *v)
@@ -435,6 +480,11 @@ static int corner_vertex(epsnet_reader *r, obj_reader *st, const int64_t idx[3],
             en_reader_drop(r, "face corner without vn", 1, 1);
         else if (!(rc = resolve_index(r, 2, idx[2], st->nvn, 1, &at[2])))
             memcpy(key + o, st->vn + 3 * at[2], 12);
+    }
+    if (!rc && st->materials) {
+        if (st->material == UINT16_MAX) /* a face before the first usemtl */
+            rc = use_material(r, st, "", 0);
+        memcpy(key + 8 * st->file_uv + 12 * st->file_normals, &st->material, 2);
     }
     return rc ? rc : corner_record(r, st, at[0], key, v);
 }
@@ -504,6 +554,21 @@ static int parse_statement(epsnet_reader *r, char *stmt)
         return parse_normal(r, st, p + 2);
     if (p[0] == 'v' && ((st->mute_vt && p[1] == 't') || (st->mute_vn && p[1] == 'n')) && en_text_ends_token(p[2]))
         return 0;
+    if (st->materials && strncmp(p, "usemtl", 6) == 0 && en_text_ends_token(p[6])) {
+        size_t n;
+        const char *name = statement_text(p + 6, &n);
+        return use_material(r, st, name, n);
+    }
+    if (st->materials && strncmp(p, "mtllib", 6) == 0 && en_text_ends_token(p[6]) && !st->library) {
+        size_t n;
+        const char *lib = statement_text(p + 6, &n);
+        if (!(st->library = en_malloc(n + 1)))
+            return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+        memcpy(st->library, lib, n);
+        st->library[n] = '\0';
+        st->mat.library = st->library;
+        return 0;
+    }
     if (p[0] != '\0' && p[0] != '#')
         drop_statement(r, p);
     return 0;
@@ -512,10 +577,12 @@ static int parse_statement(epsnet_reader *r, char *stmt)
 /* Prescan of one line: notes vt and vn statements until the first `f`,
  * then whether that face's first corner names a vt and a vn.
  * @return 1 at the first face (the scan ends), else 0. */
-static int prescan_line(const char *p, const char *eol, int seen[2], int *uv, int *normals)
+static int prescan_line(const char *p, const char *eol, int seen[3], int *uv, int *normals)
 {
     while (p < eol && en_text_is_blank(*p))
         p++;
+    if (eol - p >= 6 && memcmp(p, "usemtl", 6) == 0 && (eol - p == 6 || en_text_is_blank(p[6])))
+        seen[2] = 1;
     if (eol - p >= 2 && p[0] == 'v' && (p[1] == 't' || p[1] == 'n') && (eol - p == 2 || en_text_is_blank(p[2])))
         seen[p[1] == 'n'] = 1;
     if (eol - p < 2 || p[0] != 'f' || !en_text_is_blank(p[1]))
@@ -543,13 +610,15 @@ static int prescan_line(const char *p, const char *eol, int seen[2], int *uv, in
  * and vn only at the faces, after the positions, so the layout is decided
  * before the first record by reading ahead to the first `f`. texture_u and
  * texture_v are carried when vt statements come before it and its first
- * corner names one, nx ny nz likewise for vn. A regular file is read ahead
+ * corner names one, nx ny nz likewise for vn, and material_index when a
+ * `usemtl` comes before it. A regular file is read ahead
  * through a second source (the v lines before the first face are scanned,
  * not parsed); a pipe only in the window of src.
  */
-static int prescan_corners(epsnet_reader *r, int *uv, int *normals)
+static int prescan_corners(epsnet_reader *r, obj_reader *st)
 {
-    int seen[2] = { 0, 0 };
+    int seen[3] = { 0, 0, 0 };
+    int *uv = &st->uv, *normals = &st->normals;
     *uv = *normals = 0;
     if (r->src->file_size == 0) {
         size_t avail = en_source_fill(r->src, EN_TEXT_PEEK_BYTES);
@@ -562,6 +631,7 @@ static int prescan_corners(epsnet_reader *r, int *uv, int *normals)
                 break;
             p = eol + 1;
         }
+        st->file_materials = seen[2];
         return 0;
     }
     en_source *s = NULL;
@@ -578,6 +648,7 @@ static int prescan_corners(epsnet_reader *r, int *uv, int *normals)
             break;
     }
     en_source_close(&s);
+    st->file_materials = seen[2];
     return rc < 0 ? rc : 0;
 }
 
@@ -627,12 +698,14 @@ static int obj_open_reader(epsnet_reader *r)
     st->colours = peek_colours(r->src);
     if (r->src->failed)
         return source_failed(r, en_source_error(r->src, &r->err));
-    int rc = prescan_corners(r, &st->uv, &st->normals);
+    int rc = prescan_corners(r, st);
     if (rc)
         return rc;
+    st->materials = st->file_materials;
+    st->material = UINT16_MAX;
     st->file_uv = st->uv;
     st->file_normals = st->normals;
-    st->key_size = (size_t)(8 * st->uv + 12 * st->normals);
+    st->key_size = (size_t)(8 * st->uv + 12 * st->normals + 2 * st->materials);
     if (st->colours)
         for (int k = 0; k < 3; k++)
             if (en_reader_add_attr(r, k == 0 ? "red" : k == 1 ? "green" : "blue", EPSNET_ATTR_FLOAT32) < 0)
@@ -650,6 +723,11 @@ static int obj_open_reader(epsnet_reader *r)
         for (int k = 0; k < 3; k++)
             if (en_reader_add_attr(r, k == 0 ? "nx" : k == 1 ? "ny" : "nz", EPSNET_ATTR_FLOAT32) < 0)
                 return r->err.code;
+    if (st->materials) {
+        if (en_reader_add_attr(r, "material_index", EPSNET_ATTR_UINT16) < 0)
+            return r->err.code;
+        r->info.materials = &st->mat;
+    }
     return 0;
 }
 
@@ -678,7 +756,11 @@ static void follow_kept_attrs(epsnet_reader *r, obj_reader *st)
         st->normals = 0;
         st->mute_vn = 1;
     }
-    if (!st->uv && !st->normals)
+    if (st->materials && epsnet_attr_layout_find(kept, "material_index") < 0) {
+        st->materials = 0;
+        r->info.materials = NULL;
+    }
+    if (!st->uv && !st->normals && !st->materials)
         st->key_size = 0;
 }
 
@@ -733,6 +815,10 @@ static void obj_close_reader(epsnet_reader *r)
         en_free(st->vt);
         en_free(st->vn);
         en_free(st->rec);
+        for (uint32_t i = 0; i < st->mat.count; i++)
+            en_free(st->names[i]);
+        en_free(st->names);
+        en_free(st->library);
         en_free(st);
     }
     r->state = NULL;
@@ -927,7 +1013,20 @@ typedef struct obj_writer {
     uint64_t nv, nvt, nvn;
     uint64_t (*corner)[3];           /* per record: its v, vt, vn lines */
     size_t corner_cap;
+    /* Materials (epsnet.h epsnet_materials): material_index's attribute
+     * (-1: none), each record's index, the index of the last `usemtl`
+     * written (UINT32_MAX: none yet) and whether `mtllib` was. */
+    int mat_at;
+    uint16_t *vmat;
+    size_t vmat_cap;
+    uint32_t current;
+    int library_written;
 } obj_writer;
+
+static int writer_nomem(epsnet_writer *w)
+{
+    return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+}
 
 static int obj_open_writer(epsnet_writer *w)
 {
@@ -944,6 +1043,19 @@ static int obj_open_writer(epsnet_writer *w)
     if (!(which & 2))
         st->n[0] = -1;
     st->corners = which != 0;
+    st->mat_at = -1;
+    st->current = UINT32_MAX;
+    int m = epsnet_attr_layout_find(&w->attrs, "material_index");
+    if (m >= 0 && w->info.materials) {
+        st->mat_at = m;
+        const char *lib = w->info.materials->library; /* known now unless a reader is still at it */
+        if (lib && (en_writer_bytes(w, "mtllib ", 7) || en_writer_bytes(w, lib, strlen(lib)) ||
+                    en_writer_bytes(w, "\n", 1)))
+            return w->err.code ? w->err.code : EPSNET_EIO;
+        st->library_written = lib != NULL;
+    }
+    else if (m >= 0 && en_writer_drop(w, "vertex property material_index (no material names to write)"))
+        return writer_nomem(w);
     key_init(&st->vline, 3 * 8 + 3 * 4);
     key_init(&st->used, 8 + 5 * 4);
     key_init(&st->vts, 2 * 4);
@@ -960,6 +1072,7 @@ static void obj_close_writer(epsnet_writer *w)
         en_free(st->vts.slots);
         en_free(st->vns.slots);
         en_free(st->corner);
+        en_free(st->vmat);
         en_free(st);
     }
     w->state = NULL;
@@ -978,12 +1091,10 @@ static int obj_holds_attr(const epsnet_attr_layout *l, uint32_t i)
     int which = corner_attrs(l, uv, n);
     if ((which & 1) && ((uint32_t)uv[0] == i || (uint32_t)uv[1] == i))
         return 1;
-    return (which & 2) && ((uint32_t)n[0] == i || (uint32_t)n[1] == i || (uint32_t)n[2] == i);
-}
-
-static int writer_nomem(epsnet_writer *w)
-{
-    return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    if ((which & 2) && ((uint32_t)n[0] == i || (uint32_t)n[1] == i || (uint32_t)n[2] == i))
+        return 1;
+    /* a face's material, as usemtl (epsnet.h epsnet_materials) */
+    return strcmp(l->attr[i].name, "material_index") == 0 && l->attr[i].type == EPSNET_ATTR_UINT16;
 }
 
 /* Copy the 4-byte values of attributes at[0..n) of rec into key. */
@@ -1089,9 +1200,47 @@ static int put_corner_vertex(epsnet_writer *w, obj_writer *st, const epsnet_reco
     return 0;
 }
 
+/* Before a face: `usemtl` when its material is not the last one written
+ * (and `mtllib` before the first). */
+static int put_material(epsnet_writer *w, obj_writer *st, uint64_t corner)
+{
+    if (corner >= w->nverts)
+        return 0; /* the writer's front end refuses such a face */
+    uint32_t m = st->vmat[corner];
+    if (m == st->current)
+        return 0;
+    const epsnet_materials *mat = w->info.materials;
+    if (m >= mat->count)
+        return en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "material_index %u of vertex %llu names no material (%u known)", m,
+                            (unsigned long long)corner, mat->count);
+    st->current = m;
+    int rc = 0;
+    if (!st->library_written && mat->library) {
+        st->library_written = 1;
+        if ((rc = en_writer_bytes(w, "mtllib ", 7)) || (rc = en_writer_bytes(w, mat->library, strlen(mat->library))) ||
+            (rc = en_writer_bytes(w, "\n", 1)))
+            return rc;
+    }
+    const char *name = mat->names[m];
+    if ((rc = en_writer_bytes(w, "usemtl", 6)) || (*name && (rc = en_writer_bytes(w, " ", 1))) ||
+        (rc = en_writer_bytes(w, name, strlen(name))))
+        return rc;
+    return en_writer_bytes(w, "\n", 1);
+}
+
 static int obj_put(epsnet_writer *w, const epsnet_record *rec)
 {
     obj_writer *st = w->state;
+    if (st->mat_at >= 0 && rec->kind == EPSNET_REC_VERTEX) {
+        if (en_grow((void **)&st->vmat, &st->vmat_cap, w->nverts, sizeof *st->vmat))
+            return writer_nomem(w);
+        memcpy(&st->vmat[w->nverts - 1], rec->attr + w->attrs.attr[st->mat_at].offset, 2);
+    } else if (st->mat_at >= 0 && rec->kind == EPSNET_REC_TRIANGLE) {
+        int rc = put_material(w, st, rec->v[0]);
+        if (rc)
+            return rc;
+    }
     /* v with colours, vt and vn lines, or f with three v/vt/vn corners */
     char line[3 * (6 * 33 + 8)];
     size_t n = 0;

@@ -84,6 +84,9 @@ static int choose_attrs(epsnet_writer *w)
             return -1;
     }
     w->attrs_subset = w->attrs.count != in->count;
+    /* only OBJ writes the names a material_index stands for */
+    if (w->info.materials && strcmp(w->fmt->name, "obj") != 0 && en_writer_drop(w, "material names (usemtl, mtllib)"))
+        return -1;
     return 0;
 }
 
