@@ -37,6 +37,27 @@ int main(void)
               EPSNET_EIO, "sample_file error");
     check(epsnet_simplify_file(ctx, "/nonexistent.ply", "/tmp/x.ply", &err) == EPSNET_EIO, "simplify_file error");
     check(strstr(epsnet_error_message(&err), "/nonexistent.ply") != NULL, "error_message");
+    {
+        /* the arrays entry points (section 13): a face naming a vertex
+         * that does not exist, refused by each of them */
+        float xyz[9] = { 0, 0, 0, 1, 0, 0, 0, 1, 0 };
+        int32_t tri[3] = { 0, 1, 3 };
+        epsnet_arrays a;
+        epsnet_arrays_init(&a);
+        a.nverts = 3, a.xyz = xyz, a.nfaces = 1, a.faces = tri;
+        epsnet_arrays_out out;
+        uint8_t is_sample[3];
+        int32_t gv[3];
+        epsnet_hausdorff_result hr;
+        epsnet_reader *r = NULL;
+        check(epsnet_reader_open_arrays(&r, &a, NULL, &err) == 0, "reader_open_arrays");
+        epsnet_reader_close(&r);
+        check(epsnet_simplify_arrays(ctx, &a, &out, &err) == EPSNET_EFORMAT, "simplify_arrays error");
+        check(epsnet_sample_arrays(ctx, &a, is_sample, gv, &err) == EPSNET_EFORMAT, "sample_arrays error");
+        check(epsnet_hausdorff_arrays(&a, &a, NULL, &hr, &err) == EPSNET_EFORMAT, "hausdorff_arrays error");
+        epsnet_arrays_out_free(&out);
+        epsnet_free(NULL);
+    }
     epsnet_context_free(&ctx);
     check(ctx == NULL, "context_free sets NULL");
 

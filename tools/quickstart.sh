@@ -7,7 +7,9 @@ set -eu
 cd "$(dirname "$0")/.."
 
 mode=${1:-demo}
-packages="gcc libc6-dev meson ninja-build pkg-config libzstd-dev libpng-dev zstd python3"
+# (python3-*: the Python package, built and tested by `test` in a venv)
+packages="gcc libc6-dev meson ninja-build pkg-config libzstd-dev libpng-dev zstd python3
+          python3-dev python3-venv python3-numpy python3-mesonpy python3-pytest"
 missing=""
 for p in $packages; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
@@ -41,6 +43,12 @@ test)
     # users get (-O3, where compiler bugs show up) with asserts still on.
     [ -d build-ci ] || meson setup build-ci -Dwerror=true --buildtype=release -Db_ndebug=false >/dev/null
     ninja -C build-ci >/dev/null
+    # The Python package (pyproject.toml, python/) into a venv that sees
+    # Debian's numpy and meson-python; its pytest suite is build-ci's test
+    # `python` (python/tests/run.py), counted with the others.
+    [ -x build-venv/bin/python ] || /usr/bin/python3 -m venv --system-site-packages build-venv
+    build-venv/bin/pip install -q --no-build-isolation --no-index --no-deps \
+        --config-settings=builddir=build-py --config-settings=setup-args=-Dwerror=true . >/dev/null || status=1
     meson test -C build-ci --num-processes "$jobs" --print-errorlogs || status=1
     # Address and undefined-behaviour sanitizers over the fast suite.
     [ -d build-asan ] || meson setup build-asan -Dwerror=true -Db_sanitize=address,undefined \
@@ -50,10 +58,10 @@ test)
     # Thread sanitizer over the tests that run threads.
     [ -d build-tsan ] || meson setup build-tsan -Dwerror=true -Db_sanitize=thread -Db_lundef=false \
         --buildtype=debug -Dslow_tests=false >/dev/null
-    ninja -C build-tsan tests/test_pool tests/test_hausdorff tests/test_pipeline tools/epsnet >/dev/null
+    ninja -C build-tsan tests/test_pool tests/test_hausdorff tests/test_pipeline tests/test_arrays tools/epsnet >/dev/null
     # (of `target`, only its case through the target stage's rounds, where its threads meet: CI time)
     TSAN_OPTIONS=halt_on_error=1 EPSNET_TEST_ONLY=a_target_whose_finish_is_over_the_budget_goes_through_rounds_on_slabs \
-        meson test -C build-tsan --no-rebuild pool hausdorff pipeline target \
+        meson test -C build-tsan --no-rebuild pool hausdorff pipeline arrays target \
         --num-processes "$jobs" --print-errorlogs || status=1
     exit $status
     ;;

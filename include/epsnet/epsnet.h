@@ -21,6 +21,9 @@
  *  11. Rendering    - pictures of a mesh, its samples and its simplification
  *                     as PNG (epsnet render), streaming, without a GPU.
  *  12. Utilities    - size parsing, version, signal-time cleanup.
+ *  13. Arrays       - meshes held in the caller's memory (the Python package's
+ *                     entry): a reader over them, and simplify, sample and
+ *                     measure with the result in arrays.
  *
  * Conventions
  *   - Every function that can fail returns 0 (or a positive count) on success
@@ -1191,6 +1194,142 @@ EPSNET_API void epsnet_remove_temporaries(void);
 
 /* "MAJOR.MINOR.PATCH" of the linked library. */
 EPSNET_API const char *epsnet_version(void);
+
+/* ------------------------------------------------------------------------
+ * 13. Arrays (docs/architecture.md §14)
+ *
+ * A mesh already in memory, as a numpy user holds it: an (n, 3) array of
+ * float32 or float64 coordinates, an (m, 3) array of int32 or int64 vertex
+ * indices, both row-major and contiguous, and any number of per-vertex
+ * attribute columns (n values of one epsnet_attr_type each). Nothing is
+ * copied up front: the arrays are read in place, record by record, through
+ * a reader (epsnet_reader_open_arrays) that speaks the stream every file
+ * reader speaks. Its records are those a PLY of the same content gives: the
+ * vertices in array order, then the faces in array order, no finalization.
+ * So the simplification of arrays is the one the CLI makes of the file:
+ * sorted (docs/architecture.md §13), then the same chain, and its output,
+ * collected into arrays, is the output file's vertices and faces in the
+ * file's order.
+ *
+ * Every value is checked before it becomes a record, and errors name the
+ * array's row (0-based, as the caller indexes it): "faces[12, 1] = -3 is
+ * not a vertex index (0 .. 99)", "vertices[5] is not finite (nan 0 1)"
+ * (EPSNET_EFORMAT). The arrays must stay unchanged until the reader is
+ * closed or the call returns.
+ *
+ *     epsnet_arrays in;
+ *     epsnet_arrays_init(&in);
+ *     in.nverts = nv; in.xyz = xyz; in.coord_type = EPSNET_COORD_FLOAT32;
+ *     in.nfaces = nf; in.faces = tri; in.index_bytes = 4;
+ *     epsnet_arrays_out out;
+ *     int rc = epsnet_simplify_arrays(ctx, &in, &out, &err);
+ *     if (rc == 0)
+ *         use(out.nverts, out.xyz, out.nfaces, out.faces);
+ *     epsnet_arrays_out_free(&out);
+ * ------------------------------------------------------------------------ */
+
+typedef struct epsnet_arrays {
+    const char *name;               /* names the mesh in messages; NULL: "arrays" */
+    uint64_t nverts;
+    const void *xyz;                /* nverts x 3 values of coord_type, row-major */
+    epsnet_coord_type coord_type;   /* float32 or float64 */
+    uint64_t nfaces;
+    const void *faces;              /* nfaces x 3 signed integers of index_bytes, row-major */
+    int index_bytes;                /* 4 (int32) or 8 (int64) */
+    /* Attribute columns: attrs names them and gives their types (fill it
+     * with epsnet_attr_layout_add(); the offsets are those of the packed
+     * bytes the records carry); attr[i] points at nverts values of
+     * attrs.attr[i].type, in the host's byte order. */
+    epsnet_attr_layout attrs;
+    const void *attr[EPSNET_ATTR_MAX];
+    uint8_t reserved[64];
+} epsnet_arrays;
+
+/* Zero a, as every field's default (no mesh, float32, int32 indices). */
+EPSNET_API void epsnet_arrays_init(epsnet_arrays *a);
+
+/*
+ * Open a reader over a's arrays (format "arrays"): every vertex record,
+ * with its attribute bytes packed from the columns, then every triangle.
+ * epsnet_reader_bytes_read() and epsnet_reader_file_size() count the
+ * arrays' bytes, for progress.
+ * @return 0, or a negative code with err filled: EPSNET_EINVAL for a bad
+ * description (NULL arrays with a non-zero count, a coordinate type or index
+ * size not listed above, a layout epsnet_attr_layout_add() would not make).
+ * Bad values are reported by epsnet_reader_next(), as for a file.
+ * Ownership: the arrays stay the caller's and must outlive the reader; a is
+ * copied. settings may be NULL.
+ */
+EPSNET_API int epsnet_reader_open_arrays(epsnet_reader **r, const epsnet_arrays *a,
+                                         const epsnet_reader_settings *settings, epsnet_error *err);
+
+/* A result in arrays the library allocated: the same shapes as
+ * epsnet_arrays, coordinates of coord_type and faces of index_bytes (those
+ * of the input), one column per attribute of attrs. */
+typedef struct epsnet_arrays_out {
+    uint64_t nverts;
+    void *xyz;
+    epsnet_coord_type coord_type;
+    uint64_t nfaces;
+    void *faces;
+    int index_bytes;
+    epsnet_attr_layout attrs;
+    void *attr[EPSNET_ATTR_MAX];
+    uint8_t reserved[64];
+} epsnet_arrays_out;
+
+/*
+ * Free every buffer of out that is not NULL and zero it. A caller who keeps
+ * a buffer sets its pointer to NULL first and frees it with epsnet_free().
+ * Accepts a zeroed out.
+ */
+EPSNET_API void epsnet_arrays_out_free(epsnet_arrays_out *out);
+
+/* Free a buffer the library allocated for the caller (see above). NULL is
+ * accepted. */
+EPSNET_API void epsnet_free(void *p);
+
+/*
+ * epsnet_simplify_file() on arrays: in is sorted and simplified with ctx's
+ * settings exactly as the same mesh read from a file would be, and the
+ * output is collected into out: its vertices in the output file's order,
+ * with their coordinates and attribute columns bit for bit (every output
+ * vertex is an input vertex), and its faces as indices into them. Every
+ * attribute column travels (there is no output format to leave some out).
+ * Statistics are in epsnet_context_stats(ctx); warnings and progress go
+ * to ctx's callbacks (progress counts the arrays' bytes, then the run's
+ * later parts, as for a file). Temporary files, if the sort or a streamed
+ * target needs them, go to settings.tmpdir, else $TMPDIR, else /tmp.
+ * @return 0 with out filled, or a negative code with err filled (out then
+ * zeroed): the reader's EPSNET_EFORMAT for a bad value, and every code of
+ * epsnet_simplify_file().
+ * Ownership: in stays the caller's; out's buffers are the caller's, freed
+ * with epsnet_arrays_out_free().
+ */
+EPSNET_API int epsnet_simplify_arrays(epsnet_context *ctx, const epsnet_arrays *in, epsnet_arrays_out *out,
+                                      epsnet_error *err);
+
+/*
+ * The classification of `epsnet sample --mesh` on arrays, in memory (one
+ * slab that owns every vertex, docs/architecture.md §14): is_sample[v] is 1
+ * when input vertex v is a sample (paper §4.1; locked vertices included)
+ * and 0 otherwise, gvertex[v] the Gaussian vertex it covers (-1 for none,
+ * locked vertices and needle tips), for every v < in->nverts. Attributes
+ * are not used. Statistics are in epsnet_context_stats(ctx).
+ * @return 0, or a negative code with err filled.
+ * Ownership: every array is the caller's; is_sample and gvertex hold
+ * in->nverts values each.
+ */
+EPSNET_API int epsnet_sample_arrays(epsnet_context *ctx, const epsnet_arrays *in, uint8_t *is_sample,
+                                    int32_t *gvertex, epsnet_error *err);
+
+/*
+ * epsnet_hausdorff_files() on two meshes in arrays (their attributes are
+ * not used). @return and ownership as there.
+ */
+EPSNET_API int epsnet_hausdorff_arrays(const epsnet_arrays *a, const epsnet_arrays *b,
+                                       const epsnet_hausdorff_settings *s, epsnet_hausdorff_result *out,
+                                       epsnet_error *err);
 
 #ifdef __cplusplus
 }

@@ -22,10 +22,10 @@
  * coordinates whose squared lengths would overflow the zero-area test.
  * note: the slab's own limits keep every id below UINT32_MAX, which the
  * hierarchy keeps free as "no face". */
-static int load_mesh(const char *path, en_slab *m, epsnet_error *err)
+static int load_mesh(const char *path, const epsnet_arrays *arrays, en_slab *m, epsnet_error *err)
 {
     epsnet_reader *r = NULL;
-    int rc = epsnet_reader_open(&r, path, NULL, err);
+    int rc = arrays ? epsnet_reader_open_arrays(&r, arrays, NULL, err) : epsnet_reader_open(&r, path, NULL, err);
     if (rc == 0)
         rc = en_slab_read(m, r, path, err);
     epsnet_reader_close(&r);
@@ -40,13 +40,10 @@ static int load_mesh(const char *path, en_slab *m, epsnet_error *err)
     return rc;
 }
 
-int epsnet_hausdorff_files(const char *a, const char *b, const epsnet_hausdorff_settings *s,
-                           epsnet_hausdorff_result *out, epsnet_error *err)
+/* Both meshes from files (a, b) or from arrays (aa, ab; a and b name them). */
+static int measure(const char *a, const epsnet_arrays *aa, const char *b, const epsnet_arrays *ab,
+                   const epsnet_hausdorff_settings *s, epsnet_hausdorff_result *out, epsnet_error *err)
 {
-    en_error_clear(err);
-    if (!a || !b || !out)
-        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "epsnet_hausdorff_files: NULL argument");
     epsnet_hausdorff_settings defaults;
     if (!s) {
         epsnet_hausdorff_default_settings(&defaults);
@@ -58,9 +55,9 @@ int epsnet_hausdorff_files(const char *a, const char *b, const epsnet_hausdorff_
     en_slab ma, mb;
     en_slab_init(&ma);
     en_slab_init(&mb);
-    int rc = load_mesh(a, &ma, err);
+    int rc = load_mesh(a, aa, &ma, err);
     if (rc == 0)
-        rc = load_mesh(b, &mb, err);
+        rc = load_mesh(b, ab, &mb, err);
     if (rc == 0 && (ma.nt == 0) != (mb.nt == 0))
         rc = en_error_set(err, EPSNET_EINVAL, ma.nt == 0 ? a : b, EPSNET_POS_NONE, EPSNET_POS_NONE,
                           "no faces: the distance to an empty surface is undefined");
@@ -77,6 +74,26 @@ int epsnet_hausdorff_files(const char *a, const char *b, const epsnet_hausdorff_
     en_slab_free(&ma);
     en_slab_free(&mb);
     return rc;
+}
+
+int epsnet_hausdorff_files(const char *a, const char *b, const epsnet_hausdorff_settings *s,
+                           epsnet_hausdorff_result *out, epsnet_error *err)
+{
+    en_error_clear(err);
+    if (!a || !b || !out)
+        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "epsnet_hausdorff_files: NULL argument");
+    return measure(a, NULL, b, NULL, s, out, err);
+}
+
+int epsnet_hausdorff_arrays(const epsnet_arrays *a, const epsnet_arrays *b, const epsnet_hausdorff_settings *s,
+                            epsnet_hausdorff_result *out, epsnet_error *err)
+{
+    en_error_clear(err);
+    if (!a || !b || !out)
+        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "epsnet_hausdorff_arrays: NULL argument");
+    return measure(a->name ? a->name : "a", a, b->name ? b->name : "b", b, s, out, err);
 }
 
 /* ---- JSON ---- */

@@ -17,8 +17,8 @@ void en_classification_free(en_classification *c)
     memset(c, 0, sizeof *c);
 }
 
-int en_job_load(epsnet_context *ctx, const char *in_path, en_slab *s, epsnet_coord_type *ct,
-                epsnet_error *err)
+int en_job_load(epsnet_context *ctx, const char *in_path, const epsnet_arrays *arrays, en_slab *s,
+                epsnet_coord_type *ct, epsnet_error *err)
 {
     epsnet_reader_settings rs;
     epsnet_reader_default_settings(&rs);
@@ -27,7 +27,7 @@ int en_job_load(epsnet_context *ctx, const char *in_path, en_slab *s, epsnet_coo
     rs.mem_limit = b.reader;
     epsnet_reader *r = NULL;
     double t0 = en_now();
-    int rc = epsnet_reader_open(&r, in_path, &rs, err);
+    int rc = arrays ? epsnet_reader_open_arrays(&r, arrays, &rs, err) : epsnet_reader_open(&r, in_path, &rs, err);
     if (rc == 0) {
         /* note: the in-core jobs' outputs carry no attributes: named as
          * dropped, never lost silently (docs/architecture.md §5) */

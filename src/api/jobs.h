@@ -19,10 +19,11 @@ typedef struct en_classification {
 
 void en_classification_free(en_classification *c);
 
-/* Read in_path into a one-slab slab (every vertex owned, every star
- * complete); stats: vertices, faces, seconds_read. */
-int en_job_load(epsnet_context *ctx, const char *in_path, en_slab *s, epsnet_coord_type *ct,
-                epsnet_error *err);
+/* Read in_path, or arrays when not NULL (in_path then names them), into a
+ * one-slab slab (every vertex owned, in input order, every star complete);
+ * stats: vertices, faces, seconds_read. */
+int en_job_load(epsnet_context *ctx, const char *in_path, const epsnet_arrays *arrays, en_slab *s,
+                epsnet_coord_type *ct, epsnet_error *err);
 
 /* Classify every face and vertex of s against g; adds the stage times to
  * ctx->stats. path names the input in messages. */

@@ -276,7 +276,7 @@ static int draw_input_with_samples(epsnet_context *ctx, const char *in, en_raste
     en_slab_init(&slab);
     en_classification c = { 0 };
     epsnet_coord_type ct;
-    int rc = en_job_load(ctx, in, &slab, &ct, err);
+    int rc = en_job_load(ctx, in, NULL, &slab, &ct, err);
     if (rc == 0)
         rc = en_job_classify(ctx, &ctx->sphere, &slab, &c, in, err);
     if (rc == 0) {
@@ -319,7 +319,7 @@ static int draw_simplified(epsnet_context *ctx, const char *in, const char *out_
 {
     en_slab slab;
     en_slab_init(&slab);
-    int rc = en_simplify_streamed(ctx, in, out_png, NULL, open_collector, NULL, &slab, err);
+    int rc = en_simplify_streamed(ctx, in, NULL, out_png, NULL, open_collector, NULL, &slab, err);
     if (rc == 0)
         draw_slab(&slab, img, p, style);
     en_slab_free(&slab);

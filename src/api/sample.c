@@ -31,7 +31,7 @@ int epsnet_sample_file(epsnet_context *ctx, const char *in_path, const char *out
     en_classification c = { 0 };
     uint8_t *is_sample = NULL;
     epsnet_coord_type ct = EPSNET_COORD_FLOAT32;
-    int rc = en_job_load(ctx, in_path, &slab, &ct, err);
+    int rc = en_job_load(ctx, in_path, NULL, &slab, &ct, err);
     if (rc == 0)
         rc = en_job_classify(ctx, &ctx->sphere, &slab, &c, in_path, err);
     if (rc == 0) {

@@ -146,27 +146,33 @@ static void temp_folder(const epsnet_context *ctx, const char *out_path, char *d
  * and the chain when the file must be sorted: the sort then reads the file
  * itself, within its share.
  */
-static int open_input(epsnet_context *ctx, const char *in_path, const char *out_path, const en_format *keep,
-                      en_pool *pool, en_input *in, double *sort_seconds, epsnet_error *err)
+static int open_input(epsnet_context *ctx, const char *in_path, const epsnet_arrays *arrays, const char *out_path,
+                      const en_format *keep, en_pool *pool, en_input *in, double *sort_seconds, epsnet_error *err)
 {
     epsnet_reader_settings rs;
     epsnet_reader_default_settings(&rs);
     en_budget_split(&in->budget, &ctx->settings, EN_BUDGET_STREAM);
     rs.mem_limit = in->budget.reader;
-    int rc = epsnet_reader_open(&in->r, in_path, &rs, err);
+    int rc = arrays ? epsnet_reader_open_arrays(&in->r, arrays, &rs, err) : epsnet_reader_open(&in->r, in_path, &rs, err);
     /* note: the chain carries the vertex attributes the output's format
      * holds (keep; NULL: none, e.g. a picture or sample points); the
-     * others are named in the one dropped warning (docs/architecture.md §5). */
-    int all = keep && ctx->settings.lock_property; /* the lock travels even where the output drops it */
+     * others are named in the one dropped warning (docs/architecture.md §5).
+     * Arrays go to arrays, which hold every attribute. */
+    int all = arrays || (keep && ctx->settings.lock_property); /* the lock travels even where the output drops it */
     if (rc == 0)
         en_reader_keep_attrs(in->r, keep, all, ctx->settings.drop_normals);
     if (rc == 0)
         in->info = *epsnet_reader_info(in->r);
     if (rc || in->info.streaming)
         return rc;
-    epsnet_reader_close(&in->r);
+    /* note: a file is read again by the sort, within its own share of the
+     * budget; arrays are handed over unread, as they are */
+    epsnet_reader *unread = arrays ? in->r : NULL;
+    if (!arrays)
+        epsnet_reader_close(&in->r);
+    in->r = NULL;
     char dir[PATH_MAX];
-    temp_folder(ctx, out_path, dir, sizeof dir);
+    temp_folder(ctx, arrays ? "-" : out_path, dir, sizeof dir);
     epsnet_sort_settings ss;
     epsnet_sort_default_settings(&ss);
     en_budget_split(&in->budget, &ctx->settings, EN_BUDGET_SORTED);
@@ -187,7 +193,8 @@ static int open_input(epsnet_context *ctx, const char *in_path, const char *out_
     int keep_attrs = all ? EN_SORT_KEEP_ALL : keep ? EN_SORT_KEEP_FORMAT : 0;
     if (ctx->settings.drop_normals)
         keep_attrs |= EN_SORT_DROP_NORMALS;
-    rc = en_sort_open(&in->sort, in_path, out_path, &ss, keep_attrs, pool, err);
+    rc = unread ? en_sort_open_reader(&in->sort, unread, in_path, in_path, &ss, keep_attrs, pool, err)
+                : en_sort_open(&in->sort, in_path, out_path, &ss, keep_attrs, pool, err);
     *sort_seconds = en_now() - t0;
     if (rc == 0) {
         en_sort_info(in->sort, &in->info);
@@ -211,13 +218,13 @@ typedef struct file_run {
     double sort_seconds, cpu0;
 } file_run;
 
-static int file_run_open(file_run *fr, epsnet_context *ctx, const char *in_path, const char *near_path,
-                         const en_format *keep, epsnet_error *err)
+static int file_run_open(file_run *fr, epsnet_context *ctx, const char *in_path, const epsnet_arrays *arrays,
+                         const char *near_path, const en_format *keep, epsnet_error *err)
 {
     memset(fr, 0, sizeof *fr);
     fr->cpu0 = en_thread_cpu_seconds();
     int rc = en_run_pool_new(&fr->pool, &ctx->settings, in_path, err);
-    return rc ? rc : open_input(ctx, in_path, near_path, keep, fr->pool, &fr->in, &fr->sort_seconds, err);
+    return rc ? rc : open_input(ctx, in_path, arrays, near_path, keep, fr->pool, &fr->in, &fr->sort_seconds, err);
 }
 
 static int file_run_feed(file_run *fr, epsnet_context *ctx, en_slab_mode mode, const char *in_path, en_stage out,
@@ -241,13 +248,14 @@ static void file_run_close(file_run *fr, epsnet_context *ctx)
     ctx->stats.dropped += fr->in.sorted.dropped;
 }
 
-int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *near_path, const en_format *keep,
-                         en_open_out_fn open_out, en_release_out_fn release_out, void *opaque, epsnet_error *err)
+int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const epsnet_arrays *arrays, const char *near_path,
+                         const en_format *keep, en_open_out_fn open_out, en_release_out_fn release_out, void *opaque,
+                         epsnet_error *err)
 {
     double t0 = en_now();
     file_run fr;
     en_stage out = { 0 };
-    int rc = file_run_open(&fr, ctx, in_path, near_path, keep, err);
+    int rc = file_run_open(&fr, ctx, in_path, arrays, near_path, keep, err);
     int opened = rc == 0;
     if (rc == 0)
         rc = open_out(opaque, &fr.in.info, fr.pool, &out, err);
@@ -318,8 +326,8 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
                             "epsnet_simplify_file: NULL argument");
     snprintf(ctx->command, sizeof ctx->command, "simplify");
     file_out f = { ctx, out_path, NULL };
-    int rc = en_simplify_streamed(ctx, in_path, out_path, en_format_by_path(out_path), open_writer, release_writer, &f,
-                                  err);
+    int rc = en_simplify_streamed(ctx, in_path, NULL, out_path, en_format_by_path(out_path), open_writer,
+                                  release_writer, &f, err);
     /* what the writer leaves out (only the lock property can get this far
      * unfiltered: the reader kept every attribute for it) */
     uint64_t left_out = 0;
@@ -386,7 +394,7 @@ int en_sample_points_streamed(epsnet_context *ctx, const char *in_path, const ch
     file_run fr;
     sample_list l = { 0 };
     epsnet_coord_type ct = EPSNET_COORD_FLOAT32;
-    int rc = file_run_open(&fr, ctx, in_path, out_path, NULL, err);
+    int rc = file_run_open(&fr, ctx, in_path, NULL, out_path, NULL, err);
     if (rc == 0) {
         ct = fr.in.info.coord_type;
         rc = file_run_feed(&fr, ctx, EN_SLAB_SAMPLE, in_path, (en_stage){ 0 }, collect, &l, err);

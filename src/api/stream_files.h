@@ -23,12 +23,15 @@ typedef void (*en_release_out_fn)(void *opaque);
 
 /* Simplify in_path through the stage chain (sorting it first when it is not
  * a stream; temporaries go beside near_path or in ctx's tmpdir) into the
- * stage open_out gives. keep: the format whose vertex attributes are
+ * stage open_out gives. arrays: read them instead (epsnet_reader_open_arrays;
+ * in_path then names them, temporaries go to ctx's tmpdir or $TMPDIR, and
+ * every attribute is carried). keep: the format whose vertex attributes are
  * carried (NULL: none; the others are named as dropped). Fills ctx->stats but peak_rss. The output stage is
  * the caller's to commit or abort, also when this fails. release_out (may
  * be NULL) is called once, after the last record and on every failure
  * after open_out, before the pool goes. */
-int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const char *near_path, const en_format *keep,
-                         en_open_out_fn open_out, en_release_out_fn release_out, void *opaque, epsnet_error *err);
+int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const epsnet_arrays *arrays, const char *near_path,
+                         const en_format *keep, en_open_out_fn open_out, en_release_out_fn release_out, void *opaque,
+                         epsnet_error *err);
 
 #endif

@@ -78,6 +78,11 @@ struct epsnet_reader {
     int here_set;
     uint64_t here;
 
+    /* A reader over memory (no src): the bytes its driver has turned into
+     * records so far, of mem_size, for epsnet_reader_bytes_read() and
+     * epsnet_reader_file_size(). */
+    uint64_t mem_read, mem_size;
+
     /* A note for the user, one line (epsnet_reader_note(): the content chose
      * another format than the name); empty: none. */
     char note[512];
@@ -185,6 +190,15 @@ int en_reader_push_vertex_attr(epsnet_reader *r, double x, double y, double z, c
  * named as dropped, "vertex property NAME"), or a negative code for a name
  * the layout refuses. */
 int en_reader_add_attr(epsnet_reader *r, const char *name, epsnet_attr_type type);
+
+/*
+ * Open a reader whose driver fmt reads memory, not a file (no en_source;
+ * errors name no position unless the driver sets r->here): name is named in
+ * messages, state becomes r->state (fmt->close_reader frees it; when this
+ * fails before the reader exists, en_free does). Used by epsnet_reader_open_arrays().
+ */
+int en_reader_open_memory(epsnet_reader **r, const char *name, const en_format *fmt, void *state,
+                          const epsnet_reader_settings *settings, epsnet_error *err);
 
 /* ---- for library stages that read a user's file ---- */
 

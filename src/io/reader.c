@@ -37,9 +37,9 @@ int en_reader_fail(epsnet_reader *r, int code, const char *fmt, ...)
     va_list ap;
     va_start(ap, fmt);
     uint64_t line = EPSNET_POS_NONE, off = EPSNET_POS_NONE;
-    if (r->text)
+    if (r->text && r->src)
         line = r->src->lineno ? r->src->lineno : 1;
-    else
+    else if (r->here_set || r->src)
         off = r->here_set ? r->here : en_source_offset(r->src);
     int rc = reader_vfail(r, code, line, off, fmt, ap);
     va_end(ap);
@@ -416,6 +416,44 @@ int epsnet_reader_open(epsnet_reader **out, const char *path,
     return 0;
 }
 
+int en_reader_open_memory(epsnet_reader **out, const char *name, const en_format *fmt, void *state,
+                          const epsnet_reader_settings *settings, epsnet_error *err)
+{
+    *out = NULL;
+    epsnet_reader *r = en_calloc(1, sizeof *r);
+    char *path = en_strdup(name);
+    if (!r || !path) {
+        en_free(r);
+        en_free(path);
+        en_free(state);
+        return en_error_set(err, EPSNET_ENOMEM, name, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    }
+    if (settings)
+        r->settings = *settings;
+    else
+        epsnet_reader_default_settings(&r->settings);
+    r->path = path;
+    r->fmt = fmt;
+    r->state = state;
+    r->info.format = fmt->name;
+    r->info.encoding = "memory";
+    r->info.nverts = EPSNET_COUNT_UNKNOWN;
+    r->info.nfaces = EPSNET_COUNT_UNKNOWN;
+    r->info.coord_type = EPSNET_COORD_FLOAT32;
+    r->info.sorted_axis = -1;
+    int rc = fmt->open_reader(r);
+    if (rc) {
+        if (err)
+            *err = r->err;
+        if (!r->failed)
+            en_error_set(err, rc, name, EPSNET_POS_NONE, EPSNET_POS_NONE, "%s", epsnet_strerror(rc));
+        epsnet_reader_close(&r);
+        return rc;
+    }
+    *out = r;
+    return 0;
+}
+
 const epsnet_mesh_info *epsnet_reader_info(const epsnet_reader *r)
 {
     return &r->info;
@@ -457,12 +495,12 @@ int epsnet_reader_next(epsnet_reader *r, epsnet_record *rec, epsnet_error *err)
 
 uint64_t epsnet_reader_bytes_read(const epsnet_reader *r)
 {
-    return r->src ? r->src->raw_read : 0;
+    return r->src ? r->src->raw_read : r->mem_read;
 }
 
 uint64_t epsnet_reader_file_size(const epsnet_reader *r)
 {
-    return r->src ? r->src->file_size : 0;
+    return r->src ? r->src->file_size : r->mem_size;
 }
 
 void epsnet_reader_close(epsnet_reader **pr)

@@ -1431,7 +1431,7 @@ static int open_job(sort_job *j, epsnet_error *err)
     /* note: a streaming input's live set is the reader's memory; the budget
      * bounds it (docs/architecture.md §12: a stream that never finalizes hits the budget). */
     rs.mem_limit = j->set.mem;
-    int rc = epsnet_reader_open(&j->r, j->in_path, &rs, err);
+    int rc = j->r ? 0 : epsnet_reader_open(&j->r, j->in_path, &rs, err); /* en_sort_open_reader: open */
     if (rc)
         return rc;
     /* note: only what the consumer can hold is sorted; the rest is named
@@ -1600,15 +1600,20 @@ void en_sort_lean(en_sort *s)
     s->lean = 1;
 }
 
-int en_sort_open(en_sort **out, const char *in_path, const char *owner, const epsnet_sort_settings *settings,
-                 int keep_attrs, en_pool *pool, epsnet_error *err)
+static int sort_open(en_sort **out, epsnet_reader *r, const char *in_path, const char *owner,
+                     const epsnet_sort_settings *settings, int keep_attrs, en_pool *pool, epsnet_error *err)
 {
     *out = NULL;
-    if (!in_path || !owner)
+    if (!in_path || !owner) {
+        epsnet_reader_close(&r);
         return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE, "sort: NULL path");
+    }
     sort_job *j = en_calloc(1, sizeof *j);
-    if (!j)
+    if (!j) {
+        epsnet_reader_close(&r);
         return en_error_set(err, EPSNET_ENOMEM, owner, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    }
+    j->r = r; /* closed by close_job, also on the failures below */
     j->t0 = en_now();
     j->in_path = in_path;
     j->owner = owner;
@@ -1617,6 +1622,7 @@ int en_sort_open(en_sort **out, const char *in_path, const char *owner, const ep
     else
         epsnet_sort_default_settings(&j->set);
     if (j->set.axis < -1 || j->set.axis > 2) {
+        epsnet_reader_close(&j->r);
         en_free(j);
         return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "sort axis %d is not -1 (auto), 0, 1 or 2", j->set.axis);
@@ -1628,6 +1634,18 @@ int en_sort_open(en_sort **out, const char *in_path, const char *owner, const ep
     j->shared = pool;
     *out = j;
     return run_passes(j, err);
+}
+
+int en_sort_open(en_sort **out, const char *in_path, const char *owner, const epsnet_sort_settings *settings,
+                 int keep_attrs, en_pool *pool, epsnet_error *err)
+{
+    return sort_open(out, NULL, in_path, owner, settings, keep_attrs, pool, err);
+}
+
+int en_sort_open_reader(en_sort **out, epsnet_reader *r, const char *name, const char *owner,
+                        const epsnet_sort_settings *settings, int keep_attrs, en_pool *pool, epsnet_error *err)
+{
+    return sort_open(out, r, name, owner, settings, keep_attrs, pool, err);
 }
 
 void en_sort_info(const en_sort *j, epsnet_mesh_info *info)

@@ -75,6 +75,11 @@ typedef int (*en_sort_emit_fn)(void *opaque, const epsnet_record *rec, epsnet_er
 #define EN_SORT_DROP_NORMALS 4
 int en_sort_open(en_sort **s, const char *in_path, const char *owner, const epsnet_sort_settings *settings,
                  int keep_attrs, en_pool *pool, epsnet_error *err);
+/* en_sort_open() on a reader the caller opened and has not read from (one
+ * over arrays, epsnet_reader_open_arrays): the sort takes it and closes it,
+ * also on failure; name stands for in_path in messages. */
+int en_sort_open_reader(en_sort **s, epsnet_reader *r, const char *name, const char *owner,
+                        const epsnet_sort_settings *settings, int keep_attrs, en_pool *pool, epsnet_error *err);
 /* What the output stream will be: coord_type, streaming, sorted_axis, nfaces,
  * vertex_attrs. */
 void en_sort_info(const en_sort *s, epsnet_mesh_info *info);

@@ -1,0 +1,109 @@
+#!/usr/bin/env python3
+"""The Python binding's cost on `gen bumpy` (issue 27): time beyond the C call, memory beyond the arrays.
+
+    build-venv/bin/python bench/python_overhead.py [--faces 2M] [--ratio R] [--runs 3] [--epsnet build-release/tools/epsnet]
+
+For each run, in a fresh interpreter (the venv's, with the package
+installed): read the mesh into numpy arrays, then time epsnet.simplify() on
+them. Reported:
+
+  - binding time: the call's wall time minus the library's own
+    (stats["seconds_simplify"], measured inside epsnet_simplify_arrays);
+    the issue asks for at most 5% of the call;
+  - peak RSS of the process against the input arrays' bytes plus the C
+    run's own peak, the latter being the CLI's peak on the same mesh as a
+    binary PLY (`epsnet simplify`, which also sorts a copy of the mesh) minus
+    what the CLI holds before it starts; the issue asks for at most that sum.
+
+Medians of --runs runs. Run it on an otherwise idle machine; smoke-test
+with --faces 20000 --runs 1.
+"""
+import argparse
+import json
+import os
+import pathlib
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+WORKER = r"""
+import json, resource, sys, time
+import numpy as np
+import epsnet
+def rss():  # current resident set, bytes
+    with open('/proc/self/statm') as f:
+        return int(f.read().split()[1]) * 4096
+path, options = sys.argv[1], json.loads(sys.argv[2])
+base = rss()
+v, f, _ = epsnet.read_mesh(path)
+v, f = np.ascontiguousarray(v), np.ascontiguousarray(f)
+loaded = rss()
+t0 = time.perf_counter()
+sv, sf, info = epsnet.simplify(v, f, return_info=True, **options)
+wall = time.perf_counter() - t0
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+print(json.dumps({"wall": wall, "c_seconds": info.stats["seconds_simplify"], "faces": int(len(sf)),
+                  "input_bytes": int(v.nbytes + f.nbytes), "base": base, "loaded": loaded, "peak": peak}))
+"""
+
+
+def size(text):
+    units = {"K": 1e3, "M": 1e6, "G": 1e9}
+    return int(float(text[:-1]) * units[text[-1].upper()]) if text[-1].upper() in units else int(text)
+
+
+def cli_peak(epsnet, src, dst, options):
+    """Peak RSS of one CLI run (a child of its own, so that its peak is its own)."""
+    code = ("import resource, subprocess, sys; subprocess.run(sys.argv[1:], check=True, capture_output=True); "
+            "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024)")
+    args = [epsnet, "simplify", str(src), "-o", str(dst), "-q"] + options
+    return int(subprocess.run([sys.executable, "-c", code] + args, check=True, capture_output=True, text=True).stdout)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--faces", default="2M")
+    ap.add_argument("--ratio", type=float, default=None, help="a target (default: the ε-net method)")
+    ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--epsnet", default=str(ROOT / "build-release" / "tools" / "epsnet"))
+    ap.add_argument("--python", default=sys.executable, help="the interpreter with epsnet installed (default: this one)")
+    a = ap.parse_args()
+    for tool in (a.epsnet, a.python):
+        if not os.access(tool, os.X_OK):
+            sys.exit(f"python_overhead: {tool} is missing (build it, or sh tools/quickstart.sh test for the venv)")
+    options = {"ratio": a.ratio} if a.ratio else {}
+    cli_options = ["--ratio", str(a.ratio)] if a.ratio else []
+    with tempfile.TemporaryDirectory() as tmp:
+        src = pathlib.Path(tmp) / "bumpy.ply"
+        subprocess.run([a.epsnet, "gen", "bumpy", "--faces", str(size(a.faces)), "--seed", "7", "--shuffle",
+                        "-o", str(src)], check=True, capture_output=True)
+        runs, cli = [], []
+        for _ in range(a.runs):
+            out = subprocess.run([a.python, "-c", WORKER, str(src), json.dumps(options)], check=True,
+                                 capture_output=True, text=True, cwd=tmp).stdout
+            runs.append(json.loads(out))
+            cli.append(cli_peak(a.epsnet, src, pathlib.Path(tmp) / "out.ply", cli_options))
+    med = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+    c_peak = statistics.median(cli)
+    overhead = med["wall"] - med["c_seconds"]
+    allowed = med["base"] + med["input_bytes"] + c_peak
+    mb = 1 / 2**20
+    print(f"| gen bumpy {a.faces}{' ratio ' + str(a.ratio) if a.ratio else ''} | value |")
+    print("|---|---|")
+    print(f"| simplify() wall | {med['wall']:.3f} s |")
+    print(f"| library's own (seconds_simplify) | {med['c_seconds']:.3f} s |")
+    print(f"| binding beyond the C call | {overhead:.3f} s ({100 * overhead / med['wall']:.1f}%, at most 5% asked) |")
+    print(f"| input arrays | {med['input_bytes'] * mb:.0f} MB |")
+    print(f"| interpreter + numpy before loading | {med['base'] * mb:.0f} MB |")
+    print(f"| CLI's peak on the same mesh | {c_peak * mb:.0f} MB |")
+    print(f"| Python process peak | {med['peak'] * mb:.0f} MB (at most {allowed * mb:.0f} asked: "
+          f"{'within' if med['peak'] <= allowed else 'OVER'}) |")
+    print(f"| output faces | {int(med['faces'])} |")
+
+
+if __name__ == "__main__":
+    main()
