@@ -21,8 +21,15 @@
  * are then held to the end of the file, within settings.mem_limit, and a
  * record is pushed when a face first names it.
  *
- * Every other statement (vp, o, g, s, usemtl, mtllib, l, p, unknown ones,
- * and vt or vn that no face names) is skipped and named by
+ * Materials: when a `usemtl` comes before the first face, each face's
+ * material travels as the attribute material_index (uint16) of its corners,
+ * keyed with vt and vn, so a position whose faces have two materials is two
+ * records (a seam); the names, in order of first use, and the first
+ * `mtllib` are the reader's epsnet_materials (info.materials).
+ *
+ * Every other statement (vp, o, g, s, l, p, unknown ones, usemtl and mtllib
+ * in a file whose first face comes before any usemtl, and vt or vn that no
+ * face names) is skipped and named by
  * epsnet_reader_dropped(), as are w, alpha, a vt's w, and colours in a file
  * whose first `v` has none; the numbers of a `v`, `vt`, `vn` or `f`
  * statement must all parse. A trailing backslash continues a statement on
@@ -37,7 +44,11 @@
  * with 1-based absolute indices, in stream order (OBJ allows interleaving,
  * so nothing is buffered). A stream with texture coordinates or normals
  * also gets `vt` and `vn` lines and `f a/b/c` corners, and its records at
- * one position are welded into one `v` line (put_corner_vertex()).
+ * one position are welded into one `v` line (put_corner_vertex()). A
+ * stream with material_index and info.materials gets `mtllib` and a
+ * `usemtl` before each face whose material differs from the face before
+ * (put_material(); faces come in stream order, so a run of one material in
+ * the input may be written as several).
  * FINALIZE records have no OBJ form and are dropped.
  */
 #include <math.h>
