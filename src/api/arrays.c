@@ -148,16 +148,10 @@ int epsnet_simplify_arrays(epsnet_context *ctx, const epsnet_arrays *in, epsnet_
     out->index_bytes = in->index_bytes;
     collector c = { out, name, in->nverts, 0, 0, in->coord_type == EPSNET_COORD_FLOAT32 ? sizeof(float) : sizeof(double) };
     int rc = en_simplify_streamed(ctx, name, in, NULL, NULL, open_collector, NULL, &c, err);
-    if (rc) {
+    if (rc)
         epsnet_arrays_out_free(out);
-    } else if (ctx->stats.isolated_vertices && ctx->stats.faces && ctx->settings.warning) {
-        /* as epsnet_simplify_file() says it, once the output is there */
-        char msg[600];
-        snprintf(msg, sizeof msg, "%s: %llu vertices that no face uses%s are not in the output", name,
-                 (unsigned long long)ctx->stats.isolated_vertices,
-                 ctx->stats.membrane_faces ? " (once the glued membranes' faces are removed)" : "");
-        ctx->settings.warning(ctx->settings.warning_opaque, msg);
-    }
+    else
+        en_warn_unreferenced(ctx, name, "in the output");
     ctx->stats.peak_rss = en_peak_rss_bytes();
     return rc;
 }

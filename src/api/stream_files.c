@@ -342,19 +342,25 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
         rc = epsnet_writer_commit(&f.w, err);
     else
         epsnet_writer_abort(&f.w);
-    if (rc == 0 && ctx->stats.isolated_vertices && ctx->stats.faces && ctx->settings.warning) {
-        /* the output is a surface: a vertex no face uses is not on it and
-         * is not written (the sort or the stitcher leaves it out); named
-         * (docs/architecture.md §5) once the output is there (a mesh of no
-         * face at all was said above) */
-        char msg[PATH_MAX + 160];
-        snprintf(msg, sizeof msg, "%s: %llu vertices that no face uses%s are not written", in_path,
-                 (unsigned long long)ctx->stats.isolated_vertices,
-                 ctx->stats.membrane_faces ? " (once the glued membranes' faces are removed)" : "");
-        ctx->settings.warning(ctx->settings.warning_opaque, msg);
-    }
+    if (rc == 0)
+        en_warn_unreferenced(ctx, in_path, "written");
     ctx->stats.peak_rss = en_peak_rss_bytes();
     return rc;
+}
+
+void en_warn_unreferenced(epsnet_context *ctx, const char *name, const char *where)
+{
+    /* the output is a surface: a vertex no face uses is not on it and is
+     * not written (the sort or the stitcher leaves it out); named
+     * (docs/architecture.md §5) once the output is there (a mesh of no
+     * face at all was said before) */
+    if (!ctx->stats.isolated_vertices || !ctx->stats.faces || !ctx->settings.warning)
+        return;
+    char msg[PATH_MAX + 160];
+    snprintf(msg, sizeof msg, "%s: %llu vertices that no face uses%s are not %s", name,
+             (unsigned long long)ctx->stats.isolated_vertices,
+             ctx->stats.membrane_faces ? " (once the glued membranes' faces are removed)" : "", where);
+    ctx->settings.warning(ctx->settings.warning_opaque, msg);
 }
 
 typedef struct sample_point {

@@ -34,4 +34,8 @@ int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const epsnet_
                          const en_format *keep, en_open_out_fn open_out, en_release_out_fn release_out, void *opaque,
                          epsnet_error *err);
 
+/* After a simplify whose output is there: name the input's vertices that no
+ * face uses, which the output leaves out ("... are not <where>"). */
+void en_warn_unreferenced(epsnet_context *ctx, const char *name, const char *where);
+
 #endif
