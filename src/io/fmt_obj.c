@@ -58,6 +58,7 @@
 
 #include "common/alloc.h"
 #include "common/hash64.h"
+#include "common/u64map.h"
 #include "io/format.h"
 #include "io/text_scan.h"
 
@@ -111,6 +112,7 @@ typedef struct obj_reader {
     epsnet_materials mat;
     char **names;
     size_t names_cap;
+    en_u64map by_name;               /* a name's hash -> its first index */
     char *library;
     int started;
     size_t key_size;
@@ -434,12 +436,28 @@ static int corner_record(epsnet_reader *r, obj_reader *st, uint64_t v, const uin
     return 0;
 }
 
+static int material_is(const obj_reader *st, uint32_t i, const char *name, size_t n)
+{
+    return i < st->mat.count && strlen(st->names[i]) == n && memcmp(st->names[i], name, n) == 0;
+}
+
 /* `usemtl name`: the material of the faces that follow, its index the
- * order of first use (epsnet.h epsnet_materials). */
+ * order of first use (epsnet.h epsnet_materials). Names are found by a
+ * hash of their bytes, so a file that switches often among many materials
+ * is not quadratic; a hash shared by two names falls back to the list. */
 static int use_material(epsnet_reader *r, obj_reader *st, const char *name, size_t n)
 {
+    uint64_t h = 0xcbf29ce484222325ull; /* FNV-1a */
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ (uint8_t)name[i]) * 0x100000001b3ull;
+    h = h == UINT64_MAX ? 0 : h; /* the map's empty key */
+    uint32_t at;
+    if (en_u64map_get(&st->by_name, h, &at) && material_is(st, at, name, n)) {
+        st->material = (uint16_t)at;
+        return 0;
+    }
     for (uint32_t i = 0; i < st->mat.count; i++)
-        if (strlen(st->names[i]) == n && memcmp(st->names[i], name, n) == 0) {
+        if (material_is(st, i, name, n)) {
             st->material = (uint16_t)i;
             return 0;
         }
@@ -454,6 +472,8 @@ static int use_material(epsnet_reader *r, obj_reader *st, const char *name, size
     copy[n] = '\0';
     st->names[st->mat.count] = copy;
     st->mat.names = (const char *const *)st->names;
+    if (!en_u64map_get(&st->by_name, h, &at) && en_u64map_put(&st->by_name, h, st->mat.count))
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
     st->material = (uint16_t)st->mat.count++;
     return 0;
 }
@@ -735,6 +755,8 @@ static int obj_open_reader(epsnet_reader *r)
             if (en_reader_add_attr(r, k == 0 ? "nx" : k == 1 ? "ny" : "nz", EPSNET_ATTR_FLOAT32) < 0)
                 return r->err.code;
     if (st->materials) {
+        if (en_u64map_init(&st->by_name))
+            return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
         if (en_reader_add_attr(r, "material_index", EPSNET_ATTR_UINT16) < 0)
             return r->err.code;
         r->info.materials = &st->mat;
@@ -829,6 +851,7 @@ static void obj_close_reader(epsnet_reader *r)
         for (uint32_t i = 0; i < st->mat.count; i++)
             en_free(st->names[i]);
         en_free(st->names);
+        en_u64map_free(&st->by_name);
         en_free(st->library);
         en_free(st);
     }
