@@ -12,8 +12,11 @@ them. Reported:
     the issue asks for at most 5% of the call;
   - peak RSS of the process against the input arrays' bytes plus the C
     run's own peak, the latter being the CLI's peak on the same mesh as a
-    binary PLY (`epsnet simplify`, which also sorts a copy of the mesh) minus
-    what the CLI holds before it starts; the issue asks for at most that sum.
+    binary PLY (`epsnet simplify`, which also sorts a copy of the mesh), plus
+    the interpreter's and numpy's own RSS before loading; the issue asks for
+    at most that sum. The process peak is taken over the call alone (VmHWM
+    reset through /proc/self/clear_refs after loading, Linux 4.0+) and, as
+    well, over the whole process, read_mesh's own peak included.
 
 Medians of --runs runs. Run it on an otherwise idle machine; smoke-test
 with --faces 20000 --runs 1.
@@ -42,12 +45,23 @@ base = rss()
 v, f, _ = epsnet.read_mesh(path)
 v, f = np.ascontiguousarray(v), np.ascontiguousarray(f)
 loaded = rss()
+def hwm():  # peak resident set since the last reset, bytes
+    with open('/proc/self/status') as status:
+        return next(int(l.split()[1]) * 1024 for l in status if l.startswith('VmHWM:'))
+try:
+    with open('/proc/self/clear_refs', 'w') as refs:
+        refs.write('5')  # reset the peak: the call's own, without read_mesh's
+    reset = True
+except OSError:
+    reset = False
 t0 = time.perf_counter()
 sv, sf, info = epsnet.simplify(v, f, return_info=True, **options)
 wall = time.perf_counter() - t0
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+call_peak = hwm() if reset else peak
 print(json.dumps({"wall": wall, "c_seconds": info.stats["seconds_simplify"], "faces": int(len(sf)),
-                  "input_bytes": int(v.nbytes + f.nbytes), "base": base, "loaded": loaded, "peak": peak}))
+                  "input_bytes": int(v.nbytes + f.nbytes), "base": base, "loaded": loaded, "peak": peak,
+                  "call_peak": call_peak}))
 """
 
 
@@ -100,8 +114,11 @@ def main():
     print(f"| input arrays | {med['input_bytes'] * mb:.0f} MB |")
     print(f"| interpreter + numpy before loading | {med['base'] * mb:.0f} MB |")
     print(f"| CLI's peak on the same mesh | {c_peak * mb:.0f} MB |")
-    print(f"| Python process peak | {med['peak'] * mb:.0f} MB (at most {allowed * mb:.0f} asked: "
-          f"{'within' if med['peak'] <= allowed else 'OVER'}) |")
+    print(f"| after read_mesh (interpreter, numpy, arrays) | {med['loaded'] * mb:.0f} MB |")
+    print(f"| Python process peak during simplify() | {med['call_peak'] * mb:.0f} MB (at most {allowed * mb:.0f} asked: "
+          f"{'within' if med['call_peak'] <= allowed else 'OVER'}) |")
+    print(f"| Python process peak, read_mesh included | {med['peak'] * mb:.0f} MB "
+          f"({'within' if med['peak'] <= allowed else 'over'} {allowed * mb:.0f}) |")
     print(f"| output faces | {int(med['faces'])} |")
 
 
