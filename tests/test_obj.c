@@ -204,21 +204,26 @@ TEST(skipped_statements_are_named_with_their_counts)
     const epsnet_mesh_info *info = epsnet_reader_info(r);
     CHECK_EQ_U64(info->vertex_attrs.count, 6);
     CHECK(epsnet_attr_layout_find(&info->vertex_attrs, "material_index") == 5);
+    CHECK(!info->groups);
     CHECK(info->materials && info->materials->count == 2 && strcmp(info->materials->names[0], "red") == 0 &&
           strcmp(info->materials->names[1], "blue") == 0 && info->materials->library &&
           strcmp(info->materials->library, "scene.mtl") == 0);
     epsnet_reader_close(&r);
 
-    /* vt and vn that no face names are not carried, and so named */
+    /* vt and vn that no face names are not carried, and so named; a g
+     * before the first face is carried as the faces' group_index */
     path = tl_write_str("unused_vt.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvn 0 0 1\ng x\nf 1 2 3\n");
     CHECK_EQ_INT(epsnet_reader_open(&r, path, NULL, &err), 0);
     if (!r)
         return;
-    CHECK_EQ_INT(epsnet_reader_info(r)->vertex_attrs.count, 0);
+    CHECK_EQ_INT(epsnet_reader_info(r)->vertex_attrs.count, 1);
+    CHECK(epsnet_attr_layout_find(&epsnet_reader_info(r)->vertex_attrs, "group_index") == 0);
     while ((rc = epsnet_reader_next(r, &rec, &err)) > 0)
         ;
     what = epsnet_reader_dropped(r, &n);
-    CHECK(what && strcmp(what, "vt (2), vn (1), g (1)") == 0);
+    CHECK(what && strcmp(what, "vt (2), vn (1)") == 0);
+    info = epsnet_reader_info(r);
+    CHECK(info->groups && info->groups->count == 1 && strcmp(info->groups->names[0], "x") == 0 && !info->materials);
     epsnet_reader_close(&r);
 
     path = tl_write_str("plain.obj", "# only geometry\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");

@@ -270,9 +270,10 @@ def a_flat_shaded_obj_simplifies_with_drop_normals():
 
 
 def two_material_obj(name, n=40):
-    """A bumpy grid in an OBJ with vt, a mtllib and two materials: the
-    faces left of x = 0.5 use matA, the others matB, and the usemtl runs
-    switch row by row."""
+    """A bumpy grid in an OBJ with vt, a mtllib, two materials and two
+    groups: the faces left of x = 0.5 use matA, the others matB (the usemtl
+    runs switch row by row); the rows below y = 0.5 are group low, the
+    others high."""
     p = path(name + ".obj")
     with open(p, "w") as f:
         f.write("mtllib %s.mtl\n" % name)
@@ -284,6 +285,9 @@ def two_material_obj(name, n=40):
                 f.write("vt %r %r\n" % (i / n, j / n))
         cur = None
         for j in range(n):
+            if j in (0, n // 2):
+                f.write("g %s\n" % ("low" if j == 0 else "high"))
+                cur = None
             for i in range(n):
                 m = "matA" if i < n // 2 else "matB"
                 if m != cur:
@@ -299,29 +303,34 @@ def two_material_obj(name, n=40):
 
 
 def obj_faces_by_material(p):
-    """[(material, [x of the three corners])] of an OBJ, and its mtllib lines."""
-    xs, faces, libs, cur = [], [], [], None
+    """[(material, [x of the three corners], group, [y of the corners])] of
+    an OBJ, and its mtllib lines."""
+    xs, ys, faces, libs, cur, group = [], [], [], [], None, None
     for line in open(p):
         t = line.split()
         if not t:
             continue
         if t[0] == "v":
             xs.append(float(t[1]))
+            ys.append(float(t[2]))
         elif t[0] == "usemtl":
             cur = t[1] if len(t) > 1 else ""
+        elif t[0] == "g":
+            group = t[1] if len(t) > 1 else ""
         elif t[0] == "mtllib":
             libs.append(" ".join(t[1:]))
         elif t[0] == "f":
-            faces.append((cur, [xs[int(c.split("/")[0]) - 1] for c in t[1:4]]))
+            c = [int(c.split("/")[0]) - 1 for c in t[1:4]]
+            faces.append((cur, [xs[i] for i in c], group, [ys[i] for i in c]))
     return faces, libs
 
 
 @case
-def materials_travel_with_their_faces():
-    """Issue 25: an OBJ's mtllib and usemtl survive simplify and convert;
-    no face changes material (every face keeps to its side of the material
-    boundary), the boundary is not smeared, and a format that cannot hold
-    the names says so."""
+def materials_and_groups_travel_with_their_faces():
+    """Issue 25: an OBJ's mtllib, usemtl and g survive simplify and convert;
+    no face changes material or group (every face keeps to its side of each
+    boundary), the boundaries are not smeared, and a format that cannot
+    hold the names says so."""
     p, nf = two_material_obj("mat")
     for args in (["--ratio", "0.25"], ["--ratio", "0.25", "--slab", "300"], []):
         out = path("mat_out.obj")
@@ -329,12 +338,15 @@ def materials_travel_with_their_faces():
         assert rc == 0, (args, err)
         faces, libs = obj_faces_by_material(out)
         assert libs == ["mat.mtl"], (args, libs)
-        assert {m for m, _ in faces} == {"matA", "matB"}, args
-        for m, xs in faces:
-            if min(xs) == max(xs) == 0.5:
-                continue  # a sliver standing on the boundary belongs to either side
-            side = "matA" if max(xs) <= 0.5 else "matB" if min(xs) >= 0.5 else None
-            assert side == m, (args, m, xs)
+        assert {f[0] for f in faces} == {"matA", "matB"} and {f[2] for f in faces} == {"low", "high"}, args
+        for m, xs, g, ys in faces:
+            # a sliver standing on a boundary belongs to either side
+            if not min(xs) == max(xs) == 0.5:
+                side = "matA" if max(xs) <= 0.5 else "matB" if min(xs) >= 0.5 else None
+                assert side == m, (args, m, xs)
+            if not min(ys) == max(ys) == 0.5:
+                side = "low" if max(ys) <= 0.5 else "high" if min(ys) >= 0.5 else None
+                assert side == g, (args, g, ys)
         if args[:1] == ["--ratio"]:
             want = round(0.25 * nf)
             assert abs(len(faces) - want) <= max(1, want // 200), (args, len(faces), want)
@@ -343,15 +355,16 @@ def materials_travel_with_their_faces():
     assert rc == 0, err
     faces, libs = obj_faces_by_material(path("mat_copy.obj"))
     assert libs == ["mat.mtl"] and len(faces) == nf
-    assert [m for m, _ in faces] == ["matA" if (i // 2) % 40 < 20 else "matB" for i in range(nf)]
+    assert [f[0] for f in faces] == ["matA" if (i // 2) % 40 < 20 else "matB" for i in range(nf)]
+    assert [f[2] for f in faces] == ["low" if i < nf // 2 else "high" for i in range(nf)]
     # PLY keeps the index as a vertex property and names the names as dropped
     rc, _, err = run("simplify", p, "-o", path("mat_out.ply"), "--ascii", "--ratio", "0.25")
-    assert rc == 0 and "material names (usemtl, mtllib)" in err, err
+    assert rc == 0 and "material names (usemtl, mtllib), group names (g)" in err, err
     props, _, _ = read_ascii_ply(path("mat_out.ply"))
-    assert ("material_index", "ushort") in props, props
-    # STL holds neither: usemtl is named as dropped
+    assert ("material_index", "ushort") in props and ("group_index", "ushort") in props, props
+    # STL holds neither: usemtl and g are named as dropped
     rc, _, err = run("simplify", p, "-o", path("mat_out.stl"), "--ratio", "0.25")
-    assert rc == 0 and "usemtl" in err, err
+    assert rc == 0 and "usemtl" in err and "g (2)" in err, err
 
 
 finish()

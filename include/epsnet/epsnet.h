@@ -218,21 +218,22 @@ typedef enum epsnet_coord_type {
 #define EPSNET_COUNT_UNKNOWN UINT64_MAX
 
 /*
- * Materials (OBJ `mtllib` and `usemtl`). A face's material travels with its
- * corners: the vertex attribute "material_index" (uint16) indexes `names`,
- * and a position whose faces have different materials is one vertex record
- * per material, as a UV seam is (epsnet_attr above), so every face keeps
- * its material through simplify and a boundary between materials is never
- * smeared. A reader fills the table as it reads: names[i] exists before
- * any vertex record with index i. Index `count` can never occur; the name
- * "" is the material of faces before the file's first `usemtl`.
+ * Face labels: materials (OBJ `usemtl`, with `mtllib`) and groups (OBJ
+ * `g`). A face's label travels with its corners: the vertex attribute
+ * "material_index" or "group_index" (uint16) indexes `names`, and a
+ * position whose faces have different labels is one vertex record per
+ * label, as a UV seam is (epsnet_attr above), so every face keeps its
+ * material and group through simplify and a boundary between two is never
+ * smeared. A reader fills the table as it reads: names[i] exists before any
+ * vertex record with index i. The name "" labels faces before the file's
+ * first `usemtl` (or `g`).
  */
-#define EPSNET_MATERIALS_MAX 65535
-typedef struct epsnet_materials {
-    const char *library;         /* the `mtllib` statement's file name(s), or NULL */
+#define EPSNET_FACE_NAMES_MAX 65535
+typedef struct epsnet_face_names {
+    const char *library;         /* materials: the `mtllib` statement's file name(s), or NULL */
     uint32_t count;              /* names so far */
     const char *const *names;
-} epsnet_materials;
+} epsnet_face_names;
 
 typedef struct epsnet_mesh_info {
     const char *format;          /* "ply", "obj", "off", "stl", "sma", "smb", ... */
@@ -251,13 +252,13 @@ typedef struct epsnet_mesh_info {
      * format can hold (epsnet_writer_dropped() names the others). Zero the
      * whole structure (memset) before filling it by hand. */
     epsnet_attr_layout vertex_attrs;
-    /* The stream's materials, NULL for none; owned by the reader (valid
-     * until it is closed). A writer given them reads the table while
-     * records are put (so it must outlive the writer's puts): OBJ writes
-     * `mtllib` and a `usemtl` where a face's material changes; other
-     * formats keep material_index as a vertex property and name the
-     * materials' names as dropped. */
-    const epsnet_materials *materials;
+    /* The stream's materials and groups (epsnet_face_names), NULL for
+     * none; owned by the reader (valid until it is closed). A writer given
+     * them reads the tables while records are put (so they must outlive
+     * the writer's puts): OBJ writes `mtllib`, and `g` and `usemtl` where
+     * a face's group or material changes; other formats keep the indices
+     * as vertex properties and name the names as dropped. */
+    const epsnet_face_names *materials, *groups;
 } epsnet_mesh_info;
 
 /* ------------------------------------------------------------------------

@@ -304,6 +304,7 @@ static int open_writer(void *opaque, const epsnet_mesh_info *in, en_pool *pool, 
     info.sorted_axis = in->sorted_axis; /* output vertices keep the input's order */
     info.vertex_attrs = in->vertex_attrs; /* kept vertices keep their bytes */
     info.materials = in->materials;       /* and so their faces' materials */
+    info.groups = in->groups;             /* and groups */
     int rc = epsnet_writer_open(&f->w, f->path, &ws, &info, err);
     /* note: the writer encodes on the run's pool, if its format can
      * (docs/architecture.md §10); ENOMEM: it encodes alone, as before */

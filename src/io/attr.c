@@ -110,9 +110,11 @@ int en_format_holds_every_attr(const epsnet_attr_layout *l, uint32_t i)
     return 1;
 }
 
-int en_materials_copy_of(en_materials_copy *to, const epsnet_materials *from)
+int en_face_names_copy_of(en_face_names_copy *to, const epsnet_face_names *from)
 {
     memset(to, 0, sizeof *to);
+    if (!from)
+        return 0;
     size_t bytes = (size_t)from->count * sizeof(char *) + (from->library ? strlen(from->library) + 1 : 0);
     for (uint32_t i = 0; i < from->count; i++)
         bytes += strlen(from->names[i]) + 1;
@@ -126,13 +128,14 @@ int en_materials_copy_of(en_materials_copy *to, const epsnet_materials *from)
         text += n;
     }
     if (from->library)
-        to->mat.library = memcpy(text, from->library, strlen(from->library) + 1);
-    to->mat.count = from->count;
-    to->mat.names = names;
+        to->names.library = memcpy(text, from->library, strlen(from->library) + 1);
+    to->names.count = from->count;
+    to->names.names = names;
+    to->of = &to->names;
     return 0;
 }
 
-void en_materials_copy_free(en_materials_copy *c)
+void en_face_names_copy_free(en_face_names_copy *c)
 {
     en_free(c->storage);
     memset(c, 0, sizeof *c);

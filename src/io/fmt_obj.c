@@ -21,14 +21,16 @@
  * are then held to the end of the file, within settings.mem_limit, and a
  * record is pushed when a face first names it.
  *
- * Materials: when a `usemtl` comes before the first face, each face's
+ * Face labels: when a `usemtl` comes before the first face, each face's
  * material travels as the attribute material_index (uint16) of its corners,
  * keyed with vt and vn, so a position whose faces have two materials is two
  * records (a seam); the names, in order of first use, and the first
- * `mtllib` are the reader's epsnet_materials (info.materials).
+ * `mtllib` are the reader's epsnet_face_names (info.materials). A `g`
+ * before the first face does the same for groups (group_index,
+ * info.groups).
  *
- * Every other statement (vp, o, g, s, l, p, unknown ones, usemtl and mtllib
- * in a file whose first face comes before any usemtl, and vt or vn that no
+ * Every other statement (vp, o, s, l, p, unknown ones, usemtl, mtllib and g
+ * in a file whose first face comes before any of them, and vt or vn that no
  * face names) is skipped and named by
  * epsnet_reader_dropped(), as are w, alpha, a vt's w, and colours in a file
  * whose first `v` has none; the numbers of a `v`, `vt`, `vn` or `f`
@@ -46,9 +48,10 @@
  * also gets `vt` and `vn` lines and `f a/b/c` corners, and its records at
  * one position are welded into one `v` line (put_corner_vertex()). A
  * stream with material_index and info.materials gets `mtllib` and a
- * `usemtl` before each face whose material differs from the face before
- * (put_material(); faces come in stream order, so a run of one material in
- * the input may be written as several).
+ * `usemtl` before each face whose material differs from the face before,
+ * and `g` likewise with group_index and info.groups (put_labels(); faces
+ * come in stream order, so a run of one label in the input may be written
+ * as several).
  * FINALIZE records have no OBJ form and are dropped.
  */
 #include <math.h>
@@ -70,8 +73,8 @@
 #define OBJ_MAX_VERTEX_VALUES 7
 
 /* Bytes a face corner adds to its position: texture_u, texture_v and nx,
- * ny, nz, all float32, and material_index, uint16. */
-#define OBJ_KEY_MAX 22
+ * ny, nz, all float32, then material_index and group_index, uint16. */
+#define OBJ_KEY_MAX 24
 /* Indices of the corner tables are uint32 (they are held in memory). */
 #define OBJ_TABLE_MAX ((size_t)UINT32_MAX - 1)
 
@@ -81,6 +84,22 @@ typedef struct obj_position {
     float rgb[3];
     uint32_t first;                  /* newest record at this position + 1; 0: none yet */
 } obj_position;
+
+/* A face label of the reader (epsnet.h epsnet_face_names): usemtl or g.
+ * file_on when its statement comes before the first face, on while its
+ * attribute is kept; the current one (UINT16_MAX: none yet), the names,
+ * a name's hash -> its first index, and (materials) the `mtllib` text. */
+typedef struct obj_label {
+    const char *keyword;             /* "usemtl", "g" */
+    const char *attr;                /* "material_index", "group_index" */
+    int file_on, on;
+    uint16_t cur;
+    epsnet_face_names tab;
+    char **names;
+    size_t names_cap;
+    en_u64map by_name;
+    char *library;
+} obj_label;
 
 /* A vertex record of such a file: one distinct (position, vt, vn). */
 typedef struct obj_corner {
@@ -103,17 +122,9 @@ typedef struct obj_reader {
     int file_uv, file_normals;
     int uv, normals;
     int mute_vt, mute_vn;
-    /* Materials (epsnet.h epsnet_materials): file_materials when a
-     * `usemtl` comes before the first face, materials while
-     * material_index is kept; the current `usemtl` (UINT16_MAX: none yet),
-     * the names, and the `mtllib` text. */
-    int file_materials, materials;
-    uint16_t material;
-    epsnet_materials mat;
-    char **names;
-    size_t names_cap;
-    en_u64map by_name;               /* a name's hash -> its first index */
-    char *library;
+    /* label[0]: materials, label[1]: groups; their key bytes follow the
+     * vt and vn bytes, in that order */
+    obj_label label[2];
     int started;
     size_t key_size;
     obj_position *pos;
@@ -436,45 +447,45 @@ static int corner_record(epsnet_reader *r, obj_reader *st, uint64_t v, const uin
     return 0;
 }
 
-static int material_is(const obj_reader *st, uint32_t i, const char *name, size_t n)
+static int label_is(const obj_label *l, uint32_t i, const char *name, size_t n)
 {
-    return i < st->mat.count && strlen(st->names[i]) == n && memcmp(st->names[i], name, n) == 0;
+    return i < l->tab.count && strlen(l->names[i]) == n && memcmp(l->names[i], name, n) == 0;
 }
 
-/* `usemtl name`: the material of the faces that follow, its index the
- * order of first use (epsnet.h epsnet_materials). Names are found by a
- * hash of their bytes, so a file that switches often among many materials
- * is not quadratic; a hash shared by two names falls back to the list. */
-static int use_material(epsnet_reader *r, obj_reader *st, const char *name, size_t n)
+/* `usemtl name` or `g name`: the label of the faces that follow, its index
+ * the order of first use. Names are found by a hash of their bytes, so a
+ * file that switches often among many labels is not quadratic; a hash
+ * shared by two names falls back to the list. */
+static int use_label(epsnet_reader *r, obj_label *l, const char *name, size_t n)
 {
     uint64_t h = 0xcbf29ce484222325ull; /* FNV-1a */
     for (size_t i = 0; i < n; i++)
         h = (h ^ (uint8_t)name[i]) * 0x100000001b3ull;
     h = h == UINT64_MAX ? 0 : h; /* the map's empty key */
     uint32_t at;
-    if (en_u64map_get(&st->by_name, h, &at) && material_is(st, at, name, n)) {
-        st->material = (uint16_t)at;
+    if (en_u64map_get(&l->by_name, h, &at) && label_is(l, at, name, n)) {
+        l->cur = (uint16_t)at;
         return 0;
     }
-    for (uint32_t i = 0; i < st->mat.count; i++)
-        if (material_is(st, i, name, n)) {
-            st->material = (uint16_t)i;
+    for (uint32_t i = 0; i < l->tab.count; i++)
+        if (label_is(l, i, name, n)) {
+            l->cur = (uint16_t)i;
             return 0;
         }
-    if (st->mat.count >= EPSNET_MATERIALS_MAX)
-        return en_reader_fail(r, EPSNET_ELIMIT, "more than %d materials (usemtl)", EPSNET_MATERIALS_MAX);
-    if (en_grow((void **)&st->names, &st->names_cap, st->mat.count + 1, sizeof *st->names))
+    if (l->tab.count >= EPSNET_FACE_NAMES_MAX)
+        return en_reader_fail(r, EPSNET_ELIMIT, "more than %d names of %s", EPSNET_FACE_NAMES_MAX, l->keyword);
+    if (en_grow((void **)&l->names, &l->names_cap, l->tab.count + 1, sizeof *l->names))
         return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
     char *copy = en_malloc(n + 1);
     if (!copy)
         return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
     memcpy(copy, name, n);
     copy[n] = '\0';
-    st->names[st->mat.count] = copy;
-    st->mat.names = (const char *const *)st->names;
-    if (!en_u64map_get(&st->by_name, h, &at) && en_u64map_put(&st->by_name, h, st->mat.count))
+    l->names[l->tab.count] = copy;
+    l->tab.names = (const char *const *)l->names;
+    if (!en_u64map_get(&l->by_name, h, &at) && en_u64map_put(&l->by_name, h, l->tab.count))
         return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
-    st->material = (uint16_t)st->mat.count++;
+    l->cur = (uint16_t)l->tab.count++;
     return 0;
 }
 
@@ -512,10 +523,15 @@ static int corner_vertex(epsnet_reader *r, obj_reader *st, const int64_t idx[3],
         else if (!(rc = resolve_index(r, 2, idx[2], st->nvn, 1, &at[2])))
             memcpy(key + o, st->vn + 3 * at[2], 12);
     }
-    if (!rc && st->materials) {
-        if (st->material == UINT16_MAX) /* a face before the first usemtl */
-            rc = use_material(r, st, "", 0);
-        memcpy(key + 8 * st->file_uv + 12 * st->file_normals, &st->material, 2);
+    size_t lo = 8 * (size_t)st->file_uv + 12 * (size_t)st->file_normals;
+    for (int k = 0; k < 2 && !rc; k++) {
+        obj_label *l = &st->label[k];
+        if (!l->on)
+            continue;
+        if (l->cur == UINT16_MAX) /* a face before the first usemtl (g) */
+            rc = use_label(r, l, "", 0);
+        memcpy(key + lo, &l->cur, 2);
+        lo += 2;
     }
     return rc ? rc : corner_record(r, st, at[0], key, v);
 }
@@ -585,19 +601,23 @@ static int parse_statement(epsnet_reader *r, char *stmt)
         return parse_normal(r, st, p + 2);
     if (p[0] == 'v' && ((st->mute_vt && p[1] == 't') || (st->mute_vn && p[1] == 'n')) && en_text_ends_token(p[2]))
         return 0;
-    if (st->materials && strncmp(p, "usemtl", 6) == 0 && en_text_ends_token(p[6])) {
-        size_t n;
-        const char *name = statement_text(p + 6, &n);
-        return use_material(r, st, name, n);
+    for (int k = 0; k < 2; k++) {
+        obj_label *l = &st->label[k];
+        size_t kw = strlen(l->keyword), n;
+        if (l->on && strncmp(p, l->keyword, kw) == 0 && en_text_ends_token(p[kw])) {
+            const char *name = statement_text(p + kw, &n);
+            return use_label(r, l, name, n);
+        }
     }
-    if (st->materials && strncmp(p, "mtllib", 6) == 0 && en_text_ends_token(p[6]) && !st->library) {
+    obj_label *mat = &st->label[0];
+    if (mat->on && strncmp(p, "mtllib", 6) == 0 && en_text_ends_token(p[6]) && !mat->library) {
         size_t n;
         const char *lib = statement_text(p + 6, &n);
-        if (!(st->library = en_malloc(n + 1)))
+        if (!(mat->library = en_malloc(n + 1)))
             return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
-        memcpy(st->library, lib, n);
-        st->library[n] = '\0';
-        st->mat.library = st->library;
+        memcpy(mat->library, lib, n);
+        mat->library[n] = '\0';
+        mat->tab.library = mat->library;
         return 0;
     }
     if (p[0] != '\0' && p[0] != '#')
@@ -608,12 +628,14 @@ static int parse_statement(epsnet_reader *r, char *stmt)
 /* Prescan of one line: notes vt and vn statements until the first `f`,
  * then whether that face's first corner names a vt and a vn.
  * @return 1 at the first face (the scan ends), else 0. */
-static int prescan_line(const char *p, const char *eol, int seen[3], int *uv, int *normals)
+static int prescan_line(const char *p, const char *eol, int seen[4], int *uv, int *normals)
 {
     while (p < eol && en_text_is_blank(*p))
         p++;
     if (eol - p >= 6 && memcmp(p, "usemtl", 6) == 0 && (eol - p == 6 || en_text_is_blank(p[6])))
         seen[2] = 1;
+    if (eol - p >= 1 && p[0] == 'g' && (eol - p == 1 || en_text_is_blank(p[1])))
+        seen[3] = 1;
     if (eol - p >= 2 && p[0] == 'v' && (p[1] == 't' || p[1] == 'n') && (eol - p == 2 || en_text_is_blank(p[2])))
         seen[p[1] == 'n'] = 1;
     if (eol - p < 2 || p[0] != 'f' || !en_text_is_blank(p[1]))
@@ -641,14 +663,14 @@ static int prescan_line(const char *p, const char *eol, int seen[3], int *uv, in
  * and vn only at the faces, after the positions, so the layout is decided
  * before the first record by reading ahead to the first `f`. texture_u and
  * texture_v are carried when vt statements come before it and its first
- * corner names one, nx ny nz likewise for vn, and material_index when a
- * `usemtl` comes before it. A regular file is read ahead
+ * corner names one, nx ny nz likewise for vn, and material_index
+ * (group_index) when a `usemtl` (`g`) comes before it. A regular file is read ahead
  * through a second source (the v lines before the first face are scanned,
  * not parsed); a pipe only in the window of src.
  */
 static int prescan_corners(epsnet_reader *r, obj_reader *st)
 {
-    int seen[3] = { 0, 0, 0 };
+    int seen[4] = { 0, 0, 0, 0 };
     int *uv = &st->uv, *normals = &st->normals;
     *uv = *normals = 0;
     if (r->src->file_size == 0) {
@@ -662,7 +684,8 @@ static int prescan_corners(epsnet_reader *r, obj_reader *st)
                 break;
             p = eol + 1;
         }
-        st->file_materials = seen[2];
+        st->label[0].file_on = seen[2];
+        st->label[1].file_on = seen[3];
         return 0;
     }
     en_source *s = NULL;
@@ -679,7 +702,8 @@ static int prescan_corners(epsnet_reader *r, obj_reader *st)
             break;
     }
     en_source_close(&s);
-    st->file_materials = seen[2];
+    st->label[0].file_on = seen[2];
+    st->label[1].file_on = seen[3];
     return rc < 0 ? rc : 0;
 }
 
@@ -732,11 +756,15 @@ static int obj_open_reader(epsnet_reader *r)
     int rc = prescan_corners(r, st);
     if (rc)
         return rc;
-    st->materials = st->file_materials;
-    st->material = UINT16_MAX;
+    st->label[0].keyword = "usemtl", st->label[0].attr = "material_index";
+    st->label[1].keyword = "g", st->label[1].attr = "group_index";
+    for (int k = 0; k < 2; k++) {
+        st->label[k].on = st->label[k].file_on;
+        st->label[k].cur = UINT16_MAX;
+    }
     st->file_uv = st->uv;
     st->file_normals = st->normals;
-    st->key_size = (size_t)(8 * st->uv + 12 * st->normals + 2 * st->materials);
+    st->key_size = (size_t)(8 * st->uv + 12 * st->normals + 2 * st->label[0].on + 2 * st->label[1].on);
     if (st->colours)
         for (int k = 0; k < 3; k++)
             if (en_reader_add_attr(r, k == 0 ? "red" : k == 1 ? "green" : "blue", EPSNET_ATTR_FLOAT32) < 0)
@@ -754,12 +782,15 @@ static int obj_open_reader(epsnet_reader *r)
         for (int k = 0; k < 3; k++)
             if (en_reader_add_attr(r, k == 0 ? "nx" : k == 1 ? "ny" : "nz", EPSNET_ATTR_FLOAT32) < 0)
                 return r->err.code;
-    if (st->materials) {
-        if (en_u64map_init(&st->by_name))
+    for (int k = 0; k < 2; k++) {
+        obj_label *l = &st->label[k];
+        if (!l->on)
+            continue;
+        if (en_u64map_init(&l->by_name))
             return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
-        if (en_reader_add_attr(r, "material_index", EPSNET_ATTR_UINT16) < 0)
+        if (en_reader_add_attr(r, l->attr, EPSNET_ATTR_UINT16) < 0)
             return r->err.code;
-        r->info.materials = &st->mat;
+        *(k ? &r->info.groups : &r->info.materials) = &l->tab;
     }
     return 0;
 }
@@ -789,11 +820,12 @@ static void follow_kept_attrs(epsnet_reader *r, obj_reader *st)
         st->normals = 0;
         st->mute_vn = 1;
     }
-    if (st->materials && epsnet_attr_layout_find(kept, "material_index") < 0) {
-        st->materials = 0;
-        r->info.materials = NULL;
-    }
-    if (!st->uv && !st->normals && !st->materials)
+    for (int k = 0; k < 2; k++)
+        if (st->label[k].on && epsnet_attr_layout_find(kept, st->label[k].attr) < 0) {
+            st->label[k].on = 0;
+            *(k ? &r->info.groups : &r->info.materials) = NULL;
+        }
+    if (!st->uv && !st->normals && !st->label[0].on && !st->label[1].on)
         st->key_size = 0;
 }
 
@@ -848,11 +880,14 @@ static void obj_close_reader(epsnet_reader *r)
         en_free(st->vt);
         en_free(st->vn);
         en_free(st->rec);
-        for (uint32_t i = 0; i < st->mat.count; i++)
-            en_free(st->names[i]);
-        en_free(st->names);
-        en_u64map_free(&st->by_name);
-        en_free(st->library);
+        for (int k = 0; k < 2; k++) {
+            obj_label *l = &st->label[k];
+            for (uint32_t i = 0; i < l->tab.count; i++)
+                en_free(l->names[i]);
+            en_free(l->names);
+            en_u64map_free(&l->by_name);
+            en_free(l->library);
+        }
         en_free(st);
     }
     r->state = NULL;
@@ -1047,15 +1082,25 @@ typedef struct obj_writer {
     uint64_t nv, nvt, nvn;
     uint64_t (*corner)[3];           /* per record: its v, vt, vn lines */
     size_t corner_cap;
-    /* Materials (epsnet.h epsnet_materials): material_index's attribute
-     * (-1: none), each record's index, the index of the last `usemtl`
-     * written (UINT32_MAX: none yet) and whether `mtllib` was. */
-    int mat_at;
-    uint16_t *vmat;
-    size_t vmat_cap;
-    uint32_t current;
+    /* Face labels (epsnet.h epsnet_face_names), [0] materials, [1]
+     * groups: the attribute (-1: none), each record's index, the index last
+     * written (UINT32_MAX: none yet); and whether `mtllib` was written. */
+    struct {
+        int at;
+        uint16_t *of;
+        size_t cap;
+        uint32_t current;
+    } label[2];
     int library_written;
 } obj_writer;
+
+static const char *const label_attr[2] = { "material_index", "group_index" };
+static const char *const label_keyword[2] = { "usemtl", "g" };
+
+static const epsnet_face_names *label_names(const epsnet_writer *w, int k)
+{
+    return k ? w->info.groups : w->info.materials;
+}
 
 static int writer_nomem(epsnet_writer *w)
 {
@@ -1077,19 +1122,23 @@ static int obj_open_writer(epsnet_writer *w)
     if (!(which & 2))
         st->n[0] = -1;
     st->corners = which != 0;
-    st->mat_at = -1;
-    st->current = UINT32_MAX;
-    int m = epsnet_attr_layout_find(&w->attrs, "material_index");
-    if (m >= 0 && w->info.materials) {
-        st->mat_at = m;
-        const char *lib = w->info.materials->library; /* known now unless a reader is still at it */
-        if (lib && (en_writer_bytes(w, "mtllib ", 7) || en_writer_bytes(w, lib, strlen(lib)) ||
-                    en_writer_bytes(w, "\n", 1)))
-            return w->err.code ? w->err.code : EPSNET_EIO;
-        st->library_written = lib != NULL;
+    for (int k = 0; k < 2; k++) {
+        st->label[k].at = -1;
+        st->label[k].current = UINT32_MAX;
+        int m = epsnet_attr_layout_find(&w->attrs, label_attr[k]);
+        char what[80];
+        snprintf(what, sizeof what, "vertex property %s (no names to write)", label_attr[k]);
+        if (m >= 0 && label_names(w, k))
+            st->label[k].at = m;
+        else if (m >= 0 && en_writer_drop(w, what))
+            return writer_nomem(w);
     }
-    else if (m >= 0 && en_writer_drop(w, "vertex property material_index (no material names to write)"))
-        return writer_nomem(w);
+    const char *lib = st->label[0].at >= 0 ? w->info.materials->library : NULL; /* known now unless a
+                                                                              * reader is still at it */
+    if (lib && (en_writer_bytes(w, "mtllib ", 7) || en_writer_bytes(w, lib, strlen(lib)) ||
+                en_writer_bytes(w, "\n", 1)))
+        return w->err.code ? w->err.code : EPSNET_EIO;
+    st->library_written = lib != NULL;
     key_init(&st->vline, 3 * 8 + 3 * 4);
     key_init(&st->used, 8 + 5 * 4);
     key_init(&st->vts, 2 * 4);
@@ -1106,7 +1155,8 @@ static void obj_close_writer(epsnet_writer *w)
         en_free(st->vts.slots);
         en_free(st->vns.slots);
         en_free(st->corner);
-        en_free(st->vmat);
+        en_free(st->label[0].of);
+        en_free(st->label[1].of);
         en_free(st);
     }
     w->state = NULL;
@@ -1127,8 +1177,9 @@ static int obj_holds_attr(const epsnet_attr_layout *l, uint32_t i)
         return 1;
     if ((which & 2) && ((uint32_t)n[0] == i || (uint32_t)n[1] == i || (uint32_t)n[2] == i))
         return 1;
-    /* a face's material, as usemtl (epsnet.h epsnet_materials) */
-    return strcmp(l->attr[i].name, "material_index") == 0 && l->attr[i].type == EPSNET_ATTR_UINT16;
+    /* a face's material and group, as usemtl and g (epsnet.h epsnet_face_names) */
+    return (strcmp(l->attr[i].name, label_attr[0]) == 0 || strcmp(l->attr[i].name, label_attr[1]) == 0) &&
+           l->attr[i].type == EPSNET_ATTR_UINT16;
 }
 
 /* Copy the 4-byte values of attributes at[0..n) of rec into key. */
@@ -1234,44 +1285,52 @@ static int put_corner_vertex(epsnet_writer *w, obj_writer *st, const epsnet_reco
     return 0;
 }
 
-/* Before a face: `usemtl` when its material is not the last one written
- * (and `mtllib` before the first). */
-static int put_material(epsnet_writer *w, obj_writer *st, uint64_t corner)
+/* Before a face: `g` and `usemtl` when its group or material is not the
+ * last one written (and `mtllib` before the first usemtl). */
+static int put_labels(epsnet_writer *w, obj_writer *st, uint64_t corner)
 {
     if (corner >= w->nverts)
         return 0; /* the writer's front end refuses such a face */
-    uint32_t m = st->vmat[corner];
-    if (m == st->current)
-        return 0;
-    const epsnet_materials *mat = w->info.materials;
-    if (m >= mat->count)
-        return en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "material_index %u of vertex %llu names no material (%u known)", m,
-                            (unsigned long long)corner, mat->count);
-    st->current = m;
-    int rc = 0;
-    if (!st->library_written && mat->library) {
-        st->library_written = 1;
-        if ((rc = en_writer_bytes(w, "mtllib ", 7)) || (rc = en_writer_bytes(w, mat->library, strlen(mat->library))) ||
+    for (int k = 1; k >= 0; k--) { /* g, then usemtl */
+        if (st->label[k].at < 0)
+            continue;
+        uint32_t m = st->label[k].of[corner];
+        if (m == st->label[k].current)
+            continue;
+        const epsnet_face_names *names = label_names(w, k);
+        if (m >= names->count)
+            return en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "%s %u of vertex %llu names nothing (%u names known)", label_attr[k], m,
+                                (unsigned long long)corner, names->count);
+        st->label[k].current = m;
+        int rc = 0;
+        if (k == 0 && !st->library_written && names->library) {
+            st->library_written = 1;
+            if ((rc = en_writer_bytes(w, "mtllib ", 7)) ||
+                (rc = en_writer_bytes(w, names->library, strlen(names->library))) ||
+                (rc = en_writer_bytes(w, "\n", 1)))
+                return rc;
+        }
+        const char *name = names->names[m];
+        if ((rc = en_writer_bytes(w, label_keyword[k], strlen(label_keyword[k]))) ||
+            (*name && (rc = en_writer_bytes(w, " ", 1))) || (rc = en_writer_bytes(w, name, strlen(name))) ||
             (rc = en_writer_bytes(w, "\n", 1)))
             return rc;
     }
-    const char *name = mat->names[m];
-    if ((rc = en_writer_bytes(w, "usemtl", 6)) || (*name && (rc = en_writer_bytes(w, " ", 1))) ||
-        (rc = en_writer_bytes(w, name, strlen(name))))
-        return rc;
-    return en_writer_bytes(w, "\n", 1);
+    return 0;
 }
 
 static int obj_put(epsnet_writer *w, const epsnet_record *rec)
 {
     obj_writer *st = w->state;
-    if (st->mat_at >= 0 && rec->kind == EPSNET_REC_VERTEX) {
-        if (en_grow((void **)&st->vmat, &st->vmat_cap, w->nverts, sizeof *st->vmat))
-            return writer_nomem(w);
-        memcpy(&st->vmat[w->nverts - 1], rec->attr + w->attrs.attr[st->mat_at].offset, 2);
-    } else if (st->mat_at >= 0 && rec->kind == EPSNET_REC_TRIANGLE) {
-        int rc = put_material(w, st, rec->v[0]);
+    for (int k = 0; k < 2 && rec->kind == EPSNET_REC_VERTEX; k++)
+        if (st->label[k].at >= 0) {
+            if (en_grow((void **)&st->label[k].of, &st->label[k].cap, w->nverts, sizeof *st->label[k].of))
+                return writer_nomem(w);
+            memcpy(&st->label[k].of[w->nverts - 1], rec->attr + w->attrs.attr[st->label[k].at].offset, 2);
+        }
+    if (rec->kind == EPSNET_REC_TRIANGLE && (st->label[0].at >= 0 || st->label[1].at >= 0)) {
+        int rc = put_labels(w, st, rec->v[0]);
         if (rc)
             return rc;
     }

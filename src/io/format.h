@@ -157,15 +157,17 @@ int en_format_holds_every_attr(const epsnet_attr_layout *l, uint32_t i);
  * types, names, offsets and size agree. @return 0 or -1 with why filled. */
 int en_attr_layout_check(const epsnet_attr_layout *l, char *why, size_t why_len);
 
-/* A copy of a stream's materials (epsnet.h epsnet_materials) that outlives
- * its reader, in one allocation (*storage, en_free it): a sort closes the
- * reader before the writer reads the names. @return 0 or EPSNET_ENOMEM. */
-typedef struct en_materials_copy {
-    epsnet_materials mat;
+/* A copy of a stream's face labels (epsnet.h epsnet_face_names) that
+ * outlives its reader, in one allocation: a sort closes the reader before
+ * the writer reads the names. from NULL: an empty copy whose `of` is NULL.
+ * @return 0 or EPSNET_ENOMEM. */
+typedef struct en_face_names_copy {
+    epsnet_face_names names;
+    const epsnet_face_names *of;     /* &names, or NULL when there were none */
     void *storage;
-} en_materials_copy;
-int en_materials_copy_of(en_materials_copy *to, const epsnet_materials *from);
-void en_materials_copy_free(en_materials_copy *c);
+} en_face_names_copy;
+int en_face_names_copy_of(en_face_names_copy *to, const epsnet_face_names *from);
+void en_face_names_copy_free(en_face_names_copy *c);
 
 /* The table (src/io/formats.c). */
 extern const en_format *const en_formats[];

@@ -84,8 +84,10 @@ static int choose_attrs(epsnet_writer *w)
             return -1;
     }
     w->attrs_subset = w->attrs.count != in->count;
-    /* only OBJ writes the names a material_index stands for */
-    if (w->info.materials && strcmp(w->fmt->name, "obj") != 0 && en_writer_drop(w, "material names (usemtl, mtllib)"))
+    /* only OBJ writes the names a material_index or group_index stands for */
+    int obj = strcmp(w->fmt->name, "obj") == 0;
+    if ((w->info.materials && !obj && en_writer_drop(w, "material names (usemtl, mtllib)")) ||
+        (w->info.groups && !obj && en_writer_drop(w, "group names (g)")))
         return -1;
     return 0;
 }

@@ -168,8 +168,7 @@ struct en_sort {
     en_mem_account mem;
     epsnet_sort_stats st;
     epsnet_reader *r;
-    en_materials_copy materials; /* the reader's (read to its end), which the writer names */
-    int has_materials;
+    en_face_names_copy materials, groups; /* the reader's (read to its end), which the writer names */
     en_sort_emit_fn emit;        /* pass 6 hands each record to emit(emit_opaque) */
     void *emit_opaque;
     en_spill *vraw;              /* input vertices, input order */
@@ -1481,7 +1480,8 @@ static void close_job(sort_job *j)
 {
     feed_close(j, &j->feed); /* first: a fill in flight uses sorter F */
     epsnet_reader_close(&j->r);
-    en_materials_copy_free(&j->materials);
+    en_face_names_copy_free(&j->materials);
+    en_face_names_copy_free(&j->groups);
     close_spill(j, &j->vraw);
     close_spill(j, &j->vsorted);
     close_spill(j, &j->fraw);
@@ -1563,10 +1563,10 @@ static int run_passes(sort_job *j, epsnet_error *err)
     if ((rc = open_job(j, err)) || (rc = pass_read(j, err)))
         return rc;
     j->st.dropped = en_reader_warn_dropped(j->r, j->set.warning, j->set.warning_opaque);
-    const epsnet_materials *mat = epsnet_reader_info(j->r)->materials;
-    if (mat && (rc = en_materials_copy_of(&j->materials, mat)) != 0)
+    const epsnet_mesh_info *ri = epsnet_reader_info(j->r);
+    if ((rc = en_face_names_copy_of(&j->materials, ri->materials)) != 0 ||
+        (rc = en_face_names_copy_of(&j->groups, ri->groups)) != 0)
         return en_error_set(err, rc, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
-    j->has_materials = mat != NULL;
     epsnet_reader_close(&j->r);
     if (j->set.axis < 0)
         j->axis = j->st.vertices ? en_sort_longest_axis(j->lo, j->hi) : 2;
@@ -1659,7 +1659,8 @@ void en_sort_info(const en_sort *j, epsnet_mesh_info *info)
     info->streaming = 1;
     info->sorted_axis = j->axis;
     info->vertex_attrs = j->attrs;
-    info->materials = j->has_materials ? &j->materials.mat : NULL;
+    info->materials = j->materials.of;
+    info->groups = j->groups.of;
     /* of every vertex read, a face's or not */
     info->has_bbox = j->st.vertices > 0;
     for (int k = 0; info->has_bbox && k < 3; k++)
