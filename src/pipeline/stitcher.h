@@ -83,7 +83,7 @@ typedef struct en_stitcher {
     uint64_t faces_final;             /* faces that left W, or never entered it, for the output */
     uint64_t decided;                 /* vertices decided (kept) */
     uint64_t given_up;                /* samples collapsed in W (FINISH) */
-    /* THIN with whole seams: the level the two newest slabs' counts
+    /* THIN with leveled seams: the level the two newest slabs' counts
      * stopped their collapses at (en_slab_work.level); W collapses below
      * the lower of them, as those slabs did (0: price only). */
     double level_before, seam_level;
