@@ -148,31 +148,20 @@ static PyObject *wrap(void *p, int ndim, npy_intp *dims, int typenum, int librar
     return arr;
 }
 
-PyObject *eb_wrap(void *p, int ndim, npy_intp *dims, int typenum)
+PyObject *eb_mesh_out(void **xyz, int xyz_type, uint64_t nv, void **faces, int face_type, uint64_t nf,
+                      const epsnet_attr_layout *layout, void **attr, int library)
 {
-    return wrap(p, ndim, dims, typenum, 1);
-}
-
-PyObject *eb_wrap_malloc(void *p, int ndim, npy_intp *dims, int typenum)
-{
-    return wrap(p, ndim, dims, typenum, 0);
-}
-
-PyObject *eb_arrays_out(epsnet_arrays_out *out)
-{
-    npy_intp vd[2] = { (npy_intp)out->nverts, 3 }, fd[2] = { (npy_intp)out->nfaces, 3 };
-    PyObject *v = eb_wrap(out->xyz, 2, vd, out->coord_type == EPSNET_COORD_FLOAT32 ? NPY_FLOAT32 : NPY_FLOAT64);
-    out->xyz = NULL;
-    PyObject *f = eb_wrap(out->faces, 2, fd, out->index_bytes == 4 ? NPY_INT32 : NPY_INT64);
-    out->faces = NULL;
+    npy_intp vd[2] = { (npy_intp)nv, 3 }, fd[2] = { (npy_intp)nf, 3 }, n = (npy_intp)nv;
+    PyObject *v = wrap(*xyz, 2, vd, xyz_type, library);
+    *xyz = NULL;
+    PyObject *f = wrap(*faces, 2, fd, face_type, library);
+    *faces = NULL;
     PyObject *attrs = PyDict_New();
     int bad = !v || !f || !attrs;
-    for (uint32_t i = 0; i < out->attrs.count; i++) {
-        npy_intp n = (npy_intp)out->nverts;
-        PyObject *col = bad ? NULL : eb_wrap(out->attr[i], 1, &n, eb_attr_typenum(out->attrs.attr[i].type));
-        if (!bad)
-            out->attr[i] = NULL;
-        bad = bad || !col || PyDict_SetItemString(attrs, out->attrs.attr[i].name, col);
+    for (uint32_t i = 0; i < layout->count && !bad; i++) {
+        PyObject *col = wrap(attr[i], 1, &n, eb_attr_typenum(layout->attr[i].type), library);
+        attr[i] = NULL;
+        bad = !col || PyDict_SetItemString(attrs, layout->attr[i].name, col);
         Py_XDECREF(col);
     }
     if (bad) {
@@ -182,4 +171,11 @@ PyObject *eb_arrays_out(epsnet_arrays_out *out)
         return NULL;
     }
     return Py_BuildValue("(NNN)", v, f, attrs);
+}
+
+PyObject *eb_arrays_out(epsnet_arrays_out *out)
+{
+    return eb_mesh_out(&out->xyz, out->coord_type == EPSNET_COORD_FLOAT32 ? NPY_FLOAT32 : NPY_FLOAT64, out->nverts,
+                       &out->faces, out->index_bytes == 4 ? NPY_INT32 : NPY_INT64, out->nfaces, &out->attrs, out->attr,
+                       1);
 }

@@ -42,14 +42,15 @@ PyObject *eb_value_error(const char *fmt, ...);
  * arrays must stay referenced (the caller's arguments are) while a is used.
  * @return 0, or -1 with ValueError/TypeError set. */
 int eb_arrays_in(PyObject *vertices, PyObject *faces, PyObject *attrs, const char *name, epsnet_arrays *a);
-/* The result as (vertices, faces, attributes): ndarrays that own out's
- * buffers (out's pointers are NULL afterwards). @return NULL on failure. */
+/* A mesh as (vertices, faces, attributes): ndarrays that own the buffers
+ * (*xyz, *faces and attr[i] are NULL afterwards, also on failure, when the
+ * ones not yet handed over stay the caller's to free); library: they were
+ * allocated by the library (epsnet_free), else by malloc (free). Types are
+ * numpy type numbers. @return NULL on failure. */
+PyObject *eb_mesh_out(void **xyz, int xyz_type, uint64_t nv, void **faces, int face_type, uint64_t nf,
+                      const epsnet_attr_layout *layout, void **attr, int library);
+/* The result of a call on arrays (eb_mesh_out of out's buffers). */
 PyObject *eb_arrays_out(epsnet_arrays_out *out);
-/* An ndarray that owns p (freed with epsnet_free when the array goes);
- * p NULL makes an empty one. On failure p is freed. */
-PyObject *eb_wrap(void *p, int ndim, npy_intp *dims, int typenum);
-/* The same for a buffer of malloc(), freed with free(). */
-PyObject *eb_wrap_malloc(void *p, int ndim, npy_intp *dims, int typenum);
 /* numpy type number of an attribute type, or -1. */
 int eb_attr_typenum(epsnet_attr_type t);
 

@@ -121,27 +121,8 @@ PyObject *eb_read_mesh(PyObject *self, PyObject *args)
         loaded_free(&m);
         return eb_raise(rc, &err);
     }
-    npy_intp vd[2] = { (npy_intp)m.nv, 3 }, fd[2] = { (npy_intp)m.nt, 3 };
-    PyObject *v = eb_wrap_malloc(m.xyz, 2, vd, m.ct == EPSNET_COORD_FLOAT32 ? NPY_FLOAT32 : NPY_FLOAT64);
-    PyObject *f = eb_wrap_malloc(m.tri, 2, fd, NPY_INT64);
-    m.xyz = NULL;
-    m.tri = NULL;
-    PyObject *attrs = PyDict_New();
-    int bad = !v || !f || !attrs;
-    for (uint32_t i = 0; i < m.layout.count; i++) {
-        npy_intp n = (npy_intp)m.nv;
-        PyObject *col = bad ? NULL : eb_wrap_malloc(m.attr[i], 1, &n, eb_attr_typenum(m.layout.attr[i].type));
-        if (!bad)
-            m.attr[i] = NULL;
-        bad = bad || !col || PyDict_SetItemString(attrs, m.layout.attr[i].name, col);
-        Py_XDECREF(col);
-    }
-    loaded_free(&m);
-    if (bad) {
-        Py_XDECREF(v);
-        Py_XDECREF(f);
-        Py_XDECREF(attrs);
-        return NULL;
-    }
-    return Py_BuildValue("(NNN)", v, f, attrs);
+    PyObject *mesh = eb_mesh_out((void **)&m.xyz, m.ct == EPSNET_COORD_FLOAT32 ? NPY_FLOAT32 : NPY_FLOAT64, m.nv,
+                                 (void **)&m.tri, NPY_INT64, m.nt, &m.layout, (void **)m.attr, 0);
+    loaded_free(&m); /* what was not handed over */
+    return mesh;
 }
