@@ -54,6 +54,16 @@ test)
     [ -d build-asan ] || meson setup build-asan -Dwerror=true -Db_sanitize=address,undefined \
         -Db_lundef=false --buildtype=debug -Dslow_tests=false >/dev/null
     ninja -C build-asan >/dev/null
+    # The Python package's extension built with the same sanitizers, staged
+    # where a venv of its own sees it (a .pth file): build-asan's test
+    # `python` runs the pytest suite on it (tests/meson.build).
+    [ -x build-venv-asan/bin/python ] || /usr/bin/python3 -m venv --system-site-packages build-venv-asan
+    [ -d build-py-asan ] || meson setup build-py-asan -Dpython=true -Dwerror=true \
+        -Db_sanitize=address,undefined -Db_lundef=false --buildtype=debug >/dev/null
+    ninja -C build-py-asan >/dev/null && meson install -C build-py-asan --quiet --destdir stage >/dev/null &&
+        dirname "$(dirname "$(find "$PWD/build-py-asan/stage" -path '*/epsnet/__init__.py' | head -n 1)")" \
+            > "$(build-venv-asan/bin/python -c 'import site; print(site.getsitepackages()[0])')/epsnet-asan.pth" ||
+        status=1
     meson test -C build-asan --suite fast --num-processes "$jobs" --print-errorlogs || status=1
     # Thread sanitizer over the tests that run threads.
     [ -d build-tsan ] || meson setup build-tsan -Dwerror=true -Db_sanitize=thread -Db_lundef=false \
