@@ -23,51 +23,22 @@ int en_run_has_target(const epsnet_settings *set)
 }
 
 /*
- * A streamed target (docs/architecture.md §7): a THIN pass on slabs, then
- * the target stage over what it left (pipeline/target_stage.h): rounds
+ * A streamed size (docs/architecture.md §7): the thinning pass on slabs,
+ * then the target stage over what it left (pipeline/target_stage.h): rounds
  * under a rising global cost ceiling, on slabs, and a last round that meets
- * the count. The thin pass keeps half as much again as the target (and a
- * point more) of what each slab can reach, so that the collapses that
- * decide the result are ranked by the rounds, in one global order.
+ * the count. The stage plans both.
  */
-static void plan_streamed(en_run *run, uint64_t nv, uint64_t nf)
+static void plan_streamed(en_run *run, const epsnet_settings *set, uint64_t nv, uint64_t nf)
 {
-    /* note: the thinning's slabs were twice the default while a one-slab
-     * finish took its whole seams (fewer slabs, smaller seams); with the
-     * rounds after it they are the default's, whose cost a collapse is
-     * lower (a slab past the caches cost 37% more at 262,144 vertices) and
-     * whose memory is the default path's (bench/RESULTS.md). */
-    en_target *t = &run->target, *f = &run->finish;
-    int by_vertices = !t->faces && !(t->ratio > 0);
-    uint64_t n_faces = t->faces ? t->faces : (uint64_t)llround(t->ratio * (double)nf);
-    double share = by_vertices ? (double)t->vertices / (double)nv : (double)n_faces / (double)nf;
-    double keep = 1.5 * share + 0.01;
-    keep = keep < 1 ? keep : 1;
-    *f = *t;
-    f->mode = EN_TARGET_FINISH;
-    f->faces = f->vertices = 0;
-    f->ratio = 0;
-    f->choose_density = 0;
-    f->by_vertices = by_vertices;
-    f->goal = by_vertices ? t->vertices : n_faces;
-    f->skeleton_ratio = share;
-    t->mode = EN_TARGET_THIN;
-    t->faces = t->vertices = 0;
-    t->ratio = 0;
-    t->by_vertices = 0;
-    t->keep_share = keep;
-    t->goal = (uint64_t)llround(keep * (double)nf);
-    t->expected_in = nf;
-    t->skeleton_ratio = share;
-    /* note: the seams go only to their slabs' level, and the rounds order
-     * the rest with everything else (thinned by their own pacing to the
-     * share, they took the mean error up by a quarter on the shared scans;
-     * whole, they held a third of the thinning's output at 20M faces:
-     * bench/RESULTS.md), unless what they keep would not fit the budget: a
-     * finish in one slab after whole seams held 1.11 times keep at 2M
-     * faces, 1.27 at 20M, 4.2 on 6,000 faces in slabs of 300; then they
-     * are paced */
-    t->seams_leveled = 2 * keep * (double)nv * EN_ONE_SLAB_BYTES_PER_VERTEX <= (double)run->budget.one_slab;
+    int by_vertices = !set->target_faces && !(set->target_ratio > 0);
+    uint64_t n_faces = set->target_faces ? set->target_faces : (uint64_t)llround(set->target_ratio * (double)nf);
+    run->size = (en_target_size){
+        .goal = by_vertices ? set->target_vertices : n_faces,
+        .by_vertices = by_vertices,
+        .share = by_vertices ? (double)set->target_vertices / (double)nv : (double)n_faces / (double)nf,
+        .choose_density = !set->target_level_given,
+    };
+    en_target_stage_plan_thin(&run->size, nv, nf, run->budget.one_slab, &run->plan);
     run->passes = 1;
     run->staged = 1;
 }
@@ -92,15 +63,20 @@ static void plan_streamed(en_run *run, uint64_t nv, uint64_t nf)
 static int plan_target(en_run *run, const epsnet_settings *set, const char *path, const epsnet_mesh_info *in,
                        uint32_t *slab_vertices, epsnet_error *err)
 {
-    en_target *t = &run->target;
-    t->mode = EN_TARGET_WHOLE;
-    t->faces = set->target_faces;
-    t->ratio = set->target_ratio;
-    t->vertices = set->target_vertices;
-    t->max_error = set->target_error > 0 ? set->target_error : -1;
-    t->choose_density = !set->target_level_given;
-    /* measured on the real scans at 5-50% of their faces: bench/RESULTS.md */
-    t->skeleton_share = 0.25;
+    /* one slab of the whole mesh, unless it streams (below) */
+    en_pass_plan *t = &run->plan;
+    *t = (en_pass_plan){
+        .skeleton = set->target_level_given ? EN_SKELETON_SPHERE : EN_SKELETON_CHOSEN,
+        .skeleton_share = EN_TARGET_SKELETON_SHARE,
+        .samples_may_go = 1,
+        .faces = set->target_faces,
+        .vertices = set->target_vertices,
+        .ratio = set->target_ratio,
+        .max_error = set->target_error > 0 ? set->target_error : -1,
+        .refresh = !(set->target_error > 0), /* an error bound measures against the input's planes */
+        .seams = EN_SEAMS_NONE,
+        .one_slab = 1,
+    };
     uint64_t known_v = in ? in->nverts : EPSNET_COUNT_UNKNOWN, known_f = in ? in->nfaces : EPSNET_COUNT_UNKNOWN;
     if (known_f != EPSNET_COUNT_UNKNOWN && t->faces > known_f)
         return en_error_set(err, EPSNET_EINVAL, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
@@ -118,7 +94,7 @@ static int plan_target(en_run *run, const epsnet_settings *set, const char *path
     uint64_t large = set->slab_vertices ? set->slab_vertices : ONE_SLAB_SLABS * (uint64_t)b->slab_vertices;
     int streams = known_v != EPSNET_COUNT_UNKNOWN && (over || known_v > large);
     if (streams && known_f != EPSNET_COUNT_UNKNOWN && known_f > 0 && t->max_error < 0) {
-        plan_streamed(run, known_v, known_f);
+        plan_streamed(run, set, known_v, known_f);
         return 0;
     }
     int bound_streams = known_v != EPSNET_COUNT_UNKNOWN &&
@@ -135,9 +111,10 @@ static int plan_target(en_run *run, const epsnet_settings *set, const char *path
         double d2 = 0;
         for (int k = 0; k < 3; k++)
             d2 += (in->bbox_max[k] - in->bbox_min[k]) * (in->bbox_max[k] - in->bbox_min[k]);
-        t->mode = EN_TARGET_BOUND;
+        t->skeleton = EN_SKELETON_SPHERE;
         t->diagonal = sqrt(d2);
-        t->choose_density = 0;
+        t->seams = EN_SEAMS_ERROR;
+        t->one_slab = 0;
         return 0;
     }
     if (over)
@@ -282,7 +259,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
                                                                                            : EN_BUDGET_DEFAULT_SLAB),
             .ring_capacity = ring,
             .tmpdir = ctx->tmpdir,
-            .finish = run->finish,
+            .size = run->size,
             .tick = set->progress ? stage_tick : NULL,
             .tick_opaque = run,
             .spares = &run->spares,
@@ -299,7 +276,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         .seed = set->seed,
         .passes = run->passes ? run->passes : set->passes,
         .max_normal_dev = set->max_normal_dev,
-        .target = target ? &run->target : NULL,
+        .plan = target ? &run->plan : NULL,
         .attr_size = mode == EN_SLAB_SIMPLIFY && in ? in->vertex_attrs.size : 0,
         .quadrics_out = run->staged, /* the target stage goes on from them */
         .lock_offset = lock_offset,

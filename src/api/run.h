@@ -36,8 +36,9 @@ typedef struct en_run {
     en_chain *chain;
     en_stage input;               /* the chain's input stage */
     en_budget budget;             /* the split of --mem this run works within (api/budget.h) */
-    en_target target, finish;     /* SIMPLIFY with a target: the chain's, and the target stage's plan */
-    int passes;                   /* the chain's passes (1 with a streamed target: THIN) */
+    en_pass_plan plan;            /* SIMPLIFY with a target: the chain's pass 1 */
+    en_target_size size;          /* a streamed size: what the target stage plans from */
+    int passes;                   /* the chain's passes (1 with a streamed target: the thinning) */
     int staged;                   /* a streamed target: the target stage follows the chain */
     en_target_stage *stage;
     en_chain_spares spares;       /* slab works and collapse arrays, from chain to chain */

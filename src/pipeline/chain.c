@@ -89,11 +89,10 @@ struct en_pass {
     en_chain *chain;
     int index;
     gauss_sphere g;
-    /* Its target (NULL: the ε-net pass). A THIN pass's first slab chooses
-     * the density and the pass waits for it; its later slabs take `fixed`,
-     * the same target at that density. */
-    const en_target *target;
-    en_target fixed;
+    /* Its plan (NULL: the ε-net pass). Under EN_SKELETON_CHOSEN the first
+     * slab chooses the density and the pass waits for it; its later slabs
+     * are classified at that density (g). */
+    const en_pass_plan *plan;
     int density_pending;
     /* Batched: only the chunk jobs touch it (see chunk_job). */
     en_chunker ch;
@@ -125,7 +124,7 @@ struct en_pass {
     uint64_t st_bytes, st_active, st_frontier;
     int ended;
     uint64_t in_flight_elements;   /* vertices + faces of slabs in the ring */
-    /* A one-slab finish's collapses: its worker writes the counts, the
+    /* A one-slab pass's collapses: its worker writes the counts, the
      * caller's thread reads them while it waits (pass_end) and raises
      * stop to cancel; all relaxed. */
     en_slab_progress progress;
@@ -137,7 +136,7 @@ struct en_chain {
     int failed;
     epsnet_error failure;
     en_chain_stats stats;          /* pass-summed counts; seam counts are added at the end */
-    uint64_t *cost_hist;           /* THIN, ROUND: the slabs' costs left (EN_COST_BUCKETS), summed at retire */
+    uint64_t *cost_hist;           /* a priced plan: the slabs' costs left (EN_COST_BUCKETS), summed at retire */
     en_chain_spares own;           /* without cfg.spares */
     en_chain_spares *spares;       /* cfg.spares, or &own */
 };
@@ -248,8 +247,8 @@ static int check_budget(en_chain *c, epsnet_error *err)
     for (int i = 0; i < c->cfg.passes; i++) {
         const en_pass *p = &c->pass[i];
         uint64_t cut = p->ch_bytes;
-        /* a target's one slab: what the cut will hold, not just the chunker */
-        if (p->target && (p->target->mode == EN_TARGET_WHOLE || p->target->one_slab) &&
+        /* a one-slab pass: what the cut will hold, not just the chunker */
+        if (p->plan && p->plan->one_slab &&
             cut < p->ch_vertices * (uint64_t)EN_ONE_SLAB_BYTES_PER_VERTEX)
             cut = p->ch_vertices * (uint64_t)EN_ONE_SLAB_BYTES_PER_VERTEX;
         uint64_t held = c->cfg.mode == EN_SLAB_SIMPLIFY ? p->st_bytes : 0;
@@ -262,7 +261,7 @@ static int check_budget(en_chain *c, epsnet_error *err)
     }
     if (!c->cfg.mem_budget || total <= c->cfg.mem_budget)
         return 0;
-    if (waiting && wp->target && (wp->target->mode == EN_TARGET_WHOLE || wp->target->one_slab))
+    if (waiting && wp->plan && wp->plan->one_slab)
         return en_error_set(err, EPSNET_ELIMIT, c->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "pass %d holds the whole mesh as one slab to meet its target: %llu vertices so far, "
                             "about %llu bytes in all, over the memory budget of %llu bytes (give more --mem)",
@@ -399,21 +398,21 @@ static int retire_one(en_pass *p, epsnet_error *err)
             en_classify_counts_add(&c->stats.counts, &w->counts);
         c->stats.collapses += w->collapses;
         c->stats.membrane_faces += w->membrane_faces;
-        if (w->cost_hist && c->cost_hist && w->target &&
-            (w->target->mode == EN_TARGET_THIN || w->target->mode == EN_TARGET_ROUND))
+        const en_pass_plan *plan = w->plan;
+        if (plan && plan->priced && w->cost_hist && c->cost_hist)
             for (int b = 0; b < EN_COST_BUCKETS; b++)
                 c->cost_hist[b] += w->cost_hist[b];
-        if (w->target && w->target->mode != EN_TARGET_THIN && w->target->mode != EN_TARGET_ROUND) {
+        if (plan && !plan->priced) { /* a priced pass's skeleton goes on to the next */
             c->stats.skeleton_kept += w->skeleton_kept;
             c->stats.samples_given_up += w->given_up;
-            if (w->target->mode == EN_TARGET_WHOLE)
+            if (plan->one_slab && plan->seams == EN_SEAMS_NONE)
                 c->stats.target_faces += w->keep_faces;
             c->stats.stopped_by_error |= w->stopped_by_error;
         }
-        if (w->target && w->target->choose_density) {
+        if (plan && plan->skeleton == EN_SKELETON_CHOSEN && w->choose_density) {
             c->stats.skeleton_frequency = c->stats.skeleton_finest_frequency = w->chosen.n;
-            p->g = w->chosen; /* a THIN pass's later slabs */
-        } else if (w->target && w->target->may_coarsen && w->chosen.n < c->stats.skeleton_frequency) {
+            p->g = w->chosen; /* the pass's later slabs */
+        } else if (plan && plan->skeleton == EN_SKELETON_CHOSEN && w->chosen.n < c->stats.skeleton_frequency) {
             c->stats.skeleton_frequency = w->chosen.n; /* coarsened (slab_work.c: thin_density) */
         }
         for (int k = 0; k < EN_REFUSE_KINDS; k++)
@@ -432,12 +431,11 @@ static int retire_one(en_pass *p, epsnet_error *err)
     return rc;
 }
 
-/* A one-slab finish, whose collapses the calling thread reports while it
+/* A one-slab pass, whose collapses the calling thread reports while it
  * waits for them (en_chain_config.tick). */
 static int watched(const en_pass *p)
 {
-    return p->chain->cfg.tick && p->target && p->target->mode == EN_TARGET_FINISH && p->target->one_slab &&
-           p->chain->cfg.mode == EN_SLAB_SIMPLIFY;
+    return p->chain->cfg.tick && p->plan && p->plan->one_slab && p->chain->cfg.mode == EN_SLAB_SIMPLIFY;
 }
 
 /* One report of a watched slab: while in flight, or once it is done (all
@@ -469,9 +467,8 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     w->lock_offset = c->cfg.lock_offset;
     w->lock_type = c->cfg.mode == EN_SLAB_SIMPLIFY ? c->cfg.lock_type : 0;
     int choosing = p->density_pending;
-    w->target = !p->target || c->cfg.mode != EN_SLAB_SIMPLIFY ? NULL
-                : p->target->mode == EN_TARGET_THIN && !choosing ? &p->fixed
-                                                                  : p->target;
+    w->plan = c->cfg.mode == EN_SLAB_SIMPLIFY ? p->plan : NULL;
+    w->choose_density = choosing;
     if (watched(p))
         w->progress = &p->progress; /* its only slab: the counts start at zero */
     int rc = 0;
@@ -768,24 +765,15 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
         p->chain = c;
         p->index = i;
         p->g = *cfg->sphere;
-        p->target = i == 0 ? cfg->target : NULL;
-        if (cfg->finish && i == c->cfg.passes - 1)
-            p->target = cfg->finish;
-        if (p->target) {
-            p->fixed = *p->target;
-            p->fixed.choose_density = 0;
-            p->fixed.may_coarsen = p->target->mode == EN_TARGET_THIN && p->target->choose_density;
-            p->density_pending = p->target->mode == EN_TARGET_THIN && p->target->choose_density;
-        }
-        int finish = p->target && p->target->mode == EN_TARGET_FINISH;
-        int round = p->target && p->target->mode == EN_TARGET_ROUND;
-        if (i > 0 && !finish) {
+        p->plan = i == 0 ? cfg->plan : NULL;
+        p->density_pending = p->plan && p->plan->skeleton == EN_SKELETON_CHOSEN;
+        if (i > 0) {
             gauss_rotation r;
             gauss_pass_rotation(cfg->seed, i + 1, &r);
             gauss_init(&p->g, cfg->sphere->n, &r);
         }
         p->batched = i > 0 || cfg->checked_input;
-        uint32_t slab = finish ? cfg->finish_slab_vertices : cfg->slab_vertices;
+        uint32_t slab = cfg->slab_vertices;
         p->nchunk = chunk_slots(slab);
         if (p->batched && (p->chunk = en_calloc(p->nchunk, sizeof *p->chunk)) != NULL)
             for (size_t k = 0; k < p->nchunk; k++)
@@ -801,7 +789,7 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             en_jobring_set_order(p->chunk_ring, 1, 1);
         /* the records' bytes: the attributes, then the carried block (slab_work.h)
          * where the marks are read; the chunker keeps a quadric it starts from */
-        int marked = finish || round;
+        int marked = p->plan && p->plan->skeleton == EN_SKELETON_MARKED;
         size_t in_size = cfg->attr_size + (cfg->quadrics_in ? sizeof(en_quadric) : 0);
         p->batch_attr_size =
             cfg->mode != EN_SLAB_SIMPLIFY ? 0 : cfg->attr_size + (marked || cfg->quadrics_in ? EN_CARRIED_BYTES : 0);
@@ -817,15 +805,17 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             p->st.quadric_at = cfg->attr_size;
             p->st.write_quadrics = cfg->quadrics_out;
         }
-        int streamed = p->target && p->target->mode != EN_TARGET_WHOLE;
-        int priced = p->target && (p->target->mode == EN_TARGET_THIN || round); /* leaves marks and costs */
-        p->st.target = streamed ? p->target : NULL;
+        int streamed = p->plan && p->plan->seams != EN_SEAMS_NONE;
+        int priced = p->plan && p->plan->priced; /* leaves marks and costs */
+        p->st.plan = streamed ? p->plan : NULL;
         p->st.mark_samples = priced;
         if (rc == 0 && priced &&
             (!(p->st.cost_hist = en_calloc(EN_COST_BUCKETS, sizeof *p->st.cost_hist)) ||
              (!c->cost_hist && !(c->cost_hist = en_calloc(EN_COST_BUCKETS, sizeof *c->cost_hist)))))
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
-        p->ch.cut_last = streamed && p->target->mode != EN_TARGET_BOUND;
+        /* a paced pass's last take aims at its goal (an error bound's last
+         * slab is as any other) */
+        p->ch.cut_last = streamed && p->plan->seams != EN_SEAMS_ERROR;
     }
     if (rc) {
         en_chain_free(&c);
@@ -858,8 +848,8 @@ void en_chain_stats_get(const en_chain *c, en_chain_stats *out)
         const en_stitcher *st = &c->pass[i].st;
         out->samples_given_up += st->given_up;
         out->skeleton_kept -= st->given_up < out->skeleton_kept ? st->given_up : out->skeleton_kept;
-        if (st->target && st->target->mode == EN_TARGET_FINISH && !st->target->by_vertices)
-            out->target_faces = st->target->goal;
+        if (st->plan && !st->plan->priced && st->plan->seams == EN_SEAMS_PACED && !st->plan->by_vertices)
+            out->target_faces = st->plan->goal;
     }
     if (c->cfg.mode == EN_SLAB_SIMPLIFY) {
         const en_stitch_stats *last = &c->pass[c->cfg.passes - 1].st.stats;

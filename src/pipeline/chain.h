@@ -50,10 +50,10 @@ typedef struct en_chain_config {
     uint64_t seed;                /* later passes' rotations (gauss_pass_rotation) */
     int passes;                   /* SIMPLIFY: ε-net passes, >= 1; SAMPLE: 1 */
     double max_normal_dev;
-    /* SIMPLIFY: a size or error target (docs/method.md §13), for pass 1;
-     * NULL: none. finish: a last pass that takes a THIN pass's output to
-     * the target, in slabs of finish_slab_vertices; NULL: none. */
-    const en_target *target, *finish;
+    /* SIMPLIFY: pass 1's plan (pipeline/pass_plan.h: a pass of a size or
+     * error target, docs/method.md §13); NULL, and every later pass: the
+     * ε-net pass. */
+    const en_pass_plan *plan;
     uint32_t attr_size;           /* SIMPLIFY: vertex attribute bytes per record (0: none) */
     /* A target stage's passes (pipeline/target_stage.h): the input records'
      * attribute bytes end in each vertex's accumulated quadric
@@ -64,7 +64,6 @@ typedef struct en_chain_config {
     uint32_t lock_offset;         /* the lock property's bytes in them, */
     int lock_type;                /* and its epsnet_attr_type (0: no lock) */
     uint32_t slab_vertices;
-    uint32_t finish_slab_vertices;    /* the finish pass's slabs (with finish) */
     uint64_t mem_budget;          /* bytes the chain may hold beyond the reader's; 0: none */
     size_t ring_capacity;         /* slabs in flight per pass */
     /* The input records were checked before the chain (a reader front end,
@@ -73,7 +72,7 @@ typedef struct en_chain_config {
      * 0: every record is checked as it is put, and a bad one fails that put
      * (the push API). Later passes always take batches. */
     int checked_input;
-    /* While the calling thread waits for a one-slab finish's collapses
+    /* While the calling thread waits for a one-slab pass's collapses
      * (with workers; with none the slab runs inside its put): called about
      * ten times a second with the collapses done and planned, and once
      * more when they are over (done = total); non-zero cancels the run
@@ -120,9 +119,9 @@ en_stage en_chain_input(en_chain *chain);
 /* Counts so far (complete after the end). */
 void en_chain_stats_get(const en_chain *chain, en_chain_stats *stats);
 
-/* A target's THIN or ROUND passes (after the end): add into add[] (EN_COST_BUCKETS)
- * the costs of the collapses they left, one count per vertex that may still
- * go, in its cheapest collapse's bucket (pipeline/target_stage.h). */
+/* A priced pass (after the end): add into add[] (EN_COST_BUCKETS) the costs
+ * of the collapses it left, one count per vertex that may still go, in its
+ * cheapest collapse's bucket (pipeline/target_stage.h). */
 void en_chain_cost_hist(const en_chain *chain, uint64_t *add);
 
 /* Wait for the slabs in flight, free everything; sets *chain to NULL.

@@ -122,22 +122,18 @@ static int inner(const en_slab_work *w, uint32_t v)
     return v < w->nowned && w->border[v] == EN_BORDER_INNER;
 }
 
-/* A finish whose one slab holds all of the thin pass's output: no seams
- * are left to end it at the target, so the slab aims at it. */
-static int whole_finish(const en_slab_work *w)
+/* A paced pass whose one slab holds all of its input: no seams are left
+ * to end it at the goal, so the slab aims at it. */
+static int aims_at_goal(const en_slab_work *w)
 {
-    return w->target->mode == EN_TARGET_FINISH && w->index == 0 && w->last;
+    return w->plan->seams == EN_SEAMS_PACED && w->index == 0 && w->last;
 }
 
-/* Faces and vertices the slab may keep under its target (0: no limit). */
+/* Faces and vertices the slab may keep under its plan (0: no limit). */
 static void target_limits(const en_slab_work *w, uint64_t *keep_faces, uint64_t *keep_vertices)
 {
-    const en_target *t = w->target;
-    if (t->mode == EN_TARGET_BOUND || t->mode == EN_TARGET_ROUND) { /* no count: the bound or the ceiling */
-        *keep_faces = *keep_vertices = 0;
-        return;
-    }
-    if (t->mode != EN_TARGET_WHOLE) {
+    const en_pass_plan *t = w->plan;
+    if (t->keep_share > 0) {
         /* Streamed (after mark_frozen): a share of what the slab's own
          * collapses can reach, the faces on inner vertices only (or the
          * inner vertices); the faces of frozen vertices go to the seams,
@@ -151,7 +147,7 @@ static void target_limits(const en_slab_work *w, uint64_t *keep_faces, uint64_t 
             uint64_t drop = (uint64_t)((1 - t->keep_share) * (double)reach), on = vertices_on_faces(&w->s);
             *keep_faces = 0;
             *keep_vertices = on > drop ? on - drop : 1;
-            if (whole_finish(w))
+            if (aims_at_goal(w))
                 *keep_vertices = t->goal ? t->goal : 1;
             return;
         }
@@ -162,11 +158,12 @@ static void target_limits(const en_slab_work *w, uint64_t *keep_faces, uint64_t 
         uint64_t drop = (uint64_t)((1 - t->keep_share) * (double)reach);
         *keep_faces = w->s.nt > drop ? w->s.nt - drop : 1;
         *keep_vertices = 0;
-        if (whole_finish(w))
+        if (aims_at_goal(w))
             *keep_faces = t->goal ? t->goal : 1;
         return;
     }
-    /* a ratio is of the faces the slab came with, membranes included */
+    /* a count (or none: the bound or the ceiling alone); a ratio is of the
+     * faces the slab came with, membranes included */
     *keep_faces = t->faces ? t->faces : t->ratio > 0 ? (uint64_t)llround(t->ratio * (double)w->faces_in) : 0;
     *keep_vertices = t->vertices;
     /* 0 means "no limit" to the collapse core: a target of no faces at all
@@ -195,16 +192,13 @@ static double slab_diagonal(const en_slab *s)
     return sqrt(d2);
 }
 
-/* The vertices the target keeps of this slab, which the skeleton takes a
+/* The vertices the plan keeps of this slab, which the skeleton takes a
  * share of (docs/method.md §13); 0 with no count (an error bound alone). */
 static uint64_t target_goal(const en_slab_work *w)
 {
-    const en_target *t = w->target;
     uint64_t on_faces = vertices_on_faces(&w->s);
-    if (t->mode == EN_TARGET_THIN) /* the final target's share of this slab */
-        return (uint64_t)((double)on_faces * t->skeleton_ratio);
-    if (t->mode == EN_TARGET_FINISH)
-        return (uint64_t)((double)on_faces * t->keep_share);
+    if (w->plan->goal_share > 0)
+        return (uint64_t)((double)on_faces * w->plan->goal_share);
     uint64_t keep_faces, keep_vertices;
     target_limits(w, &keep_faces, &keep_vertices);
     uint64_t goal = keep_vertices;
@@ -259,7 +253,7 @@ static int classify_at(en_slab_work *w, uint32_t n, uint64_t *samples, int predi
     memset(&w->counts, 0, sizeof w->counts);
     int rc = classify(w);
     *samples = w->counts.samples;
-    if (rc == 0 && predict && w->target->mode == EN_TARGET_THIN) {
+    if (rc == 0 && predict && !w->plan->one_slab) {
         double cov = normal_coverage(w);
         if (cov < 0)
             return oom(w);
@@ -287,7 +281,7 @@ static const uint32_t freq[] = { 1, 2, 3, 4, 6, 8, 11, 16, 23, 32, 45, 64, 91, 1
  * vertices the target keeps of it (0: no count to aim at). */
 static double skeleton_budget(en_slab_work *w)
 {
-    return w->target->skeleton_share * (double)target_goal(w);
+    return w->plan->skeleton_share * (double)target_goal(w);
 }
 
 /*
@@ -565,7 +559,7 @@ static int simplify(en_slab_work *w)
         /* under a target, samples are the second tier (en_collapse_slab),
          * and so are the non-manifold vertices, which are kept as samples
          * (docs/method.md §6, §13); boundaries and the user's locks stay */
-        if (w->target && w->target->mode != EN_TARGET_THIN && w->target->mode != EN_TARGET_ROUND &&
+        if (w->plan && w->plan->samples_may_go &&
             (k == EN_VK_SAMPLE || (k == EN_VK_LOCKED && nonmanifold_only(w, v))))
             removable[v] = 2;
         s->vflags[v] = (uint8_t)((s->vflags[v] & ~EN_V_TARGET) | (en_receives(k) ? EN_V_TARGET : 0));
@@ -577,17 +571,16 @@ static int simplify(en_slab_work *w)
         w->inner_nonsamples += nonsample && !w->band[v];
     }
     en_collapse_settings cs = { .max_normal_dev_deg = w->max_normal_dev };
-    if (w->target) {
+    const en_pass_plan *t = w->plan;
+    if (t) {
         target_limits(w, &cs.keep_faces, &cs.keep_vertices);
         w->keep_faces = cs.keep_faces;
-        if (w->target->mode == EN_TARGET_WHOLE &&
-            (w->target->faces > w->faces_in || w->target->vertices > vertices_on_faces(s)))
+        if (t->faces > w->faces_in || t->vertices > vertices_on_faces(s))
             return en_error_set(&w->err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
                                 "a target of %llu %s is more than the input's %llu",
-                                (unsigned long long)(w->target->faces ? w->target->faces : w->target->vertices),
-                                w->target->faces ? "faces" : "vertices",
-                                (unsigned long long)(w->target->faces ? w->faces_in : vertices_on_faces(s)));
-        if (w->target->by_vertices) {
+                                (unsigned long long)(t->faces ? t->faces : t->vertices), t->faces ? "faces" : "vertices",
+                                (unsigned long long)(t->faces ? w->faces_in : vertices_on_faces(s)));
+        if (t->by_vertices) {
             for (uint32_t v = 0; v < w->nowned; v++)
                 w->units_in += en_slab_degree(s, v) > 0;
         } else {
@@ -598,8 +591,8 @@ static int simplify(en_slab_work *w)
         cs.by_error = 1;
         /* the diagonal is the whole mesh's: one slab's, or the header's in
          * a streamed bound (a slab's own would bound each slab differently) */
-        double diagonal = w->target->mode == EN_TARGET_BOUND ? w->target->diagonal : slab_diagonal(s);
-        cs.max_error = w->target->max_error >= 0 ? w->target->max_error * diagonal : -1;
+        double diagonal = t->diagonal > 0 ? t->diagonal : slab_diagonal(s);
+        cs.max_error = t->max_error >= 0 ? t->max_error * diagonal : -1;
         /* note: the quadrics are taken afresh once 1.25 times the target is
          * left (a vertex target: twice that in faces, a closed surface's
          * count), measured on the real scans and CAD parts of
@@ -607,11 +600,10 @@ static int simplify(en_slab_work *w)
          * CAD parts, normal deviation 2-5% (bench/RESULTS.md). Not with an error bound, which measures
          * against the input's planes, nor in a thinning pass, whose finish
          * takes them afresh anyway (its quadrics start from its own input). */
-        if (w->target->max_error < 0 && w->target->mode != EN_TARGET_THIN && w->target->mode != EN_TARGET_ROUND)
+        if (t->refresh)
             cs.refresh_faces = cs.keep_faces ? cs.keep_faces + cs.keep_faces / 4 : 5 * cs.keep_vertices / 2;
-        if (w->target->mode == EN_TARGET_ROUND)
-            cs.cost_ceiling = w->target->cost_ceiling;
-        if (w->target->mode == EN_TARGET_THIN || w->target->mode == EN_TARGET_ROUND) {
+        cs.cost_ceiling = t->cost_ceiling;
+        if (t->priced) {
             if ((!w->cost_hist && !(w->cost_hist = en_malloc(EN_COST_BUCKETS * sizeof *w->cost_hist))) ||
                 room(&w->bucket_of, &w->cap.bucket_of, nv, sizeof *w->bucket_of))
                 return oom(w);
@@ -648,7 +640,7 @@ static int simplify(en_slab_work *w)
         w->stopped_by_error = cc.stopped_by_error;
         w->level = cc.top_cost;
     }
-    if (w->target)
+    if (t)
         for (uint32_t v = 0; v < w->nowned; v++)
             w->skeleton_kept += (w->vclass[v] & EN_C_SAMPLE) && w->valive[v] && !(s->vflags[v] & EN_V_ISOLATED);
     mark_bands(w);
@@ -676,7 +668,7 @@ static int drop_membranes(en_slab_work *w)
     if (room(&w->falive, &w->cap.falive, (size_t)s->nt + 1, 1)) /* scratch until simplify */
         return w->rc = oom(w);
     uint8_t *drop = w->falive;
-    int streamed = w->target->mode != EN_TARGET_WHOLE;
+    int streamed = w->plan->seams != EN_SEAMS_NONE;
     int64_t n = en_find_membranes(s, streamed ? w->fflags : NULL, EN_F_INTERIOR, drop);
     if (n < 0)
         return w->rc = oom(w);
@@ -716,7 +708,7 @@ static int drop_membranes(en_slab_work *w)
                 break;
             }
     }
-    if (!goal || (double)locked <= w->target->skeleton_share * (double)goal)
+    if (!goal || (double)locked <= w->plan->skeleton_share * (double)goal)
         return 0;
     uint32_t nt = 0;
     for (uint32_t f = 0; f < s->nt; f++) {
@@ -738,14 +730,12 @@ int en_slab_work_run(void *arg)
     w->faces_in = w->s.nt;
     if (en_slab_build_stars(&w->s))
         w->rc = oom(w);
-    else if (w->target && w->mode == EN_SLAB_SIMPLIFY && drop_membranes(w))
+    else if (w->plan && w->mode == EN_SLAB_SIMPLIFY && drop_membranes(w))
         ; /* w->rc and w->err are set */
-    else if (w->target && (w->target->mode == EN_TARGET_FINISH || w->target->mode == EN_TARGET_ROUND))
+    else if (w->plan && w->plan->skeleton == EN_SKELETON_MARKED)
         w->rc = skeleton_from_marks(w);
-    else if (w->target && w->target->choose_density && w->mode == EN_SLAB_SIMPLIFY)
-        w->rc = choose_density(w);
-    else if (w->target && w->target->may_coarsen && w->mode == EN_SLAB_SIMPLIFY)
-        w->rc = thin_density(w);
+    else if (w->plan && w->plan->skeleton == EN_SKELETON_CHOSEN && w->mode == EN_SLAB_SIMPLIFY)
+        w->rc = w->choose_density ? choose_density(w) : thin_density(w);
     else
         w->rc = classify(w);
     if (w->rc == 0 && w->mode == EN_SLAB_SIMPLIFY) {

@@ -27,31 +27,10 @@
 #include "core/collapse.h"
 #include "core/gauss.h"
 #include "core/slab.h"
+#include "pipeline/pass_plan.h"
 #include "pipeline/seam.h"
 
 typedef enum en_slab_mode { EN_SLAB_SAMPLE, EN_SLAB_SIMPLIFY } en_slab_mode;
-
-/*
- * A size or error target (docs/method.md §13): the ε-net samples are a
- * skeleton that stays, every other vertex may go by quadric error until the
- * target is met, and the samples go too, by the same order, only when the
- * target cannot be met without them. NULL in a slab work: the ε-net pass,
- * which removes every non-sample it can.
- */
-typedef enum en_target_mode {
-    EN_TARGET_WHOLE,              /* one slab: choose the density, classify, collapse to the target */
-    EN_TARGET_THIN,               /* streamed, first pass: classify; each slab and the seams keep
-                                   * keep_share of the mesh, samples stay and leave marked */
-    EN_TARGET_FINISH,             /* streamed, over THIN's output: the marks are the skeleton; each
-                                   * slab and the seams keep keep_share, and the seams end the
-                                   * pass at the target */
-    EN_TARGET_BOUND,              /* streamed error bound alone: each slab and the seams collapse
-                                   * non-samples while the error stays within max_error times
-                                   * the whole mesh's diagonal */
-    EN_TARGET_ROUND,              /* a round between THIN and FINISH (pipeline/target_stage.h):
-                                   * the marks are the skeleton; each slab and the seams do every
-                                   * collapse below cost_ceiling, cheapest first; samples stay */
-} en_target_mode;
 
 /* Between the passes of a target stage (pipeline/target_stage.h), a vertex
  * record's attribute bytes end, after the input's own, in a carried block:
@@ -64,43 +43,8 @@ typedef enum en_target_mode {
 #define EN_CARRIED_BYTES (sizeof(en_quadric) + sizeof(uint64_t))
 #define EN_MARK_SKELETON 1u            /* a skeleton sample */
 
-typedef struct en_target {
-    en_target_mode mode;
-    uint64_t faces;               /* WHOLE: keep at most this many faces; 0: see ratio */
-    double ratio;                 /* WHOLE: keep this share of the slab's faces; 0: none */
-    uint64_t vertices;            /* WHOLE: keep at most this many vertices; 0: none */
-    double max_error;             /* no collapse whose error (a distance) exceeds it; < 0: none */
-    double diagonal;              /* BOUND: the whole mesh's bounding-box diagonal (its header's) */
-    /* Streamed (THIN, FINISH; docs/architecture.md §7): a slab keeps
-     * keep_share of the units (faces, or vertices with by_vertices) that
-     * its own collapses can reach; the stitcher paces the seams so that
-     * the pass keeps `goal` units of the `expected_in` it was planned to
-     * take (the last slab's take aims at `goal` itself). skeleton_ratio:
-     * the final target's share of the input, which the skeleton is sized
-     * from. */
-    double keep_share, skeleton_ratio;
-    int by_vertices;
-    uint64_t goal, expected_in;
-    /* THIN: the seams go only to the level of the slabs around them
-     * (their highest collapse cost, en_slab_work.level), not to the
-     * share, which the rounds then rank with the rest (measured better
-     * than pacing them, docs/architecture.md §7). FINISH: its one slab is
-     * the pass. */
-    int seams_leveled, one_slab;
-    /* Skeleton density: 0 = choose the finest geodesic frequency whose
-     * samples take at most skeleton_share of the target's vertices;
-     * otherwise the slab work's sphere as given. */
-    int choose_density;
-    /* THIN, later slabs: the density was chosen (not given), so a slab
-     * over its share may take a coarser one (slab_work.c: thin_density). */
-    int may_coarsen;
-    double skeleton_share;
-    /* ROUND: the round's global ceiling on a collapse's quadric cost. */
-    double cost_ceiling;
-} en_target;
-
 /* A slab's collapses as they go, read on another thread (a one-slab
- * finish's progress, docs/architecture.md §10): `total` is set once before
+ * pass's progress, docs/architecture.md §10): `total` is set once before
  * they start, `done` now and then; `stop`, raised by that other thread,
  * ends them early (a cancelled run). All relaxed. */
 typedef struct en_slab_progress {
@@ -136,7 +80,11 @@ typedef struct en_slab_work {
     const gauss_sphere *g;
     en_slab_mode mode;
     double max_normal_dev;
-    const en_target *target;      /* NULL: the ε-net pass */
+    const en_pass_plan *plan;     /* NULL: the ε-net pass */
+    /* EN_SKELETON_CHOSEN: this slab chooses the pass's density (its first
+     * slab, which the chain waits for); the later ones are classified at
+     * the sphere it chose (g) and may coarsen it. */
+    int choose_density;
     en_slab_progress *progress;   /* NULL, or where the collapses are reported (the chain's) */
     en_ctxpool *collapse_arrays;  /* the chain's en_collapse_arrays_new() pool */
 
@@ -168,14 +116,14 @@ typedef struct en_slab_work {
      * §13); s.nt is then faces_in - membrane_faces. */
     uint64_t faces_in, membrane_faces;
     uint64_t faces_left, vertices_left;
-    /* A streamed target's units (en_target) this slab brings to its pass:
+    /* A plan's units (en_pass_plan.by_vertices) this slab brings to its pass:
      * its home faces, membranes included, or its owned vertices on faces. */
     uint64_t units_in;
     int stopped_by_error;
-    /* THIN: the highest quadric cost the slab's collapses reached before
-     * its count stopped them (0: none), the level its seams go to. */
+    /* The highest quadric cost the slab's collapses reached before its
+     * count stopped them (0: none), the level EN_SEAMS_LEVEL seams go to. */
     double level;
-    /* THIN and ROUND: the costs of the collapses left to do (EN_COST_BUCKETS
+    /* A priced plan's: the costs of the collapses left to do (EN_COST_BUCKETS
      * counts, en_cost_bucket) at the vertices this slab decides (inner and
      * outer; the ring's go with the seams, whose stitcher counts them),
      * which the target stage sums to set the next round's ceiling. */
@@ -187,7 +135,7 @@ typedef struct en_slab_work {
     double *fnormal;
     int32_t *ftri;
     uint8_t *removable;
-    uint16_t *bucket_of;          /* THIN, ROUND: en_collapse_settings.bucket_of */
+    uint16_t *bucket_of;          /* a priced plan's: en_collapse_settings.bucket_of */
     struct { /* in elements; attr in bytes */
         size_t owner, fflags, vclass, vgvertex, q, ref, tri, falive, valive, border, future, degree, band, fnormal,
             ftri, removable, attr, bucket_of;

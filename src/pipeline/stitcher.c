@@ -29,7 +29,7 @@ struct en_stitch_vertex {
     uint32_t take;         /* the take it arrived in (a streamed target's seams) */
     uint8_t border;        /* EN_BORDER_* */
     uint16_t state;        /* S_* */
-    uint16_t bucket;       /* THIN, ROUND: its cheapest collapse left at W's last run (EN_COST_NONE: none) */
+    uint16_t bucket;       /* a priced plan: its cheapest collapse left at W's last run (EN_COST_NONE: none) */
 };
 
 struct en_seam_face {
@@ -234,7 +234,7 @@ static en_vertex_kind kind_in_w(const en_stitch_vertex *x, uint8_t vflags)
  */
 static uint64_t seam_keep(const en_stitcher *st, int last)
 {
-    const en_target *t = st->target;
+    const en_pass_plan *t = st->plan;
     uint64_t pending = 0, settled = 0;
     if (t->by_vertices) {
         for (size_t i = 0; i < st->nwv; i++) {
@@ -260,16 +260,16 @@ static uint64_t seam_keep(const en_stitcher *st, int last)
 /* One run of the slab core's collapses over W (paper §4.2, §5). */
 static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
 {
-    /* THIN: seams only go to the level of the slabs around them, and are
-     * priced for the target stage's first ceiling (its histogram counts
-     * every vertex that may go) */
-    int leveled = st->target && st->target->seams_leveled;
-    if (leveled && !st->cost_hist && !(st->seam_level > 0))
+    /* EN_SEAMS_LEVEL: seams only go to the level of the slabs around
+     * them, and are priced for the target stage's first ceiling (its
+     * histogram counts every vertex that may go) */
+    en_seam_rule rule = st->plan ? st->plan->seams : EN_SEAMS_NONE;
+    if (rule == EN_SEAMS_LEVEL && !st->cost_hist && !(st->seam_level > 0))
         return 0;
-    int any = 0, finish = st->target && st->target->mode == EN_TARGET_FINISH;
+    int any = 0, tier2 = st->plan && st->plan->samples_may_go;
     for (size_t i = 0; i < st->nwv && !any; i++) {
         en_vertex_kind k = kind_in_w(&st->v[st->wv[i]], 0);
-        any = en_removable(k) || (finish && k == EN_VK_SAMPLE);
+        any = en_removable(k) || (tier2 && k == EN_VK_SAMPLE);
     }
     if (!any)
         return 0;
@@ -308,30 +308,30 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
         const en_stitch_vertex *x = &st->v[st->wv[i]];
         en_vertex_kind k = kind_in_w(x, ws->vflags[i]);
         removable[i] = (uint8_t)en_removable(k);
-        if (finish && k == EN_VK_SAMPLE)
+        if (tier2 && k == EN_VK_SAMPLE)
             removable[i] = 2; /* the second tier, as in a slab (slab_work.c) */
         q[i] = x->q;
     }
     for (size_t f = 0; f < st->nwf; f++)
         memcpy(ref + 3 * f, st->wf[f].ref, 3 * sizeof *ref);
     en_collapse_settings cs = { .max_normal_dev_deg = st->max_normal_dev };
-    if (st->target && st->target->mode == EN_TARGET_BOUND) {
+    if (rule == EN_SEAMS_ERROR) {
         cs.by_error = 1; /* the slabs' bound, on the whole mesh's diagonal */
-        cs.max_error = st->target->max_error * st->target->diagonal;
-    } else if (st->target && st->target->mode == EN_TARGET_ROUND) {
-        cs.cost_ceiling = st->target->cost_ceiling; /* the slabs' ceiling */
-    } else if (leveled) {
+        cs.max_error = st->plan->max_error * st->plan->diagonal;
+    } else if (rule == EN_SEAMS_CEILING) {
+        cs.cost_ceiling = st->plan->cost_ceiling; /* the slabs' ceiling */
+    } else if (rule == EN_SEAMS_LEVEL) {
         /* the seam goes to the level its slabs reached (below 0: none,
          * only priced), so that the thinning keeps no more of a seam than
          * of the slabs around it: whole seams held a third of its output
          * at 20M faces (docs/architecture.md §7) */
         cs.cost_ceiling = st->seam_level > 0 ? st->seam_level : -1;
-    } else if (st->target) {
+    } else if (rule == EN_SEAMS_PACED) {
         uint64_t keep = seam_keep(st, last);
-        if (keep >= (st->target->by_vertices ? st->nwv : st->nwf))
+        if (keep >= (st->plan->by_vertices ? st->nwv : st->nwf))
             goto out; /* on course: nothing to collapse here */
         /* 0 would be "no limit": one unit is the least there can be */
-        *(st->target->by_vertices ? &cs.keep_vertices : &cs.keep_faces) = keep ? keep : 1;
+        *(st->plan->by_vertices ? &cs.keep_vertices : &cs.keep_faces) = keep ? keep : 1;
         cs.by_error = 1;
         cs.max_error = -1;
     }
@@ -381,13 +381,13 @@ out:
 }
 
 /* Settle what can no longer change and let its faces go (see the header).
- * Under a streamed target, what arrived in this take waits one take more,
- * unless it is the last: the last take's seams, which end the pass at the
- * target, then always hold the newest seam, even when the stream's end
- * cuts an empty slab after it. */
+ * Under a pace or a ceiling, what arrived in this take waits one take
+ * more, unless it is the last: the last take's seams, which end a paced
+ * pass at its goal, then always hold the newest seam, even when the
+ * stream's end cuts an empty slab after it. */
 static int settle(en_stitcher *st, int last)
 {
-    int wait = st->target && !st->target->seams_leveled && st->target->mode != EN_TARGET_BOUND && !last;
+    int wait = st->plan && (st->plan->seams == EN_SEAMS_PACED || st->plan->seams == EN_SEAMS_CEILING) && !last;
     for (size_t i = 0; i < st->nwv; i++)
         st->v[st->wv[i]].state &= (uint16_t)~(S_BLOCKED | S_IN_FACE);
     for (size_t f = 0; f < st->nwf; f++) {
@@ -605,7 +605,7 @@ int en_stitcher_take(en_stitcher *st, const en_slab_work *w, epsnet_error *err)
     st->stats.band_nonsamples += w->band_nonsamples;
     st->stats.inner_nonsamples += w->inner_nonsamples;
     st->taken += w->units_in;
-    if (st->target && st->target->seams_leveled) {
+    if (st->plan && st->plan->seams == EN_SEAMS_LEVEL) {
         double before = st->takes ? st->level_before : w->level;
         st->seam_level = fmin(before, w->level);
         st->level_before = w->level;

@@ -68,26 +68,24 @@ typedef struct en_stitcher {
     uint32_t *local;                  /* scratch: slab local id -> pool index */
     size_t local_cap;
     en_slab ws;                       /* scratch for W's collapses */
-    /* A streamed target (docs/architecture.md §7; NULL: the ε-net pass,
-     * whose seams lose every non-sample they can): W's collapses go
-     * cheapest first and stop where the pass stays on course for the
-     * target's goal (seam_keep in stitcher.c). THIN: samples stay and leave
-     * marked (mark_samples); FINISH: they are the second tier; BOUND: W's
-     * collapses stop at the error bound alone; ROUND: at the round's cost
-     * ceiling, samples staying and leaving marked. Read only, set before the
-     * first take; the fields below are the take jobs' (one at a time). */
-    const en_target *target;
+    /* The pass's plan when it has seams to rule (pipeline/pass_plan.h;
+     * NULL: the ε-net pass, whose seams lose every non-sample they can):
+     * W's collapses go cheapest first and stop where its seam rule says.
+     * mark_samples: samples stay and leave marked (a priced plan). Read
+     * only, set before the first take; the fields below are the take
+     * jobs' (one at a time). */
+    const en_pass_plan *plan;
     int mark_samples;
     uint32_t takes;                   /* slabs taken */
-    uint64_t taken;                   /* target units the slabs taken so far brought */
+    uint64_t taken;                   /* plan units the slabs taken so far brought */
     uint64_t faces_final;             /* faces that left W, or never entered it, for the output */
     uint64_t decided;                 /* vertices decided (kept) */
-    uint64_t given_up;                /* samples collapsed in W (FINISH) */
-    /* THIN with leveled seams: the level the two newest slabs' counts
+    uint64_t given_up;                /* samples collapsed in W (samples_may_go) */
+    /* EN_SEAMS_LEVEL: the level the two newest slabs' counts
      * stopped their collapses at (en_slab_work.level); W collapses below
      * the lower of them, as those slabs did (0: price only). */
     double level_before, seam_level;
-    /* THIN and ROUND: the costs of the collapses W left to do, one count per
+    /* A priced plan's: the costs of the collapses W left to do, one count per
      * W vertex as it is written, in its last W run's bucket
      * (en_slab_work.cost_hist has the slabs' own); NULL otherwise. */
     uint64_t *cost_hist;
@@ -120,7 +118,7 @@ int en_stitcher_take(en_stitcher *st, const en_slab_work *w, epsnet_error *err);
 int en_stitcher_finish(en_stitcher *st, epsnet_error *err);
 
 /* After en_stitcher_finish: free the seams' and queues' memory; the
- * counts stay (stats, given_up, cost_hist), and so does the target. */
+ * counts stay (stats, given_up, cost_hist), and so does the plan. */
 void en_stitcher_release(en_stitcher *st);
 
 /* Bytes held by the seams and the output queues (capacities, not just

@@ -176,8 +176,8 @@ static double records_ahead(const en_target_stage *ts, double v)
 {
     if (ts->in_last_round)
         return 0;
-    const en_target *plan = &ts->cfg.finish;
-    double goal = plan->by_vertices ? (double)plan->goal : (double)plan->goal / 2; /* two faces a vertex */
+    const en_target_size *size = &ts->cfg.size;
+    double goal = size->by_vertices ? (double)size->goal : (double)size->goal / 2; /* two faces a vertex */
     double sum = 0;
     for (int r = ts->nrounds + 1;; r++) {
         v = v > goal ? goal + (v - goal) * ROUND_LEFT_EST : goal; /* what the round before r leaves */
@@ -291,7 +291,7 @@ static uint32_t round_slab(const en_target_stage *ts, const kept *from)
 
 /* One chain over the kept stream `from`: a round into `to`, or the last one
  * into cfg.out (to NULL). */
-static int run_chain(en_target_stage *ts, const en_target *t, kept *from, kept *to, int last, en_chain_stats *got,
+static int run_chain(en_target_stage *ts, const en_pass_plan *t, kept *from, kept *to, int last, en_chain_stats *got,
                      epsnet_error *err)
 {
     const en_target_stage_config *cfg = &ts->cfg;
@@ -303,15 +303,13 @@ static int run_chain(en_target_stage *ts, const en_target *t, kept *from, kept *
         .sphere = cfg->sphere,
         .passes = 1,
         .max_normal_dev = cfg->max_normal_dev,
-        .target = last ? NULL : t,
-        .finish = last ? t : NULL,
-        .finish_slab_vertices = t->one_slab ? UINT32_MAX - 1 : slab,
+        .plan = t,
         .attr_size = cfg->attr_size,
         .quadrics_in = !last, /* the last round starts afresh, as its refresh would (slab_work.c) */
         .quadrics_out = !last,
         .lock_offset = cfg->lock_offset,
         .lock_type = cfg->lock_type,
-        .slab_vertices = slab,
+        .slab_vertices = t->one_slab ? UINT32_MAX - 1 : slab,
         .mem_budget = cfg->mem_budget,
         .ring_capacity = cfg->ring_capacity,
         .checked_input = 1, /* a stitcher wrote it */
@@ -341,6 +339,45 @@ static int run_chain(en_target_stage *ts, const en_target *t, kept *from, kept *
     }
     en_chain_free(&c);
     return rc;
+}
+
+/*
+ * The thinning (docs/architecture.md §7): each slab keeps half as much
+ * again as the target (and a point more) of what it can reach, so that the
+ * collapses that decide the result are ranked by the rounds, in one global
+ * order.
+ *
+ * note: the thinning's slabs were twice the default while a one-slab
+ * finish took its whole seams (fewer slabs, smaller seams); with the
+ * rounds after it they are the default's, whose cost a collapse is lower
+ * (a slab past the caches cost 37% more at 262,144 vertices) and whose
+ * memory is the default path's (bench/RESULTS.md).
+ */
+void en_target_stage_plan_thin(const en_target_size *size, uint64_t nv, uint64_t nf, uint64_t one_slab_bytes,
+                               en_pass_plan *thin)
+{
+    double keep = 1.5 * size->share + 0.01;
+    keep = keep < 1 ? keep : 1;
+    *thin = (en_pass_plan){
+        .skeleton = size->choose_density ? EN_SKELETON_CHOSEN : EN_SKELETON_SPHERE,
+        .skeleton_share = EN_TARGET_SKELETON_SHARE,
+        .keep_share = keep,
+        .goal = (uint64_t)llround(keep * (double)nf),
+        .expected_in = nf,
+        .goal_share = size->share, /* the skeleton is the final target's */
+        .max_error = -1,
+        /* note: the seams go only to their slabs' level, and the rounds
+         * order the rest with everything else (thinned by their own pacing
+         * to the share, they took the mean error up by a quarter on the
+         * shared scans; whole, they held a third of the thinning's output
+         * at 20M faces: bench/RESULTS.md), unless what they keep would not
+         * fit the budget: a finish in one slab after whole seams held 1.11
+         * times keep at 2M faces, 1.27 at 20M, 4.2 on 6,000 faces in slabs
+         * of 300; then they are paced */
+        .seams = 2 * keep * (double)nv * EN_ONE_SLAB_BYTES_PER_VERTEX <= (double)one_slab_bytes ? EN_SEAMS_LEVEL
+                                                                                                 : EN_SEAMS_PACED,
+        .priced = 1,
+    };
 }
 
 static int stage_fail(en_target_stage *ts, int rc, const epsnet_error *err)
@@ -378,9 +415,9 @@ static int stage_end(void *self, epsnet_error *err)
         *err = ts->failure;
         return ts->failed;
     }
-    const en_target *plan = &ts->cfg.finish;
-    int by_vertices = plan->by_vertices;
-    uint64_t goal = plan->goal;
+    const en_target_size *size = &ts->cfg.size;
+    int by_vertices = size->by_vertices;
+    uint64_t goal = size->goal;
     if (ts->thin)
         en_chain_cost_hist(ts->thin, ts->hist);
     int rc = 0;
@@ -390,12 +427,16 @@ static int stage_end(void *self, epsnet_error *err)
             break;
         /* a collapse takes one vertex, and two faces inside a surface */
         double need = (double)(left - goal) / (by_vertices ? 1.0 : 2.0);
-        en_target round = *plan;
-        round.mode = EN_TARGET_ROUND;
         double gap = (double)(left - goal) / (double)goal;
-        round.cost_ceiling = ceiling_for(ts->hist, (gap > ROUND_NEAR ? ROUND_AIM : ROUND_AIM_NEAR) * need);
-        round.one_slab = round.seams_leveled = 0;
-        round.max_error = -1;
+        en_pass_plan round = {
+            .skeleton = EN_SKELETON_MARKED,
+            .skeleton_share = EN_TARGET_SKELETON_SHARE,
+            .by_vertices = by_vertices,
+            .cost_ceiling = ceiling_for(ts->hist, (gap > ROUND_NEAR ? ROUND_AIM : ROUND_AIM_NEAR) * need),
+            .max_error = -1,
+            .seams = EN_SEAMS_CEILING,
+            .priced = 1,
+        };
         kept next;
         en_chain_stats got;
         if ((rc = kept_open(ts, &next, err)) == 0)
@@ -416,13 +457,22 @@ static int stage_end(void *self, epsnet_error *err)
     if (rc)
         return stage_fail(ts, rc, err);
     /* The last round: the exact count, by its plan from what is kept. */
-    en_target fin = *plan;
     uint64_t left = by_vertices ? ts->in.vertices : ts->in.faces;
-    fin.mode = EN_TARGET_FINISH;
-    fin.expected_in = left;
-    fin.keep_share = left ? fmin(1.0, (double)goal / (double)left) : 1.0;
-    fin.one_slab = fits_one_slab(ts);
-    fin.seams_leveled = 0;
+    double keep = left ? fmin(1.0, (double)goal / (double)left) : 1.0;
+    en_pass_plan fin = {
+        .skeleton = EN_SKELETON_MARKED,
+        .skeleton_share = EN_TARGET_SKELETON_SHARE,
+        .samples_may_go = 1, /* the last round gives samples up when the count needs it */
+        .keep_share = keep,
+        .by_vertices = by_vertices,
+        .goal = goal,
+        .expected_in = left,
+        .goal_share = keep,
+        .max_error = -1,
+        .refresh = 1,
+        .seams = EN_SEAMS_PACED,
+        .one_slab = fits_one_slab(ts),
+    };
     if (fin.one_slab && ts->cfg.spares) {
         /* the rounds' slab works and arrays are the wrong size for one
          * slab of the whole: they go before it is built */

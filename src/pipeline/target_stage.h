@@ -2,10 +2,10 @@
  * The size target's stage (docs/architecture.md §7, "target stage"): rounds
  * under a rising global cost threshold, on slabs, after the thinning pass.
  *
- * The thinning pass (a chain pass in THIN mode: it chooses the skeleton,
- * classifies and collapses each slab to a share of the target) hands its
- * output stream to this stage, which keeps it in a compressed temporary
- * file. At the end of that stream the stage knows what no streamed step
+ * The stage plans the thinning pass (en_target_stage_plan_thin: the chain
+ * pass before it, which chooses the skeleton, classifies and collapses each
+ * slab to a share of the target), which hands its output stream to this
+ * stage, which keeps it in a compressed temporary file. At the end of that stream the stage knows what no streamed step
  * knows before it: how many faces are left, and what the collapses still
  * to do cost (a histogram the thinning's slabs and seams filled). Then:
  *
@@ -18,13 +18,17 @@
  *    set from the histogram so that the round removes a part of what is
  *    still to go, never more; each round counts the costs it leaves for
  *    the next one;
- *  - the last round meets the count exactly: a FINISH pass, in one slab
- *    when what is left is small, else on slabs whose seams pace it to the
- *    target (stitcher.c: seam_keep), over a mesh already close to it.
+ *  - the last round meets the count exactly, in one slab when what is
+ *    left is small, else on slabs whose seams pace it to the target
+ *    (stitcher.c: seam_keep), over a mesh already close to it.
  *
  * The skeleton's samples ride through the rounds as marks (never removed
  * by a round; the last one gives them up only when the target needs it),
  * and so do the user's locks, which every slab reads from the attributes.
+ *
+ * Every pass here is a chain pass with a plan (pipeline/pass_plan.h); the
+ * plans are made in this file, and nothing else knows them as a thinning,
+ * a round or a last round.
  *
  * Threads: the stage runs on the calling thread, as the chain's output
  * stage; each round is a chain of its own on the run's pool.
@@ -40,6 +44,24 @@
 
 typedef struct en_target_stage en_target_stage;
 
+/* A size target, as the stage plans its passes from it. */
+typedef struct en_target_size {
+    uint64_t goal;                /* faces, or vertices with by_vertices */
+    int by_vertices;
+    double share;                 /* the goal's share of the input's faces (vertices) */
+    int choose_density;           /* 0: the skeleton at the sphere given (a --level) */
+} en_target_size;
+
+/* The skeleton's share of the vertices a target keeps (measured on the
+ * real scans at 5-50% of their faces: bench/RESULTS.md). */
+#define EN_TARGET_SKELETON_SHARE 0.25
+
+/* The thinning pass's plan, the chain pass before the stage, on an input
+ * of nv vertices and nf faces; one_slab_bytes: what one slab may hold
+ * (budget.h). */
+void en_target_stage_plan_thin(const en_target_size *size, uint64_t nv, uint64_t nf, uint64_t one_slab_bytes,
+                               en_pass_plan *thin);
+
 typedef struct en_target_stage_config {
     const char *path;             /* names the input in messages */
     const gauss_sphere *sphere;   /* the chains' (unused by rounds: their skeleton is marked) */
@@ -52,10 +74,7 @@ typedef struct en_target_stage_config {
     uint32_t one_slab_vertices;   /* ... and at most this many vertices (a few slabs) */
     size_t ring_capacity;
     const char *tmpdir;           /* the kept stream's temporary file (NULL: $TMPDIR or /tmp) */
-    /* The target as the thinning pass was planned against: goal (faces or,
-     * with by_vertices, vertices), skeleton_ratio; the stage makes the
-     * FINISH of it. */
-    en_target finish;
+    en_target_size size;          /* what the thinning was planned against */
     /* The stage's progress, now and then: done of total units of its whole
      * work, rounds to come included (an estimate that firms up as they
      * run; done/total never falls); non-zero cancels (EPSNET_EINTR).

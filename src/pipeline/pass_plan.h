@@ -1,0 +1,80 @@
+/*
+ * How one pass's slabs and seams collapse (docs/architecture.md §7).
+ *
+ * A chain pass is a chunker, workers and a stitcher. With no plan (NULL)
+ * it is the ε-net pass: every non-sample goes where it can. With a plan it
+ * is a pass of a size or error target (docs/method.md §13): the samples
+ * are a skeleton, and the other vertices go cheapest first by quadric cost
+ * until the plan's stop. Each field below means one thing in every plan;
+ * the chain, the slab work and the stitcher read the fields, never the
+ * stage that planned the pass. The planners: api/run.c (one slab of the
+ * whole mesh, a streamed error bound) and pipeline/target_stage.c (the
+ * thinning, the rounds and the last round of a streamed size).
+ */
+#ifndef EN_PIPELINE_PASS_PLAN_H
+#define EN_PIPELINE_PASS_PLAN_H
+
+#include <stdint.h>
+
+/* Where a slab's skeleton comes from. */
+typedef enum en_skeleton_rule {
+    EN_SKELETON_SPHERE,   /* the samples at the pass's sphere */
+    /* The finest geodesic frequency whose samples are at most
+     * skeleton_share of the vertices the plan keeps: the pass's first slab
+     * chooses it, and a later slab whose own samples crowd it takes a
+     * coarser one (slab_work.c: choose_density, thin_density). */
+    EN_SKELETON_CHOSEN,
+    EN_SKELETON_MARKED,   /* the records' marks (EN_MARK_SKELETON): an earlier pass's */
+} en_skeleton_rule;
+
+/* Where the collapses of W, the seams, stop. */
+typedef enum en_seam_rule {
+    EN_SEAMS_NONE,        /* one slab: there are none */
+    EN_SEAMS_PACED,       /* W keeps the plan's share of the units taken so far; the
+                           * last take ends the pass at goal (stitcher.c: seam_keep) */
+    EN_SEAMS_LEVEL,       /* W goes as far as the two newest slabs went (en_slab_work.level) */
+    EN_SEAMS_CEILING,     /* the slabs' cost ceiling */
+    EN_SEAMS_ERROR,       /* the slabs' error bound */
+} en_seam_rule;
+
+typedef struct en_pass_plan {
+    /* The skeleton. */
+    en_skeleton_rule skeleton;
+    /* The skeleton's most (EN_SKELETON_CHOSEN), and the most the corners of
+     * glued membranes may lock: a share of the vertices the plan keeps. */
+    double skeleton_share;
+    /* Samples (and the non-manifold corners kept as samples) are a second
+     * tier that a count takes last, when it cannot be met without them;
+     * 0: they stay. */
+    int samples_may_go;
+
+    /* The stop: a count, a share, a cost ceiling, an error bound. */
+    uint64_t faces, vertices;     /* a one-slab pass keeps at most this many (0: none) */
+    double ratio;                 /* ... or this share of its faces (0: none) */
+    /* Each slab keeps this share of the units (faces, or vertices with
+     * by_vertices) its own collapses can reach (0: no share). A pass that
+     * is one slab keeps `goal` units instead. */
+    double keep_share;
+    int by_vertices;
+    uint64_t goal, expected_in;   /* the pass keeps goal units of the expected_in it takes */
+    /* The share of a slab's vertices on faces that the plan keeps, which
+     * the skeleton and the membranes are sized from (0: the count's). */
+    double goal_share;
+    double cost_ceiling;          /* > 0: every collapse cheaper is done, none dearer */
+    double max_error;             /* < 0: none; else times the diagonal, a distance */
+    double diagonal;              /* the whole mesh's (0: the slab's own, when it is the whole) */
+    /* The quadrics are taken afresh once the count is near
+     * (en_collapse_settings.refresh_faces). */
+    int refresh;
+
+    en_seam_rule seams;
+    /* The pass leaves, in each output vertex's carried block, its marks
+     * and its quadric, and counts the costs of the collapses it left
+     * (en_chain_cost_hist): a target stage's pass before its last. */
+    int priced;
+    /* The pass is one slab of its whole input, held against the memory
+     * budget as such. */
+    int one_slab;
+} en_pass_plan;
+
+#endif
