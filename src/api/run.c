@@ -279,6 +279,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         .plan = target ? &run->plan : NULL,
         .attr_size = mode == EN_SLAB_SIMPLIFY && in ? in->vertex_attrs.size : 0,
         .quadrics_out = run->staged, /* the target stage goes on from them */
+        .out_on_workers = run->staged, /* the target stage's put keeps the stream */
         .lock_offset = lock_offset,
         .lock_type = lock_type,
         .slab_vertices = slab_vertices,

@@ -123,6 +123,7 @@ struct en_pass {
      * retire, for the budget checks while a take runs. */
     uint64_t st_bytes, st_active, st_frontier;
     int ended;
+    int direct;                    /* the takes put into cfg.out themselves (out_on_workers) */
     uint64_t in_flight_elements;   /* vertices + faces of slabs in the ring */
     /* A one-slab pass's collapses: its worker writes the counts, the
      * caller's thread reads them while it waits (pass_end) and raises
@@ -295,12 +296,16 @@ static void pass_recycle(en_pass *p, en_slab_work *w)
     p->returned[p->nreturned++] = w;
 }
 
-/* The stitcher's output stage while a take runs: the take's records wait
- * in the job's buffer (worker's thread). */
+/* The stitcher's output stage while a take runs (worker's thread): the
+ * take's records wait in the job's buffer, or go straight on when the
+ * chain's output stage may be called here (en_chain_config.out_on_workers;
+ * takes run one at a time, in order, each after the retire of the one
+ * before, so the calls are ordered as they would be on one thread). */
 static int buffer_put(void *self, const epsnet_record *rec, epsnet_error *err)
 {
     en_pass *p = self;
-    (void)err;
+    if (p->direct)
+        return en_stage_put(&p->chain->cfg.out, rec, err);
     if (en_grow((void **)&p->out, &p->out_cap, p->nout + 1, sizeof *p->out))
         return en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "out of memory holding a stitched slab's output");
@@ -773,6 +778,7 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             gauss_init(&p->g, cfg->sphere->n, &r);
         }
         p->batched = i > 0 || cfg->checked_input;
+        p->direct = cfg->out_on_workers && cfg->mode == EN_SLAB_SIMPLIFY && i == c->cfg.passes - 1;
         uint32_t slab = cfg->slab_vertices;
         p->nchunk = chunk_slots(slab);
         if (p->batched && (p->chunk = en_calloc(p->nchunk, sizeof *p->chunk)) != NULL)

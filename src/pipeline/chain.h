@@ -84,6 +84,14 @@ typedef struct en_chain_config {
      * rounds); NULL: the chain's own, freed with it. */
     en_chain_spares *spares;
     en_stage out;                 /* SIMPLIFY: where the last pass's records go */
+    /* out may be called on a worker (one call at a time, in order: a
+     * stage that only writes state of its own, as the target stage's kept
+     * stream): the last pass's takes then hand it their records
+     * themselves, not through the calling thread, which measured 40% of
+     * that thread's time in a target's rounds (bench/RESULTS.md). 0: the
+     * calling thread makes every call (a writer may report progress to
+     * the user, who expects it there). */
+    int out_on_workers;
     en_sample_fn on_sample;       /* SAMPLE: where samples go */
     void *sample_opaque;
 } en_chain_config;

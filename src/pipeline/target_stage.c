@@ -317,6 +317,7 @@ static int run_chain(en_target_stage *ts, const en_pass_plan *t, kept *from, kep
         .tick_opaque = ts,
         .spares = cfg->spares,
         .out = last ? cfg->out : (en_stage){ kept_put, kept_end, &sink },
+        .out_on_workers = !last, /* the kept stream is the stage's own */
     };
     en_chain *c = NULL;
     ts->round_records = (double)(from->vertices + from->faces);

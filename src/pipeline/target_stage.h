@@ -90,7 +90,9 @@ int en_target_stage_new(en_target_stage **ts, const en_target_stage_config *cfg,
                         epsnet_error *err);
 
 /* The stage the thinning chain writes into. Its end runs the rounds and
- * the last one, and ends cfg.out. */
+ * the last one, and ends cfg.out. Its put may be called on any thread, one
+ * call at a time (en_chain_config.out_on_workers); its end on the thread
+ * that made the stage. */
 en_stage en_target_stage_input(en_target_stage *ts);
 
 /* The thinning chain, whose costs left (en_chain_cost_hist) the first
