@@ -191,39 +191,48 @@ def every_skeleton_sample_is_in_the_output():
             assert s["target"]["skeleton_vertices"] == len(samples), (s["target"], len(samples))
 
 
-# The frequencies a skeleton's density is chosen from (slab_work.c: freq).
-FREQUENCIES = (1, 2, 3, 4, 6, 8, 11, 16, 23, 32, 45, 64, 91, 128)
-
-
 @case
-def a_streamed_skeleton_coarsens_in_slabs_over_their_share():
-    """A sorted bumpy sphere's first slab is a cap with few normals: the
-    density it chooses is too fine for the slabs across the middle, whose
-    normals go all around. Those slabs take a coarser sphere; the run
-    reports the coarsest (the ε every part keeps) and the finest, and every
-    skeleton vertex in the output is a sample at a frequency between them."""
-    src = gen("bumpy", 50000, "bumpy50k_seed7.smz", "--seed", "7")
-    out = path("coarsen.ply")
-    s, err = simplify(src, out, "--ratio", "0.3", "--slab", "2048", "--ascii")
-    n, finest = s["gaussian_sphere"]["frequency"], s["target"]["finest_frequency"]
-    assert finest > n, (n, finest, "the premise: a slab coarsened")
-    assert s["target"]["samples_given_up"] == 0, s["target"]
-    assert s["output_faces"] == s["target"]["faces"], (s["output_faces"], s["target"])
-    union = set()
-    for f in FREQUENCIES:
-        if n <= f <= finest:
-            pts = path("coarsen_samples.ply")
-            rc, _, e = run("sample", src, "-o", pts, "--frequency", str(f), "--ascii", "-q")
+def one_skeleton_per_mesh_in_any_order_and_shape():
+    """The skeleton's density comes from the whole stream's counts
+    (slab_work.c: nested_density): the same mesh sorted (.smz) or shuffled
+    (a PLY the sort orders), on slabs of any size or in one slab, at any
+    -j, gets the same frequency, the finest power of two (up to 16) whose
+    samples fit a quarter of what the target keeps, and the same skeleton:
+    every sample at that frequency, in every output."""
+    smz = gen("bumpy", 50000, "one_skel.smz", "--seed", "7")
+    shuf = gen("bumpy", 50000, "one_skel_shuffled.ply", "--seed", "7", "--shuffle")
+    counts = {}
+
+    def samples_at(f):
+        if f not in counts:
+            pts = path("one_skel_samples_%d.ply" % f)
+            rc, _, e = run("sample", smz, "-o", pts, "--frequency", str(f), "--ascii", "-q")
             assert rc == 0, e
-            union |= set(ascii_ply(pts)[0])
-    verts = set(ascii_ply(out)[0])
-    skeleton = s["target"]["skeleton_vertices"]
-    assert len(verts & union) >= skeleton, (len(verts & union), skeleton)
-    # near its share (a quarter of the output), not most of it
-    assert skeleton <= 0.5 * len(verts), (skeleton, len(verts))
-    # the same run with the density given keeps it in every slab
-    s2, _ = simplify(src, path("coarsen_given.ply"), "--ratio", "0.3", "--slab", "2048", "--frequency", str(finest))
-    assert s2["target"]["finest_frequency"] == s2["gaussian_sphere"]["frequency"] == finest, s2["target"]
+            counts[f] = set(ascii_ply(pts)[0])
+        return counts[f]
+
+    seen = set()
+    for src, opts in ((smz, ("--slab", "2048")), (shuf, ("--slab", "2048", "-j", "2")), (shuf, ("--slab", "4096")),
+                      (smz, ("-j", "1")), (shuf, ())):
+        out = path("one_skel_out.ply")
+        s, err = simplify(src, out, "--ratio", "0.3", "--ascii", *opts)
+        n = s["gaussian_sphere"]["frequency"]
+        seen.add(n)
+        assert s["target"]["samples_given_up"] == 0, (opts, s["target"])
+        assert s["output_faces"] == s["target"]["faces"], (opts, s["output_faces"], s["target"])
+        skeleton = samples_at(n)
+        assert s["target"]["skeleton_vertices"] == len(skeleton), (opts, s["target"], len(skeleton))
+        verts = set(ascii_ply(out)[0])
+        missing = skeleton - verts
+        assert not missing, f"{src} {opts}: {len(missing)} of {len(skeleton)} samples at frequency {n} missing"
+        # the rule: the finest power of two within a quarter of the target's vertices
+        budget = 0.25 * 0.3 * s["vertices"]
+        assert n & (n - 1) == 0 and len(skeleton) <= 1.01 * budget, (n, len(skeleton), budget)
+        assert n == 16 or len(samples_at(2 * n)) > 0.99 * budget, (n, len(samples_at(2 * n)), budget)
+    assert len(seen) == 1, seen
+    # a density given is kept in every slab
+    s2, _ = simplify(smz, path("one_skel_given.ply"), "--ratio", "0.3", "--slab", "2048", "--frequency", "8")
+    assert s2["target"]["finest_frequency"] == s2["gaussian_sphere"]["frequency"] == 8, s2["target"]
 
 
 @case

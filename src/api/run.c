@@ -66,8 +66,13 @@ static int plan_target(en_run *run, const epsnet_settings *set, const char *path
     /* one slab of the whole mesh, unless it streams (below) */
     en_pass_plan *t = &run->plan;
     *t = (en_pass_plan){
-        .skeleton = set->target_level_given ? EN_SKELETON_SPHERE : EN_SKELETON_CHOSEN,
+        /* no count (an error bound alone): the sphere given, as the
+         * ε-net pass's */
+        .skeleton = set->target_level_given || !(set->target_faces || set->target_ratio > 0 || set->target_vertices)
+                        ? EN_SKELETON_SPHERE
+                        : EN_SKELETON_CHOSEN,
         .skeleton_share = EN_TARGET_SKELETON_SHARE,
+        .finest_frequency = EN_TARGET_FINEST_FREQUENCY,
         .samples_may_go = 1,
         .faces = set->target_faces,
         .vertices = set->target_vertices,

@@ -1,6 +1,7 @@
 #include "core/classify.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "common/alloc.h"
@@ -51,9 +52,32 @@ static uint64_t feature_edges_at(const en_slab *s, uint32_t v, const int32_t *ft
     return n;
 }
 
+/* The halvings of G that keep Gaussian vertex id: the largest j with 2^j
+ * dividing n and each of its lattice coordinates (see
+ * en_classify_vertices_levels). */
+static uint8_t halvings_kept(const gauss_sphere *g, uint32_t id)
+{
+    int32_t c[3];
+    gauss_vertex_coords(g, id, c);
+    uint32_t all = g->n | (uint32_t)abs(c[0]) | (uint32_t)abs(c[1]) | (uint32_t)abs(c[2]);
+    uint8_t j = 0;
+    while (!(all & 1u)) {
+        all >>= 1;
+        j++;
+    }
+    return j;
+}
+
 int en_classify_vertices(const gauss_sphere *g, const en_slab *s, const double *fnormal,
                          const int32_t *ftri, uint32_t v0, uint32_t v1, uint8_t *vclass,
                          int32_t *vgvertex, en_classify_counts *counts)
+{
+    return en_classify_vertices_levels(g, s, fnormal, ftri, v0, v1, vclass, vgvertex, NULL, counts);
+}
+
+int en_classify_vertices_levels(const gauss_sphere *g, const en_slab *s, const double *fnormal,
+                                const int32_t *ftri, uint32_t v0, uint32_t v1, uint8_t *vclass,
+                                int32_t *vgvertex, uint8_t *vlevel, en_classify_counts *counts)
 {
     uint32_t maxdeg = 1;
     for (uint32_t v = v0; v < v1; v++)
@@ -75,6 +99,8 @@ int en_classify_vertices(const gauss_sphere *g, const en_slab *s, const double *
         }
         if (vf & (EN_V_BOUNDARY | EN_V_NONMANIFOLD)) {
             vclass[v] = EN_C_LOCKED | EN_C_SAMPLE;
+            if (vlevel)
+                vlevel[v] = EN_LEVEL_ALL;
             counts->locked++;
             counts->samples++;
             counts->boundary += (vf & EN_V_BOUNDARY) && !(vf & EN_V_NONMANIFOLD);
@@ -112,6 +138,8 @@ int en_classify_vertices(const gauss_sphere *g, const en_slab *s, const double *
         int hemi = gauss_in_open_hemisphere((const double(*)[3])normals, m, centre);
         if (hemi != GAUSS_HEMI_CENTRE) {
             vclass[v] |= EN_C_SAMPLE | EN_C_NEEDLE;
+            if (vlevel)
+                vlevel[v] = EN_LEVEL_ALL;
             counts->samples++;
             counts->needles++;
             counts->unverified_hemisphere += hemi == GAUSS_HEMI_UNVERIFIED;
@@ -138,12 +166,19 @@ int en_classify_vertices(const gauss_sphere *g, const en_slab *s, const double *
             nn = gauss_vertices_near(g, centre, cos_r, near, near_cap);
         }
         int covered = 0;
+        uint8_t kept = 0;
         for (size_t i = 0; i < nn; i++) {
             if (gauss_winding(g, (const double(*)[3])normals, m, near[i], centre) == 0)
                 continue;
             if (covered++ == 0 || (int32_t)near[i] < vgvertex[v])
                 vgvertex[v] = (int32_t)near[i];
+            if (vlevel) {
+                uint8_t j = halvings_kept(g, near[i]);
+                kept = j > kept ? j : kept;
+            }
         }
+        if (vlevel && covered)
+            vlevel[v] = kept;
         if (covered) {
             vclass[v] |= EN_C_SAMPLE;
             counts->samples++;

@@ -60,6 +60,20 @@ int en_classify_vertices(const gauss_sphere *g, const en_slab *s, const double *
                          const int32_t *ftri, uint32_t v0, uint32_t v1, uint8_t *vclass,
                          int32_t *vgvertex, en_classify_counts *counts);
 
+/*
+ * en_classify_vertices(), and for each sample the halvings of G it stays a
+ * sample through: vlevel[v] = j means v is a sample at every frequency
+ * n / 2^i, i <= j, that is whole (G at n / 2^i is a subset of G: its
+ * vertices are the lattice points of G divisible by 2^i, and the sample
+ * rule is a winding number about a vertex, so a sample there is a sample
+ * here). Locked vertices and needles are samples at every frequency
+ * (EN_LEVEL_ALL). vlevel is written for samples only.
+ */
+#define EN_LEVEL_ALL 255
+int en_classify_vertices_levels(const gauss_sphere *g, const en_slab *s, const double *fnormal,
+                                const int32_t *ftri, uint32_t v0, uint32_t v1, uint8_t *vclass,
+                                int32_t *vgvertex, uint8_t *vlevel, en_classify_counts *counts);
+
 void en_classify_counts_add(en_classify_counts *into, const en_classify_counts *c);
 
 #endif

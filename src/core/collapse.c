@@ -472,10 +472,9 @@ static int64_t rank_targets(state *st, uint32_t v)
  * become a ninth of the run, bench/RESULTS.md). None: v leaves the queue
  * until a collapse next to it gives it a target.
  */
-static int queue_cheapest(state *st, uint32_t v)
+/* v's cheapest target by cost (best.u UINT32_MAX: none). */
+static target cheapest_target(const state *st, uint32_t v)
 {
-    if (!st->vx[v].removable || !st->vx[v].alive || st->vx[v].vf_count == 0)
-        return 0;
     const uint32_t *lv = st->pool + st->vx[v].vf_start;
     target best = { 0, UINT32_MAX };
     for (uint32_t i = 0; i < st->vx[v].vf_count; i++) {
@@ -487,6 +486,14 @@ static int queue_cheapest(state *st, uint32_t v)
         if (best.u == UINT32_MAX || target_less(&t, &best))
             best = t;
     }
+    return best;
+}
+
+static int queue_cheapest(state *st, uint32_t v)
+{
+    if (!st->vx[v].removable || !st->vx[v].alive || st->vx[v].vf_count == 0)
+        return 0;
+    target best = cheapest_target(st, v);
     st->vx[v].best_cost = best.cost;
     st->vx[v].best_u = best.u;
     st->vx[v].fallback = 0;
@@ -784,6 +791,13 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
             for (size_t i = 0; i < st.heap_len; i++)
                 if (removable[st.heap[i].v] == 1)
                     cs->bucket_of[st.heap[i].v] = (uint16_t)en_cost_bucket(st.heap[i].cost);
+            for (uint32_t v = 0; v < s->nv; v++) {
+                if (removable[v] != EN_TIER_PRICED || !st.vx[v].alive || st.vx[v].vf_count == 0)
+                    continue;
+                target t = cheapest_target(&st, v);
+                if (t.u != UINT32_MAX)
+                    cs->bucket_of[v] = (uint16_t)en_cost_bucket(t.cost);
+            }
         }
         for (uint32_t v = 0; v < s->nv && rc == 0; v++) {
             if (!st.vx[v].removable || !st.vx[v].alive)

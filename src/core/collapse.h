@@ -82,6 +82,7 @@ typedef struct en_collapse_settings {
 #define EN_COST_BUCKETS 8192
 #define EN_COST_BUCKET_EXP0 (-300)
 #define EN_COST_NONE UINT16_MAX
+#define EN_TIER_PRICED 3
 static inline int en_cost_bucket(double c)
 {
     if (!(c > 0))
@@ -127,11 +128,13 @@ void en_quadrics_from_faces(const en_slab *s, en_quadric *q, double *unit_normal
 int en_collapse_arrays_new(en_ctxpool **arrays);
 
 /*
- * Collapse every vertex v with removable[v] != 0 that can go, cheapest first,
- * until a limit of cs is met. removable[v] == 2 marks a second tier: such a
- * vertex is queued only once no first-tier collapse is left and a face or
- * vertex limit is still unmet (the target stage gives up skeleton samples
- * this way, docs/method.md §13).
+ * Collapse every vertex v with removable[v] 1 or 2 that can go, cheapest
+ * first, until a limit of cs is met. removable[v] == 2 marks a second tier:
+ * such a vertex is queued only once no first-tier collapse is left and a
+ * face or vertex limit is still unmet (the target stage gives up skeleton
+ * samples this way, docs/method.md §13). removable[v] == EN_TIER_PRICED: v
+ * never goes here, but cs.bucket_of prices its cheapest collapse (a sample
+ * a later pass may free).
  * Needs the slab's stars. q (per vertex) accumulates through the collapses.
  * ref_normal (per face, from en_quadrics_from_faces() on the input) bounds
  * how far any face may turn.

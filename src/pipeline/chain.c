@@ -89,11 +89,11 @@ struct en_pass {
     en_chain *chain;
     int index;
     gauss_sphere g;
-    /* Its plan (NULL: the ε-net pass). Under EN_SKELETON_CHOSEN the first
-     * slab chooses the density and the pass waits for it; its later slabs
-     * are classified at that density (g). */
+    /* Its plan (NULL: the ε-net pass). Under EN_SKELETON_CHOSEN, g is the
+     * candidate frequency the next slab is classified at, and level_total
+     * the samples of the slabs retired, by level (en_slab_work.level_count). */
     const en_pass_plan *plan;
-    int density_pending;
+    uint64_t level_total[EN_LEVELS];
     /* Batched: only the chunk jobs touch it (see chunk_job). */
     en_chunker ch;
     /* batched: the chunker runs as chunk jobs (the pass's input was checked
@@ -138,6 +138,7 @@ struct en_chain {
     epsnet_error failure;
     en_chain_stats stats;          /* pass-summed counts; seam counts are added at the end */
     uint64_t *cost_hist;           /* a priced plan: the slabs' costs left (EN_COST_BUCKETS), summed at retire */
+    uint64_t *level_hist;          /* ... and their samples', by level (en_slab_work.level_hist) */
     en_chain_spares own;           /* without cfg.spares */
     en_chain_spares *spares;       /* cfg.spares, or &own */
 };
@@ -407,6 +408,9 @@ static int retire_one(en_pass *p, epsnet_error *err)
         if (plan && plan->priced && w->cost_hist && c->cost_hist)
             for (int b = 0; b < EN_COST_BUCKETS; b++)
                 c->cost_hist[b] += w->cost_hist[b];
+        if (plan && plan->priced && w->has_levels && w->level_hist && c->level_hist)
+            for (size_t b = 0; b < (size_t)EN_LEVELS * EN_COST_BUCKETS; b++)
+                c->level_hist[b] += w->level_hist[b];
         if (plan && !plan->priced) { /* a priced pass's skeleton goes on to the next */
             c->stats.skeleton_kept += w->skeleton_kept;
             c->stats.samples_given_up += w->given_up;
@@ -414,11 +418,11 @@ static int retire_one(en_pass *p, epsnet_error *err)
                 c->stats.target_faces += w->keep_faces;
             c->stats.stopped_by_error |= w->stopped_by_error;
         }
-        if (plan && plan->skeleton == EN_SKELETON_CHOSEN && w->choose_density) {
-            c->stats.skeleton_frequency = c->stats.skeleton_finest_frequency = w->chosen.n;
-            p->g = w->chosen; /* the pass's later slabs */
-        } else if (plan && plan->skeleton == EN_SKELETON_CHOSEN && w->chosen.n < c->stats.skeleton_frequency) {
-            c->stats.skeleton_frequency = w->chosen.n; /* coarsened (slab_work.c: thin_density) */
+        if (plan && plan->skeleton == EN_SKELETON_CHOSEN) {
+            for (int k = 0; k < EN_LEVELS; k++)
+                p->level_total[k] += w->level_count[k];
+            if (plan->one_slab)
+                c->stats.skeleton_frequency = w->chosen.n;
         }
         for (int k = 0; k < EN_REFUSE_KINDS; k++)
             c->stats.refused[k] += w->refused[k];
@@ -461,9 +465,60 @@ static int tick(en_pass *p, int done_now, epsnet_error *err)
     return 0;
 }
 
+static int log2_of(uint32_t n)
+{
+    int k = 0;
+    while (n > 1) {
+        n >>= 1;
+        k++;
+    }
+    return k;
+}
+
+/*
+ * EN_SKELETON_CHOSEN on slabs (slab_work.c: nested_density), before slab
+ * k = 1, 2, 4, 8, ...: with every slab before it retired, the candidate
+ * falls to the finest power of two whose samples so far are within the
+ * skeleton's budget. A finer one is out for good (counts only grow), so
+ * the candidate is never below the frequency the pass ends up choosing.
+ * At fixed slabs, after all the slabs before them, so that every -j
+ * classifies each slab at the same candidate; a fine candidate costs (a
+ * vertex at frequency 128 took 7 times what it takes at 8) and its slabs
+ * thin less, so the first checkpoints come early.
+ */
+static int lower_candidate(en_pass *p, epsnet_error *err)
+{
+    int rc = 0;
+    while (rc == 0 && en_jobring_in_flight(p->ring))
+        rc = retire_one(p, err);
+    int top = log2_of(p->g.n);
+    int k = en_skeleton_level(p->level_total, top, (double)p->plan->skeleton_budget);
+    if (rc == 0 && k < top) {
+        gauss_rotation rot = p->g.rot;
+        if (gauss_init(&p->g, 1u << k, &rot))
+            rc = en_error_set(err, EPSNET_ENOMEM, p->chain->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                              "out of memory");
+    }
+    return rc;
+}
+
+/* The frequency a chosen skeleton ends at (after the pass's end). */
+static uint32_t chosen_frequency(const en_pass *p)
+{
+    return 1u << en_skeleton_level(p->level_total, log2_of(p->g.n), (double)p->plan->skeleton_budget);
+}
+
 static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
 {
     en_chain *c = p->chain;
+    if (p->plan && p->plan->skeleton == EN_SKELETON_CHOSEN && !p->plan->one_slab && c->cfg.mode == EN_SLAB_SIMPLIFY &&
+        w->index > 0 && !(w->index & (w->index - 1))) {
+        int rc = lower_candidate(p, err);
+        if (rc) {
+            free_work(w);
+            return rc;
+        }
+    }
     w->g = &p->g;
     w->mode = c->cfg.mode;
     w->max_normal_dev = c->cfg.max_normal_dev;
@@ -471,9 +526,7 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     w->quadric_at = c->cfg.quadrics_in ? c->cfg.attr_size : UINT32_MAX;
     w->lock_offset = c->cfg.lock_offset;
     w->lock_type = c->cfg.mode == EN_SLAB_SIMPLIFY ? c->cfg.lock_type : 0;
-    int choosing = p->density_pending;
     w->plan = c->cfg.mode == EN_SLAB_SIMPLIFY ? p->plan : NULL;
-    w->choose_density = choosing;
     if (watched(p))
         w->progress = &p->progress; /* its only slab: the counts start at zero */
     int rc = 0;
@@ -492,13 +545,6 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     } else {
         free_work(w);
         return rc;
-    }
-    /* One density for the whole pass: the first slab chooses it, alone,
-     * and every later slab is classified at it (docs/method.md §13). */
-    if (choosing) {
-        p->density_pending = 0;
-        while (rc == 0 && en_jobring_in_flight(p->ring))
-            rc = retire_one(p, err);
     }
     return rc;
 }
@@ -771,7 +817,9 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
         p->index = i;
         p->g = *cfg->sphere;
         p->plan = i == 0 ? cfg->plan : NULL;
-        p->density_pending = p->plan && p->plan->skeleton == EN_SKELETON_CHOSEN;
+        if (p->plan && p->plan->skeleton == EN_SKELETON_CHOSEN &&
+            gauss_init(&p->g, p->plan->finest_frequency, &cfg->sphere->rot))
+            rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         if (i > 0) {
             gauss_rotation r;
             gauss_pass_rotation(cfg->seed, i + 1, &r);
@@ -802,6 +850,7 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
         if (rc == 0 && p->batched && next_fill(p))
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         p->ch.mark_at = marked ? cfg->attr_size + (uint32_t)EN_CARRIED_MARKS_AT : UINT32_MAX;
+        p->ch.mark_level = marked ? p->plan->skeleton_level : 0xff;
         p->ch.stash = c->spares->slab_works;
         p->st.collapse_arrays = c->spares->collapse_arrays;
         p->ch.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? (uint32_t)in_size : 0;
@@ -819,6 +868,11 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             (!(p->st.cost_hist = en_calloc(EN_COST_BUCKETS, sizeof *p->st.cost_hist)) ||
              (!c->cost_hist && !(c->cost_hist = en_calloc(EN_COST_BUCKETS, sizeof *c->cost_hist)))))
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+        size_t nlevel = (size_t)EN_LEVELS * EN_COST_BUCKETS;
+        if (rc == 0 && priced && p->plan->skeleton == EN_SKELETON_CHOSEN &&
+            (!(p->st.level_hist = en_calloc(nlevel, sizeof *p->st.level_hist)) ||
+             (!c->level_hist && !(c->level_hist = en_calloc(nlevel, sizeof *c->level_hist)))))
+            rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         /* a paced pass's last take aims at its goal (an error bound's last
          * slab is as any other) */
         p->ch.cut_last = streamed && p->plan->seams != EN_SEAMS_ERROR;
@@ -835,6 +889,12 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
 void en_chain_stats_get(const en_chain *c, en_chain_stats *out)
 {
     *out = c->stats;
+    const en_pass *first = &c->pass[0];
+    if (first->plan && first->plan->skeleton == EN_SKELETON_CHOSEN) {
+        out->skeleton_finest_frequency = first->plan->finest_frequency;
+        if (!first->plan->one_slab)
+            out->skeleton_frequency = chosen_frequency(first);
+    }
     uint64_t chunk_active = 0;
     for (int i = 0; i < c->cfg.passes; i++) {
         const en_stitch_stats *ss = &c->pass[i].st.stats;
@@ -865,13 +925,22 @@ void en_chain_stats_get(const en_chain *c, en_chain_stats *out)
     }
 }
 
-void en_chain_cost_hist(const en_chain *c, uint64_t *add)
+void en_chain_cost_hist(const en_chain *c, int skeleton_level, uint64_t *add)
 {
     for (int b = 0; c->cost_hist && b < EN_COST_BUCKETS; b++)
         add[b] += c->cost_hist[b];
     for (int i = 0; i < c->cfg.passes; i++)
         for (int b = 0; c->pass[i].st.cost_hist && b < EN_COST_BUCKETS; b++)
             add[b] += c->pass[i].st.cost_hist[b];
+    /* the samples finer than the skeleton chosen are free from now on */
+    for (int k = skeleton_level + 1; k < EN_LEVELS; k++) {
+        size_t row = (size_t)k * EN_COST_BUCKETS;
+        for (int b = 0; c->level_hist && b < EN_COST_BUCKETS; b++)
+            add[b] += c->level_hist[row + (size_t)b];
+        for (int i = 0; i < c->cfg.passes; i++)
+            for (int b = 0; c->pass[i].st.level_hist && b < EN_COST_BUCKETS; b++)
+                add[b] += c->pass[i].st.level_hist[row + (size_t)b];
+    }
 }
 
 void en_chain_free(en_chain **pc)
@@ -908,6 +977,7 @@ void en_chain_free(en_chain **pc)
     }
     en_free(c->pass);
     en_free(c->cost_hist);
+    en_free(c->level_hist);
     en_chain_spares_free(&c->own);
     en_free(c);
     *pc = NULL;

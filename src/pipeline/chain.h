@@ -129,8 +129,10 @@ void en_chain_stats_get(const en_chain *chain, en_chain_stats *stats);
 
 /* A priced pass (after the end): add into add[] (EN_COST_BUCKETS) the costs
  * of the collapses it left, one count per vertex that may still go, in its
- * cheapest collapse's bucket (pipeline/target_stage.h). */
-void en_chain_cost_hist(const en_chain *chain, uint64_t *add);
+ * cheapest collapse's bucket (pipeline/target_stage.h): its non-samples,
+ * and its samples above skeleton_level (log2 of the frequency the skeleton
+ * takes; EN_SKELETON_CHOSEN marks each with its level). */
+void en_chain_cost_hist(const en_chain *chain, int skeleton_level, uint64_t *add);
 
 /* Wait for the slabs in flight, free everything; sets *chain to NULL.
  * Accepts NULL. */

@@ -12,6 +12,7 @@ int en_chunker_init(en_chunker *c, uint32_t slab_vertices, const char *path)
     c->slab_vertices = slab_vertices ? slab_vertices : 1;
     c->path = path;
     c->mark_at = UINT32_MAX;
+    c->mark_level = 0xff;
     /* note: live ids span about the stream's width, which a slab's worth
      * of vertices covers twice over in coherent streams; the rest go to the
      * idmap's hash. */
@@ -98,7 +99,7 @@ static int new_vertex(en_chunker *c, const epsnet_record *rec, epsnet_error *err
     uint64_t marks = 0;
     if (c->mark_at != UINT32_MAX && rec->attr)
         memcpy(&marks, rec->attr + c->mark_at, sizeof marks);
-    v->skeleton = (marks & EN_MARK_SKELETON) != 0;
+    v->skeleton = (marks & EN_MARK_SKELETON) && (int)((marks >> EN_MARK_LEVEL_SHIFT) & 0xff) <= c->mark_level;
     if (en_idmap_put(&c->map, c->next_gid, i)) {
         if (i + 1 == c->v_len)
             c->v_len--;

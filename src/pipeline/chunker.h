@@ -41,6 +41,7 @@ typedef struct en_chunker {
     uint32_t mark_at;          /* where a vertex record's attribute bytes hold its marks
                                 * (EN_CARRIED_MARKS_AT), whose EN_MARK_SKELETON becomes
                                 * EN_V_SKELETON; UINT32_MAX: nowhere (the default) */
+    int mark_level;            /* a mark is the skeleton at this level or below (EN_MARK_LEVEL_SHIFT) */
     int cut_last;              /* the end always cuts a last slab (empty if need be): a streamed
                                 * target's stitcher aims its last take at the target */
     uint32_t attr_size;        /* vertex attribute bytes per record (0: none) */

@@ -19,13 +19,17 @@
 /* Where a slab's skeleton comes from. */
 typedef enum en_skeleton_rule {
     EN_SKELETON_SPHERE,   /* the samples at the pass's sphere */
-    /* The finest geodesic frequency whose samples are at most
-     * skeleton_share of the vertices the plan keeps: the pass's first slab
-     * chooses it, and a later slab whose own samples crowd it takes a
-     * coarser one (slab_work.c: choose_density, thin_density). */
+    /* The finest power-of-two frequency, at most finest_frequency, whose
+     * samples are at most the skeleton's budget, from the whole pass's
+     * counts (slab_work.c: nested_density). */
     EN_SKELETON_CHOSEN,
-    EN_SKELETON_MARKED,   /* the records' marks (EN_MARK_SKELETON): an earlier pass's */
+    /* The records' marks (EN_MARK_SKELETON) of samples at 2^skeleton_level
+     * or coarser: an earlier pass's skeleton. */
+    EN_SKELETON_MARKED,
 } en_skeleton_rule;
+
+/* Levels of the skeleton's density: log2 of a frequency, 0 ... EN_LEVELS - 1. */
+#define EN_LEVELS 8
 
 /* Where the collapses of W, the seams, stop. */
 typedef enum en_seam_rule {
@@ -43,6 +47,12 @@ typedef struct en_pass_plan {
     /* The skeleton's most (EN_SKELETON_CHOSEN), and the most the corners of
      * glued membranes may lock: a share of the vertices the plan keeps. */
     double skeleton_share;
+    /* EN_SKELETON_CHOSEN: the finest candidate (a power of two, at most
+     * 2^(EN_LEVELS - 1)), and on slabs the skeleton's most in the whole
+     * pass (one slab: skeleton_share of what it keeps). */
+    uint32_t finest_frequency;
+    uint64_t skeleton_budget;
+    int skeleton_level;           /* EN_SKELETON_MARKED: see there */
     /* Samples (and the non-manifold corners kept as samples) are a second
      * tier that a count takes last, when it cannot be met without them;
      * 0: they stay. */

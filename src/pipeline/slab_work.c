@@ -22,6 +22,7 @@ void en_slab_work_free(en_slab_work *w)
     en_free(w->fflags);
     en_free(w->vclass);
     en_free(w->vgvertex);
+    en_free(w->vlevel);
     en_free(w->q);
     en_free(w->ref);
     en_free(w->tri);
@@ -36,6 +37,7 @@ void en_slab_work_free(en_slab_work *w)
     en_free(w->removable);
     en_free(w->attr);
     en_free(w->cost_hist);
+    en_free(w->level_hist);
     en_free(w->bucket_of);
     en_slab_work_init(w);
 }
@@ -49,7 +51,7 @@ void en_slab_work_reset(en_slab_work *w)
 #define KEEP(field) w->field = keep.field
     KEEP(owner), KEEP(fflags), KEEP(vclass), KEEP(vgvertex), KEEP(q), KEEP(ref), KEEP(tri), KEEP(falive);
     KEEP(valive), KEEP(border), KEEP(future), KEEP(degree), KEEP(band), KEEP(fnormal), KEEP(ftri), KEEP(removable);
-    KEEP(attr), KEEP(cost_hist), KEEP(bucket_of);
+    KEEP(attr), KEEP(cost_hist), KEEP(bucket_of), KEEP(vlevel), KEEP(level_hist);
     KEEP(cap);
 #undef KEEP
 }
@@ -75,14 +77,17 @@ static int oom(en_slab_work *w)
                         "out of memory in slab %u (%u vertices, %u faces)", w->index, w->s.nv, w->s.nt);
 }
 
-static int classify(en_slab_work *w)
+/* Classify w at w->g; with levels, each sample's halvings too (vlevel,
+ * en_classify_vertices_levels). */
+static int classify_levels(en_slab_work *w, int levels)
 {
     const en_slab *s = &w->s;
     size_t nv = (size_t)s->nv + 1, nt = (size_t)s->nt + 1;
     if (room(&w->fnormal, &w->cap.fnormal, 3 * nt, sizeof *w->fnormal) ||
         room(&w->ftri, &w->cap.ftri, nt, sizeof *w->ftri) ||
         zeroed(&w->vclass, &w->cap.vclass, nv, sizeof *w->vclass) ||
-        room(&w->vgvertex, &w->cap.vgvertex, nv, sizeof *w->vgvertex))
+        room(&w->vgvertex, &w->cap.vgvertex, nv, sizeof *w->vgvertex) ||
+        (levels && zeroed(&w->vlevel, &w->cap.vlevel, nv, sizeof *w->vlevel)))
         return oom(w);
     double *fnormal = w->fnormal;
     int32_t *ftri = w->ftri;
@@ -100,12 +105,18 @@ static int classify(en_slab_work *w)
                             (unsigned long long)s->gid[t[0]], (unsigned long long)s->gid[t[1]],
                             (unsigned long long)s->gid[t[2]]);
     }
-    if (en_classify_vertices(w->g, s, fnormal, ftri, 0, w->nowned, w->vclass, w->vgvertex, &w->counts))
+    if (en_classify_vertices_levels(w->g, s, fnormal, ftri, 0, w->nowned, w->vclass, w->vgvertex,
+                                    levels ? w->vlevel : NULL, &w->counts))
         return oom(w);
     /* A face is held by every slab owning one of its corners: count it once, at its home. */
     for (uint32_t f = 0; f < s->nt; f++)
         w->counts.zero_area_faces += ftri[f] < 0 && (w->fflags[f] & EN_F_HOME);
     return 0;
+}
+
+static int classify(en_slab_work *w)
+{
+    return classify_levels(w, 0);
 }
 
 static uint64_t vertices_on_faces(const en_slab *s)
@@ -208,43 +219,9 @@ static uint64_t target_goal(const en_slab_work *w)
 }
 
 /*
- * The share of the sphere's triangles that the normals of w's faces fall in.
- * A slab of a streamed pass sees part of the mesh, and often only part of
- * its normals: the first slab of a sorted closed surface is a cap, whose
- * normals cover a cap of the sphere, while the slabs across its middle
- * cover a band all around it.
+ * Classify w at geodesic frequency n (in w->chosen). *samples: how many.
  */
-static double normal_coverage(const en_slab_work *w)
-{
-    uint32_t nt = w->g->ntris;
-    uint8_t *hit = en_calloc((size_t)nt / 8 + 1, 1);
-    if (!hit)
-        return -1;
-    uint32_t covered = 0;
-    for (uint32_t f = 0; f < w->s.nt; f++) {
-        int32_t t = w->ftri[f];
-        if (t < 0 || (hit[t >> 3] >> (t & 7)) & 1)
-            continue;
-        hit[t >> 3] |= (uint8_t)(1u << (t & 7));
-        covered++;
-    }
-    en_free(hit);
-    return nt ? (double)covered / nt : 1;
-}
-
-/*
- * Classify w at geodesic frequency n (in w->chosen). *samples: how many, as
- * the choice counts them. In one slab (the whole mesh) that is the count.
- * In the first slab of a streamed pass it is a prediction for a slab of the
- * same size whose normals cover the whole sphere, as a middle slab of a
- * closed surface nearly does: the samples beyond the locked vertices scale
- * with the coverage (samples are Gaussian vertices wrapped by the normals,
- * docs/method.md §13), so they are divided by the slab's own coverage.
- * This errs towards coarse spheres, which cost little quality, while a
- * sphere chosen too fine leaves slabs across the middle mostly samples: the
- * thin pass cannot thin them and the finish gets most of the mesh.
- */
-static int classify_at(en_slab_work *w, uint32_t n, uint64_t *samples, int predict)
+static int classify_at(en_slab_work *w, uint32_t n, uint64_t *samples)
 {
     gauss_rotation rot = w->g->rot;
     if (gauss_init(&w->chosen, n, &rot))
@@ -253,29 +230,8 @@ static int classify_at(en_slab_work *w, uint32_t n, uint64_t *samples, int predi
     memset(&w->counts, 0, sizeof w->counts);
     int rc = classify(w);
     *samples = w->counts.samples;
-    if (rc == 0 && predict && !w->plan->one_slab) {
-        double cov = normal_coverage(w);
-        if (cov < 0)
-            return oom(w);
-        uint64_t locked = w->counts.locked;
-        if (cov > 0 && *samples > locked)
-            *samples = locked + (uint64_t)ceil((double)(*samples - locked) / cov);
-    }
     return rc;
 }
-
-/* From w classified at frequency 1 with samples1 samples: the frequency
- * whose samples are about `budget`. Beyond the locked vertices, samples
- * grow about like the sphere's 4n^2 + 2 vertices (6 at n = 1). */
-static double predicted_frequency(const en_slab_work *w, uint64_t samples1, double budget)
-{
-    double locked = (double)w->counts.locked, free1 = (double)samples1 - locked;
-    double grow = free1 > 0 ? (budget - locked) / free1 : 1e9;
-    return sqrt((6 * grow - 2) / 4);
-}
-
-static const uint32_t freq[] = { 1, 2, 3, 4, 6, 8, 11, 16, 23, 32, 45, 64, 91, 128 };
-#define NFREQ ((int)(sizeof freq / sizeof *freq))
 
 /* The samples the skeleton may have in this slab: skeleton_share of the
  * vertices the target keeps of it (0: no count to aim at). */
@@ -284,121 +240,70 @@ static double skeleton_budget(en_slab_work *w)
     return w->plan->skeleton_share * (double)target_goal(w);
 }
 
-/*
- * The skeleton's density (docs/method.md §13): the finest geodesic frequency
- * of the list whose samples are at most skeleton_share of the vertices the
- * target keeps. The list goes by steps of about sqrt 2 in frequency (2 in
- * sphere vertices). Each try is a classification of the whole slab, so the
- * search starts where frequency 1 predicts: beyond the locked vertices,
- * samples grow about like the sphere's 4n^2 + 2 vertices. From there it
- * walks up while under the budget (and the count still grows), or down
- * until under it (sample counts grow with n, but not strictly, so it walks
- * rather than bisects). With no count to aim at (an error bound alone), the
- * sphere given stays. Leaves the classification at the chosen frequency in
- * w.
- */
-static int choose_density(en_slab_work *w)
+static int log2_of(uint32_t n)
 {
-    const int nfreq = NFREQ;
-    w->chosen = *w->g;
-    double budget = skeleton_budget(w);
-    if (budget <= 0)
-        return classify(w);
-    uint64_t samples;
-    int rc = classify_at(w, freq[0], &samples, 1);
-    if (rc || (double)samples > budget)
-        return rc; /* even the coarsest is over: frequency 1, samples may go */
-    double n_est = predicted_frequency(w, samples, budget);
-    int i = 0;
-    while (i + 1 < nfreq && i < 4 && (double)freq[i + 1] <= n_est)
-        i++; /* at most 4 steps at once: where the count stops growing
-              * (CAD), the prediction overshoots, and a fine sphere costs */
-    int best = 0, at = 0; /* best under budget so far; frequency classified last */
-    if (i > 0) {
-        if ((rc = classify_at(w, freq[i], &samples, 1)))
-            return rc;
-        at = i;
-        if ((double)samples <= budget) {
-            best = i;
-            /* up while under the budget; a count that stops growing (flat
-             * parts, a CAD model's few normals) ends the walk too: finer
-             * spheres then only cost classifications */
-            uint64_t last = samples;
-            for (int flat = 0; best + 1 < nfreq && !flat;) {
-                if ((rc = classify_at(w, freq[best + 1], &samples, 1)))
-                    return rc;
-                at = best + 1;
-                if ((double)samples > budget)
-                    break;
-                best++;
-                flat = (double)samples < 1.05 * (double)last; /* under 5% more for twice the sphere */
-                last = samples;
-            }
-        } else {
-            for (best = i - 1; best > 0; best--) {
-                if ((rc = classify_at(w, freq[best], &samples, 1)))
-                    return rc;
-                at = best;
-                if ((double)samples <= budget)
-                    break;
-            }
-        }
+    int k = 0;
+    while (n > 1) {
+        n >>= 1;
+        k++;
     }
-    return at == best ? 0 : classify_at(w, freq[best], &samples, 1);
+    return k;
+}
+
+int en_skeleton_level(const uint64_t *level_count, int top, double budget)
+{
+    double sum = 0;
+    int pick = 0; /* even the coarsest over: frequency 1, samples may go */
+    for (int k = 0; k <= top; k++) {
+        sum += (double)level_count[k];
+        if (sum > budget)
+            break;
+        pick = k;
+    }
+    return pick;
 }
 
 /*
- * A later slab of a streamed thin pass, classified at the density the first
- * slab chose (docs/method.md §13). The first slab saw one end of the stream,
- * whose normals may be few (the cap of a sorted closed surface): where this
- * slab's samples are over THIN_SLACK times its share of the skeleton, it
- * walks down the frequencies until they fit, so that the thin pass can
- * still thin it. A coarser sphere here keeps the coarser ε everywhere (a
- * finer ε-net elsewhere covers within the coarser ε as well), and the run
- * reports the coarsest. Each slab decides from its own vertices alone, so
- * the result does not depend on the order slabs finish in.
- *
- * note: a fine sphere's classification costs several coarse ones (a vertex
- * visits every Gaussian vertex its normals wrap: `gen bumpy` 20M at 10%,
- * 88 ms a slab at frequency 45 against 9 ms at 1), so a slab first looks
- * at frequency 1 and predicts the pass's count from it, as choose_density
- * does; when that is over, it goes straight to the predicted frequency.
- * Measured on that run: classification 19.4 s of slab time before, 6.5 s
- * with the look first, against the ε-net pass's 3.4 s (bench/RESULTS.md).
+ * EN_SKELETON_CHOSEN (docs/method.md §13): the skeleton is the ε-net at the
+ * finest power-of-two frequency whose samples are at most the skeleton's
+ * budget, decided from the whole pass's counts. G at f/2 is a subset of G
+ * at f (classify.h), so one classification at the pass's candidate for
+ * this slab (w->g, a power of two) gives each sample the coarsest power of
+ * two it is still a sample at (vlevel, as log2 of that frequency), and the
+ * counts by it (level_count) add up over slabs to the count at every
+ * coarser candidate. The count of a vertex is its own (its whole star is
+ * here), so the sums, and the choice, do not depend on where slabs are
+ * cut or in what order the mesh comes. A slab of a streamed pass keeps
+ * every sample at its candidate (the chain lowers the candidate, at fixed
+ * slabs, once the counts so far exclude it: chain.c, lower_candidate); the
+ * pass decides at its end, and the marks carry each sample's level to the
+ * passes after it. A one-slab pass decides here, and is classified again
+ * at the frequency chosen.
  */
-#define THIN_SLACK 2.0
-
-static int thin_density(en_slab_work *w)
+static int nested_density(en_slab_work *w)
 {
     w->chosen = *w->g;
-    uint32_t n_pass = w->g->n;
-    double budget = skeleton_budget(w);
-    if (budget <= 0 || n_pass <= freq[0])
-        return classify(w);
-    uint64_t samples;
-    int rc = classify_at(w, freq[0], &samples, 0);
-    if (rc || (double)samples > budget)
-        return rc; /* even the coarsest is over: frequency 1, samples may go */
-    double n_est = n_pass;
-    if (n_pass > predicted_frequency(w, samples, THIN_SLACK * budget)) {
-        n_est = predicted_frequency(w, samples, budget);
-    } else if ((rc = classify_at(w, n_pass, &samples, 0)) != 0 || (double)samples <= THIN_SLACK * budget) {
+    int top = log2_of(w->g->n);
+    int rc = classify_levels(w, 1);
+    if (rc)
         return rc;
-    } else { /* predicted under, found over: from the count found */
-        double locked = (double)w->counts.locked;
-        n_est = samples > locked && budget > locked ? n_pass * sqrt((budget - locked) / ((double)samples - locked)) : 1;
-    }
-    for (int i = NFREQ - 1; i >= 0 && rc == 0; i--) {
-        if (freq[i] >= n_pass || (i > 0 && freq[i] > n_est))
+    memset(w->level_count, 0, sizeof w->level_count);
+    for (uint32_t v = 0; v < w->nowned; v++) {
+        if (!(w->vclass[v] & EN_C_SAMPLE))
             continue;
-        if (freq[i] == w->chosen.n)
-            break; /* classified there already, and under */
-        rc = classify_at(w, freq[i], &samples, 0);
-        if ((double)samples <= budget)
-            break;
-        n_est = freq[i]; /* still over: the next step down */
+        int kept = w->vlevel[v] < top ? w->vlevel[v] : top; /* locked and needles: at every one */
+        w->vlevel[v] = (uint8_t)(top - kept);
+        w->level_count[top - kept]++;
     }
-    return rc;
+    w->has_levels = 1;
+    if (!w->plan->one_slab)
+        return 0;
+    int pick = en_skeleton_level(w->level_count, top, skeleton_budget(w));
+    if (pick == top)
+        return 0;
+    w->has_levels = 0;
+    uint64_t samples;
+    return classify_at(w, 1u << pick, &samples);
 }
 
 /* The finish of a streamed target: the first pass classified, and its
@@ -562,6 +467,12 @@ static int simplify(en_slab_work *w)
         if (w->plan && w->plan->samples_may_go &&
             (k == EN_VK_SAMPLE || (k == EN_VK_LOCKED && nonmanifold_only(w, v))))
             removable[v] = 2;
+        /* a sample finer than the coarsest density is priced: the pass's
+         * choice may free it, and the rounds' first ceiling then counts it
+         * (nested_density) */
+        if (w->plan && w->plan->priced && w->has_levels && owned_here(w, v) && k == EN_VK_SAMPLE &&
+            w->vlevel[v] > 0)
+            removable[v] = EN_TIER_PRICED;
         s->vflags[v] = (uint8_t)((s->vflags[v] & ~EN_V_TARGET) | (en_receives(k) ? EN_V_TARGET : 0));
         nremovable += removable[v];
         if (!owned_here(w, v))
@@ -608,6 +519,12 @@ static int simplify(en_slab_work *w)
                 room(&w->bucket_of, &w->cap.bucket_of, nv, sizeof *w->bucket_of))
                 return oom(w);
             memset(w->cost_hist, 0, EN_COST_BUCKETS * sizeof *w->cost_hist);
+            if (w->has_levels) {
+                size_t n = (size_t)EN_LEVELS * EN_COST_BUCKETS;
+                if (!w->level_hist && !(w->level_hist = en_malloc(n * sizeof *w->level_hist)))
+                    return oom(w);
+                memset(w->level_hist, 0, n * sizeof *w->level_hist);
+            }
             cs.bucket_of = w->bucket_of; /* filled by the collapse core, when it runs */
         }
     }
@@ -648,7 +565,9 @@ static int simplify(en_slab_work *w)
         for (uint32_t v = 0; v < w->nowned; v++)
             if (w->valive[v] && cs.bucket_of[v] != EN_COST_NONE &&
                 (w->border[v] == EN_BORDER_INNER || w->border[v] == EN_BORDER_OUTER))
-                w->cost_hist[cs.bucket_of[v]]++;
+                *(w->has_levels && (w->vclass[v] & EN_C_SAMPLE)
+                      ? &w->level_hist[(size_t)w->vlevel[v] * EN_COST_BUCKETS + cs.bucket_of[v]]
+                      : &w->cost_hist[cs.bucket_of[v]]) += 1;
     return 0;
 }
 
@@ -735,7 +654,7 @@ int en_slab_work_run(void *arg)
     else if (w->plan && w->plan->skeleton == EN_SKELETON_MARKED)
         w->rc = skeleton_from_marks(w);
     else if (w->plan && w->plan->skeleton == EN_SKELETON_CHOSEN && w->mode == EN_SLAB_SIMPLIFY)
-        w->rc = w->choose_density ? choose_density(w) : thin_density(w);
+        w->rc = nested_density(w);
     else
         w->rc = classify(w);
     if (w->rc == 0 && w->mode == EN_SLAB_SIMPLIFY) {

@@ -42,6 +42,10 @@ typedef enum en_slab_mode { EN_SLAB_SAMPLE, EN_SLAB_SIMPLIFY } en_slab_mode;
 #define EN_CARRIED_MARKS_AT sizeof(en_quadric)
 #define EN_CARRIED_BYTES (sizeof(en_quadric) + sizeof(uint64_t))
 #define EN_MARK_SKELETON 1u            /* a skeleton sample */
+/* ... and, in the byte above, log2 of the coarsest frequency it is a
+ * sample at (the thinning's levels, nested_density; 0 when not known,
+ * a sample at every frequency the passes after it may keep). */
+#define EN_MARK_LEVEL_SHIFT 8
 
 /* A slab's collapses as they go, read on another thread (a one-slab
  * pass's progress, docs/architecture.md §10): `total` is set once before
@@ -81,10 +85,6 @@ typedef struct en_slab_work {
     en_slab_mode mode;
     double max_normal_dev;
     const en_pass_plan *plan;     /* NULL: the ε-net pass */
-    /* EN_SKELETON_CHOSEN: this slab chooses the pass's density (its first
-     * slab, which the chain waits for); the later ones are classified at
-     * the sphere it chose (g) and may coarsen it. */
-    int choose_density;
     en_slab_progress *progress;   /* NULL, or where the collapses are reported (the chain's) */
     en_ctxpool *collapse_arrays;  /* the chain's en_collapse_arrays_new() pool */
 
@@ -110,6 +110,12 @@ typedef struct en_slab_work {
      * when the density was chosen), samples collapsed to meet the target,
      * samples kept, and whether the error bound left collapses undone. */
     gauss_sphere chosen;
+    /* EN_SKELETON_CHOSEN (slab_work.c: nested_density): with has_levels,
+     * per owned sample the log2 of the coarsest power-of-two frequency it
+     * is a sample at; and the owned samples by that level. */
+    uint8_t *vlevel;
+    int has_levels;
+    uint64_t level_count[EN_LEVELS];
     uint64_t given_up, skeleton_kept, keep_faces;
     /* The faces the slab came with, and, under a target, the faces of
      * glued membranes removed before the classification (docs/method.md
@@ -128,6 +134,9 @@ typedef struct en_slab_work {
      * outer; the ring's go with the seams, whose stitcher counts them),
      * which the target stage sums to set the next round's ceiling. */
     uint64_t *cost_hist;
+    /* ... and with has_levels, those of the samples, by level (EN_LEVELS
+     * rows of EN_COST_BUCKETS): what the pass's choice of density frees. */
+    uint64_t *level_hist;
 
     /* Worker scratch, and the capacity of every array above: a slab work is
      * reused for a later cut (en_slab_work_reset), so a run in its steady
@@ -138,7 +147,7 @@ typedef struct en_slab_work {
     uint16_t *bucket_of;          /* a priced plan's: en_collapse_settings.bucket_of */
     struct { /* in elements; attr in bytes */
         size_t owner, fflags, vclass, vgvertex, q, ref, tri, falive, valive, border, future, degree, band, fnormal,
-            ftri, removable, attr, bucket_of;
+            ftri, removable, attr, bucket_of, vlevel;
     } cap;
 } en_slab_work;
 
@@ -147,6 +156,10 @@ void en_slab_work_init(en_slab_work *w);
 void en_slab_work_reset(en_slab_work *w);
 /* Free everything (w is then as after en_slab_work_init). */
 void en_slab_work_free(en_slab_work *w);
+
+/* The finest level k <= top (log2 of a frequency) whose samples, the
+ * counts of levels 0 ... k summed, are at most budget; 0 when none is. */
+int en_skeleton_level(const uint64_t *level_count, int top, double budget);
 
 /* The pool's job function: classify (and simplify) w. Fills w->rc/err. */
 int en_slab_work_run(void *w);

@@ -28,6 +28,7 @@ struct en_stitch_vertex {
     uint32_t wlocal;       /* scratch: index in W */
     uint32_t take;         /* the take it arrived in (a streamed target's seams) */
     uint8_t border;        /* EN_BORDER_* */
+    uint8_t level;         /* a sample's level (en_slab_work.vlevel), for its marks */
     uint16_t state;        /* S_* */
     uint16_t bucket;       /* a priced plan: its cheapest collapse left at W's last run (EN_COST_NONE: none) */
 };
@@ -60,6 +61,7 @@ void en_stitcher_free(en_stitcher *st)
 {
     en_stitcher_release(st);
     en_free(st->cost_hist);
+    en_free(st->level_hist);
     memset(st, 0, sizeof *st);
 }
 
@@ -310,6 +312,8 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
         removable[i] = (uint8_t)en_removable(k);
         if (tier2 && k == EN_VK_SAMPLE)
             removable[i] = 2; /* the second tier, as in a slab (slab_work.c) */
+        if (st->level_hist && (x->state & S_SKELETON) && x->level > 0)
+            removable[i] = EN_TIER_PRICED; /* a sample the pass's density may free (slab_work.c) */
         q[i] = x->q;
     }
     for (size_t f = 0; f < st->nwf; f++)
@@ -464,6 +468,8 @@ static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
         st->stats.out_vertices++;
         if (st->cost_hist && x->bucket != EN_COST_NONE && !(x->state & S_FIXED))
             st->cost_hist[x->bucket]++; /* what W left it to do, once */
+        else if (st->level_hist && x->bucket != EN_COST_NONE && (x->state & S_SKELETON))
+            st->level_hist[(size_t)x->level * EN_COST_BUCKETS + x->bucket]++;
         if (!(x->state & S_FIXED)) {
             st->stats.remaining_nonsamples++;
             if (x->state & S_BAND)
@@ -472,7 +478,9 @@ static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
                 st->stats.inner_left++;
         }
         if (st->write_quadrics) {
-            uint64_t marks = st->mark_samples && (x->state & S_SKELETON) ? EN_MARK_SKELETON : 0;
+            uint64_t marks = st->mark_samples && (x->state & S_SKELETON)
+                                 ? EN_MARK_SKELETON | (uint64_t)x->level << EN_MARK_LEVEL_SHIFT
+                                 : 0;
             uint8_t *block = st->attr + (size_t)e.idx * st->attr_size + st->quadric_at;
             memcpy(block, &x->q, sizeof x->q);
             memcpy(block + EN_CARRIED_MARKS_AT, &marks, sizeof marks);
@@ -529,6 +537,7 @@ static int take_vertices(en_stitcher *st, const en_slab_work *w, epsnet_error *e
         x->remaining = w->degree[l];
         x->future = w->future[l];
         x->border = w->border[l];
+        x->level = w->has_levels && (w->vclass[l] & EN_C_SAMPLE) ? w->vlevel[l] : 0;
         x->state = (uint16_t)(((w->vclass[l] & (EN_C_SAMPLE | EN_C_LOCKED)) ? S_FIXED : 0) |
                               ((w->vclass[l] & EN_C_USER) ? S_USER_LOCK : 0) | (w->band[l] ? S_BAND : 0));
         /* the finish finds boundaries and non-manifold spots again in its

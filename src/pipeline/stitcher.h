@@ -89,6 +89,9 @@ typedef struct en_stitcher {
      * W vertex as it is written, in its last W run's bucket
      * (en_slab_work.cost_hist has the slabs' own); NULL otherwise. */
     uint64_t *cost_hist;
+    /* ... and with the slabs' levels (en_slab_work.level_hist), those of
+     * the samples, by level. */
+    uint64_t *level_hist;
     /* Vertex attributes: attr_size bytes per pool slot (beside v), from
      * the slab works, into the vertex records it emits. */
     uint32_t attr_size;

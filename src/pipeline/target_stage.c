@@ -335,7 +335,7 @@ static int run_chain(en_target_stage *ts, const en_pass_plan *t, kept *from, kep
         en_chain_stats_get(c, got);
         if (!last) {
             memset(ts->hist, 0, EN_COST_BUCKETS * sizeof *ts->hist);
-            en_chain_cost_hist(c, ts->hist);
+            en_chain_cost_hist(c, 0xff, ts->hist);
         }
     }
     en_chain_free(&c);
@@ -362,6 +362,9 @@ void en_target_stage_plan_thin(const en_target_size *size, uint64_t nv, uint64_t
     *thin = (en_pass_plan){
         .skeleton = size->choose_density ? EN_SKELETON_CHOSEN : EN_SKELETON_SPHERE,
         .skeleton_share = EN_TARGET_SKELETON_SHARE,
+        .finest_frequency = EN_TARGET_FINEST_FREQUENCY,
+        /* the final target's vertices on faces, as a slab counts them */
+        .skeleton_budget = (uint64_t)(EN_TARGET_SKELETON_SHARE * size->share * (double)nv),
         .keep_share = keep,
         .goal = (uint64_t)llround(keep * (double)nf),
         .expected_in = nf,
@@ -419,8 +422,17 @@ static int stage_end(void *self, epsnet_error *err)
     const en_target_size *size = &ts->cfg.size;
     int by_vertices = size->by_vertices;
     uint64_t goal = size->goal;
-    if (ts->thin)
-        en_chain_cost_hist(ts->thin, ts->hist);
+    /* the thinning's skeleton: its samples at the density it chose from
+     * its whole stream (the marks carry each one's level; pass_plan.h) */
+    int level = 0xff;
+    if (ts->thin) {
+        en_chain_stats thin;
+        en_chain_stats_get(ts->thin, &thin);
+        if (thin.skeleton_finest_frequency)
+            for (level = 0; (1u << level) < thin.skeleton_frequency; level++)
+                ;
+        en_chain_cost_hist(ts->thin, level, ts->hist);
+    }
     int rc = 0;
     for (; ts->nrounds < ROUND_MAX && rc == 0; ts->nrounds++) {
         uint64_t left = by_vertices ? ts->in.vertices : ts->in.faces;
@@ -431,6 +443,7 @@ static int stage_end(void *self, epsnet_error *err)
         double gap = (double)(left - goal) / (double)goal;
         en_pass_plan round = {
             .skeleton = EN_SKELETON_MARKED,
+            .skeleton_level = level,
             .skeleton_share = EN_TARGET_SKELETON_SHARE,
             .by_vertices = by_vertices,
             .cost_ceiling = ceiling_for(ts->hist, (gap > ROUND_NEAR ? ROUND_AIM : ROUND_AIM_NEAR) * need),
@@ -462,6 +475,7 @@ static int stage_end(void *self, epsnet_error *err)
     double keep = left ? fmin(1.0, (double)goal / (double)left) : 1.0;
     en_pass_plan fin = {
         .skeleton = EN_SKELETON_MARKED,
+        .skeleton_level = level,
         .skeleton_share = EN_TARGET_SKELETON_SHARE,
         .samples_may_go = 1, /* the last round gives samples up when the count needs it */
         .keep_share = keep,

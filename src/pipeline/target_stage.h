@@ -56,6 +56,15 @@ typedef struct en_target_size {
  * real scans at 5-50% of their faces: bench/RESULTS.md). */
 #define EN_TARGET_SKELETON_SHARE 0.25
 
+/* The finest density a target's skeleton may take (EN_SKELETON_CHOSEN).
+ * A streamed thinning classifies its first slabs there and keeps their
+ * samples until the counts rule it out: at 32, `gen bumpy` 20M at 10%
+ * took 1.2 times the wall time it takes at 16, for the same skeleton
+ * (N = 4); a vertex at 128 took 7 times what it takes at 8. Only a CAD
+ * part at half its faces chose finer on the shared meshes (fandisk: 23 in
+ * the old list, 32 without the cap): bench/RESULTS.md, session 12. */
+#define EN_TARGET_FINEST_FREQUENCY 16
+
 /* The thinning pass's plan, the chain pass before the stage, on an input
  * of nv vertices and nf faces; one_slab_bytes: what one slab may hold
  * (budget.h). */
