@@ -477,15 +477,20 @@ static int log2_of(uint32_t n)
 
 /*
  * EN_SKELETON_CHOSEN on slabs (slab_work.c: nested_density), before slab
- * k = 1, 2, 4, 8, ...: with every slab before it retired, the candidate
+ * k = 1, 2, 4, 8, ..., and every CANDIDATE_EVERY slabs from there: with
+ * every slab before it retired, the candidate
  * falls to the finest power of two whose samples so far are within the
  * skeleton's budget. A finer one is out for good (counts only grow), so
  * the candidate is never below the frequency the pass ends up choosing.
  * At fixed slabs, after all the slabs before them, so that every -j
  * classifies each slab at the same candidate; a fine candidate costs (a
  * vertex at frequency 128 took 7 times what it takes at 8) and its slabs
- * thin less, so the first checkpoints come early.
+ * thin less, so the first checkpoints come early, and the later ones
+ * often enough that a large mesh does not keep a candidate for hundreds of
+ * slabs after its counts ruled it out (each one waits for the slabs in
+ * flight: about a slab's time).
  */
+#define CANDIDATE_EVERY 64
 static int lower_candidate(en_pass *p, epsnet_error *err)
 {
     int rc = 0;
@@ -512,7 +517,7 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
 {
     en_chain *c = p->chain;
     if (p->plan && p->plan->skeleton == EN_SKELETON_CHOSEN && !p->plan->one_slab && c->cfg.mode == EN_SLAB_SIMPLIFY &&
-        w->index > 0 && !(w->index & (w->index - 1))) {
+        w->index > 0 && (!(w->index & (w->index - 1)) || w->index % CANDIDATE_EVERY == 0)) {
         int rc = lower_candidate(p, err);
         if (rc) {
             free_work(w);
