@@ -465,22 +465,11 @@ static int tick(en_pass *p, int done_now, epsnet_error *err)
     return 0;
 }
 
-static int log2_of(uint32_t n)
-{
-    int k = 0;
-    while (n > 1) {
-        n >>= 1;
-        k++;
-    }
-    return k;
-}
-
 /*
  * EN_SKELETON_CHOSEN on slabs (slab_work.c: nested_density), before slab
  * k = 1, 2, 4, 8, ..., and every CANDIDATE_EVERY slabs from there: with
- * every slab before it retired, the candidate
- * falls to the finest power of two whose samples so far are within the
- * skeleton's budget. A finer one is out for good (counts only grow), so
+ * every slab before it retired, the candidate falls to the finest power of
+ * two whose samples so far are within the skeleton's budget. A finer one is out for good (counts only grow), so
  * the candidate is never below the frequency the pass ends up choosing.
  * At fixed slabs, after all the slabs before them, so that every -j
  * classifies each slab at the same candidate; a fine candidate costs (a
@@ -496,7 +485,7 @@ static int lower_candidate(en_pass *p, epsnet_error *err)
     int rc = 0;
     while (rc == 0 && en_jobring_in_flight(p->ring))
         rc = retire_one(p, err);
-    int top = log2_of(p->g.n);
+    int top = en_level_of(p->g.n);
     int k = en_skeleton_level(p->level_total, top, (double)p->plan->skeleton_budget);
     if (rc == 0 && k < top) {
         gauss_rotation rot = p->g.rot;
@@ -510,7 +499,7 @@ static int lower_candidate(en_pass *p, epsnet_error *err)
 /* The frequency a chosen skeleton ends at (after the pass's end). */
 static uint32_t chosen_frequency(const en_pass *p)
 {
-    return 1u << en_skeleton_level(p->level_total, log2_of(p->g.n), (double)p->plan->skeleton_budget);
+    return 1u << en_skeleton_level(p->level_total, en_level_of(p->g.n), (double)p->plan->skeleton_budget);
 }
 
 static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)

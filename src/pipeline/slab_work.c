@@ -240,7 +240,7 @@ static double skeleton_budget(en_slab_work *w)
     return w->plan->skeleton_share * (double)target_goal(w);
 }
 
-static int log2_of(uint32_t n)
+int en_level_of(uint32_t n)
 {
     int k = 0;
     while (n > 1) {
@@ -283,7 +283,7 @@ int en_skeleton_level(const uint64_t *level_count, int top, double budget)
 static int nested_density(en_slab_work *w)
 {
     w->chosen = *w->g;
-    int top = log2_of(w->g->n);
+    int top = en_level_of(w->g->n);
     int rc = classify_levels(w, 1);
     if (rc)
         return rc;

@@ -157,6 +157,9 @@ void en_slab_work_reset(en_slab_work *w);
 /* Free everything (w is then as after en_slab_work_init). */
 void en_slab_work_free(en_slab_work *w);
 
+/* The level of a power-of-two frequency n: log2 n. */
+int en_level_of(uint32_t n);
+
 /* The finest level k <= top (log2 of a frequency) whose samples, the
  * counts of levels 0 ... k summed, are at most budget; 0 when none is. */
 int en_skeleton_level(const uint64_t *level_count, int top, double budget);

@@ -429,8 +429,7 @@ static int stage_end(void *self, epsnet_error *err)
         en_chain_stats thin;
         en_chain_stats_get(ts->thin, &thin);
         if (thin.skeleton_finest_frequency)
-            for (level = 0; (1u << level) < thin.skeleton_frequency; level++)
-                ;
+            level = en_level_of(thin.skeleton_frequency);
         en_chain_cost_hist(ts->thin, level, ts->hist);
     }
     int rc = 0;
