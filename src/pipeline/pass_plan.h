@@ -62,8 +62,8 @@ typedef struct en_pass_plan {
     uint64_t faces, vertices;     /* a one-slab pass keeps at most this many (0: none) */
     double ratio;                 /* ... or this share of its faces (0: none) */
     /* Each slab keeps this share of the units (faces, or vertices with
-     * by_vertices) its own collapses can reach (0: no share). A pass that
-     * is one slab keeps `goal` units instead. */
+     * by_vertices) its own collapses can reach (0: no share). A paced
+     * pass whose one slab is its whole input keeps `goal` units instead. */
     double keep_share;
     int by_vertices;
     uint64_t goal, expected_in;   /* the pass keeps goal units of the expected_in it takes */
