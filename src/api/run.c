@@ -352,7 +352,7 @@ static void fill_stats(epsnet_stats *st, const en_chain_stats *cs)
 }
 
 /* A count target above which the run ended: why, in one line. */
-static void warn_missed_target(const en_run *run, const epsnet_stats *st, int stopped_by_error)
+static void warn_missed_target(const en_run *run, const epsnet_stats *st, int stopped_by_error, int last_on_slabs)
 {
     const epsnet_settings *set = &run->ctx->settings;
     int faces = st->target_faces > 0;
@@ -367,7 +367,7 @@ static void warn_missed_target(const en_run *run, const epsnet_stats *st, int st
                  "of %llu",
                  run->path ? run->path : "input", set->target_error, (unsigned long long)got,
                  faces ? "faces" : "vertices", (unsigned long long)want);
-    else if (run->staged && got - want > want / 200)
+    else if (run->staged && last_on_slabs && got - want > want / 200)
         /* docs/architecture.md §7, "known weak points" */
         snprintf(msg, sizeof msg,
                  "%s: target of %llu %s missed by %llu: the finish ran on slabs (the thinned mesh was over "
@@ -378,12 +378,13 @@ static void warn_missed_target(const en_run *run, const epsnet_stats *st, int st
     else
         snprintf(msg, sizeof msg,
                  "%s: target of %llu %s missed by %llu: %llu removable vertices were refused every collapse "
-                 "(link %llu, normal %llu, zero-area %llu, duplicate %llu); boundary vertices (%llu) are kept%s",
+                 "(link %llu, normal %llu, zero-area %llu, duplicate %llu); boundary vertices (%llu)%s are kept%s",
                  run->path ? run->path : "input", (unsigned long long)want, faces ? "faces" : "vertices",
                  (unsigned long long)(got - want), (unsigned long long)st->remaining_nonsamples,
                  (unsigned long long)st->refused_link, (unsigned long long)st->refused_normal,
                  (unsigned long long)st->refused_zero_area, (unsigned long long)st->refused_duplicate,
                  (unsigned long long)st->boundary_vertices,
+                 set->lock_property ? " and the vertices --lock names" : "",
                  run->has_normals && st->boundary_vertices
                      ? " (a mesh split along its normals, as flat shading or hard edges split an OBJ, simplifies "
                        "as one surface with --drop-normals)"
@@ -399,9 +400,9 @@ int en_run_end(en_run *run, epsnet_error *err)
     epsnet_stats *st = &run->ctx->stats;
     en_chain_stats cs;
     en_chain_stats_get(run->chain, &cs);
-    int rounds = 0;
+    int rounds = 0, last_on_slabs = 0;
     if (run->stage)
-        en_target_stage_stats(run->stage, &cs, &rounds);
+        en_target_stage_stats(run->stage, &cs, &rounds, &last_on_slabs);
     fill_stats(st, &cs);
     st->target_rounds = (uint32_t)rounds;
     if (cs.skeleton_frequency && cs.skeleton_frequency != run->ctx->sphere.n) {
@@ -414,7 +415,7 @@ int en_run_end(en_run *run, epsnet_error *err)
     if (run->has_target && !st->skeleton_finest_frequency)
         st->skeleton_finest_frequency = run->ctx->run_sphere.n; /* the density was given */
     if (run->has_target)
-        warn_missed_target(run, st, cs.stopped_by_error);
+        warn_missed_target(run, st, cs.stopped_by_error, last_on_slabs);
     st->cpu_workers = en_pool_job_cpu_seconds(run->pool);
     st->cpu_main = en_thread_cpu_seconds() - run->cpu_start;
     if (en_pool_threads(run->pool) == 0)

@@ -323,7 +323,7 @@ static int run_chain(en_target_stage *ts, const en_pass_plan *t, kept *from, kep
     ts->round_records = (double)(from->vertices + from->faces);
     ts->round_taken = 0;
     ts->in_last_round = last;
-    ts->last_one_slab = last && t->one_slab;
+    ts->last_one_slab = last && t->one_slab; /* and stays, for the stats */
     int rc = report(ts, err);
     if (rc == 0)
         rc = en_chain_new(&c, &cc, ts->pool, err);
@@ -531,7 +531,7 @@ void en_target_stage_after(en_target_stage *ts, const en_chain *thin)
     ts->thin = thin;
 }
 
-void en_target_stage_stats(const en_target_stage *ts, en_chain_stats *cs, int *rounds)
+void en_target_stage_stats(const en_target_stage *ts, en_chain_stats *cs, int *rounds, int *last_on_slabs)
 {
     add_counts(cs, &ts->rounds);
     add_counts(cs, &ts->last);
@@ -544,6 +544,7 @@ void en_target_stage_stats(const en_target_stage *ts, en_chain_stats *cs, int *r
     cs->stopped_by_error |= ts->last.stopped_by_error;
     cs->passes += (uint64_t)ts->nrounds + 1;
     *rounds = ts->nrounds;
+    *last_on_slabs = !ts->last_one_slab;
 }
 
 void en_target_stage_free(en_target_stage **pts)

@@ -110,8 +110,9 @@ void en_target_stage_after(en_target_stage *ts, const en_chain *thin);
 
 /* The rounds' counts added into *cs (collapses, slabs, seams), and the
  * last round's output, skeleton and target figures put in its place.
- * rounds: how many rounds ran before the last one. */
-void en_target_stage_stats(const en_target_stage *ts, en_chain_stats *cs, int *rounds);
+ * rounds: how many rounds ran before the last one; last_on_slabs: whether
+ * the last one ran on slabs (over the budget's one slab). */
+void en_target_stage_stats(const en_target_stage *ts, en_chain_stats *cs, int *rounds, int *last_on_slabs);
 
 void en_target_stage_free(en_target_stage **ts);
 
