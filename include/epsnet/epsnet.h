@@ -634,10 +634,13 @@ typedef struct epsnet_settings {
      *   target_error, not a Hausdorff bound.
      *
      * The skeleton's density: with target_level_given = 0, the run chooses
-     * the finest geodesic frequency whose samples take at most a quarter of
-     * the vertices the target keeps (measured: bench/RESULTS.md) and reports
-     * it in the stats' Gaussian sphere; with 1, level/frequency as given.
-     * An error bound alone keeps level/frequency as given.
+     * the finest power-of-two geodesic frequency, up to 16, whose samples
+     * take at most a quarter of the vertices the target keeps (measured:
+     * bench/RESULTS.md), counted over the whole mesh, so that the same mesh
+     * in any order and any slab size gets the same skeleton
+     * (docs/method.md §13); it reports it in the stats' Gaussian sphere.
+     * With 1, level/frequency as given. An error bound alone keeps
+     * level/frequency as given.
      *
      * A mesh of at most four slabs (slab_vertices, or the one mem gives:
      * 262,144 vertices by default) is then one slab, and the target is met
@@ -745,11 +748,8 @@ typedef struct epsnet_stats {
      * surface (two faces on the same corners, opposite orientations),
      * removed before the classification; the classification counts above
      * (isolated_vertices, locked, ...) are then of the mesh without them
-     * (docs/method.md §13). In a streamed run (docs/architecture.md §7) a
-     * slab whose samples at the chosen density are far over its share
-     * takes a coarser sphere: the reported sphere (gaussian_vertices) is
-     * then the coarsest any slab used, the ε every part of the output
-     * keeps, and skeleton_finest_frequency the finest (0 without a target). */
+     * (docs/method.md §13). skeleton_finest_frequency: the finest density
+     * the choice considered (16), or the one given (0 without a target). */
     uint64_t target_faces;
     uint64_t skeleton_vertices;
     uint64_t samples_given_up;
