@@ -181,15 +181,11 @@ int cmd_simplify(int argc, char **argv)
         if (targets || m.settings.target_error > 0) {
             /* G has 4 n^2 + 2 vertices at frequency n */
             unsigned n = (unsigned)(sqrt((double)(s->gaussian_vertices - 2) / 4) + 0.5);
-            char finer[80] = "";
-            if (s->skeleton_finest_frequency > n)
-                snprintf(finer, sizeof finer, " (finer, up to %u, in slabs whose share it fits)",
-                         (unsigned)s->skeleton_finest_frequency);
             fprintf(stderr,
-                    "  target: %llu %s; skeleton at frequency %u%s: %llu vertices (%.1f%% of the output), "
+                    "  target: %llu %s; skeleton at frequency %u: %llu vertices (%.1f%% of the output), "
                     "%llu samples given up, %llu membrane faces removed\n",
                     (unsigned long long)(s->target_faces ? s->target_faces : m.settings.target_vertices),
-                    s->target_faces || !m.settings.target_vertices ? "faces" : "vertices", n, finer,
+                    s->target_faces || !m.settings.target_vertices ? "faces" : "vertices", n,
                     (unsigned long long)s->skeleton_vertices,
                     s->output_vertices ? 100.0 * (double)s->skeleton_vertices / (double)s->output_vertices : 0.0,
                     (unsigned long long)s->samples_given_up, (unsigned long long)s->membrane_faces);
