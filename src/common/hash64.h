@@ -18,6 +18,17 @@ static inline size_t en_hash_slot(uint64_t k, size_t mask)
     return (size_t)k & mask;
 }
 
+/* FNV-1a of n bytes: a key for byte strings (names, fixed-size records)
+ * that the tables above then spread with en_hash_slot. */
+static inline uint64_t en_hash_bytes(const void *p, size_t n)
+{
+    const uint8_t *b = p;
+    uint64_t h = 0xcbf29ce484222325ull;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ b[i]) * 0x100000001b3ull;
+    return h;
+}
+
 /* Backward-shift deletion: may the entry at slot j, whose home slot is home,
  * move back into the hole at slot hole? (Only when its home is not in
  * (hole, j], cyclically, or probing for it would stop at the hole.) */

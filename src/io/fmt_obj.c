@@ -85,13 +85,17 @@ typedef struct obj_position {
     uint32_t first;                  /* newest record at this position + 1; 0: none yet */
 } obj_position;
 
-/* A face label of the reader (epsnet.h epsnet_face_names): usemtl or g.
+/* The face labels (epsnet.h epsnet_face_names), [0] materials and [1]
+ * groups, for the reader and the writer alike: the statement and the
+ * vertex attribute each travels as. */
+static const char *const label_keyword[2] = { "usemtl", "g" };
+static const char *const label_attr[2] = { "material_index", "group_index" };
+
+/* A face label of the reader (label_keyword[k]).
  * file_on when its statement comes before the first face, on while its
  * attribute is kept; the current one (UINT16_MAX: none yet), the names,
  * a name's hash -> its first index, and (materials) the `mtllib` text. */
 typedef struct obj_label {
-    const char *keyword;             /* "usemtl", "g" */
-    const char *attr;                /* "material_index", "group_index" */
     int file_on, on;
     uint16_t cur;
     epsnet_face_names tab;
@@ -456,11 +460,10 @@ static int label_is(const obj_label *l, uint32_t i, const char *name, size_t n)
  * the order of first use. Names are found by a hash of their bytes, so a
  * file that switches often among many labels is not quadratic; a hash
  * shared by two names falls back to the list. */
-static int use_label(epsnet_reader *r, obj_label *l, const char *name, size_t n)
+static int use_label(epsnet_reader *r, obj_reader *st, int k, const char *name, size_t n)
 {
-    uint64_t h = 0xcbf29ce484222325ull; /* FNV-1a */
-    for (size_t i = 0; i < n; i++)
-        h = (h ^ (uint8_t)name[i]) * 0x100000001b3ull;
+    obj_label *l = &st->label[k];
+    uint64_t h = en_hash_bytes(name, n);
     h = h == UINT64_MAX ? 0 : h; /* the map's empty key */
     uint32_t at;
     if (en_u64map_get(&l->by_name, h, &at) && label_is(l, at, name, n)) {
@@ -473,7 +476,8 @@ static int use_label(epsnet_reader *r, obj_label *l, const char *name, size_t n)
             return 0;
         }
     if (l->tab.count >= EPSNET_FACE_NAMES_MAX)
-        return en_reader_fail(r, EPSNET_ELIMIT, "more than %d names of %s", EPSNET_FACE_NAMES_MAX, l->keyword);
+        return en_reader_fail(r, EPSNET_ELIMIT, "more than %d names of %s", EPSNET_FACE_NAMES_MAX,
+                              label_keyword[k]);
     if (en_grow((void **)&l->names, &l->names_cap, l->tab.count + 1, sizeof *l->names))
         return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
     char *copy = en_malloc(n + 1);
@@ -529,7 +533,7 @@ static int corner_vertex(epsnet_reader *r, obj_reader *st, const int64_t idx[3],
         if (!l->on)
             continue;
         if (l->cur == UINT16_MAX) /* a face before the first usemtl (g) */
-            rc = use_label(r, l, "", 0);
+            rc = use_label(r, st, k, "", 0);
         memcpy(key + lo, &l->cur, 2);
         lo += 2;
     }
@@ -603,10 +607,10 @@ static int parse_statement(epsnet_reader *r, char *stmt)
         return 0;
     for (int k = 0; k < 2; k++) {
         obj_label *l = &st->label[k];
-        size_t kw = strlen(l->keyword), n;
-        if (l->on && strncmp(p, l->keyword, kw) == 0 && en_text_ends_token(p[kw])) {
+        size_t kw = strlen(label_keyword[k]), n;
+        if (l->on && strncmp(p, label_keyword[k], kw) == 0 && en_text_ends_token(p[kw])) {
             const char *name = statement_text(p + kw, &n);
-            return use_label(r, l, name, n);
+            return use_label(r, st, k, name, n);
         }
     }
     obj_label *mat = &st->label[0];
@@ -756,8 +760,6 @@ static int obj_open_reader(epsnet_reader *r)
     int rc = prescan_corners(r, st);
     if (rc)
         return rc;
-    st->label[0].keyword = "usemtl", st->label[0].attr = "material_index";
-    st->label[1].keyword = "g", st->label[1].attr = "group_index";
     for (int k = 0; k < 2; k++) {
         st->label[k].on = st->label[k].file_on;
         st->label[k].cur = UINT16_MAX;
@@ -788,7 +790,7 @@ static int obj_open_reader(epsnet_reader *r)
             continue;
         if (en_u64map_init(&l->by_name))
             return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
-        if (en_reader_add_attr(r, l->attr, EPSNET_ATTR_UINT16) < 0)
+        if (en_reader_add_attr(r, label_attr[k], EPSNET_ATTR_UINT16) < 0)
             return r->err.code;
         *(k ? &r->info.groups : &r->info.materials) = &l->tab;
     }
@@ -821,7 +823,7 @@ static void follow_kept_attrs(epsnet_reader *r, obj_reader *st)
         st->mute_vn = 1;
     }
     for (int k = 0; k < 2; k++)
-        if (st->label[k].on && epsnet_attr_layout_find(kept, st->label[k].attr) < 0) {
+        if (st->label[k].on && epsnet_attr_layout_find(kept, label_attr[k]) < 0) {
             st->label[k].on = 0;
             *(k ? &r->info.groups : &r->info.materials) = NULL;
         }
@@ -961,10 +963,7 @@ typedef struct key_table {
 
 static size_t key_hash(const uint8_t *k, size_t n)
 {
-    uint64_t h = 0xcbf29ce484222325ull;
-    for (size_t i = 0; i < n; i++)
-        h = (h ^ k[i]) * 0x100000001b3ull;
-    return en_hash_slot(h, SIZE_MAX);
+    return en_hash_slot(en_hash_bytes(k, n), SIZE_MAX);
 }
 
 static int key_grow(key_table *t)
@@ -1093,9 +1092,6 @@ typedef struct obj_writer {
     } label[2];
     int library_written;
 } obj_writer;
-
-static const char *const label_attr[2] = { "material_index", "group_index" };
-static const char *const label_keyword[2] = { "usemtl", "g" };
 
 static const epsnet_face_names *label_names(const epsnet_writer *w, int k)
 {

@@ -857,7 +857,6 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
         int streamed = p->plan && p->plan->seams != EN_SEAMS_NONE;
         int priced = p->plan && p->plan->priced; /* leaves marks and costs */
         p->st.plan = streamed ? p->plan : NULL;
-        p->st.mark_samples = priced;
         if (rc == 0 && priced &&
             (!(p->st.cost_hist = en_calloc(EN_COST_BUCKETS, sizeof *p->st.cost_hist)) ||
              (!c->cost_hist && !(c->cost_hist = en_calloc(EN_COST_BUCKETS, sizeof *c->cost_hist)))))

@@ -478,7 +478,7 @@ static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
                 st->stats.inner_left++;
         }
         if (st->write_quadrics) {
-            uint64_t marks = st->mark_samples && (x->state & S_SKELETON)
+            uint64_t marks = st->plan && st->plan->priced && (x->state & S_SKELETON)
                                  ? EN_MARK_SKELETON | (uint64_t)x->level << EN_MARK_LEVEL_SHIFT
                                  : 0;
             uint8_t *block = st->attr + (size_t)e.idx * st->attr_size + st->quadric_at;

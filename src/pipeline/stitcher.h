@@ -70,12 +70,11 @@ typedef struct en_stitcher {
     en_slab ws;                       /* scratch for W's collapses */
     /* The pass's plan when it has seams to rule (pipeline/pass_plan.h;
      * NULL: the ε-net pass, whose seams lose every non-sample they can):
-     * W's collapses go cheapest first and stop where its seam rule says.
-     * mark_samples: samples stay and leave marked (a priced plan). Read
+     * W's collapses go cheapest first and stop where its seam rule says;
+     * under a priced plan samples leave marked (write_quadrics). Read
      * only, set before the first take; the fields below are the take
      * jobs' (one at a time). */
     const en_pass_plan *plan;
-    int mark_samples;
     uint32_t takes;                   /* slabs taken */
     uint64_t taken;                   /* plan units the slabs taken so far brought */
     uint64_t faces_final;             /* faces that left W, or never entered it, for the output */
