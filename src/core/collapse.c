@@ -7,29 +7,23 @@
  *   Dey, Edelsbrunner, Guha, Nekhayev. Topology preserving edge contraction.
  *     1999 (the link condition).
  *
- * The outline, in passes until no collapse is left (docs/method.md §9):
- *   1. rebuild the faces around each vertex from the faces alive (two
- *      linear sweeps into one flat array);
- *   2. rank: each removable vertex's cheapest target by quadric cost;
- *   3. order the candidates by cost bucket (a counting sort, 16 buckets to
- *      an octave);
- *   4. collapse them in that order up to the pass's bound, each after the
- *      checks (link condition, normals, zero area, duplicates), skipping
- *      any with an end that collapsed or absorbed a collapse earlier in the
- *      pass (per-pass locks: the next pass ranks it afresh).
+ * The outline: quadrics per vertex -> best target per removable vertex ->
+ * a priority queue of (cost, v, u) -> pop, re-check, collapse -> refresh the
+ * ring around u -> repeat until the queue is empty.
  *
- * note: a heap kept the exact cheapest-first order, but every collapse
- * then updated scattered face lists and heap entries, and the run waited
- * on memory: 1.6 us a collapse on a slab-sized mesh, where flat arrays
- * swept in order cost a fraction of that (bench/RESULTS.md, session 13).
- * The order is cheapest first to within a bucket and a pass's slack; the
- * error at equal face count was measured against the exact order there.
+ * note: the queue is an indexed heap with exactly one entry per removable
+ * vertex (its best target), updated in place; a stale-entry heap grew to
+ * several entries per vertex and its sift-downs missed the cache at every
+ * level, which made large meshes superlinear.
  *
- * note: a vertex whose cheapest target is refused is checked against its
- * others at once, and its cheapest valid one (or "none", or "over the
- * error bound") is kept until a collapse changes its star or a neighbour's
- * (changed_at against eval_at): a vertex refused once costs no check again
- * until then.
+ * note: a vertex is queued with its cheapest target *unchecked*; the checks
+ * (link condition, normals, duplicates: O(deg v * deg u)) run only when the
+ * entry is popped, and an entry that fails is replaced by the vertex's
+ * cheapest *valid* target. A vertex's valid cost is never below its
+ * unchecked cost, so the entry that pops valid is still the cheapest valid
+ * collapse in the mesh, as docs/method.md §9 asks; checking lazily keeps a run linear
+ * where checking every neighbour after every collapse was quadratic in the
+ * degree of the vertices that absorb many faces.
  */
 #include "core/collapse.h"
 
@@ -89,68 +83,66 @@ void en_quadrics_from_faces(const en_slab *s, en_quadric *q, double *unit_normal
     }
 }
 
-/* ---- the working arrays ---- */
+/* ---- the dynamic mesh ---- */
 
-/* A vertex's target: none yet, or none at all. */
-#define NO_TARGET UINT32_MAX
-
-/* st->flag bits, per vertex */
-enum {
-    F_ACTIVE = 1 << 0,  /* removable in the tiers now collapsing */
-    F_ALIVE = 1 << 1,   /* not collapsed away (mirrors vertex_alive) */
-    F_LOCKED = 1 << 2,  /* collapsed or absorbed a collapse in this pass (per-pass lock) */
-    F_CHECKED = 1 << 3, /* its candidate is its cheapest valid collapse, checked */
-    F_RANK = 1 << 4,    /* its candidate is ranked afresh in this pass */
-};
-
-/* What a vertex's cached evaluation (eval_at) found. */
-enum { E_VALID = 0, E_REFUSED = 1, E_OVER_ERROR = 2 };
-
-/*
- * One set of working arrays, every one flat, per vertex or per face, swept
- * in index order once a pass. Kept between calls in an
- * en_collapse_arrays_new() pool so that they stay warm (bench/RESULTS.md,
- * session 10). Every field is written by the one call that holds the set.
- */
-typedef struct arrays {
-    uint32_t *off;        /* nv + 1: where each vertex's faces start in adj */
-    uint32_t *adj;        /* the alive faces around each vertex, in face order */
-    uint32_t *live;       /* alive faces, ascending */
-    uint32_t *verts;      /* alive vertices with a face, ascending */
-    uint32_t *order;      /* this pass's candidates, cheapest bucket first */
-    uint32_t *sorted;     /* scratch of the counting sort */
-    uint32_t *hist;       /* EN_COST_BUCKETS + 1 counters of the counting sort */
-    double *self_err;     /* q[v] at v's own position */
-    double *cost;         /* the candidate's quadric cost */
-    uint32_t *target;     /* the candidate's target, or NO_TARGET */
-    uint32_t *changed_at; /* the collapse (1, 2, ...) that last changed the star or quadric */
-    uint32_t *eval_at;    /* 0, or 1 + the collapse count when eval was cached */
-    uint32_t *mark;       /* stamps of the link test */
-    uint16_t *key;        /* the candidate's cost bucket */
-    uint8_t *flag;        /* F_* */
-    uint8_t *eval;        /* E_*: what the cached evaluation found */
-    uint8_t *refused;     /* EN_REFUSE_* of the last refusal */
-    struct target *cand;  /* scratch: one vertex's targets */
-    size_t cap_off, cap_adj, cap_live, cap_verts, cap_order, cap_sorted, cap_hist, cap_self_err, cap_cost, cap_target,
-        cap_changed_at, cap_eval_at, cap_mark, cap_key, cap_flag, cap_eval, cap_refused, cap_cand;
-} arrays;
+/* note: ties break on local ids, which a slab assigns in global-id order,
+ * so the order is the same on every run and for every slab split. */
+typedef struct heap_entry {
+    double cost;
+    uint32_t v, u;
+} heap_entry;
 
 typedef struct target {
     double cost;
     uint32_t u;
 } target;
 
+/*
+ * note: everything the queue keeps per vertex, its quadric included, sits in
+ * one 128-byte record (two cache lines, the queue's fields in the first). A
+ * collapse visits a ring of vertices scattered over the slab, and with one
+ * array per field each visit missed the cache once per field.
+ */
+typedef struct vrec {
+    double self_err;          /* q[v] evaluated at v's own position */
+    double best_cost;         /* cost of v's cheapest queued entry */
+    uint32_t vf_start, vf_count, vf_cap;
+    uint32_t heap_pos;        /* v's index in heap, or UINT32_MAX */
+    uint32_t best_u;          /* its target, UINT32_MAX when none */
+    uint32_t mark;            /* stamp per vertex for neighbour sets */
+    uint8_t removable;
+    uint8_t alive;            /* not collapsed away (mirrors vertex_alive) */
+    uint8_t fallback;         /* v's queued entry is its cheapest *valid* one */
+    uint8_t refused;          /* EN_REFUSE_* seen on the last evaluation */
+    uint8_t pad[4];
+    en_quadric q;             /* accumulates through the collapses; copied back to the caller's q */
+} vrec;
+_Static_assert(sizeof(vrec) == 128, "a vertex record is two cache lines");
+
 typedef struct state {
     const en_slab *s;
-    arrays *a;
-    en_quadric *q;            /* the caller's, accumulating */
     double cos_bound;
     uint32_t *tri;
     uint8_t *falive, *valive;
     const double *ref_normal; /* unit normal each face had in the input (0 if none) */
-    uint32_t nlive, nverts;
+
+    /* vertex -> alive faces: list of v is pool[vx[v].vf_start .. + vx[v].vf_count) */
+    uint32_t *pool;
+    size_t pool_len, pool_cap;
+
+    vrec *vx;                 /* per vertex, 64-byte aligned */
+    void *vx_alloc;
     uint32_t stamp;
-    uint32_t seq;             /* collapses so far: the clock of changed_at and eval_at */
+
+    heap_entry *heap;
+    size_t heap_len, heap_cap;
+
+    target *cand;             /* scratch: one vertex's targets */
+    size_t cand_cap;
+    uint32_t *faces;          /* scratch: one vertex's faces */
+    size_t faces_cap;
+
+    uint64_t collapses;
 
     /* Limits (en_collapse_settings) and what they count. */
     const uint8_t *tier;      /* the caller's removable[]: 2 = second tier */
@@ -165,81 +157,172 @@ typedef struct state {
     int stopped_by_ceiling;
 } state;
 
-/* ---- the mesh as it is at the start of a pass ---- */
+static int entry_less(const heap_entry *a, const heap_entry *b)
+{
+    if (a->cost != b->cost)
+        return a->cost < b->cost;
+    if (a->v != b->v)
+        return a->v < b->v;
+    return a->u < b->u;
+}
+
+/* A 4-ary indexed heap: half the levels of a binary one, and the four
+ * children of a node share a cache line or two. */
+static void heap_place(state *st, size_t i, heap_entry e)
+{
+    st->heap[i] = e;
+    st->vx[e.v].heap_pos = (uint32_t)i;
+}
+
+static void sift_up(state *st, size_t i, heap_entry e)
+{
+    while (i > 0) {
+        size_t parent = (i - 1) / 4;
+        if (!entry_less(&e, &st->heap[parent]))
+            break;
+        heap_place(st, i, st->heap[parent]);
+        i = parent;
+    }
+    heap_place(st, i, e);
+}
+
+/* The smallest of the children from first on (first < n): a full family,
+ * the common case, as a two-round tournament, without a loop. */
+static size_t min_child(const heap_entry *h, size_t first, size_t n)
+{
+    if (first + 4 <= n) {
+        size_t a = entry_less(&h[first + 1], &h[first]) ? first + 1 : first;
+        size_t b = entry_less(&h[first + 3], &h[first + 2]) ? first + 3 : first + 2;
+        return entry_less(&h[b], &h[a]) ? b : a;
+    }
+    size_t c = first;
+    for (size_t k = first + 1; k < n; k++)
+        if (entry_less(&h[k], &h[c]))
+            c = k;
+    return c;
+}
+
+static void sift_down(state *st, size_t i, heap_entry e)
+{
+    size_t n = st->heap_len;
+    for (;;) {
+        size_t first = 4 * i + 1;
+        if (first >= n)
+            break;
+        size_t c = min_child(st->heap, first, n);
+        if (!entry_less(&st->heap[c], &e))
+            break;
+        heap_place(st, i, st->heap[c]);
+        i = c;
+    }
+    heap_place(st, i, e);
+}
+
+/* Insert v's entry, or move it to its new cost. */
+static int heap_set(state *st, uint32_t v, double cost, uint32_t u)
+{
+    heap_entry e = { cost, v, u };
+    uint32_t i = st->vx[v].heap_pos;
+    if (i == UINT32_MAX) {
+        if (st->heap_len == st->heap_cap &&
+            en_grow((void **)&st->heap, &st->heap_cap, st->heap_len + 1, sizeof *st->heap))
+            return EPSNET_ENOMEM;
+        sift_up(st, st->heap_len++, e);
+    } else if (entry_less(&e, &st->heap[i])) {
+        sift_up(st, i, e);
+    } else {
+        sift_down(st, i, e);
+    }
+    return 0;
+}
+
+static void heap_remove(state *st, uint32_t v)
+{
+    uint32_t i = st->vx[v].heap_pos;
+    if (i == UINT32_MAX)
+        return;
+    st->vx[v].heap_pos = UINT32_MAX;
+    heap_entry last = st->heap[--st->heap_len];
+    if (i == st->heap_len)
+        return;
+    if (entry_less(&last, &st->heap[i]))
+        sift_up(st, i, last);
+    else
+        sift_down(st, i, last);
+}
+
+/* note: the root's hole goes down along the smaller children to a leaf and
+ * the last entry rises from there (Floyd): it saves the comparison with the
+ * last entry at every level, which nearly always sinks to the bottom anyway. */
+static heap_entry heap_pop(state *st)
+{
+    heap_entry top = st->heap[0];
+    st->vx[top.v].heap_pos = UINT32_MAX;
+    size_t n = --st->heap_len;
+    if (n == 0)
+        return top;
+    heap_entry last = st->heap[n];
+    size_t i = 0;
+    for (;;) {
+        size_t first = 4 * i + 1;
+        if (first >= n)
+            break;
+        size_t c = min_child(st->heap, first, n);
+        heap_place(st, i, st->heap[c]);
+        i = c;
+    }
+    sift_up(st, i, last);
+    return top;
+}
 
 static int has_corner(const uint32_t *t, uint32_t v)
 {
     return t[0] == v || t[1] == v || t[2] == v;
 }
 
-/* Corner of t at v (the first, should a face repeat v). */
-static int corner_at(const uint32_t *t, uint32_t v)
-{
-    return t[0] == v ? 0 : t[1] == v ? 1 : 2;
-}
-
 /* The two corners of triangle t other than v, in counter-clockwise order. */
 static void other_corners(const uint32_t *t, uint32_t v, uint32_t *x, uint32_t *y)
 {
-    int k = corner_at(t, v);
+    int k = t[0] == v ? 0 : t[1] == v ? 1 : 2;
     *x = t[(k + 1) % 3];
     *y = t[(k + 2) % 3];
 }
 
-/*
- * Rebuild the faces around every vertex from the faces alive now (a
- * counting pass, then a filling pass, both in face order), and drop the
- * faces and vertices gone since the last pass from the lists swept.
- * note: within a pass the lists are not updated. A collapse v -> u renames
- * v to u in v's faces and kills the two on the edge, so a vertex gains
- * faces only by absorbing a collapse: every vertex but the locked ones
- * still has all its faces in its list, and skipping the dead ones gives
- * its star exactly.
- */
-static void rebuild(state *st)
+static int list_append(state *st, uint32_t v, uint32_t f)
 {
-    arrays *a = st->a;
-    uint32_t nv = st->s->nv, n = 0;
-    memset(a->off, 0, ((size_t)nv + 1) * sizeof *a->off);
-    for (uint32_t i = 0; i < st->nlive; i++) {
-        uint32_t f = a->live[i];
-        if (!st->falive[f])
-            continue;
-        a->live[n++] = f;
-        const uint32_t *t = st->tri + 3 * (size_t)f;
-        a->off[t[0] + 1]++, a->off[t[1] + 1]++, a->off[t[2] + 1]++;
+    if (st->vx[v].vf_count == st->vx[v].vf_cap) {
+        /* Move the list to the end of the pool with room to grow. */
+        uint32_t cap = st->vx[v].vf_cap ? 2 * st->vx[v].vf_cap : 8;
+        if (en_grow((void **)&st->pool, &st->pool_cap, st->pool_len + cap, sizeof *st->pool))
+            return EPSNET_ENOMEM;
+        memcpy(st->pool + st->pool_len, st->pool + st->vx[v].vf_start, st->vx[v].vf_count * sizeof *st->pool);
+        st->vx[v].vf_start = (uint32_t)st->pool_len;
+        st->vx[v].vf_cap = cap;
+        st->pool_len += cap;
     }
-    st->nlive = n;
-    for (uint32_t v = 0; v < nv; v++)
-        a->off[v + 1] += a->off[v];
-    /* fill with off[v] as the cursor, then shift back */
-    for (uint32_t i = 0; i < n; i++) {
-        uint32_t f = a->live[i];
-        const uint32_t *t = st->tri + 3 * (size_t)f;
-        a->adj[a->off[t[0]]++] = f;
-        a->adj[a->off[t[1]]++] = f;
-        a->adj[a->off[t[2]]++] = f;
-    }
-    for (uint32_t v = nv; v > 0; v--)
-        a->off[v] = a->off[v - 1];
-    a->off[0] = 0;
-    uint32_t m = 0;
-    for (uint32_t i = 0; i < st->nverts; i++) {
-        uint32_t v = a->verts[i];
-        if ((a->flag[v] & F_ALIVE) && a->off[v + 1] > a->off[v])
-            a->verts[m++] = v;
-    }
-    st->nverts = m;
+    st->pool[st->vx[v].vf_start + st->vx[v].vf_count++] = f;
+    return 0;
 }
 
-/* Does u have a face on both x and y? */
+static void list_remove(state *st, uint32_t v, uint32_t f)
+{
+    uint32_t *l = st->pool + st->vx[v].vf_start;
+    for (uint32_t i = 0; i < st->vx[v].vf_count; i++)
+        if (l[i] == f) {
+            /* note: keep the order (not swap-remove) so that iteration, and
+             * with it every tie, is the same on every run and platform. */
+            memmove(l + i, l + i + 1, (st->vx[v].vf_count - i - 1) * sizeof *l);
+            st->vx[v].vf_count--;
+            return;
+        }
+}
+
+/* Does u have an alive face on both x and y? */
 static int has_face_on(const state *st, uint32_t u, uint32_t x, uint32_t y)
 {
-    const arrays *a = st->a;
-    for (uint32_t i = a->off[u]; i < a->off[u + 1]; i++) {
-        if (!st->falive[a->adj[i]])
-            continue; /* gone in this pass */
-        const uint32_t *t = st->tri + 3 * (size_t)a->adj[i];
+    const uint32_t *l = st->pool + st->vx[u].vf_start;
+    for (uint32_t i = 0; i < st->vx[u].vf_count; i++) {
+        const uint32_t *t = st->tri + 3 * (size_t)l[i];
         if (has_corner(t, x) && has_corner(t, y))
             return 1;
     }
@@ -247,8 +330,7 @@ static int has_face_on(const state *st, uint32_t u, uint32_t x, uint32_t y)
 }
 
 /*
- * Can v collapse onto u? Returns 0 or the EN_REFUSE_* reason. Both must be
- * unlocked in this pass (their lists exact).
+ * Can v collapse onto u? Returns 0 or the EN_REFUSE_* reason.
  * Link condition: the neighbours v and u share must be exactly the two
  * vertices opposite the edge v-u, else the collapse pinches the surface.
  */
@@ -256,19 +338,17 @@ static int check_collapse(state *st, uint32_t v, uint32_t u)
 {
     if (!(st->s->vflags[u] & EN_V_TARGET))
         return EN_REFUSE_INCOMPLETE;
-    arrays *a = st->a;
-    uint32_t stamp = ++st->stamp, *mark = a->mark;
-    for (uint32_t i = a->off[u]; i < a->off[u + 1]; i++) {
-        if (!st->falive[a->adj[i]])
-            continue; /* gone in this pass */
-        const uint32_t *t = st->tri + 3 * (size_t)a->adj[i];
-        mark[t[0]] = mark[t[1]] = mark[t[2]] = stamp;
+    uint32_t stamp = ++st->stamp;
+    const uint32_t *lu = st->pool + st->vx[u].vf_start;
+    for (uint32_t i = 0; i < st->vx[u].vf_count; i++) {
+        const uint32_t *t = st->tri + 3 * (size_t)lu[i];
+        for (int k = 0; k < 3; k++)
+            st->vx[t[k]].mark = stamp;
     }
+    const uint32_t *lv = st->pool + st->vx[v].vf_start;
     uint32_t opp[2], nedge = 0;
-    for (uint32_t i = a->off[v]; i < a->off[v + 1]; i++) {
-        if (!st->falive[a->adj[i]])
-            continue; /* gone in this pass */
-        const uint32_t *t = st->tri + 3 * (size_t)a->adj[i];
+    for (uint32_t i = 0; i < st->vx[v].vf_count; i++) {
+        const uint32_t *t = st->tri + 3 * (size_t)lv[i];
         if (!has_corner(t, u))
             continue;
         if (nedge == 2)
@@ -279,18 +359,14 @@ static int check_collapse(state *st, uint32_t v, uint32_t u)
         return EN_REFUSE_LINK;
     /* note: unmarking the allowed shared vertices leaves one test per corner;
      * 0 is below every stamp. */
-    mark[v] = mark[u] = mark[opp[0]] = mark[opp[1]] = 0;
-    for (uint32_t i = a->off[v]; i < a->off[v + 1]; i++) {
-        if (!st->falive[a->adj[i]])
-            continue; /* gone in this pass */
-        const uint32_t *t = st->tri + 3 * (size_t)a->adj[i];
-        if (mark[t[0]] == stamp || mark[t[1]] == stamp || mark[t[2]] == stamp)
+    st->vx[v].mark = st->vx[u].mark = st->vx[opp[0]].mark = st->vx[opp[1]].mark = 0;
+    for (uint32_t i = 0; i < st->vx[v].vf_count; i++) {
+        const uint32_t *t = st->tri + 3 * (size_t)lv[i];
+        if (st->vx[t[0]].mark == stamp || st->vx[t[1]].mark == stamp || st->vx[t[2]].mark == stamp)
             return EN_REFUSE_LINK;
     }
-    for (uint32_t i = a->off[v]; i < a->off[v + 1]; i++) {
-        if (!st->falive[a->adj[i]])
-            continue; /* gone in this pass */
-        uint32_t f = a->adj[i];
+    for (uint32_t i = 0; i < st->vx[v].vf_count; i++) {
+        uint32_t f = lv[i];
         const uint32_t *t = st->tri + 3 * (size_t)f;
         if (has_corner(t, u))
             continue;
@@ -317,8 +393,6 @@ static int check_collapse(state *st, uint32_t v, uint32_t u)
     return 0;
 }
 
-/* ---- costs ---- */
-
 static int target_less(const target *a, const target *b)
 {
     return a->cost != b->cost ? a->cost < b->cost : a->u < b->u;
@@ -333,9 +407,10 @@ static double quadric_area(const en_quadric *q)
 
 static double pair_cost(const state *st, uint32_t w, uint32_t x)
 {
-    double c = quadric_eval(&st->q[w], st->s->pos + 3 * (size_t)x) + st->a->self_err[x];
-    /* Huge coordinates (1e200) overflow quadrics to inf - inf = NaN, which
-     * no comparison orders: such pairs go last, at +inf. */
+    double c = quadric_eval(&st->vx[w].q, st->s->pos + 3 * (size_t)x) + st->vx[x].self_err;
+    /* Huge coordinates (1e200) overflow quadrics to inf - inf = NaN. NaN is
+     * unequal to itself, so the queue's staleness test would requeue such a
+     * pair forever: such pairs go last, at +inf, where the test holds. */
     return c == c ? c : INFINITY;
 }
 
@@ -344,48 +419,33 @@ static double pair_cost(const state *st, uint32_t w, uint32_t x)
  * distance to its planes (en_collapse_settings.max_error). */
 static double collapse_error2(const state *st, uint32_t w, uint32_t x, double c)
 {
-    double area = quadric_area(&st->q[w]) + quadric_area(&st->q[x]);
+    double area = quadric_area(&st->vx[w].q) + quadric_area(&st->vx[x].q);
     double e = area > 0 ? c / area : c;
     return e > 0 ? e : 0; /* rounding can take a sum of squares below zero */
 }
 
-/* v's cheapest target among those that may receive a collapse at all
- * (EN_V_TARGET), unchecked (u NO_TARGET: none). Each neighbour is the
- * corner after v in exactly one face of v's (manifold, closed) star. */
-static target cheapest_target(const state *st, uint32_t v)
+/* Corner of t at v (the first, should a face repeat v), as stars list it. */
+static int corner_at(const uint32_t *t, uint32_t v)
 {
-    const arrays *a = st->a;
-    target best = { 0, NO_TARGET };
-    for (uint32_t i = a->off[v]; i < a->off[v + 1]; i++) {
-        if (!st->falive[a->adj[i]])
-            continue; /* gone in this pass */
-        const uint32_t *tr = st->tri + 3 * (size_t)a->adj[i];
-        uint32_t u = tr[(corner_at(tr, v) + 1) % 3];
-        if (!(st->s->vflags[u] & EN_V_TARGET))
-            continue;
-        target t = { pair_cost(st, v, u), u };
-        if (best.u == NO_TARGET || target_less(&t, &best))
-            best = t;
-    }
-    return best;
+    return t[0] == v ? 0 : t[1] == v ? 1 : 2;
 }
 
-/* Every target of v with its cost, cheapest first, in a->cand; @return the
- * count or -1 when out of memory. */
+/* Targets of v with their costs, cheapest first, in st->cand; @return count
+ * or -1 when out of memory. Each neighbour is the corner after v in exactly
+ * one face of v's (manifold, closed) star, so it is listed once. */
 static int64_t rank_targets(state *st, uint32_t v)
 {
-    arrays *a = st->a;
-    uint32_t deg = a->off[v + 1] - a->off[v];
-    if (en_grow((void **)&a->cand, &a->cap_cand, deg ? deg : 1, sizeof *a->cand))
+    if (en_grow((void **)&st->cand, &st->cand_cap, st->vx[v].vf_count, sizeof *st->cand))
         return -1;
-    target *cand = a->cand;
+    target *cand = st->cand;
     uint32_t n = 0;
-    for (uint32_t i = a->off[v]; i < a->off[v + 1]; i++) {
-        if (!st->falive[a->adj[i]])
-            continue; /* gone in this pass */
-        const uint32_t *t = st->tri + 3 * (size_t)a->adj[i];
-        uint32_t u = t[(corner_at(t, v) + 1) % 3];
-        cand[n++] = (target){ pair_cost(st, v, u), u };
+    const uint32_t *lv = st->pool + st->vx[v].vf_start;
+    for (uint32_t i = 0; i < st->vx[v].vf_count; i++) {
+        const uint32_t *t = st->tri + 3 * (size_t)lv[i];
+        int k = corner_at(t, v);
+        cand[n].cost = pair_cost(st, v, t[(k + 1) % 3]);
+        cand[n].u = t[(k + 1) % 3];
+        n++;
     }
     /* insertion sort: stars are small (a vertex that absorbed a fan is the
      * rare long one) */
@@ -402,275 +462,193 @@ static int64_t rank_targets(state *st, uint32_t v)
 }
 
 /*
- * v's cheapest valid target into *out (u NO_TARGET: none, with the reasons
- * in a->refused[v]). Targets locked in this pass cannot be checked (their
- * lists are stale): meeting one before a valid target returns 1, "ask
- * again next pass". @return 0, 1, or -1 when out of memory.
+ * Queue v's cheapest target, unchecked, among those that may receive a
+ * collapse at all (EN_V_TARGET; a neighbour whose star is not whole here
+ * never may, so queueing onto it only meant a refusal and a full re-ranking
+ * at its pop). The entry stays a lower bound on v's cheapest valid
+ * collapse, and exact when valid, so the collapses done and their order are
+ * the same as when such neighbours were queued (measured: identical
+ * output; at 100M faces, where slabs are thin bands, that re-ranking had
+ * become a ninth of the run, bench/RESULTS.md). None: v leaves the queue
+ * until a collapse next to it gives it a target.
  */
-static int cheapest_valid(state *st, uint32_t v, target *out)
+/* v's cheapest target by cost (best.u UINT32_MAX: none). */
+static target cheapest_target(const state *st, uint32_t v)
+{
+    const uint32_t *lv = st->pool + st->vx[v].vf_start;
+    target best = { 0, UINT32_MAX };
+    for (uint32_t i = 0; i < st->vx[v].vf_count; i++) {
+        const uint32_t *tr = st->tri + 3 * (size_t)lv[i];
+        uint32_t u = tr[(corner_at(tr, v) + 1) % 3];
+        if (!(st->s->vflags[u] & EN_V_TARGET))
+            continue;
+        target t = { pair_cost(st, v, u), u };
+        if (best.u == UINT32_MAX || target_less(&t, &best))
+            best = t;
+    }
+    return best;
+}
+
+static int queue_cheapest(state *st, uint32_t v)
+{
+    if (!st->vx[v].removable || !st->vx[v].alive || st->vx[v].vf_count == 0)
+        return 0;
+    target best = cheapest_target(st, v);
+    st->vx[v].best_cost = best.cost;
+    st->vx[v].best_u = best.u;
+    st->vx[v].fallback = 0;
+    if (best.u == UINT32_MAX) {
+        heap_remove(st, v);
+        return 0;
+    }
+    return heap_set(st, v, best.cost, best.u);
+}
+
+/* Queue v's cheapest valid target (checked), or record why there is none. */
+static int queue_best_valid(state *st, uint32_t v)
 {
     int64_t n = rank_targets(st, v);
     if (n < 0)
-        return -1;
+        return EPSNET_ENOMEM;
     uint8_t reasons = 0;
-    out->u = NO_TARGET;
     for (int64_t i = 0; i < n; i++) {
-        target t = st->a->cand[i];
-        if (st->a->flag[t.u] & F_LOCKED)
-            return 1;
+        target t = st->cand[i];
         int why = check_collapse(st, v, t.u);
         if (why == 0) {
-            *out = t;
-            st->a->refused[v] = 0;
-            return 0;
+            st->vx[v].refused = 0;
+            st->vx[v].best_cost = t.cost;
+            st->vx[v].best_u = t.u;
+            st->vx[v].fallback = 1;
+            return heap_set(st, v, t.cost, t.u);
         }
         reasons |= (uint8_t)why;
     }
-    st->a->refused[v] = reasons;
+    st->vx[v].refused = reasons;
+    st->vx[v].best_u = UINT32_MAX;
+    st->vx[v].fallback = 1;
+    heap_remove(st, v);
     return 0;
 }
 
-/* Is v's cached evaluation still what an evaluation now would find: has no
- * collapse since changed v's star or a neighbour's star or quadric? */
-static int eval_holds(const state *st, uint32_t v)
+static int is_neighbour(const state *st, uint32_t v, uint32_t u)
 {
-    const arrays *a = st->a;
-    uint32_t at = a->eval_at[v];
-    if (at == 0 || a->changed_at[v] >= at)
-        return 0;
-    for (uint32_t i = a->off[v]; i < a->off[v + 1]; i++) {
-        if (!st->falive[a->adj[i]])
-            continue; /* gone in this pass */
-        const uint32_t *t = st->tri + 3 * (size_t)a->adj[i];
-        if (a->changed_at[t[0]] >= at || a->changed_at[t[1]] >= at || a->changed_at[t[2]] >= at)
-            return 0;
-    }
-    return 1;
+    const uint32_t *lv = st->pool + st->vx[v].vf_start;
+    for (uint32_t i = 0; i < st->vx[v].vf_count; i++)
+        if (has_corner(st->tri + 3 * (size_t)lv[i], u))
+            return 1;
+    return 0;
 }
 
-static void cache_eval(state *st, uint32_t v, uint8_t what, target t)
+static int do_collapse(state *st, uint32_t v, uint32_t u)
 {
-    st->a->eval_at[v] = st->seq + 1;
-    st->a->eval[v] = what;
-    st->a->target[v] = t.u;
-    st->a->cost[v] = t.cost;
-}
-
-/* ---- collapsing ---- */
-
-/* v onto u (both unlocked, the collapse checked): v's faces on u go, its
- * others take u for v. v and u are locked for the rest of the pass (u's
- * list lacks v's faces); every vertex of v's star is stamped as changed,
- * which is what cached evaluations are tested against. */
-static void do_collapse(state *st, uint32_t v, uint32_t u)
-{
-    arrays *a = st->a;
-    uint32_t seq = ++st->seq;
-    for (uint32_t i = a->off[v]; i < a->off[v + 1]; i++) {
-        if (!st->falive[a->adj[i]])
-            continue; /* gone in this pass */
-        uint32_t f = a->adj[i];
+    /* v's list is consumed here; copy it since u's list may move in the pool */
+    uint32_t nf = st->vx[v].vf_count;
+    if (en_grow((void **)&st->faces, &st->faces_cap, nf, sizeof *st->faces))
+        return EPSNET_ENOMEM;
+    uint32_t *faces = st->faces;
+    memcpy(faces, st->pool + st->vx[v].vf_start, nf * sizeof *faces);
+    for (uint32_t i = 0; i < nf; i++) {
+        uint32_t f = faces[i];
         uint32_t *t = st->tri + 3 * (size_t)f;
         if (has_corner(t, u)) {
             st->falive[f] = 0;
             st->faces_alive--;
-        }
-        for (int k = 0; k < 3; k++) {
-            a->changed_at[t[k]] = seq;
-            if (t[k] == v)
-                t[k] = u;
+            for (int k = 0; k < 3; k++)
+                if (t[k] != v)
+                    list_remove(st, t[k], f);
+        } else {
+            for (int k = 0; k < 3; k++)
+                if (t[k] == v)
+                    t[k] = u;
+            if (list_append(st, u, f))
+                return EPSNET_ENOMEM;
         }
     }
-    a->flag[v] |= F_LOCKED;
-    a->flag[u] |= F_LOCKED;
+    st->vx[v].vf_count = 0;
     st->valive[v] = 0;
-    a->flag[v] &= (uint8_t)~(F_ALIVE | F_ACTIVE);
+    st->vx[v].alive = 0;
     st->vertices_alive--;
     st->given_up += st->tier[v] == 2;
-    quadric_add(&st->q[u], &st->q[v]);
-    a->self_err[u] = quadric_eval(&st->q[u], st->s->pos + 3 * (size_t)u);
+    quadric_add(&st->vx[u].q, &st->vx[v].q);
+    st->vx[u].self_err = quadric_eval(&st->vx[u].q, st->s->pos + 3 * (size_t)u);
+    st->collapses++;
+    /*
+     * What changed: u's quadric (so every cost *from* u, and the cost of every
+     * pair *into* u), and the neighbourhoods in u's ring (validity, checked
+     * lazily at pop). A neighbour w needs a full re-ranking only when its
+     * queued target was u or v, or its entry was a checked fallback (a
+     * cheaper target may be valid now); otherwise only w -> u is priced.
+     */
+    int rc = queue_cheapest(st, u);
+    uint32_t stamp = ++st->stamp;
+    st->vx[u].mark = stamp;
+    uint32_t count = st->vx[u].vf_count;
+    for (uint32_t i = 0; i < count && rc == 0; i++) {
+        const uint32_t *t = st->tri + 3 * (size_t)st->pool[st->vx[u].vf_start + i];
+        for (int k = 0; k < 3 && rc == 0; k++) {
+            uint32_t w = t[k];
+            if (st->vx[w].mark == stamp)
+                continue;
+            st->vx[w].mark = stamp;
+            if (!st->vx[w].removable)
+                continue;
+            if (st->vx[w].best_u == u || st->vx[w].best_u == v || st->vx[w].best_u == UINT32_MAX || st->vx[w].fallback) {
+                rc = queue_cheapest(st, w);
+                continue;
+            }
+            target cand = { pair_cost(st, w, u), u };
+            target best = { st->vx[w].best_cost, st->vx[w].best_u };
+            if (target_less(&cand, &best)) {
+                st->vx[w].best_cost = cand.cost;
+                st->vx[w].best_u = u;
+                rc = heap_set(st, w, cand.cost, u);
+            }
+        }
+    }
+    return rc;
 }
 
 /* Every vertex's quadric from the faces alive now, as
  * en_quadrics_from_faces() takes them from the input's (the reference
- * normals of the normal bound stay the input's). Every cached evaluation
- * goes with them. */
+ * normals of the normal bound stay the input's). */
 static void refresh_quadrics(state *st)
 {
     const en_slab *s = st->s;
-    memset(st->q, 0, (size_t)s->nv * sizeof *st->q);
-    for (uint32_t i = 0; i < st->nlive; i++) {
-        const uint32_t *t = st->tri + 3 * (size_t)st->a->live[i];
+    for (uint32_t v = 0; v < s->nv; v++)
+        memset(&st->vx[v].q, 0, sizeof st->vx[v].q);
+    for (uint32_t f = 0; f < s->nt; f++) {
+        if (!st->falive[f])
+            continue;
+        const uint32_t *t = st->tri + 3 * (size_t)f;
         en_quadric k;
         double un[3];
         face_quadric(s->pos, t, &k, un);
-        for (int j = 0; j < 3; j++)
-            quadric_add(&st->q[t[j]], &k);
+        for (int i = 0; i < 3; i++)
+            quadric_add(&st->vx[t[i]].q, &k);
     }
-    for (uint32_t v = 0; v < s->nv; v++) {
-        st->a->self_err[v] = quadric_eval(&st->q[v], s->pos + 3 * (size_t)v);
-        st->a->eval_at[v] = 0;
-    }
+    for (uint32_t v = 0; v < s->nv; v++)
+        st->vx[v].self_err = quadric_eval(&st->vx[v].q, s->pos + 3 * (size_t)v);
 }
 
-static int limits_met(const state *st)
-{
-    return (st->keep_faces && st->faces_alive <= st->keep_faces) ||
-           (st->keep_vertices && st->vertices_alive <= st->keep_vertices);
-}
-
-/* How many collapses the limits still ask for (UINT64_MAX: no limit). */
-static uint64_t collapses_wanted(const state *st)
-{
-    uint64_t want = UINT64_MAX;
-    if (st->keep_faces)
-        want = (st->faces_alive - st->keep_faces + 1) / 2;
-    if (st->keep_vertices && st->vertices_alive - st->keep_vertices < want)
-        want = st->vertices_alive - st->keep_vertices;
-    return want;
-}
-
-/*
- * This pass's candidates: every active vertex's cheapest target (its
- * cached evaluation when that still holds), those above the ceiling left
- * out, in a->order by cost bucket (a stable counting sort: within a bucket,
- * by vertex). The targets are ranked in one sweep over the faces: each
- * neighbour of v is the corner after v in exactly one face of its star, so
- * the sweep prices every pair once and reads the faces in order.
- * @return the count; *above: a vertex waits above the ceiling.
- */
-static uint32_t gather(state *st, int *above)
-{
-    arrays *a = st->a;
-    const uint8_t *vflags = st->s->vflags;
-    for (uint32_t i = 0; i < st->nverts; i++) {
-        uint32_t v = a->verts[i];
-        uint8_t fl = a->flag[v] & (uint8_t)~(F_LOCKED | F_CHECKED | F_RANK);
-        if (fl & F_ACTIVE) {
-            if (eval_holds(st, v)) {
-                fl |= a->eval[v] == E_VALID ? F_CHECKED : 0;
-            } else {
-                a->eval_at[v] = 0;
-                a->target[v] = NO_TARGET;
-                fl |= F_RANK;
-            }
-        }
-        a->flag[v] = fl;
-    }
-    for (uint32_t i = 0; i < st->nlive; i++) {
-        const uint32_t *t = st->tri + 3 * (size_t)a->live[i];
-        for (int k = 0; k < 3; k++) {
-            uint32_t v = t[k], u = t[k == 2 ? 0 : k + 1];
-            if (!(a->flag[v] & F_RANK) || !(vflags[u] & EN_V_TARGET))
-                continue;
-            double c = pair_cost(st, v, u);
-            if (a->target[v] == NO_TARGET || c < a->cost[v] || (c == a->cost[v] && u < a->target[v]))
-                a->cost[v] = c, a->target[v] = u;
-        }
-    }
-    uint32_t n = 0;
-    memset(a->hist, 0, (EN_COST_BUCKETS + 1) * sizeof *a->hist);
-    for (uint32_t i = 0; i < st->nverts; i++) {
-        uint32_t v = a->verts[i];
-        if (!(a->flag[v] & (F_RANK | F_CHECKED)) || a->target[v] == NO_TARGET)
-            continue;
-        if (a->cost[v] > st->ceiling) {
-            *above = 1;
-            continue;
-        }
-        int b = en_cost_bucket(a->cost[v]);
-        a->key[v] = (uint16_t)b;
-        a->hist[b + 1]++;
-        a->sorted[n++] = v; /* in vertex order for now */
-    }
-    for (int b = 0; b < EN_COST_BUCKETS; b++)
-        a->hist[b + 1] += a->hist[b];
-    for (uint32_t i = 0; i < n; i++) {
-        uint32_t v = a->sorted[i];
-        a->order[a->hist[a->key[v]]++] = v;
-    }
-    return n;
-}
-
-/*
- * One pass: the candidates in order, each collapsed when neither end is
- * locked, it is valid (or v's cheapest valid target is, still within the
- * pass), under the error bound, and the limits are unmet. The pass ends
- * after the bucket of its middle candidate, or of the candidate halfway to
- * the limits when those are nearer: what a lock deferred is ranked afresh
- * in the next pass, and the passes near the limits are short, so that the
- * last collapses are chosen from fresh costs.
- * note: measured (bench/RESULTS.md, session 13): ending a pass 1.5x above
- * that bucket, or at the candidate that meets the limits, raised the mean
- * error at equal faces by 3-4% (up to 17% on fandisk), against the exact
- * order; this rule is within 1% of it, at 25 passes on a slab-sized mesh.
- * @return 0, EPSNET_ENOMEM or EPSNET_EINTR; *done: collapses this pass.
- */
-static int collapse_pass(state *st, uint32_t n, const en_collapse_settings *cs, uint64_t refresh, uint64_t *done)
-{
-    arrays *a = st->a;
-    uint64_t want = collapses_wanted(st), k = (want < n ? want : n) / 2;
-    int bound = a->key[a->order[k]];
-    uint64_t before = st->seq;
-    for (uint32_t i = 0; i < n; i++) {
-        uint32_t v = a->order[i], u = a->target[v];
-        if (a->key[v] > bound || limits_met(st) || (refresh && st->faces_alive <= refresh))
-            break;
-        if ((a->flag[v] | a->flag[u]) & F_LOCKED)
-            continue;
-        target t = { a->cost[v], u };
-        if (!(a->flag[v] & F_CHECKED) && check_collapse(st, v, u)) {
-            /* its cheapest target is refused: its cheapest valid one,
-             * kept for later passes while nothing near v changes */
-            int r = cheapest_valid(st, v, &t);
-            if (r < 0)
-                return EPSNET_ENOMEM;
-            if (r > 0)
-                continue;
-            cache_eval(st, v, t.u == NO_TARGET ? E_REFUSED : E_VALID, t);
-            if (t.u == NO_TARGET || t.cost > st->ceiling || en_cost_bucket(t.cost) > bound)
-                continue;
-        }
-        if (st->by_error && collapse_error2(st, v, t.u, t.cost) > st->max_cost) {
-            /* over the error bound: v waits until a collapse near it
-             * changes its quadric or its neighbours' */
-            st->stopped_by_error = 1;
-            cache_eval(st, v, E_OVER_ERROR, t);
-            continue;
-        }
-        do_collapse(st, v, t.u);
-        st->top_cost = t.cost > st->top_cost ? t.cost : st->top_cost;
-        if (cs->progress && (st->seq & 1023) == 0) {
-            atomic_store_explicit(cs->progress, st->seq, memory_order_relaxed);
-            if (cs->stop && atomic_load_explicit(cs->stop, memory_order_relaxed))
-                return EPSNET_EINTR; /* cancelled: the caller drops the slab */
-        }
-    }
-    *done = st->seq - before;
-    return 0;
-}
+/* One set of the working arrays, kept between calls in an
+ * en_collapse_arrays_new() pool: a state's arrays with their capacities. */
+typedef struct arrays {
+    uint32_t *pool;
+    void *vx_alloc;
+    heap_entry *heap;
+    target *cand;
+    uint32_t *faces;
+    size_t pool_cap, vx_bytes, heap_cap, cand_cap, faces_cap;
+} arrays;
 
 static void arrays_destroy(void *item)
 {
     arrays *a = item;
-    en_free(a->off);
-    en_free(a->adj);
-    en_free(a->live);
-    en_free(a->verts);
-    en_free(a->order);
-    en_free(a->sorted);
-    en_free(a->hist);
-    en_free(a->self_err);
-    en_free(a->cost);
-    en_free(a->target);
-    en_free(a->changed_at);
-    en_free(a->eval_at);
-    en_free(a->mark);
-    en_free(a->key);
-    en_free(a->flag);
-    en_free(a->eval);
-    en_free(a->refused);
+    en_free(a->pool);
+    en_free(a->vx_alloc);
+    en_free(a->heap);
     en_free(a->cand);
+    en_free(a->faces);
     en_free(a);
 }
 
@@ -679,64 +657,52 @@ int en_collapse_arrays_new(en_ctxpool **pool)
     return en_ctxpool_new(pool, arrays_destroy);
 }
 
-/* Every array of a sized for the slab s (grown, never shrunk). */
-static int arrays_size(arrays *a, const en_slab *s)
-{
-    size_t nv = (size_t)s->nv + 1, nt = (size_t)s->nt + 1;
-    return en_grow((void **)&a->off, &a->cap_off, nv + 1, sizeof *a->off) ||
-           en_grow((void **)&a->adj, &a->cap_adj, 3 * nt, sizeof *a->adj) ||
-           en_grow((void **)&a->live, &a->cap_live, nt, sizeof *a->live) ||
-           en_grow((void **)&a->verts, &a->cap_verts, nv, sizeof *a->verts) ||
-           en_grow((void **)&a->order, &a->cap_order, nv, sizeof *a->order) ||
-           en_grow((void **)&a->sorted, &a->cap_sorted, nv, sizeof *a->sorted) ||
-           en_grow((void **)&a->hist, &a->cap_hist, EN_COST_BUCKETS + 1, sizeof *a->hist) ||
-           en_grow((void **)&a->self_err, &a->cap_self_err, nv, sizeof *a->self_err) ||
-           en_grow((void **)&a->cost, &a->cap_cost, nv, sizeof *a->cost) ||
-           en_grow((void **)&a->target, &a->cap_target, nv, sizeof *a->target) ||
-           en_grow((void **)&a->changed_at, &a->cap_changed_at, nv, sizeof *a->changed_at) ||
-           en_grow((void **)&a->eval_at, &a->cap_eval_at, nv, sizeof *a->eval_at) ||
-           en_grow((void **)&a->mark, &a->cap_mark, nv, sizeof *a->mark) ||
-           en_grow((void **)&a->key, &a->cap_key, nv, sizeof *a->key) ||
-           en_grow((void **)&a->flag, &a->cap_flag, nv, sizeof *a->flag) ||
-           en_grow((void **)&a->eval, &a->cap_eval, nv, sizeof *a->eval) ||
-           en_grow((void **)&a->refused, &a->cap_refused, nv, sizeof *a->refused)
-               ? EPSNET_ENOMEM
-               : 0;
-}
-
 int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, const double *ref_normal,
                      const en_collapse_settings *cs, uint8_t *face_alive, uint8_t *vertex_alive,
                      uint32_t *tri_out, en_collapse_counts *counts, en_ctxpool *pool)
 {
-    arrays *a = en_ctxpool_take(pool);
-    if (!a && !(a = en_calloc(1, sizeof *a)))
+    arrays *own = en_ctxpool_take(pool);
+    if (!own && !(own = en_calloc(1, sizeof *own)))
         return EPSNET_ENOMEM;
-    int rc = arrays_size(a, s);
-    if (rc)
-        goto out;
     state st = { 0 };
     st.s = s;
-    st.a = a;
-    st.q = q;
     st.cos_bound = cos(cs->max_normal_dev_deg * (M_PI / 180.0));
     st.tri = tri_out;
     st.falive = face_alive;
     st.valive = vertex_alive;
-    st.ref_normal = ref_normal;
     memcpy(st.tri, s->tri, 3 * sizeof *st.tri * (size_t)s->nt);
     memset(st.falive, 1, s->nt);
     memset(st.valive, 1, s->nv);
-    for (uint32_t f = 0; f < s->nt; f++)
-        a->live[f] = f;
-    st.nlive = s->nt;
-    for (uint32_t v = 0; v < s->nv; v++) {
-        a->self_err[v] = quadric_eval(&q[v], s->pos + 3 * (size_t)v);
-        a->changed_at[v] = a->eval_at[v] = a->mark[v] = 0;
-        a->flag[v] = (uint8_t)(F_ALIVE | (removable[v] == 1 ? F_ACTIVE : 0));
-        a->refused[v] = 0;
-        a->verts[v] = v;
+    st.ref_normal = ref_normal;
+    st.pool = own->pool, st.pool_cap = own->pool_cap;
+    st.heap = own->heap, st.heap_cap = own->heap_cap;
+    st.cand = own->cand, st.cand_cap = own->cand_cap;
+    st.faces = own->faces, st.faces_cap = own->faces_cap;
+    int rc = 0;
+    /* (vx's old contents need no keeping, but growing it as the others
+     * grow keeps a run of slightly larger slabs from allocating anew) */
+    if (en_grow((void **)&st.pool, &st.pool_cap, 3 * (size_t)s->nt + 8, sizeof *st.pool) ||
+        en_grow(&own->vx_alloc, &own->vx_bytes, ((size_t)s->nv + 1) * sizeof *st.vx + 63, 1)) {
+        rc = EPSNET_ENOMEM;
+        goto out;
     }
-    st.nverts = s->nv;
+    st.vx_alloc = own->vx_alloc;
+    st.vx = (vrec *)(((uintptr_t)st.vx_alloc + 63) & ~(uintptr_t)63);
+    memcpy(st.pool, s->star, s->star_start[s->nv] * sizeof *st.pool);
+    st.pool_len = s->star_start[s->nv];
+    for (uint32_t v = 0; v < s->nv; v++) {
+        vrec *r = &st.vx[v];
+        memset(r, 0, sizeof *r);
+        r->vf_start = s->star_start[v];
+        r->vf_count = r->vf_cap = en_slab_degree(s, v);
+        r->q = q[v];
+        r->self_err = quadric_eval(&r->q, s->pos + 3 * (size_t)v);
+        r->best_u = UINT32_MAX;
+        r->heap_pos = UINT32_MAX;
+        r->removable = removable[v] == 1;
+        r->alive = 1;
+    }
+
     st.tier = removable;
     st.by_error = cs->by_error;
     st.max_cost = cs->by_error && cs->max_error >= 0 ? cs->max_error * cs->max_error : INFINITY;
@@ -744,97 +710,116 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
     st.keep_vertices = cs->keep_vertices;
     st.ceiling = cs->cost_ceiling != 0 ? cs->cost_ceiling : INFINITY;
     st.faces_alive = s->nt;
-    int tier2 = 0, met = 0, stale = 0;
-    uint64_t refresh = cs->refresh_faces, done = 0;
-    rebuild(&st);
-    st.vertices_alive = st.nverts; /* every vertex on a face */
-    while (rc == 0) {
-        if (stale)
-            rebuild(&st);
-        stale = 0;
-        if ((met = limits_met(&st)) != 0)
-            break;
-        if (refresh && st.faces_alive <= refresh) {
-            /* every price changes: every vertex is ranked again */
-            refresh = 0;
-            refresh_quadrics(&st);
-        }
-        int above = 0;
-        uint32_t n = gather(&st, &above);
-        if (n == 0) {
-            if (above) {
-                /* the cheapest collapse left is above the round's
-                 * ceiling: the round ends here, the rest wait for the
-                 * next one */
+    for (uint32_t v = 0; v < s->nv; v++) {
+        st.vertices_alive += st.vx[v].vf_count > 0;
+        st.vx[v].removable = removable[v] == 1;
+    }
+    int tier2 = 0, met = 0;
+    uint64_t refresh = cs->refresh_faces;
+    for (;;) {
+        for (uint32_t v = 0; v < s->nv && rc == 0; v++)
+            if (!tier2 || removable[v] == 2)
+                rc = queue_cheapest(&st, v);
+        while (rc == 0 && st.heap_len) {
+            met = (st.keep_faces && st.faces_alive <= st.keep_faces) ||
+                  (st.keep_vertices && st.vertices_alive <= st.keep_vertices);
+            if (met)
+                break;
+            if (refresh && st.faces_alive <= refresh) {
+                /* every price changes: queue every vertex again */
+                refresh = 0;
+                refresh_quadrics(&st);
+                for (uint32_t v = 0; v < s->nv && rc == 0; v++)
+                    rc = queue_cheapest(&st, v);
+                continue;
+            }
+            heap_entry e = heap_pop(&st);
+            if (!st.vx[e.u].alive || !is_neighbour(&st, e.v, e.u) || pair_cost(&st, e.v, e.u) != e.cost) {
+                /* its target went away or got dearer: rank v's targets again */
+                rc = queue_cheapest(&st, e.v);
+                continue;
+            }
+            if (e.cost > st.ceiling) {
+                /* the cheapest collapse left is above the round's ceiling,
+                 * and so is every other (the queue holds lower bounds):
+                 * the round ends here; v waits for the next one */
+                rc = heap_set(&st, e.v, e.cost, e.u);
                 st.stopped_by_ceiling = 1;
                 break;
             }
-            if (tier2 || !(st.keep_faces || st.keep_vertices))
-                break;
-            /* The first tier is spent and the target is not met: the
-             * second tier joins, cheapest first like the rest. */
-            tier2 = 1;
-            for (uint32_t i = 0; i < st.nverts; i++)
-                a->flag[a->verts[i]] |= removable[a->verts[i]] == 2 ? F_ACTIVE : 0;
-            continue;
+            if (st.by_error && collapse_error2(&st, e.v, e.u, e.cost) > st.max_cost) {
+                /* over the error bound: v waits (a later collapse nearby
+                 * may bring its error down, since the area grows too) */
+                st.stopped_by_error = 1;
+                continue;
+            }
+            if (check_collapse(&st, e.v, e.u)) {
+                rc = queue_best_valid(&st, e.v); /* replace it by v's cheapest valid target */
+                continue;
+            }
+            rc = do_collapse(&st, e.v, e.u);
+            st.top_cost = e.cost > st.top_cost ? e.cost : st.top_cost;
+            if (cs->progress && (st.collapses & 1023) == 0) {
+                atomic_store_explicit(cs->progress, st.collapses, memory_order_relaxed);
+                if (cs->stop && atomic_load_explicit(cs->stop, memory_order_relaxed))
+                    rc = EPSNET_EINTR; /* cancelled: the caller drops the slab */
+            }
         }
-        rc = collapse_pass(&st, n, cs, refresh, &done);
-        stale = done > 0;
+        met = (st.keep_faces && st.faces_alive <= st.keep_faces) ||
+              (st.keep_vertices && st.vertices_alive <= st.keep_vertices);
+        if (rc || met || tier2 || st.stopped_by_ceiling || !(st.keep_faces || st.keep_vertices))
+            break;
+        /* The first tier is spent and the target is not met: the second
+         * tier joins, cheapest first like the rest. */
+        tier2 = 1;
+        for (uint32_t v = 0; v < s->nv; v++)
+            st.vx[v].removable |= removable[v] == 2;
     }
     if (rc == 0) {
-        if (stale)
-            rebuild(&st); /* the lists as the mesh ends, for what follows */
-        for (uint32_t i = 0; i < st.nverts; i++)
-            a->flag[a->verts[i]] &= (uint8_t)~F_LOCKED;
+        for (uint32_t v = 0; v < s->nv; v++)
+            q[v] = st.vx[v].q;
         memset(counts, 0, sizeof *counts);
-        counts->collapses = st.seq;
+        counts->collapses = st.collapses;
         counts->given_up = st.given_up;
         counts->faces_left = st.faces_alive;
         counts->vertices_left = st.vertices_alive;
         counts->stopped_by_error = st.stopped_by_error;
         counts->top_cost = st.top_cost;
         if (cs->bucket_of) {
-            /* what waits: each first-tier vertex's cheapest collapse (its
-             * cheapest valid one where that is known and still holds) */
             for (uint32_t v = 0; v < s->nv; v++)
                 cs->bucket_of[v] = EN_COST_NONE;
-            for (uint32_t i = 0; i < st.nverts; i++) {
-                uint32_t v = st.a->verts[i];
-                if (removable[v] != 1 && removable[v] != EN_TIER_PRICED)
+            for (size_t i = 0; i < st.heap_len; i++)
+                if (removable[st.heap[i].v] == 1)
+                    cs->bucket_of[st.heap[i].v] = (uint16_t)en_cost_bucket(st.heap[i].cost);
+            for (uint32_t v = 0; v < s->nv; v++) {
+                if (removable[v] != EN_TIER_PRICED || !st.vx[v].alive || st.vx[v].vf_count == 0)
                     continue;
-                target t = { 0, NO_TARGET };
-                if (removable[v] == 1 && eval_holds(&st, v)) {
-                    if (a->eval[v] == E_VALID)
-                        t = (target){ a->cost[v], a->target[v] };
-                } else {
-                    t = cheapest_target(&st, v);
-                }
-                if (t.u != NO_TARGET)
+                target t = cheapest_target(&st, v);
+                if (t.u != UINT32_MAX)
                     cs->bucket_of[v] = (uint16_t)en_cost_bucket(t.cost);
             }
         }
-        for (uint32_t i = 0; i < st.nverts && rc == 0; i++) {
-            uint32_t v = st.a->verts[i];
-            if (!(a->flag[v] & F_ACTIVE))
+        for (uint32_t v = 0; v < s->nv && rc == 0; v++) {
+            if (!st.vx[v].removable || !st.vx[v].alive)
                 continue;
             counts->remaining++;
             if (met || st.stopped_by_ceiling)
                 continue; /* left by the target, not refused */
-            target t;
-            if (cheapest_valid(&st, v, &t) < 0) {
-                rc = EPSNET_ENOMEM;
-                break;
-            }
+            rc = queue_best_valid(&st, v); /* fresh reasons; the queue is not used again */
             for (int k = 0; k < EN_REFUSE_KINDS; k++)
-                counts->refused[k] += (a->refused[v] >> k) & 1;
+                counts->refused[k] += (st.vx[v].refused >> k) & 1;
         }
     }
 out:
     /* the arrays, grown or not, back to the pool (or freed with the call's own) */
+    own->pool = st.pool, own->pool_cap = st.pool_cap;
+    own->heap = st.heap, own->heap_cap = st.heap_cap;
+    own->cand = st.cand, own->cand_cap = st.cand_cap;
+    own->faces = st.faces, own->faces_cap = st.faces_cap;
     if (pool)
-        en_ctxpool_give(pool, a);
+        en_ctxpool_give(pool, own);
     else
-        arrays_destroy(a);
+        arrays_destroy(own);
     return rc;
 }
 

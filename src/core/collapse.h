@@ -1,7 +1,7 @@
 /*
  * Shape approximation on a slab (paper §4.2 and §5, docs/method.md §9): remove the
  * removable vertices by half-edge collapses v -> u, cheapest first by
- * Garland-Heckbert quadric error (in passes over flat arrays), refusing any collapse that would change
+ * Garland-Heckbert quadric error, refusing any collapse that would change
  * topology, flip or over-turn a face, create a zero-area or duplicate face.
  * Only v moves (onto u, an input vertex), so every surviving vertex keeps its
  * input coordinates bit for bit.
@@ -12,7 +12,6 @@
 #include <math.h>
 #include <stdatomic.h>
 #include <stdint.h>
-#include <string.h>
 
 #include "common/ctxpool.h"
 #include "core/slab.h"
@@ -88,13 +87,9 @@ static inline int en_cost_bucket(double c)
 {
     if (!(c > 0))
         return 0;
-    /* note: for c > 0 the top 16 bits of its IEEE-754 pattern are its
-     * biased exponent and its mantissa's top 4 bits, that is 16 steps to
-     * an octave, in order: the bucket without frexp(), which the collapse
-     * core's sort calls for every candidate of every pass. */
-    uint64_t bits;
-    memcpy(&bits, &c, sizeof bits);
-    long b = (long)(bits >> 48) - (1023 + EN_COST_BUCKET_EXP0) * 16 + 1;
+    int e;
+    double m = frexp(c, &e); /* c = m * 2^e, m in [0.5, 1) */
+    long b = (long)(e - 1 - EN_COST_BUCKET_EXP0) * 16 + (long)((m - 0.5) * 32.0) + 1;
     return b < 1 ? 1 : b >= EN_COST_BUCKETS ? EN_COST_BUCKETS - 1 : (int)b;
 }
 /* The upper edge of bucket b, which holds the costs from the edge of b - 1
@@ -135,12 +130,12 @@ int en_collapse_arrays_new(en_ctxpool **arrays);
 /*
  * Collapse every vertex v with removable[v] 1 or 2 that can go, cheapest
  * first, until a limit of cs is met. removable[v] == 2 marks a second tier:
- * such a vertex is ranked only once no first-tier collapse is left and a
+ * such a vertex is queued only once no first-tier collapse is left and a
  * face or vertex limit is still unmet (the target stage gives up skeleton
  * samples this way, docs/method.md §13). removable[v] == EN_TIER_PRICED: v
  * never goes here, but cs.bucket_of prices its cheapest collapse (a sample
  * a later pass may free).
- * q (per vertex) accumulates through the collapses.
+ * Needs the slab's stars. q (per vertex) accumulates through the collapses.
  * ref_normal (per face, from en_quadrics_from_faces() on the input) bounds
  * how far any face may turn.
  * On return face_alive[f] says which faces remain (nt entries) and
