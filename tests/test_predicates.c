@@ -396,6 +396,12 @@ TEST(sos_edge_matches_brute_force_perturbation)
         CHECK(got != 0);
         CHECK_EQ_INT(got, want);
         CHECK_EQ_INT(en_sos_edge(dj, j, di, i, dn), -got);
+        /* the winding test's form: the pair's cross product once, a
+         * filtered dot product per normal, the rest only when undecided */
+        double w[3] = { di[1] * dj[2] - di[2] * dj[1], di[2] * dj[0] - di[0] * dj[2], di[0] * dj[1] - di[1] * dj[0] };
+        int fast = en_dot3_sign_filtered(w, dn);
+        CHECK_EQ_INT(fast ? fast : en_sos_edge_cross_undecided(di, i, dj, j, w, dn), want);
+        CHECK_EQ_INT(en_sos_edge_cross_undecided(di, i, dj, j, w, dn), want);
         if (ref_det_int(gi, gj, n) == 0)
             tested_ties++;
     }

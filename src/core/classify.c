@@ -52,13 +52,11 @@ static uint64_t feature_edges_at(const en_slab *s, uint32_t v, const int32_t *ft
     return n;
 }
 
-/* The halvings of G that keep Gaussian vertex id: the largest j with 2^j
- * dividing n and each of its lattice coordinates (see
+/* The halvings of G that keep the Gaussian vertex at lattice point c: the
+ * largest j with 2^j dividing n and each of its coordinates (see
  * en_classify_vertices_levels). */
-static uint8_t halvings_kept(const gauss_sphere *g, uint32_t id)
+static uint8_t halvings_kept(const gauss_sphere *g, const int32_t c[3])
 {
-    int32_t c[3];
-    gauss_vertex_coords(g, id, c);
     uint32_t all = g->n | (uint32_t)abs(c[0]) | (uint32_t)abs(c[1]) | (uint32_t)abs(c[2]);
     uint8_t j = 0;
     while (!(all & 1u)) {
@@ -85,7 +83,7 @@ int en_classify_vertices_levels(const gauss_sphere *g, const en_slab *s, const d
             maxdeg = en_slab_degree(s, v);
     double (*normals)[3] = en_malloc((size_t)maxdeg * sizeof *normals);
     size_t near_cap = 256;
-    uint32_t *near = en_malloc(near_cap * sizeof *near);
+    int32_t (*near)[3] = en_malloc(near_cap * sizeof *near);
     int rc = normals && near ? 0 : EPSNET_ENOMEM;
     for (uint32_t v = v0; v < v1 && rc == 0; v++) {
         if (!(s->vflags[v] & EN_V_OWNED))
@@ -157,21 +155,24 @@ int en_classify_vertices_levels(const gauss_sphere *g, const en_slab *s, const d
             if (c < cos_r)
                 cos_r = c;
         }
-        size_t nn = gauss_vertices_near(g, centre, cos_r, near, near_cap);
+        size_t nn = gauss_vertices_near_at(g, centre, cos_r, near, near_cap);
         if (nn > near_cap) {
             if (en_grow((void **)&near, &near_cap, nn, sizeof *near)) {
                 rc = EPSNET_ENOMEM;
                 break;
             }
-            nn = gauss_vertices_near(g, centre, cos_r, near, near_cap);
+            nn = gauss_vertices_near_at(g, centre, cos_r, near, near_cap);
         }
         int covered = 0;
         uint8_t kept = 0;
         for (size_t i = 0; i < nn; i++) {
-            if (gauss_winding(g, (const double(*)[3])normals, m, near[i], centre) == 0)
+            /* note: by lattice point, so that an id is computed only for
+             * a vertex the polygon covers (bench/RESULTS.md, session 13) */
+            if (gauss_winding_at(g, (const double(*)[3])normals, m, near[i], centre) == 0)
                 continue;
-            if (covered++ == 0 || (int32_t)near[i] < vgvertex[v])
-                vgvertex[v] = (int32_t)near[i];
+            int32_t id = (int32_t)gauss_vertex_id(g, near[i][0], near[i][1], near[i][2]);
+            if (covered++ == 0 || id < vgvertex[v])
+                vgvertex[v] = id;
             if (vlevel) {
                 uint8_t j = halvings_kept(g, near[i]);
                 kept = j > kept ? j : kept;

@@ -739,26 +739,37 @@ static void neighbour_point(const int32_t gp[3], int32_t hp[3])
     hp[b] += gp[b] >= 0 ? 1 : -1;
 }
 
-int gauss_winding(const gauss_sphere *g, const double (*nv)[3], size_t m, uint32_t gid,
-                  const double centre[3])
+int gauss_winding_at(const gauss_sphere *g, const double (*nv)[3], size_t m, const int32_t gp[3],
+                     const double centre[3])
 {
     if (m < 2)
         return 0;
-    int32_t gp[3], hp[3];
-    gauss_vertex_coords(g, gid, gp);
+    int32_t hp[3];
     neighbour_point(gp, hp);
-    uint32_t hid = gauss_vertex_id(g, hp[0], hp[1], hp[2]);
     double gv[3], hv[3];
     lattice_to_double(gp, gv);
     lattice_to_double(hp, hv);
     if (en_dot3_sign(centre, gv) <= 0)
         return 0;
-    int winding = 0;
-    int side_a = en_sos_edge(gv, gid, hv, hid, nv[m - 1]);
-    for (size_t k = 0; k < m; k++) {
-        const double *a = nv[k == 0 ? m - 1 : k - 1], *b = nv[k];
-        int side_b = en_sos_edge(gv, gid, hv, hid, b);
-        if (side_a != side_b) {
+    /* note: det(g, h, n) = n . (g x h), with g x h exact (integers), so
+     * each edge test is a dot product; only when its filter is undecided
+     * does the perturbation need the two ids, found then (they cost as
+     * much as the tests: bench/RESULTS.md, session 13) */
+    double w[3] = { gv[1] * hv[2] - gv[2] * hv[1], gv[2] * hv[0] - gv[0] * hv[2], gv[0] * hv[1] - gv[1] * hv[0] };
+    uint32_t gid = UINT32_MAX, hid = UINT32_MAX;
+    int winding = 0, side_a = 0;
+    for (size_t k = 0; k <= m; k++) {
+        const double *b = nv[k == 0 ? m - 1 : k - 1];
+        int side_b = en_dot3_sign_filtered(w, b);
+        if (side_b == 0) {
+            if (gid == UINT32_MAX) {
+                gid = gauss_vertex_id(g, gp[0], gp[1], gp[2]);
+                hid = gauss_vertex_id(g, hp[0], hp[1], hp[2]);
+            }
+            side_b = en_sos_edge_cross_undecided(gv, gid, hv, hid, w, b);
+        }
+        if (k > 0 && side_a != side_b) {
+            const double *a = nv[k == 1 ? m - 1 : k - 2];
             int left = en_sos_point(a, b, gv);
             if (side_a < 0 && left > 0)
                 winding++;
@@ -770,8 +781,18 @@ int gauss_winding(const gauss_sphere *g, const double (*nv)[3], size_t m, uint32
     return winding;
 }
 
-size_t gauss_vertices_near(const gauss_sphere *g, const double c[3], double cos_radius,
-                           uint32_t *out, size_t cap)
+int gauss_winding(const gauss_sphere *g, const double (*nv)[3], size_t m, uint32_t gid,
+                  const double centre[3])
+{
+    int32_t gp[3];
+    gauss_vertex_coords(g, gid, gp);
+    return gauss_winding_at(g, nv, m, gp, centre);
+}
+
+/* The Gaussian vertices near c as ids (out) or lattice points (xyz),
+ * whichever is not NULL, in one order. */
+static size_t vertices_near(const gauss_sphere *g, const double c[3], double cos_radius, uint32_t *out,
+                            int32_t (*xyz)[3], size_t cap)
 {
     double len = norm3(c);
     if (!(len > 0.0) || !isfinite(len) || isnan(cos_radius))
@@ -820,11 +841,24 @@ size_t gauss_vertices_near(const gauss_sphere *g, const double c[3], double cos_
                 double dot = p[0] * u[0] + p[1] * u[1] + p[2] * u[2];
                 if (dot < cr * norm3(p) - 1e-9 * n)
                     continue;
-                if (count < cap)
+                if (count < cap && out)
                     out[count] = gauss_vertex_id(g, x, y, z);
+                if (count < cap && xyz)
+                    xyz[count][0] = x, xyz[count][1] = y, xyz[count][2] = z;
                 count++;
             }
         }
     }
     return count;
+}
+
+size_t gauss_vertices_near(const gauss_sphere *g, const double c[3], double cos_radius, uint32_t *out, size_t cap)
+{
+    return vertices_near(g, c, cos_radius, out, NULL, cap);
+}
+
+size_t gauss_vertices_near_at(const gauss_sphere *g, const double c[3], double cos_radius, int32_t (*xyz)[3],
+                              size_t cap)
+{
+    return vertices_near(g, c, cos_radius, NULL, xyz, cap);
 }

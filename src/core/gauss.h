@@ -192,6 +192,11 @@ int gauss_origin_in_hull(const double (*normals)[3], size_t m);
 int gauss_winding(const gauss_sphere *g, const double (*normals)[3], size_t m, uint32_t gid,
                   const double centre[3]);
 
+/* gauss_winding() about the Gaussian vertex at lattice point gp (the same
+ * result; its id is computed only if a tie needs the perturbation). */
+int gauss_winding_at(const gauss_sphere *g, const double (*normals)[3], size_t m, const int32_t gp[3],
+                     const double centre[3]);
+
 /*
  * Ids of the Gaussian vertices whose direction is within the angle
  * acos(cos_radius) of direction c (any length, G frame): a superset (the
@@ -200,5 +205,10 @@ int gauss_winding(const gauss_sphere *g, const double (*normals)[3], size_t m, u
  */
 size_t gauss_vertices_near(const gauss_sphere *g, const double c[3], double cos_radius,
                            uint32_t *out, size_t cap);
+
+/* gauss_vertices_near() as lattice points (3 coordinates each), in the
+ * same order: what the winding test takes, without ids. */
+size_t gauss_vertices_near_at(const gauss_sphere *g, const double c[3], double cos_radius, int32_t (*xyz)[3],
+                              size_t cap);
 
 #endif /* EN_CORE_GAUSS_H */

@@ -16,7 +16,6 @@
 #include <math.h>
 
 /* Unit roundoff of double: 2^-53. */
-#define EN_EPS 0x1p-53
 
 /*
  * Filter constants, each a proven bound on |computed - exact| divided by the
@@ -24,11 +23,10 @@
  * with generous slack for the rounding of the permanent itself:
  *   det3: two products and a difference per minor (2 eps), one product per
  *         term (1 eps), two sums (2 eps): 5 eps + O(eps^2) -> 8 eps;
- *   dot3: products (1 eps) and two sums (2 eps) -> 6 eps;
+ *   dot3: products (1 eps) and two sums (2 eps) -> 6 eps (predicates.h);
  *   minor2: products (1 eps) and one difference (1 eps) -> 4 eps.
  */
 #define EN_DET3_BOUND (8.0 * EN_EPS)
-#define EN_DOT3_BOUND (6.0 * EN_EPS)
 #define EN_MINOR2_BOUND (4.0 * EN_EPS)
 
 /* Dekker's splitter 2^27 + 1: a = hi + lo with both halves of 26 bits. */
@@ -177,16 +175,9 @@ int en_orient3_sign(const double a[3], const double b[3], const double c[3])
 
 int en_dot3_sign(const double a[3], const double b[3])
 {
-    double p0 = a[0] * b[0], p1 = a[1] * b[1], p2 = a[2] * b[2];
-    double dot = p0 + p1 + p2;
-    double perm = fabs(p0) + fabs(p1) + fabs(p2);
-    double bound = EN_DOT3_BOUND * perm;
-    if (dot > bound)
-        return 1;
-    if (-dot > bound)
-        return -1;
-    if (perm == 0.0)
-        return 0;
+    int s = en_dot3_sign_filtered(a, b);
+    if (s != 0 || (a[0] * b[0] == 0.0 && a[1] * b[1] == 0.0 && a[2] * b[2] == 0.0))
+        return s;
     double acc[6], scratch[7];
     int n = 0;
     for (int k = 0; k < 3; k++) {
@@ -272,6 +263,19 @@ int en_sos_edge(const double gi[3], uint32_t i, const double gj[3], uint32_t j,
     if (i < j)
         return sos_edge_ordered(gi, gj, n);
     return -sos_edge_ordered(gj, gi, n);
+}
+
+int en_sos_edge_cross_undecided(const double gi[3], uint32_t i, const double gj[3], uint32_t j,
+                                const double w[3], const double n[3])
+{
+    if (i == j)
+        return 0;
+    /* det(gi, gj, n) = n . (gi x gj) in exact arithmetic, so the exact
+     * sign of the dot product is the determinant's exact sign */
+    int s = en_dot3_sign(w, n);
+    if (s)
+        return s;
+    return i < j ? sos_edge_ordered(gi, gj, n) : -sos_edge_ordered(gj, gi, n);
 }
 
 /*

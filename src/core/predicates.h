@@ -25,6 +25,7 @@
 #ifndef EN_CORE_PREDICATES_H
 #define EN_CORE_PREDICATES_H
 
+#include <math.h>
 #include <stdint.h>
 
 /* sign(det[a; b; c]) = sign(a . (b x c)): +1, 0 or -1. */
@@ -32,6 +33,22 @@ int en_orient3_sign(const double a[3], const double b[3], const double c[3]);
 
 /* sign(a . b): +1, 0 or -1. */
 int en_dot3_sign(const double a[3], const double b[3]);
+
+/* Unit roundoff, and the proven bound of the dot product's filter: the
+ * products (1 eps) and two sums (2 eps), with slack, times the permanent
+ * (the same sum of non-negative terms). */
+#define EN_EPS 0x1p-53
+#define EN_DOT3_BOUND (6.0 * EN_EPS)
+
+/* en_dot3_sign()'s filter alone: the sign when plain double evaluation
+ * decides it, else 0 (undecided, or exactly 0). */
+static inline int en_dot3_sign_filtered(const double a[3], const double b[3])
+{
+    double p0 = a[0] * b[0], p1 = a[1] * b[1], p2 = a[2] * b[2];
+    double dot = p0 + p1 + p2;
+    double bound = EN_DOT3_BOUND * (fabs(p0) + fabs(p1) + fabs(p2));
+    return dot > bound ? 1 : -dot > bound ? -1 : 0;
+}
 
 /* sign(a*d - b*c), the 2x2 minor |a b; c d|: +1, 0 or -1. */
 int en_minor2_sign(double a, double b, double c, double d);
@@ -49,6 +66,15 @@ int en_cross_sign(const double a[3], const double b[3], int k);
 int en_sos_edge(const double gi[3], uint32_t i, const double gj[3], uint32_t j,
                 const double n[3]);
 
+/*
+ * en_sos_edge() for a pair tested against many normals, once
+ * en_dot3_sign_filtered(w, n) has left it undecided: w = gi x gj, exact
+ * (lattice points: integers far below 2^26), so the unperturbed term
+ * det(gi, gj, n) = n . w is a dot-product sign rather than a determinant.
+ * The same result as en_sos_edge(gi, i, gj, j, n).
+ */
+int en_sos_edge_cross_undecided(const double gi[3], uint32_t i, const double gj[3], uint32_t j,
+                                const double w[3], const double n[3]);
 /*
  * Point test: sign det(a, b, g_k') for two unperturbed normals a, b and a
  * perturbed Gaussian vertex g_k' (coordinates g). Returns 0 exactly when
