@@ -340,7 +340,7 @@ static int flush(en_pass *p, epsnet_error *err)
         rc = en_stage_put(&next, &p->out[i], err);
     p->nout = 0;
     p->st_bytes = en_stitcher_bytes(&p->st) + p->out_cap * sizeof *p->out;
-    p->st_active = p->st.nwv + p->st.nwf + p->st.nvheap + p->st.nfheap;
+    p->st_active = en_stitcher_active(&p->st);
     p->st_frontier = p->st.frontier;
     return rc;
 }

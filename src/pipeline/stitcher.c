@@ -31,6 +31,7 @@ struct en_stitch_vertex {
     uint8_t level;         /* a sample's level (en_slab_work.vlevel), for its marks */
     uint16_t state;        /* S_* */
     uint16_t bucket;       /* a priced plan: its cheapest collapse left at W's last run (EN_COST_NONE: none) */
+    uint32_t first_face, last_face; /* final faces it is the last corner of (fpool slots, NO_SLOT: none) */
 };
 
 struct en_seam_face {
@@ -39,9 +40,10 @@ struct en_seam_face {
 };
 
 struct en_out_face {
-    uint64_t key, seq;     /* its last vertex's id, then arrival */
-    uint32_t v[3];
+    uint32_t v[3];         /* pool indices */
+    uint32_t next;         /* the next slot in its vertex's list, or in the free chain */
 };
+#define NO_SLOT UINT32_MAX
 
 struct en_vheap_entry {
     uint64_t gid;
@@ -53,6 +55,7 @@ int en_stitcher_init(en_stitcher *st, double max_normal_dev, en_stage out)
     memset(st, 0, sizeof *st);
     st->out = out;
     st->max_normal_dev = max_normal_dev;
+    st->ffree = NO_SLOT;
     en_slab_init(&st->ws);
     return en_u64map_init(&st->map) ? EPSNET_ENOMEM : 0;
 }
@@ -75,15 +78,19 @@ void en_stitcher_release(en_stitcher *st)
     en_u64map_free(&st->map);
     en_free(st->wv);
     en_free(st->wf);
+    en_free(st->vrun);
     en_free(st->vheap);
-    en_free(st->fheap);
+    en_free(st->fpool);
     en_free(st->local);
     en_slab_free(&st->ws);
     en_free(st->attr);
-    st->v = NULL, st->free_list = NULL, st->wv = NULL, st->wf = NULL, st->vheap = NULL, st->fheap = NULL;
+    st->v = NULL, st->free_list = NULL, st->wv = NULL, st->wf = NULL, st->vrun = NULL, st->vheap = NULL, st->fpool = NULL;
     st->local = NULL, st->attr = NULL;
     st->v_len = st->v_cap = st->free_len = st->free_cap = 0;
-    st->nwv = st->wv_cap = st->nwf = st->wf_cap = st->nvheap = st->vheap_cap = st->nfheap = st->fheap_cap = 0;
+    st->nwv = st->wv_cap = st->nwf = st->wf_cap = st->nvheap = st->vheap_cap = 0;
+    st->vrun_head = st->nvrun = st->vrun_cap = st->fpool_len = st->fpool_cap = 0;
+    st->ffree = NO_SLOT;
+    st->nfwait = 0;
     st->local_cap = st->attr_cap = 0;
     en_slab_init(&st->ws);
 }
@@ -104,6 +111,7 @@ static int sv_new(en_stitcher *st, uint32_t *idx)
         return -1; /* room to free every vertex later, so freeing never fails */
     if (st->free_len) {
         *idx = st->free_list[--st->free_len];
+        st->v[*idx].first_face = st->v[*idx].last_face = NO_SLOT;
         return 0;
     }
     if (st->v_len >= UINT32_MAX - 1 || en_grow((void **)&st->v, &st->v_cap, st->v_len + 1, sizeof *st->v))
@@ -111,6 +119,7 @@ static int sv_new(en_stitcher *st, uint32_t *idx)
     if (st->attr_size && en_grow((void **)&st->attr, &st->attr_cap, st->v_len + 1, st->attr_size))
         return -1;
     *idx = (uint32_t)st->v_len++;
+    st->v[*idx].first_face = st->v[*idx].last_face = NO_SLOT;
     return 0;
 }
 
@@ -122,22 +131,17 @@ static void sv_free(en_stitcher *st, uint32_t idx)
     st->free_list[st->free_len++] = idx;
 }
 
-/* 4-ary min-heaps; ties cannot happen (ids and sequence numbers are unique),
- * so the order out is the same whatever the heap's shape.
+/* A 4-ary min-heap for the vertices decided out of id order; ids are
+ * unique, so the order out is the same whatever the heap's shape.
  *
  * note: four children a node and a hole that moves instead of swaps: half
- * the levels of a binary heap, one move a level. A whole finish (one slab,
- * docs/architecture.md §7) pushes and pops every output vertex and face at
- * once, and their writing was the largest part of the time after its
- * collapses (bench/RESULTS.md). */
+ * the levels of a binary heap, one move a level. Nearly every vertex is
+ * decided in id order and goes to the run instead, and final faces wait in
+ * lists at their last vertex: the heaps that held them all had become a
+ * tenth of a streamed target's time (bench/RESULTS.md, session 13). */
 static int vheap_less(const en_vheap_entry *a, const en_vheap_entry *b)
 {
     return a->gid < b->gid;
-}
-
-static int fheap_less(const en_out_face *a, const en_out_face *b)
-{
-    return a->key < b->key || (a->key == b->key && a->seq < b->seq);
 }
 
 #define HEAP_FUNCS(name, type, less)                                                                            \
@@ -174,33 +178,66 @@ static int fheap_less(const en_out_face *a, const en_out_face *b)
     }
 
 HEAP_FUNCS(vheap, en_vheap_entry, vheap_less)
-HEAP_FUNCS(fheap, en_out_face, fheap_less)
 
 /* The vertex will not change any more: it waits for its turn in id order. */
 static int decide(en_stitcher *st, uint32_t idx)
 {
-    if (en_grow((void **)&st->vheap, &st->vheap_cap, st->nvheap + 1, sizeof *st->vheap))
-        return -1;
+    en_vheap_entry e = { st->v[idx].gid, idx };
+    if (st->vrun_head == st->nvrun)
+        st->vrun_head = st->nvrun = 0;
+    if (st->nvrun == st->vrun_head || st->vrun[st->nvrun - 1].gid < e.gid) {
+        if (st->nvrun == st->vrun_cap && st->vrun_head > 0 && 2 * st->vrun_head >= st->nvrun) {
+            /* half the run is read: move the rest down rather than grow */
+            memmove(st->vrun, st->vrun + st->vrun_head, (st->nvrun - st->vrun_head) * sizeof *st->vrun);
+            st->nvrun -= st->vrun_head;
+            st->vrun_head = 0;
+        }
+        if (en_grow((void **)&st->vrun, &st->vrun_cap, st->nvrun + 1, sizeof *st->vrun))
+            return -1;
+        st->vrun[st->nvrun++] = e;
+    } else {
+        if (en_grow((void **)&st->vheap, &st->vheap_cap, st->nvheap + 1, sizeof *st->vheap))
+            return -1;
+        st->vheap[st->nvheap] = e;
+        vheap_up(st->vheap, st->nvheap++);
+    }
     st->decided++;
-    st->vheap[st->nvheap] = (en_vheap_entry){ st->v[idx].gid, idx };
-    vheap_up(st->vheap, st->nvheap++);
     return 0;
 }
 
+/* The vertices decided and not yet written. */
+static uint64_t waiting_vertices(const en_stitcher *st)
+{
+    return st->nvheap + st->nvrun - st->vrun_head;
+}
+
+/* The face is final: it waits at its last corner, after those already
+ * there, and leaves right after that corner is written (write_until). */
 static int final_face(en_stitcher *st, const uint32_t p[3])
 {
-    if (en_grow((void **)&st->fheap, &st->fheap_cap, st->nfheap + 1, sizeof *st->fheap))
-        return -1;
-    uint64_t key = st->v[p[0]].gid;
+    uint32_t slot = st->ffree;
+    if (slot != NO_SLOT) {
+        st->ffree = st->fpool[slot].next;
+    } else {
+        if (st->fpool_len >= NO_SLOT || en_grow((void **)&st->fpool, &st->fpool_cap, st->fpool_len + 1, sizeof *st->fpool))
+            return -1;
+        slot = (uint32_t)st->fpool_len++;
+    }
+    uint32_t last = p[0];
     for (int j = 1; j < 3; j++)
-        if (st->v[p[j]].gid > key)
-            key = st->v[p[j]].gid;
+        if (st->v[p[j]].gid > st->v[last].gid)
+            last = p[j];
     st->faces_final++;
-    en_out_face *f = &st->fheap[st->nfheap];
-    f->key = key;
-    f->seq = st->face_seq++;
+    st->nfwait++;
+    en_out_face *f = &st->fpool[slot];
     memcpy(f->v, p, sizeof f->v);
-    fheap_up(st->fheap, st->nfheap++);
+    f->next = NO_SLOT;
+    en_stitch_vertex *x = &st->v[last];
+    if (x->first_face == NO_SLOT)
+        x->first_face = slot;
+    else
+        st->fpool[x->last_face].next = slot;
+    x->last_face = slot;
     return 0;
 }
 
@@ -456,8 +493,13 @@ static int put(en_stitcher *st, epsnet_record_kind kind, uint64_t a, uint64_t b,
 /* Write every decided vertex below frontier, each with the faces it ends. */
 static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
 {
-    while (st->nvheap && st->vheap[0].gid < frontier) {
-        en_vheap_entry e = vheap_pop(st->vheap, &st->nvheap);
+    for (;;) {
+        const en_vheap_entry *r = st->vrun_head < st->nvrun ? &st->vrun[st->vrun_head] : NULL;
+        const en_vheap_entry *h = st->nvheap ? &st->vheap[0] : NULL;
+        const en_vheap_entry *next = r && (!h || r->gid < h->gid) ? r : h;
+        if (!next || next->gid >= frontier)
+            break;
+        en_vheap_entry e = next == r ? st->vrun[st->vrun_head++] : vheap_pop(st->vheap, &st->nvheap);
         en_stitch_vertex *x = &st->v[e.idx];
         if (x->remaining == 0) {
             if (!(x->state & S_IN_W))
@@ -489,12 +531,18 @@ static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
                      st->attr_size ? st->attr + (size_t)e.idx * st->attr_size : NULL, err);
         if (rc)
             return rc;
-        while (st->nfheap && st->fheap[0].key <= e.gid) {
-            en_out_face f = fheap_pop(st->fheap, &st->nfheap);
+        uint32_t slot = x->first_face;
+        x->first_face = x->last_face = NO_SLOT;
+        while (slot != NO_SLOT) {
+            en_out_face f = st->fpool[slot];
+            st->fpool[slot].next = st->ffree;
+            st->ffree = slot;
+            st->nfwait--;
+            slot = f.next;
             uint64_t o[3];
             for (int j = 0; j < 3; j++) {
                 o[j] = st->v[f.v[j]].out;
-                if (o[j] == UINT64_MAX || f.key < e.gid)
+                if (o[j] == UINT64_MAX)
                     return internal(err, "a face came before its vertices");
             }
             if ((rc = put(st, EPSNET_REC_TRIANGLE, o[0], o[1], o[2], NULL, NULL, err)) != 0)
@@ -629,7 +677,7 @@ int en_stitcher_take(en_stitcher *st, const en_slab_work *w, epsnet_error *err)
     st->takes++;
     if (rc)
         return rc;
-    uint64_t active = st->nwv + st->nwf + st->nvheap + st->nfheap;
+    uint64_t active = en_stitcher_active(st);
     if (active > st->stats.max_active)
         st->stats.max_active = active;
     uint64_t frontier = w->frontier;
@@ -642,17 +690,22 @@ int en_stitcher_take(en_stitcher *st, const en_slab_work *w, epsnet_error *err)
     return write_until(st, frontier, err);
 }
 
+uint64_t en_stitcher_active(const en_stitcher *st)
+{
+    return st->nwv + st->nwf + waiting_vertices(st) + st->nfwait;
+}
+
 uint64_t en_stitcher_bytes(const en_stitcher *st)
 {
     return (uint64_t)st->v_cap * sizeof *st->v + st->free_cap * sizeof *st->free_list + en_u64map_bytes(&st->map) +
            st->wv_cap * sizeof *st->wv + st->wf_cap * sizeof *st->wf + st->vheap_cap * sizeof *st->vheap +
-           st->fheap_cap * sizeof *st->fheap + st->local_cap * sizeof *st->local + st->attr_cap * st->attr_size;
+           st->vrun_cap * sizeof *st->vrun + st->fpool_cap * sizeof *st->fpool + st->local_cap * sizeof *st->local + st->attr_cap * st->attr_size;
 }
 
 int en_stitcher_finish(en_stitcher *st, epsnet_error *err)
 {
     int rc = write_until(st, UINT64_MAX, err);
-    if (rc == 0 && (st->nwv || st->nwf || st->nvheap || st->nfheap))
+    if (rc == 0 && en_stitcher_active(st))
         return internal(err, "seams left open at the end of the stream");
     return rc;
 }

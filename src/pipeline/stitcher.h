@@ -59,11 +59,21 @@ typedef struct en_stitcher {
     size_t nwv, wv_cap;
     en_seam_face *wf;                 /* W's faces */
     size_t nwf, wf_cap;
-    en_vheap_entry *vheap;            /* decided vertices waiting for output, by id */
+    /* Decided vertices waiting for output, by id: those decided in id
+     * order (nearly all) in a run read from vrun_head, the others in a
+     * heap; the next out is the smaller front. */
+    en_vheap_entry *vrun;
+    size_t vrun_head, nvrun, vrun_cap;
+    en_vheap_entry *vheap;
     size_t nvheap, vheap_cap;
-    en_out_face *fheap;               /* final faces waiting for their last vertex */
-    size_t nfheap, fheap_cap;
-    uint64_t face_seq, next_out;
+    /* Final faces waiting for their last vertex (the corner with the
+     * highest id), listed at that vertex in arrival order (first_face):
+     * slots of fpool, free ones chained from ffree. */
+    en_out_face *fpool;
+    size_t fpool_len, fpool_cap;
+    uint32_t ffree;
+    uint64_t nfwait;
+    uint64_t next_out;
     uint64_t frontier;                /* output waits for this input id (UINT64_MAX: for nothing) */
     uint32_t *local;                  /* scratch: slab local id -> pool index */
     size_t local_cap;
@@ -125,6 +135,10 @@ void en_stitcher_release(en_stitcher *st);
 
 /* Bytes held by the seams and the output queues (capacities, not just
  * what is in use), for the memory budget. */
+/* W's vertices and faces plus the vertices and faces waiting for output:
+ * what the stitcher holds (0 once everything is written). */
+uint64_t en_stitcher_active(const en_stitcher *st);
+
 uint64_t en_stitcher_bytes(const en_stitcher *st);
 
 #endif
