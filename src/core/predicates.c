@@ -15,8 +15,6 @@
 
 #include <math.h>
 
-/* Unit roundoff of double: 2^-53. */
-
 /*
  * Filter constants, each a proven bound on |computed - exact| divided by the
  * "permanent" (the same expression with every term made non-negative),

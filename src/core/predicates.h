@@ -34,7 +34,7 @@ int en_orient3_sign(const double a[3], const double b[3], const double c[3]);
 /* sign(a . b): +1, 0 or -1. */
 int en_dot3_sign(const double a[3], const double b[3]);
 
-/* Unit roundoff, and the proven bound of the dot product's filter: the
+/* Unit roundoff (2^-53), and the proven bound of the dot product's filter: the
  * products (1 eps) and two sums (2 eps), with slack, times the permanent
  * (the same sum of non-negative terms). */
 #define EN_EPS 0x1p-53
@@ -75,6 +75,7 @@ int en_sos_edge(const double gi[3], uint32_t i, const double gj[3], uint32_t j,
  */
 int en_sos_edge_cross_undecided(const double gi[3], uint32_t i, const double gj[3], uint32_t j,
                                 const double w[3], const double n[3]);
+
 /*
  * Point test: sign det(a, b, g_k') for two unperturbed normals a, b and a
  * perturbed Gaussian vertex g_k' (coordinates g). Returns 0 exactly when
