@@ -155,13 +155,13 @@ int en_classify_vertices_levels(const gauss_sphere *g, const en_slab *s, const d
             if (c < cos_r)
                 cos_r = c;
         }
-        size_t nn = gauss_vertices_near_at(g, centre, cos_r, near, near_cap);
+        size_t nn = gauss_vertices_near(g, centre, cos_r, near, near_cap);
         if (nn > near_cap) {
             if (en_grow((void **)&near, &near_cap, nn, sizeof *near)) {
                 rc = EPSNET_ENOMEM;
                 break;
             }
-            nn = gauss_vertices_near_at(g, centre, cos_r, near, near_cap);
+            nn = gauss_vertices_near(g, centre, cos_r, near, near_cap);
         }
         int covered = 0;
         uint8_t kept = 0;

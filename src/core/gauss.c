@@ -789,10 +789,8 @@ int gauss_winding(const gauss_sphere *g, const double (*nv)[3], size_t m, uint32
     return gauss_winding_at(g, nv, m, gp, centre);
 }
 
-/* The Gaussian vertices near c as ids (out) or lattice points (xyz),
- * whichever is not NULL, in one order. */
-static size_t vertices_near(const gauss_sphere *g, const double c[3], double cos_radius, uint32_t *out,
-                            int32_t (*xyz)[3], size_t cap)
+size_t gauss_vertices_near(const gauss_sphere *g, const double c[3], double cos_radius, int32_t (*xyz)[3],
+                           size_t cap)
 {
     double len = norm3(c);
     if (!(len > 0.0) || !isfinite(len) || isnan(cos_radius))
@@ -841,24 +839,11 @@ static size_t vertices_near(const gauss_sphere *g, const double c[3], double cos
                 double dot = p[0] * u[0] + p[1] * u[1] + p[2] * u[2];
                 if (dot < cr * norm3(p) - 1e-9 * n)
                     continue;
-                if (count < cap && out)
-                    out[count] = gauss_vertex_id(g, x, y, z);
-                if (count < cap && xyz)
+                if (count < cap)
                     xyz[count][0] = x, xyz[count][1] = y, xyz[count][2] = z;
                 count++;
             }
         }
     }
     return count;
-}
-
-size_t gauss_vertices_near(const gauss_sphere *g, const double c[3], double cos_radius, uint32_t *out, size_t cap)
-{
-    return vertices_near(g, c, cos_radius, out, NULL, cap);
-}
-
-size_t gauss_vertices_near_at(const gauss_sphere *g, const double c[3], double cos_radius, int32_t (*xyz)[3],
-                              size_t cap)
-{
-    return vertices_near(g, c, cos_radius, NULL, xyz, cap);
 }

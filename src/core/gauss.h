@@ -198,17 +198,13 @@ int gauss_winding_at(const gauss_sphere *g, const double (*normals)[3], size_t m
                      const double centre[3]);
 
 /*
- * Ids of the Gaussian vertices whose direction is within the angle
- * acos(cos_radius) of direction c (any length, G frame): a superset (the
- * test has a small relative slack). Writes up to cap ids to out.
+ * The Gaussian vertices whose direction is within the angle
+ * acos(cos_radius) of direction c (any length, G frame), as lattice points
+ * (3 coordinates each; gauss_vertex_id() names one): a superset (the test
+ * has a small relative slack). Writes up to cap points to xyz.
  * @return the number found (may exceed cap; then call again with more room).
  */
-size_t gauss_vertices_near(const gauss_sphere *g, const double c[3], double cos_radius,
-                           uint32_t *out, size_t cap);
-
-/* gauss_vertices_near() as lattice points (3 coordinates each), in the
- * same order: what the winding test takes, without ids. */
-size_t gauss_vertices_near_at(const gauss_sphere *g, const double c[3], double cos_radius, int32_t (*xyz)[3],
-                              size_t cap);
+size_t gauss_vertices_near(const gauss_sphere *g, const double c[3], double cos_radius, int32_t (*xyz)[3],
+                           size_t cap);
 
 #endif /* EN_CORE_GAUSS_H */

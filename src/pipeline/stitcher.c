@@ -205,12 +205,6 @@ static int decide(en_stitcher *st, uint32_t idx)
     return 0;
 }
 
-/* The vertices decided and not yet written. */
-static uint64_t waiting_vertices(const en_stitcher *st)
-{
-    return st->nvheap + st->nvrun - st->vrun_head;
-}
-
 /* The face is final: it waits at its last corner, after those already
  * there, and leaves right after that corner is written (write_until). */
 static int final_face(en_stitcher *st, const uint32_t p[3])
@@ -692,7 +686,7 @@ int en_stitcher_take(en_stitcher *st, const en_slab_work *w, epsnet_error *err)
 
 uint64_t en_stitcher_active(const en_stitcher *st)
 {
-    return st->nwv + st->nwf + waiting_vertices(st) + st->nfwait;
+    return st->nwv + st->nwf + st->nvheap + (st->nvrun - st->vrun_head) + st->nfwait;
 }
 
 uint64_t en_stitcher_bytes(const en_stitcher *st)
