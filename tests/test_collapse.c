@@ -264,6 +264,70 @@ TEST(quadrics_taken_afresh)
     en_slab_free(&b.s);
 }
 
+/*
+ * A bumpy 9 x 9 grid cut open along column 4 (a UV seam: left records
+ * 0..44, columns 0-4; right records 45..89, its own copies of column 4 and
+ * columns 5-8). The outer boundary stays; everything else may go, to a
+ * small face target. A seam pair moves along the seam, both copies onto
+ * copies of one position, or stays: no face ever takes a record of the
+ * other side, and the two copies of a position live or die together.
+ */
+#define SG 9
+TEST(a_seam_pair_collapses_along_the_seam_together)
+{
+    enum { NV = 2 * SG * 5, NT = 2 * 2 * (SG - 1) * 4 };
+    en_slab s;
+    en_slab_init(&s);
+    uint32_t side[2][SG][5];
+    for (int h = 0; h < 2; h++)
+        for (int r = 0; r < SG; r++)
+            for (int c = 0; c < 5; c++) {
+                int x = h ? c + 4 : c;
+                double p[3] = { x, r, 0.3 * (double)((x * 7 + r * 3) % 5) };
+                side[h][r][c] = (uint32_t)en_slab_add_vertex(&s, s.nv, p, EN_V_OWNED | EN_V_TARGET);
+            }
+    for (int h = 0; h < 2; h++)
+        for (int r = 0; r + 1 < SG; r++)
+            for (int c = 0; c + 1 < 5; c++) {
+                uint32_t a = side[h][r][c], b = side[h][r][c + 1], d = side[h][r + 1][c], e = side[h][r + 1][c + 1];
+                en_slab_add_face(&s, a, b, e);
+                en_slab_add_face(&s, a, e, d);
+            }
+    CHECK_EQ_INT(en_slab_build_stars(&s), 0);
+    static en_quadric q[NV];
+    static double ref[3 * NT];
+    static uint8_t removable[NV], falive[NT], valive[NV];
+    static uint32_t tri[3 * NT];
+    en_quadrics_from_faces(&s, q, ref);
+    int pairs = 0;
+    for (uint32_t v = 0; v < s.nv; v++) {
+        removable[v] = !(s.vflags[v] & EN_V_BOUNDARY);
+        pairs += (s.vflags[v] & EN_V_SEAM) != 0;
+    }
+    CHECK_EQ_INT(pairs, 2 * (SG - 2));
+    en_collapse_settings cs = { .max_normal_dev_deg = 90, .keep_faces = 40 };
+    en_collapse_counts cc;
+    CHECK_EQ_INT(en_collapse_slab(&s, removable, q, ref, &cs, falive, valive, tri, &cc, NULL), 0);
+    CHECK(cc.faces_left <= 41);
+    int seam_gone = 0, mixed = 0, apart = 0;
+    for (int r = 1; r + 1 < SG; r++) {
+        uint32_t a = side[0][r][4], b = side[1][r][0];
+        apart += valive[a] != valive[b];
+        seam_gone += !valive[a];
+    }
+    for (uint32_t f = 0; f < s.nt; f++) {
+        if (!falive[f])
+            continue;
+        int h = tri[3 * f] >= (uint32_t)(SG * 5);
+        for (int k = 1; k < 3; k++)
+            mixed += (tri[3 * f + k] >= (uint32_t)(SG * 5)) != h;
+    }
+    CHECK_EQ_INT(apart, 0);
+    CHECK_EQ_INT(mixed, 0);
+    CHECK(seam_gone > 0);
+    en_slab_free(&s);
+}
+
 int main(void)
 {
     RUN(flat_fan_centre_goes_to_smallest_neighbour_and_its_faces_follow);
@@ -272,5 +336,6 @@ int main(void)
     RUN(quadrics_taken_afresh);
     RUN(second_tier_goes_only_when_the_first_cannot_meet_the_target);
     RUN(error_bound_refuses_dear_collapses);
+    RUN(a_seam_pair_collapses_along_the_seam_together);
     return tl_finish();
 }

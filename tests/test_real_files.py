@@ -350,6 +350,10 @@ def materials_and_groups_travel_with_their_faces():
         if args[:1] == ["--ratio"]:
             want = round(0.25 * nf)
             assert abs(len(faces) - want) <= max(1, want // 200), (args, len(faces), want)
+            # the material boundary is a seam: its positions go in pairs
+            # along it (41 in the input; its ends and the crossing stay)
+            on = {y for _, xs, _, ys in faces for x, y in zip(xs, ys) if x == 0.5}
+            assert 3 <= len(on) < 41, (args, sorted(on))
     # convert keeps every face's material and the runs
     rc, _, err = run("convert", p, "-o", path("mat_copy.obj"), "-q")
     assert rc == 0, err

@@ -154,6 +154,110 @@ TEST(face_repeating_a_corner_is_handled)
     en_slab_free(&s);
 }
 
+/*
+ * A 5 x 3 grid of points cut open along column 2 (a UV seam): the left
+ * half's faces use records 0..8 (columns 0-2), the right half's its own
+ * copies of column 2 and columns 3-4 (9..17).
+ *
+ *   row 2   6 - 7 - 8 | 15 - 16 - 17
+ *   row 1   3 - 4 - 5 | 12 - 13 - 14
+ *   row 0   0 - 1 - 2 |  9 - 10 - 11
+ *
+ * The middle copies (5, 12) are the two sides of one surface: a seam pair.
+ * The copies at rows 0 and 2 also run along the outer boundary: a cut's
+ * end, which stays a boundary. A third copy makes a position a boundary
+ * too, and so does a side whose open edges lead the same way.
+ */
+static uint32_t cut_grid(en_slab *s, int third_copy, int flip_right)
+{
+    en_slab_init(s);
+    uint32_t left[3][3], right[3][3];
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++) {
+            double p[3] = { c, r, 0.1 * ((c * 7 + r * 3) % 4) };
+            left[r][c] = (uint32_t)en_slab_add_vertex(s, s->nv, p, EN_V_OWNED);
+        }
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++) {
+            double p[3] = { c + 2, r, 0.1 * (((c + 2) * 7 + r * 3) % 4) };
+            right[r][c] = (uint32_t)en_slab_add_vertex(s, s->nv, p, EN_V_OWNED);
+        }
+    for (int r = 0; r < 2; r++)
+        for (int c = 0; c < 2; c++) {
+            uint32_t a = left[r][c], b = left[r][c + 1], d = left[r + 1][c], e = left[r + 1][c + 1];
+            en_slab_add_face(s, a, b, e);
+            en_slab_add_face(s, a, e, d);
+            a = right[r][c], b = right[r][c + 1], d = right[r + 1][c], e = right[r + 1][c + 1];
+            if (flip_right) {
+                en_slab_add_face(s, a, e, b);
+                en_slab_add_face(s, a, d, e);
+            } else {
+                en_slab_add_face(s, a, b, e);
+                en_slab_add_face(s, a, e, d);
+            }
+        }
+    if (third_copy) {
+        /* a flap hanging off the seam's middle position: a third record there */
+        double p[3] = { 2, 1, 0.1 * ((2 * 7 + 3) % 4) }, q[3] = { 2, 1, 5 }, u[3] = { 2, 2, 5 };
+        uint32_t x = (uint32_t)en_slab_add_vertex(s, s->nv, p, EN_V_OWNED);
+        uint32_t y = (uint32_t)en_slab_add_vertex(s, s->nv, q, EN_V_OWNED);
+        uint32_t z = (uint32_t)en_slab_add_vertex(s, s->nv, u, EN_V_OWNED);
+        en_slab_add_face(s, x, y, z);
+    }
+    return left[1][2];
+}
+
+TEST(seam_copies_pair_and_a_cut_end_stays_a_boundary)
+{
+    en_slab s;
+    uint32_t mid = cut_grid(&s, 0, 0);
+    uint32_t twin = mid + 9 - 2; /* right[1][0] */
+    CHECK_EQ_INT(en_slab_build_stars(&s), 0);
+    CHECK(s.has_welds);
+    CHECK(s.vflags[mid] & EN_V_SEAM);
+    CHECK(s.vflags[twin] & EN_V_SEAM);
+    CHECK(!(s.vflags[mid] & EN_V_BOUNDARY) && !(s.vflags[twin] & EN_V_BOUNDARY));
+    CHECK_EQ_U64(s.wedge[mid], twin);
+    CHECK_EQ_U64(s.wedge[twin], mid);
+    /* the cut's ends, on the outer boundary: copies of one position, not a pair */
+    uint32_t end_left = 2, end_right = 9;
+    CHECK(s.vflags[end_left] & EN_V_BOUNDARY);
+    CHECK(!(s.vflags[end_left] & EN_V_SEAM));
+    CHECK_EQ_U64(s.wedge[end_left], end_right);
+    CHECK_EQ_U64(s.wedge[end_right], end_left);
+    /* a vertex of no seam is its own wedge */
+    CHECK_EQ_U64(s.wedge[4], 4);
+    en_slab_free(&s);
+
+    /* a third copy: the position is a cut's end (three sides meet) */
+    mid = cut_grid(&s, 1, 0);
+    CHECK_EQ_INT(en_slab_build_stars(&s), 0);
+    CHECK(s.vflags[mid] & EN_V_BOUNDARY);
+    CHECK(!(s.vflags[mid] & EN_V_SEAM));
+    uint32_t n = 1;
+    for (uint32_t c = s.wedge[mid]; c != mid; c = s.wedge[c])
+        n++;
+    CHECK_EQ_U64(n, 3);
+    en_slab_free(&s);
+
+    /* the right side turned over: its open edges run the same way as the
+     * left's, so the two do not make one oriented surface */
+    mid = cut_grid(&s, 0, 1);
+    CHECK_EQ_INT(en_slab_build_stars(&s), 0);
+    CHECK(s.vflags[mid] & EN_V_BOUNDARY);
+    CHECK(!(s.vflags[mid] & EN_V_SEAM));
+    en_slab_free(&s);
+
+    /* no copies at all: no wedges */
+    mid = cut_grid(&s, 0, 0);
+    s.pos[3 * (mid + 7) + 2] += 1; /* the right copy of the middle moves away */
+    s.pos[3 * 9 + 2] += 1;
+    s.pos[3 * 15 + 2] += 1;
+    CHECK_EQ_INT(en_slab_build_stars(&s), 0);
+    CHECK(s.vflags[mid] & EN_V_BOUNDARY);
+    en_slab_free(&s);
+}
+
 int main(void)
 {
     RUN(interior_vertex_star_is_counter_clockwise_cycle);
@@ -162,5 +266,6 @@ int main(void)
     RUN(edge_with_three_faces_makes_its_ends_nonmanifold);
     RUN(tetrahedron_is_closed_and_unused_vertex_isolated);
     RUN(face_repeating_a_corner_is_handled);
+    RUN(seam_copies_pair_and_a_cut_end_stays_a_boundary);
     return tl_finish();
 }

@@ -702,6 +702,10 @@ typedef struct epsnet_stats {
     uint64_t locked;              /* boundary and non-manifold vertices (kept as samples) */
     uint64_t boundary_vertices;
     uint64_t nonmanifold_vertices;
+    uint64_t seam_vertices;       /* copies of a position along a seam, simplified in pairs along it
+                                   * (docs/method.md §6) */
+    uint64_t cut_end_vertices;    /* of the boundary vertices, the copies of a position where seams
+                                   * end: three sides meet, or a seam meets a boundary (kept) */
     uint64_t needle_vertices;     /* normals not in an open hemisphere */
     uint64_t multi_cover_samples; /* samples enclosing more than one G vertex */
     uint64_t isolated_vertices;   /* referenced by no face: not on the surface */

@@ -159,6 +159,8 @@ int epsnet_stats_write_json(const epsnet_context *c, const char *command, const 
         "  \"locked\": %" PRIu64 ",\n"
         "  \"boundary_vertices\": %" PRIu64 ",\n"
         "  \"nonmanifold_vertices\": %" PRIu64 ",\n"
+        "  \"seam_vertices\": %" PRIu64 ",\n"
+        "  \"cut_end_vertices\": %" PRIu64 ",\n"
         "  \"needle_vertices\": %" PRIu64 ",\n"
         "  \"multi_cover_samples\": %" PRIu64 ",\n"
         "  \"output_vertices\": %" PRIu64 ",\n"
@@ -185,7 +187,7 @@ int epsnet_stats_write_json(const epsnet_context *c, const char *command, const 
         "}\n",
         command ? command : c->command, epsnet_version(), level_of(g->n), g->n, g->nverts, g->ntris, st->passes, st->max_normal_dev, s->vertices, s->faces,
         s->zero_area_faces, s->isolated_vertices, s->gaussian_vertices, s->feature_edges, s->candidates,
-        s->samples, s->locked, s->boundary_vertices, s->nonmanifold_vertices, s->needle_vertices,
+        s->samples, s->locked, s->boundary_vertices, s->nonmanifold_vertices, s->seam_vertices, s->cut_end_vertices, s->needle_vertices,
         s->multi_cover_samples, s->output_vertices, s->output_faces, s->collapses, s->passes,
         s->remaining_nonsamples, s->refused_link, s->refused_normal, s->refused_zero_area, s->refused_duplicate,
         s->max_active, s->slabs, s->seam_faces, s->seam_collapses, s->band_nonsamples,

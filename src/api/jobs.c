@@ -83,6 +83,8 @@ void en_job_count(epsnet_context *ctx, const en_classify_counts *c)
     st->locked = c->locked;
     st->boundary_vertices = c->boundary;
     st->nonmanifold_vertices = c->nonmanifold;
+    st->seam_vertices = c->seam;
+    st->cut_end_vertices = c->cut_ends;
     st->needle_vertices = c->needles;
     st->multi_cover_samples = c->multi_cover;
     st->isolated_vertices = c->isolated;

@@ -324,6 +324,8 @@ static void fill_stats(epsnet_stats *st, const en_chain_stats *cs)
     st->locked = cs->counts.locked;
     st->boundary_vertices = cs->counts.boundary;
     st->nonmanifold_vertices = cs->counts.nonmanifold;
+    st->seam_vertices = cs->counts.seam;
+    st->cut_end_vertices = cs->counts.cut_ends;
     st->needle_vertices = cs->counts.needles;
     st->multi_cover_samples = cs->counts.multi_cover;
     st->isolated_vertices = cs->counts.isolated;
@@ -360,7 +362,10 @@ static void warn_missed_target(const en_run *run, const epsnet_stats *st, int st
     uint64_t got = faces ? st->output_faces : st->output_vertices;
     if (!set->warning || !want || got <= want)
         return;
-    char msg[1024];
+    char msg[1024], cut_ends[96] = "";
+    if (st->cut_end_vertices)
+        snprintf(cut_ends, sizeof cut_ends, ", %llu of them where seams end",
+                 (unsigned long long)st->cut_end_vertices);
     if (stopped_by_error)
         snprintf(msg, sizeof msg,
                  "%s: the error bound (%g of the diagonal) stopped simplification at %llu %s, above the target "
@@ -378,12 +383,12 @@ static void warn_missed_target(const en_run *run, const epsnet_stats *st, int st
     else
         snprintf(msg, sizeof msg,
                  "%s: target of %llu %s missed by %llu: %llu removable vertices were refused every collapse "
-                 "(link %llu, normal %llu, zero-area %llu, duplicate %llu); boundary vertices (%llu)%s are kept%s",
+                 "(link %llu, normal %llu, zero-area %llu, duplicate %llu); boundary vertices (%llu%s)%s are kept%s",
                  run->path ? run->path : "input", (unsigned long long)want, faces ? "faces" : "vertices",
                  (unsigned long long)(got - want), (unsigned long long)st->remaining_nonsamples,
                  (unsigned long long)st->refused_link, (unsigned long long)st->refused_normal,
                  (unsigned long long)st->refused_zero_area, (unsigned long long)st->refused_duplicate,
-                 (unsigned long long)st->boundary_vertices,
+                 (unsigned long long)st->boundary_vertices, cut_ends,
                  set->lock_property ? " and the vertices --lock names" : "",
                  run->has_normals && st->boundary_vertices
                      ? " (a mesh split along its normals, as flat shading or hard edges split an OBJ, simplifies "

@@ -34,8 +34,28 @@ int en_classify_faces(const gauss_sphere *g, const en_slab *s, uint32_t f0, uint
     return 0;
 }
 
+/* The faces around v in rotational order: its star, or, for one of a seam
+ * pair, its open fan and then its twin's, which together close around the
+ * position (en_slab_build_stars: the first face of each fan is across the
+ * seam from the other's last), copied into scratch (room for them all).
+ * *n gets their count. */
+static const uint32_t *ring_of(const en_slab *s, uint32_t v, uint32_t *scratch, uint32_t *n)
+{
+    *n = en_slab_degree(s, v);
+    if (!(s->vflags[v] & EN_V_SEAM))
+        return s->star + s->star_start[v];
+    uint32_t t = s->wedge[v];
+    memcpy(scratch, s->star + s->star_start[v], *n * sizeof *scratch);
+    memcpy(scratch + *n, s->star + s->star_start[t], en_slab_degree(s, t) * sizeof *scratch);
+    *n += en_slab_degree(s, t);
+    return scratch;
+}
+
 /* Feature edges are counted once: at the endpoint with the smaller global id,
- * or at v when the other endpoint is locked (locked stars are not walked). */
+ * or at v when the other endpoint is locked (locked stars are not walked).
+ * A seam vertex counts those inside its own fan (closed 0); the edges
+ * along the seam, between its fan and its twin's, are not counted (a
+ * statistic only). */
 static uint64_t feature_edges_at(const en_slab *s, uint32_t v, const int32_t *ftri, int closed)
 {
     const uint32_t *star = s->star + s->star_start[v];
@@ -78,13 +98,15 @@ int en_classify_vertices_levels(const gauss_sphere *g, const en_slab *s, const d
                                 int32_t *vgvertex, uint8_t *vlevel, en_classify_counts *counts)
 {
     uint32_t maxdeg = 1;
-    for (uint32_t v = v0; v < v1; v++)
-        if (en_slab_degree(s, v) > maxdeg)
-            maxdeg = en_slab_degree(s, v);
+    for (uint32_t v = v0; v < v1; v++) {
+        uint32_t d = en_slab_degree(s, v) + ((s->vflags[v] & EN_V_SEAM) ? en_slab_degree(s, s->wedge[v]) : 0);
+        maxdeg = d > maxdeg ? d : maxdeg;
+    }
     double (*normals)[3] = en_malloc((size_t)maxdeg * sizeof *normals);
+    uint32_t *ring = en_malloc((size_t)maxdeg * sizeof *ring);
     size_t near_cap = 256;
     int32_t (*near)[3] = en_malloc(near_cap * sizeof *near);
-    int rc = normals && near ? 0 : EPSNET_ENOMEM;
+    int rc = normals && ring && near ? 0 : EPSNET_ENOMEM;
     for (uint32_t v = v0; v < v1 && rc == 0; v++) {
         if (!(s->vflags[v] & EN_V_OWNED))
             continue;
@@ -103,13 +125,15 @@ int en_classify_vertices_levels(const gauss_sphere *g, const en_slab *s, const d
             counts->samples++;
             counts->boundary += (vf & EN_V_BOUNDARY) && !(vf & EN_V_NONMANIFOLD);
             counts->nonmanifold += (vf & EN_V_NONMANIFOLD) != 0;
+            counts->cut_ends += (vf & EN_V_BOUNDARY) && !(vf & EN_V_NONMANIFOLD) && s->has_welds && s->wedge[v] != v;
             continue;
         }
-        counts->feature_edges += feature_edges_at(s, v, ftri, 1);
+        counts->seam += (vf & EN_V_SEAM) != 0;
+        counts->feature_edges += feature_edges_at(s, v, ftri, !(vf & EN_V_SEAM));
 
-        /* The normal polygon P(v): star order, zero-area faces skipped. */
-        const uint32_t *star = s->star + s->star_start[v];
-        uint32_t deg = en_slab_degree(s, v), m = 0;
+        /* The normal polygon P(v): ring order, zero-area faces skipped. */
+        uint32_t deg, m = 0;
+        const uint32_t *star = ring_of(s, v, ring, &deg);
         int32_t first_tri = -1;
         int candidate = 0;
         for (uint32_t i = 0; i < deg; i++) {
@@ -190,6 +214,7 @@ int en_classify_vertices_levels(const gauss_sphere *g, const en_slab *s, const d
         }
     }
     en_free(normals);
+    en_free(ring);
     en_free(near);
     return rc;
 }
@@ -203,6 +228,8 @@ void en_classify_counts_add(en_classify_counts *into, const en_classify_counts *
     into->locked += c->locked;
     into->boundary += c->boundary;
     into->nonmanifold += c->nonmanifold;
+    into->seam += c->seam;
+    into->cut_ends += c->cut_ends;
     into->needles += c->needles;
     into->multi_cover += c->multi_cover;
     into->unverified_hemisphere += c->unverified_hemisphere;

@@ -35,6 +35,8 @@ typedef struct en_classify_counts {
     uint64_t locked;
     uint64_t boundary;
     uint64_t nonmanifold;
+    uint64_t seam;      /* copies of a seam pair (EN_V_SEAM), classified as the surface they stand for */
+    uint64_t cut_ends;  /* of the boundary vertices, those sharing their position with other copies (a seam's end) */
     uint64_t needles;
     uint64_t multi_cover;
     uint64_t unverified_hemisphere; /* see gauss_in_open_hemisphere() */

@@ -104,7 +104,7 @@ typedef struct target {
  * array per field each visit missed the cache once per field.
  */
 typedef struct vrec {
-    double self_err;          /* q[v] evaluated at v's own position */
+    double self_err;          /* the quadrics of v and of its copies (wedge) at v's position */
     double best_cost;         /* cost of v's cheapest queued entry */
     uint32_t vf_start, vf_count, vf_cap;
     uint32_t heap_pos;        /* v's index in heap, or UINT32_MAX */
@@ -114,7 +114,7 @@ typedef struct vrec {
     uint8_t alive;            /* not collapsed away (mirrors vertex_alive) */
     uint8_t fallback;         /* v's queued entry is its cheapest *valid* one */
     uint8_t refused;          /* EN_REFUSE_* seen on the last evaluation */
-    uint8_t pad[4];
+    uint32_t wedge;           /* the next copy of v's position (en_slab.wedge); v when none */
     en_quadric q;             /* accumulates through the collapses; copied back to the caller's q */
 } vrec;
 _Static_assert(sizeof(vrec) == 128, "a vertex record is two cache lines");
@@ -143,9 +143,10 @@ typedef struct state {
     size_t faces_cap;
 
     uint64_t collapses;
+    int welds;                /* the slab has copies of positions (en_slab.has_welds) */
 
     /* Limits (en_collapse_settings) and what they count. */
-    const uint8_t *tier;      /* the caller's removable[]: 2 = second tier */
+    const uint8_t *tier;      /* removable[] as the core takes it (seam_tiers): 2 = second tier */
     int by_error;
     double max_cost;          /* by_error: max_error squared; otherwise +inf */
     uint64_t keep_faces, keep_vertices;
@@ -329,12 +330,79 @@ static int has_face_on(const state *st, uint32_t u, uint32_t x, uint32_t y)
     return 0;
 }
 
+/* ---- seams (docs/method.md §6) ---- */
+
+/* Is p a copy of u's position (u itself included)? */
+static int same_position(const state *st, uint32_t u, uint32_t p)
+{
+    for (uint32_t c = u;;) {
+        if (c == p)
+            return 1;
+        if ((c = st->vx[c].wedge) == u)
+            return 0;
+    }
+}
+
+/* The open ends of a seam vertex in the faces alive now: out, the corner
+ * after v that no face of v has before it (the open edge v -> out), and in
+ * the other way round. UINT32_MAX when there is none. note: a scan in
+ * O(deg^2), without the marks, which the callers are using: a seam
+ * vertex's fan is short. */
+static void open_ends(const state *st, uint32_t v, uint32_t *out, uint32_t *in)
+{
+    const uint32_t *lv = st->pool + st->vx[v].vf_start;
+    uint32_t n = st->vx[v].vf_count;
+    *out = *in = UINT32_MAX;
+    for (uint32_t i = 0; i < n; i++) {
+        const uint32_t *t = st->tri + 3 * (size_t)lv[i];
+        int k = t[0] == v ? 0 : t[1] == v ? 1 : 2;
+        uint32_t after = t[(k + 1) % 3], before = t[(k + 2) % 3];
+        int after_closed = 0, before_closed = 0;
+        for (uint32_t j = 0; j < n; j++) {
+            const uint32_t *h = st->tri + 3 * (size_t)lv[j];
+            int m = h[0] == v ? 0 : h[1] == v ? 1 : 2;
+            after_closed |= h[(m + 2) % 3] == after;
+            before_closed |= h[(m + 1) % 3] == before;
+        }
+        if (!after_closed)
+            *out = after;
+        if (!before_closed)
+            *in = before;
+    }
+}
+
 /*
- * Can v collapse onto u? Returns 0 or the EN_REFUSE_* reason.
- * Link condition: the neighbours v and u share must be exactly the two
+ * A seam pair (v, t = its wedge) moves along the seam, both sides together
+ * (as meshoptimizer's seam vertices do): v onto u, one of v's open ends,
+ * and t onto p, the copy of u at t's opposite open end. @return p, or
+ * UINT32_MAX when u is no such target (not an open end of v, or the other
+ * side does not lead to a copy of u: the two sides meet there, as at the
+ * tip of a cut, whose single vertex stays).
+ */
+static uint32_t seam_partner(const state *st, uint32_t v, uint32_t u)
+{
+    uint32_t t = st->vx[v].wedge, ov, iv, ot, it;
+    open_ends(st, v, &ov, &iv);
+    open_ends(st, t, &ot, &it);
+    uint32_t p = u == ov ? it : u == iv ? ot : UINT32_MAX;
+    if (p == UINT32_MAX || p == u || u == UINT32_MAX || !same_position(st, u, p))
+        return UINT32_MAX;
+    return p;
+}
+
+static int is_seam(const state *st, uint32_t v)
+{
+    return (st->s->vflags[v] & EN_V_SEAM) != 0;
+}
+
+/*
+ * Can v collapse onto u, on its side alone? Returns 0 or the EN_REFUSE_*
+ * reason; opp gets the corners opposite the edge v-u (twice the same when
+ * open: a seam collapse, along the one face of a seam edge).
+ * Link condition: the neighbours v and u share must be exactly the
  * vertices opposite the edge v-u, else the collapse pinches the surface.
  */
-static int check_collapse(state *st, uint32_t v, uint32_t u)
+static inline int check_side(state *st, uint32_t v, uint32_t u, int open, uint32_t opp[2])
 {
     if (!(st->s->vflags[u] & EN_V_TARGET))
         return EN_REFUSE_INCOMPLETE;
@@ -346,7 +414,7 @@ static int check_collapse(state *st, uint32_t v, uint32_t u)
             st->vx[t[k]].mark = stamp;
     }
     const uint32_t *lv = st->pool + st->vx[v].vf_start;
-    uint32_t opp[2], nedge = 0;
+    uint32_t nedge = 0;
     for (uint32_t i = 0; i < st->vx[v].vf_count; i++) {
         const uint32_t *t = st->tri + 3 * (size_t)lv[i];
         if (!has_corner(t, u))
@@ -355,8 +423,9 @@ static int check_collapse(state *st, uint32_t v, uint32_t u)
             return EN_REFUSE_LINK; /* edge with more than two faces */
         opp[nedge++] = t[0] != v && t[0] != u ? t[0] : t[1] != v && t[1] != u ? t[1] : t[2];
     }
-    if (nedge != 2)
+    if (nedge + (uint32_t)open != 2)
         return EN_REFUSE_LINK;
+    opp[1] = opp[nedge - 1];
     /* note: unmarking the allowed shared vertices leaves one test per corner;
      * 0 is below every stamp. */
     st->vx[v].mark = st->vx[u].mark = st->vx[opp[0]].mark = st->vx[opp[1]].mark = 0;
@@ -393,6 +462,81 @@ static int check_collapse(state *st, uint32_t v, uint32_t u)
     return 0;
 }
 
+/* Mark every copy of w's position (w included) with stamp. */
+static void mark_position(state *st, uint32_t w, uint32_t stamp)
+{
+    uint32_t c = w;
+    do {
+        st->vx[c].mark = stamp;
+        c = st->vx[c].wedge;
+    } while (c != w);
+}
+
+/*
+ * The link condition on the surface the copies stand for (positions, not
+ * records: each side passing its own is not enough, since two sides may
+ * meet again further along a seam). The vertices around any copy of u
+ * and those around v (and its twin, when a seam pair moves) may share only
+ * v, u and the corners opposite the collapsed edges. Only in a slab with
+ * copies of positions.
+ */
+static int check_welded(state *st, uint32_t v, uint32_t u, const uint32_t opp[4])
+{
+    uint32_t stamp = ++st->stamp;
+    uint32_t c = u;
+    do {
+        const uint32_t *l = st->pool + st->vx[c].vf_start;
+        for (uint32_t i = 0; i < st->vx[c].vf_count; i++) {
+            const uint32_t *t = st->tri + 3 * (size_t)l[i];
+            for (int k = 0; k < 3; k++)
+                mark_position(st, t[k], stamp);
+        }
+        c = st->vx[c].wedge;
+    } while (c != u);
+    mark_position(st, v, 0);
+    mark_position(st, u, 0);
+    for (int k = 0; k < 4; k++)
+        mark_position(st, opp[k], 0);
+    uint32_t d = v;
+    do {
+        const uint32_t *l = st->pool + st->vx[d].vf_start;
+        for (uint32_t i = 0; i < st->vx[d].vf_count; i++) {
+            const uint32_t *t = st->tri + 3 * (size_t)l[i];
+            if (st->vx[t[0]].mark == stamp || st->vx[t[1]].mark == stamp || st->vx[t[2]].mark == stamp)
+                return EN_REFUSE_LINK;
+        }
+        d = st->vx[d].wedge;
+    } while (d != v && is_seam(st, v));
+    return 0;
+}
+
+/* check_collapse in a slab with copies of positions. */
+static int check_with_copies(state *st, uint32_t v, uint32_t u)
+{
+    uint32_t opp[4];
+    int why;
+    if (is_seam(st, v)) {
+        uint32_t p = seam_partner(st, v, u);
+        if (p == UINT32_MAX)
+            return EN_REFUSE_LINK;
+        if ((why = check_side(st, v, u, 1, opp)) || (why = check_side(st, st->vx[v].wedge, p, 1, opp + 2)))
+            return why;
+    } else {
+        if ((why = check_side(st, v, u, 0, opp)))
+            return why;
+        opp[2] = opp[0], opp[3] = opp[1];
+    }
+    return check_welded(st, v, u, opp);
+}
+
+/* Can v collapse onto u (with its twin onto the copy of u beside it, when
+ * v is one of a seam pair)? Returns 0 or the EN_REFUSE_* reason. */
+static inline int check_collapse(state *st, uint32_t v, uint32_t u)
+{
+    uint32_t opp[2];
+    return st->welds ? check_with_copies(st, v, u) : check_side(st, v, u, 0, opp);
+}
+
 static int target_less(const target *a, const target *b)
 {
     return a->cost != b->cost ? a->cost < b->cost : a->u < b->u;
@@ -405,6 +549,30 @@ static double quadric_area(const en_quadric *q)
     return q->a2 + q->b2 + q->c2;
 }
 
+/* The quadrics of x's position at it: x's own, and its copies' (the sides
+ * of a seam stand for one vertex of the surface). */
+static double position_err(const state *st, uint32_t x)
+{
+    const double *p = st->s->pos + 3 * (size_t)x;
+    double e = quadric_eval(&st->vx[x].q, p);
+    for (uint32_t c = st->vx[x].wedge; c != x; c = st->vx[c].wedge)
+        e += quadric_eval(&st->vx[c].q, p);
+    return e;
+}
+
+/* After a copy of x's position took in a quadric: each copy's self_err. */
+static void update_position_err(state *st, uint32_t x)
+{
+    double e = position_err(st, x);
+    uint32_t c = x;
+    do {
+        st->vx[c].self_err = e;
+        c = st->vx[c].wedge;
+    } while (c != x);
+}
+
+/* The cost of w -> x for a w that is not one of a seam pair (see
+ * move_cost). */
 static double pair_cost(const state *st, uint32_t w, uint32_t x)
 {
     double c = quadric_eval(&st->vx[w].q, st->s->pos + 3 * (size_t)x) + st->vx[x].self_err;
@@ -412,6 +580,18 @@ static double pair_cost(const state *st, uint32_t w, uint32_t x)
      * unequal to itself, so the queue's staleness test would requeue such a
      * pair forever: such pairs go last, at +inf, where the test holds. */
     return c == c ? c : INFINITY;
+}
+
+/* The cost of moving w onto x: pair_cost, and for one of a seam pair the
+ * twin's quadric at x too (it goes onto a copy of x). */
+static double move_cost(const state *st, uint32_t w, uint32_t x)
+{
+    double c = pair_cost(st, w, x);
+    if (st->welds && is_seam(st, w)) {
+        c += quadric_eval(&st->vx[st->vx[w].wedge].q, st->s->pos + 3 * (size_t)x);
+        c = c == c ? c : INFINITY;
+    }
+    return c;
 }
 
 /* The squared error of collapsing w onto x at quadric cost c: the cost per
@@ -435,12 +615,20 @@ static int corner_at(const uint32_t *t, uint32_t v)
  * one face of v's (manifold, closed) star, so it is listed once. */
 static int64_t rank_targets(state *st, uint32_t v)
 {
-    if (en_grow((void **)&st->cand, &st->cand_cap, st->vx[v].vf_count, sizeof *st->cand))
+    if (en_grow((void **)&st->cand, &st->cand_cap, st->vx[v].vf_count + 2, sizeof *st->cand))
         return -1;
     target *cand = st->cand;
     uint32_t n = 0;
     const uint32_t *lv = st->pool + st->vx[v].vf_start;
-    for (uint32_t i = 0; i < st->vx[v].vf_count; i++) {
+    if (st->welds && is_seam(st, v)) {
+        /* along the seam only: its two open ends */
+        uint32_t ends[2];
+        open_ends(st, v, &ends[0], &ends[1]);
+        for (int k = 0; k < 2; k++)
+            if (ends[k] != UINT32_MAX && (k == 0 || ends[1] != ends[0]))
+                cand[n++] = (target){ move_cost(st, v, ends[k]), ends[k] };
+    }
+    for (uint32_t i = 0; i < st->vx[v].vf_count && !(st->welds && is_seam(st, v)); i++) {
         const uint32_t *t = st->tri + 3 * (size_t)lv[i];
         int k = corner_at(t, v);
         cand[n].cost = pair_cost(st, v, t[(k + 1) % 3]);
@@ -477,6 +665,20 @@ static target cheapest_target(const state *st, uint32_t v)
 {
     const uint32_t *lv = st->pool + st->vx[v].vf_start;
     target best = { 0, UINT32_MAX };
+    if (st->welds && is_seam(st, v)) {
+        /* along the seam only, onto positions whose every copy may receive */
+        uint32_t ends[2];
+        open_ends(st, v, &ends[0], &ends[1]);
+        for (int k = 0; k < 2; k++) {
+            uint32_t u = ends[k], p = u == UINT32_MAX ? u : seam_partner(st, v, u);
+            if (p == UINT32_MAX || !(st->s->vflags[u] & st->s->vflags[p] & EN_V_TARGET))
+                continue;
+            target t = { move_cost(st, v, u), u };
+            if (best.u == UINT32_MAX || target_less(&t, &best))
+                best = t;
+        }
+        return best;
+    }
     for (uint32_t i = 0; i < st->vx[v].vf_count; i++) {
         const uint32_t *tr = st->tri + 3 * (size_t)lv[i];
         uint32_t u = tr[(corner_at(tr, v) + 1) % 3];
@@ -539,7 +741,9 @@ static int is_neighbour(const state *st, uint32_t v, uint32_t u)
     return 0;
 }
 
-static int do_collapse(state *st, uint32_t v, uint32_t u)
+/* v's faces onto u: those on the edge v-u die, the others are rewritten
+ * and join u's list; v goes, and its quadric joins u's. */
+static inline int rewrite_onto(state *st, uint32_t v, uint32_t u)
 {
     /* v's list is consumed here; copy it since u's list may move in the pool */
     uint32_t nf = st->vx[v].vf_count;
@@ -568,18 +772,26 @@ static int do_collapse(state *st, uint32_t v, uint32_t u)
     st->valive[v] = 0;
     st->vx[v].alive = 0;
     st->vertices_alive--;
-    st->given_up += st->tier[v] == 2;
+    /* (a seam pair's follower has tier 0: its primary's counts) */
+    st->given_up += st->tier[v] == 2 || (st->welds && st->tier[st->vx[v].wedge] == 2);
     quadric_add(&st->vx[u].q, &st->vx[v].q);
-    st->vx[u].self_err = quadric_eval(&st->vx[u].q, st->s->pos + 3 * (size_t)u);
     st->collapses++;
-    /*
-     * What changed: u's quadric (so every cost *from* u, and the cost of every
-     * pair *into* u), and the neighbourhoods in u's ring (validity, checked
-     * lazily at pop). A neighbour w needs a full re-ranking only when its
-     * queued target was u or v, or its entry was a checked fallback (a
-     * cheaper target may be valid now); otherwise only w -> u is priced.
-     */
+    return 0;
+}
+
+/*
+ * What changed after a collapse onto u (v and v2 gone): u's quadric (so
+ * every cost *from* u, and the cost of every pair *into* u), and the
+ * neighbourhoods in u's ring (validity, checked lazily at pop). A
+ * neighbour w needs a full re-ranking only when its queued target was u or
+ * a vertex gone, its entry was a checked fallback (a cheaper target may be
+ * valid now), or it moves along a seam (its targets are its open ends);
+ * otherwise only w -> u is priced.
+ */
+static inline int requeue_around(state *st, uint32_t u, uint32_t v, uint32_t v2)
+{
     int rc = queue_cheapest(st, u);
+    const int welds = st->welds;
     uint32_t stamp = ++st->stamp;
     st->vx[u].mark = stamp;
     uint32_t count = st->vx[u].vf_count;
@@ -592,12 +804,14 @@ static int do_collapse(state *st, uint32_t v, uint32_t u)
             st->vx[w].mark = stamp;
             if (!st->vx[w].removable)
                 continue;
-            if (st->vx[w].best_u == u || st->vx[w].best_u == v || st->vx[w].best_u == UINT32_MAX || st->vx[w].fallback) {
+            uint32_t b = st->vx[w].best_u;
+            if (b == u || b == v || b == UINT32_MAX || st->vx[w].fallback ||
+                (welds && (b == v2 || is_seam(st, w)))) {
                 rc = queue_cheapest(st, w);
                 continue;
             }
             target cand = { pair_cost(st, w, u), u };
-            target best = { st->vx[w].best_cost, st->vx[w].best_u };
+            target best = { st->vx[w].best_cost, b };
             if (target_less(&cand, &best)) {
                 st->vx[w].best_cost = cand.cost;
                 st->vx[w].best_u = u;
@@ -605,6 +819,33 @@ static int do_collapse(state *st, uint32_t v, uint32_t u)
             }
         }
     }
+    return rc;
+}
+
+/* Collapse v onto u; one of a seam pair takes its twin onto the copy of u
+ * on the twin's side. Every copy of u's position then has a new error. */
+static int do_collapse(state *st, uint32_t v, uint32_t u)
+{
+    uint32_t t = v, p = u;
+    if (st->welds && is_seam(st, v)) {
+        t = st->vx[v].wedge;
+        p = seam_partner(st, v, u); /* checked: a copy of u */
+    }
+    int rc = rewrite_onto(st, v, u);
+    if (rc == 0 && t != v)
+        rc = rewrite_onto(st, t, p);
+    if (rc)
+        return rc;
+    if (!st->welds) {
+        st->vx[u].self_err = quadric_eval(&st->vx[u].q, st->s->pos + 3 * (size_t)u);
+        return requeue_around(st, u, v, v);
+    }
+    update_position_err(st, u);
+    uint32_t c = u;
+    do {
+        rc = requeue_around(st, c, v, t);
+        c = st->vx[c].wedge;
+    } while (rc == 0 && c != u);
     return rc;
 }
 
@@ -627,7 +868,7 @@ static void refresh_quadrics(state *st)
             quadric_add(&st->vx[t[i]].q, &k);
     }
     for (uint32_t v = 0; v < s->nv; v++)
-        st->vx[v].self_err = quadric_eval(&st->vx[v].q, s->pos + 3 * (size_t)v);
+        st->vx[v].self_err = position_err(st, v);
 }
 
 /* One set of the working arrays, kept between calls in an
@@ -638,7 +879,8 @@ typedef struct arrays {
     heap_entry *heap;
     target *cand;
     uint32_t *faces;
-    size_t pool_cap, vx_bytes, heap_cap, cand_cap, faces_cap;
+    uint8_t *tiers;
+    size_t pool_cap, vx_bytes, heap_cap, cand_cap, faces_cap, tiers_cap;
 } arrays;
 
 static void arrays_destroy(void *item)
@@ -649,12 +891,28 @@ static void arrays_destroy(void *item)
     en_free(a->heap);
     en_free(a->cand);
     en_free(a->faces);
+    en_free(a->tiers);
     en_free(a);
 }
 
 int en_collapse_arrays_new(en_ctxpool **pool)
 {
     return en_ctxpool_new(pool, arrays_destroy);
+}
+
+/* The caller's tiers as the core takes them: one of a seam pair is queued
+ * for both (the copy with the smaller id; its twin follows it, so its own
+ * entry is 0), and only when both copies are in the same tier. */
+static void seam_tiers(const en_slab *s, const uint8_t *removable, uint8_t *tiers)
+{
+    for (uint32_t v = 0; v < s->nv; v++) {
+        tiers[v] = removable[v];
+        if (!(s->vflags[v] & EN_V_SEAM))
+            continue;
+        uint32_t t = s->wedge[v];
+        if (t < v || removable[t] != removable[v])
+            tiers[v] = 0;
+    }
 }
 
 int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, const double *ref_normal,
@@ -679,6 +937,15 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
     st.cand = own->cand, st.cand_cap = own->cand_cap;
     st.faces = own->faces, st.faces_cap = own->faces_cap;
     int rc = 0;
+    st.welds = s->has_welds;
+    if (st.welds) {
+        if (en_grow((void **)&own->tiers, &own->tiers_cap, (size_t)s->nv + 1, 1)) {
+            rc = EPSNET_ENOMEM;
+            goto out;
+        }
+        seam_tiers(s, removable, own->tiers);
+        removable = own->tiers;
+    }
     /* (vx's old contents need no keeping, but growing it as the others
      * grow keeps a run of slightly larger slabs from allocating anew) */
     if (en_grow((void **)&st.pool, &st.pool_cap, 3 * (size_t)s->nt + 8, sizeof *st.pool) ||
@@ -697,11 +964,15 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
         r->vf_count = r->vf_cap = en_slab_degree(s, v);
         r->q = q[v];
         r->self_err = quadric_eval(&r->q, s->pos + 3 * (size_t)v);
+        r->wedge = st.welds ? s->wedge[v] : v;
         r->best_u = UINT32_MAX;
         r->heap_pos = UINT32_MAX;
         r->removable = removable[v] == 1;
         r->alive = 1;
     }
+    if (st.welds) /* each copy's error is its position's */
+        for (uint32_t v = 0; v < s->nv; v++)
+            st.vx[v].self_err = position_err(&st, v);
 
     st.tier = removable;
     st.by_error = cs->by_error;
@@ -734,7 +1005,8 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
                 continue;
             }
             heap_entry e = heap_pop(&st);
-            if (!st.vx[e.u].alive || !is_neighbour(&st, e.v, e.u) || pair_cost(&st, e.v, e.u) != e.cost) {
+            if (!st.vx[e.u].alive || !is_neighbour(&st, e.v, e.u) ||
+                (st.welds ? move_cost(&st, e.v, e.u) : pair_cost(&st, e.v, e.u)) != e.cost) {
                 /* its target went away or got dearer: rank v's targets again */
                 rc = queue_cheapest(&st, e.v);
                 continue;

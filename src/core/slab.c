@@ -20,12 +20,14 @@ void en_slab_free(en_slab *s)
     en_free(s->star_start);
     en_free(s->star);
     en_free(s->star_fill);
+    en_free(s->wedge);
     en_slab_init(s);
 }
 
 void en_slab_reset(en_slab *s)
 {
     s->nv = s->nt = 0;
+    s->has_welds = 0;
 }
 
 static int grow_vertices(en_slab *s)
@@ -192,6 +194,96 @@ static uint8_t order_star(const en_slab *s, uint32_t v, uint32_t *faces, uint32_
     return open ? EN_V_BOUNDARY : 0;
 }
 
+/* The ends of a boundary vertex's open edges, from its ordered star: out,
+ * the corner after v in its first face (the open edge v -> out), and in,
+ * the corner before v in its last (in -> v). */
+static void open_ends(const en_slab *s, uint32_t v, uint32_t *out, uint32_t *in)
+{
+    const uint32_t *first = s->tri + 3 * (size_t)s->star[s->star_start[v]];
+    const uint32_t *last = s->tri + 3 * (size_t)s->star[s->star_start[v + 1] - 1];
+    *out = first[(corner_of(first, v) + 1) % 3];
+    *in = last[(corner_of(last, v) + 2) % 3];
+}
+
+static int same_position(const en_slab *s, uint32_t a, uint32_t b)
+{
+    return memcmp(s->pos + 3 * (size_t)a, s->pos + 3 * (size_t)b, 3 * sizeof *s->pos) == 0;
+}
+
+/* A vertex to sort by its coordinates' bits: they travel with it, since
+ * C11's qsort passes the comparison no context. */
+typedef struct by_position {
+    const double *xyz;
+    uint32_t v;
+} by_position;
+
+static int cmp_position(const void *a, const void *b)
+{
+    const by_position *x = a, *y = b;
+    int c = memcmp(x->xyz, y->xyz, 3 * sizeof *x->xyz);
+    return c ? c : (x->v > y->v) - (x->v < y->v);
+}
+
+/* May boundary vertices a and b, alone at their position, be the two sides
+ * of one seam? One open fan each, and their open edges lead to the same
+ * positions the other way round (the sides of an orientable surface cut
+ * along the seam). */
+static int seam_pair(const en_slab *s, uint32_t a, uint32_t b)
+{
+    uint8_t fa = s->vflags[a], fb = s->vflags[b];
+    if ((fa | fb) & EN_V_NONMANIFOLD)
+        return 0;
+    uint32_t oa, ia, ob, ib;
+    open_ends(s, a, &oa, &ia);
+    open_ends(s, b, &ob, &ib);
+    if (oa == b || ia == b || ob == a || ib == a || oa == ia || ob == ib)
+        return 0;
+    return same_position(s, oa, ib) && same_position(s, ia, ob);
+}
+
+/* The seams (see en_slab_build_stars): boundary vertices grouped by their
+ * coordinates' bits into wedge[] cycles, and the pairs. */
+static int find_seams(en_slab *s, uint32_t nboundary)
+{
+    s->has_welds = 0;
+    if (nboundary < 2)
+        return 0;
+    by_position *b = en_malloc((size_t)nboundary * sizeof *b);
+    if (!b)
+        return -1;
+    uint32_t n = 0;
+    for (uint32_t v = 0; v < s->nv; v++)
+        if ((s->vflags[v] & (EN_V_BOUNDARY | EN_V_OWNED)) == (EN_V_BOUNDARY | EN_V_OWNED))
+            b[n++] = (by_position){ s->pos + 3 * (size_t)v, v };
+    qsort(b, n, sizeof *b, cmp_position);
+    uint32_t shared = 0;
+    for (uint32_t i = 1; i < n; i++)
+        shared += memcmp(b[i].xyz, b[i - 1].xyz, 3 * sizeof *b[i].xyz) == 0;
+    if (shared == 0) {
+        en_free(b);
+        return 0;
+    }
+    if (en_grow((void **)&s->wedge, &s->cap_wedge, (size_t)s->nv + 1, sizeof *s->wedge)) {
+        en_free(b);
+        return -1;
+    }
+    for (uint32_t v = 0; v < s->nv; v++)
+        s->wedge[v] = v;
+    for (uint32_t i = 0, j; i < n; i = j) {
+        for (j = i + 1; j < n && memcmp(b[j].xyz, b[i].xyz, 3 * sizeof *b[i].xyz) == 0; j++)
+            s->wedge[b[j - 1].v] = b[j].v;
+        s->wedge[b[j - 1].v] = b[i].v;
+        if (j - i == 2 && seam_pair(s, b[i].v, b[i + 1].v)) {
+            uint32_t x = b[i].v, y = b[i + 1].v;
+            s->vflags[x] = (uint8_t)((s->vflags[x] & ~EN_V_BOUNDARY) | EN_V_SEAM);
+            s->vflags[y] = (uint8_t)((s->vflags[y] & ~EN_V_BOUNDARY) | EN_V_SEAM);
+        }
+    }
+    en_free(b);
+    s->has_welds = 1;
+    return 0;
+}
+
 int en_slab_build_stars(en_slab *s)
 {
     /* note: the arrays keep their capacity, so a slab reused for the next
@@ -232,13 +324,20 @@ int en_slab_build_stars(en_slab *s)
     w.by_prv = w.by_nxt + maxdeg;
     w.prv = w.nxt + maxdeg;
     w.ordered = w.prv + maxdeg;
+    uint32_t nboundary = 0;
     for (uint32_t v = 0; v < s->nv; v++) {
-        s->vflags[v] &= (uint8_t)~(EN_V_BOUNDARY | EN_V_NONMANIFOLD | EN_V_ISOLATED);
-        s->vflags[v] |= order_star(s, v, s->star + s->star_start[v], en_slab_degree(s, v), &w);
+        uint8_t kind = order_star(s, v, s->star + s->star_start[v], en_slab_degree(s, v), &w);
+        s->vflags[v] = (uint8_t)((s->vflags[v] & ~(EN_V_BOUNDARY | EN_V_NONMANIFOLD | EN_V_ISOLATED | EN_V_SEAM)) | kind);
+        /* note: owned ones only. A ghost's star is cut short where the
+         * slab ends, so ghosts look like boundaries by the thousand; and no
+         * collapse reads a ghost's copies (a collapse's v and u are owned
+         * with every neighbour owned, architecture.md §8) */
+        if (kind & EN_V_BOUNDARY)
+            nboundary += (s->vflags[v] & EN_V_OWNED) != 0;
     }
     en_free(w.nxt);
     en_free(w.by_nxt);
-    return 0;
+    return find_seams(s, nboundary);
 }
 
 int en_slab_read(en_slab *s, epsnet_reader *r, const char *path, epsnet_error *err)

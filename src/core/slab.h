@@ -24,6 +24,8 @@ enum {
     EN_V_NONMANIFOLD = 1 << 2,/* star is not one fan: locked (docs/method.md §6) */
     EN_V_ISOLATED = 1 << 3,   /* referenced by no face */
     EN_V_SKELETON = 1 << 5,   /* a skeleton sample of an earlier pass (docs/method.md §13) */
+    EN_V_SEAM = 1 << 6,       /* one of two copies of a position along a seam (en_slab.wedge):
+                               * open as a record, inside the surface (docs/method.md §6) */
 };
 
 typedef struct en_slab {
@@ -42,6 +44,16 @@ typedef struct en_slab {
     uint32_t *star;           /* 3 * nt */
     uint32_t *star_fill;      /* scratch of en_slab_build_stars, nv */
     size_t cap_star_start, cap_star, cap_star_fill; /* kept across en_slab_reset */
+
+    /* Seams (docs/method.md §6), found by en_slab_build_stars() among the
+     * owned boundary vertices: when has_welds, wedge[v] is the next of the
+     * owned boundary vertices at v's exact coordinates, in a cycle (v
+     * itself for every other vertex); for one of a seam pair (EN_V_SEAM) it is
+     * the other copy. Without has_welds it is not filled: no two boundary
+     * vertices share a position. */
+    int has_welds;
+    uint32_t *wedge;
+    size_t cap_wedge;
 } en_slab;
 
 void en_slab_init(en_slab *s);
@@ -58,6 +70,15 @@ int en_slab_add_face(en_slab *s, uint32_t a, uint32_t b, uint32_t c);
  * Build the stars of all vertices, order them rotationally and flag boundary,
  * non-manifold and isolated vertices. Faces that repeat a corner do not make
  * a vertex non-manifold by themselves; they are ordered like any face.
+ *
+ * Then the seams: a mesh cut open where its corners' attributes differ (a UV
+ * or normal seam, a change of material: docs/architecture.md §13) has two
+ * boundary vertices at each position along the cut. Two owned boundary
+ * vertices, alone at their exact coordinates, whose open edges lead to the
+ * same positions in opposite directions (the two sides of one surface, as
+ * meshoptimizer's seam vertices are) become a seam pair: EN_V_SEAM
+ * instead of EN_V_BOUNDARY, each the other's wedge[]. A cut's end, where
+ * three copies meet or a seam meets a true boundary, stays a boundary.
  * @return 0, or -1 when out of memory.
  */
 int en_slab_build_stars(en_slab *s);

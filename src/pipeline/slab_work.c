@@ -382,6 +382,11 @@ static void mark_frozen(en_slab_work *w)
             if (!(w->fflags[s->star[i]] & EN_F_INTERIOR))
                 w->border[v] = EN_BORDER_FROZEN;
     }
+    /* A seam pair moves together (core/collapse.c), so it is decided in
+     * one place: a frozen copy takes its twin to the stitcher with it. */
+    for (uint32_t v = 0; v < w->nowned; v++)
+        if ((s->vflags[v] & EN_V_SEAM) && w->border[v] == EN_BORDER_FROZEN)
+            w->border[s->wedge[v]] = EN_BORDER_FROZEN;
     /* The band whose treatment the seam density is measured on (stats). */
     for (uint32_t v = 0; v < w->nowned; v++) {
         if (w->border[v] != EN_BORDER_FROZEN)
