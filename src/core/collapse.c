@@ -29,6 +29,7 @@
 
 #include <math.h>
 #include <stdint.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "common/alloc.h"
@@ -141,6 +142,8 @@ typedef struct state {
     size_t cand_cap;
     uint32_t *faces;          /* scratch: one vertex's faces */
     size_t faces_cap;
+    uint32_t *ends;           /* scratch: a long seam fan's corners (open_ends) */
+    size_t ends_cap;
 
     uint64_t collapses;
     int welds;                /* the slab has copies of positions (en_slab.has_welds) */
@@ -348,16 +351,47 @@ static int same_position(const state *st, uint32_t u, uint32_t p)
     }
 }
 
+static int cmp_u32(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return (x > y) - (x < y);
+}
+
 /* The open ends of a seam vertex in the faces alive now: out, the corner
  * after v that no face of v has before it (the open edge v -> out), and in
- * the other way round. UINT32_MAX when there is none. note: a scan in
- * O(deg^2), without the marks, which the callers are using: a seam
- * vertex's fan is short. */
-static void open_ends(const state *st, uint32_t v, uint32_t *out, uint32_t *in)
+ * the other way round. UINT32_MAX when there is none (or out of memory,
+ * which then refuses the move). note: without the marks, which the callers
+ * are using: a scan in O(deg^2) for a short fan, and for a long one (a seam
+ * vertex that took in many collapses: the scan was a quarter of a textured
+ * 2M-face run) both corner lists sorted and merged. */
+static void open_ends(state *st, uint32_t v, uint32_t *out, uint32_t *in)
 {
     const uint32_t *lv = st->pool + st->vx[v].vf_start;
     uint32_t n = st->vx[v].vf_count;
     *out = *in = UINT32_MAX;
+    if (n > 12) {
+        if (en_grow((void **)&st->ends, &st->ends_cap, 2 * (size_t)n, sizeof *st->ends))
+            return;
+        uint32_t *after = st->ends, *before = st->ends + n;
+        for (uint32_t i = 0; i < n; i++) {
+            const uint32_t *t = st->tri + 3 * (size_t)lv[i];
+            int k = t[0] == v ? 0 : t[1] == v ? 1 : 2;
+            after[i] = t[(k + 1) % 3];
+            before[i] = t[(k + 2) % 3];
+        }
+        qsort(after, n, sizeof *after, cmp_u32);
+        qsort(before, n, sizeof *before, cmp_u32);
+        uint32_t i = 0, j = 0;
+        while (i < n || j < n) {
+            if (i < n && j < n && after[i] == before[j])
+                i++, j++;
+            else if (j == n || (i < n && after[i] < before[j]))
+                *out = after[i++];
+            else
+                *in = before[j++];
+        }
+        return;
+    }
     for (uint32_t i = 0; i < n; i++) {
         const uint32_t *t = st->tri + 3 * (size_t)lv[i];
         int k = t[0] == v ? 0 : t[1] == v ? 1 : 2;
@@ -379,20 +413,31 @@ static void open_ends(const state *st, uint32_t v, uint32_t *out, uint32_t *in)
 /*
  * A seam pair (v, t = its wedge) moves along the seam, both sides together
  * (as meshoptimizer's seam vertices do): v onto u, one of v's open ends,
- * and t onto p, the copy of u at t's opposite open end. @return p, or
- * UINT32_MAX when u is no such target (not an open end of v, or the other
- * side does not lead to a copy of u: the two sides meet there, as at the
- * tip of a cut, whose single vertex stays).
+ * and t onto p, the copy of u at t's opposite open end. The two such moves
+ * into u[] and p[]; u[k] is UINT32_MAX when the other side does not lead
+ * to a copy of it (the two sides meet there, as at the tip of a cut, whose
+ * single vertex stays).
  */
-static uint32_t seam_partner(const state *st, uint32_t v, uint32_t u)
+static void seam_moves(state *st, uint32_t v, uint32_t u[2], uint32_t p[2])
 {
-    uint32_t t = st->vx[v].wedge, ov, iv, ot, it;
-    open_ends(st, v, &ov, &iv);
-    open_ends(st, t, &ot, &it);
-    uint32_t p = u == ov ? it : u == iv ? ot : UINT32_MAX;
-    if (p == UINT32_MAX || p == u || u == UINT32_MAX || !same_position(st, u, p))
-        return UINT32_MAX;
-    return p;
+    uint32_t ot, it;
+    open_ends(st, v, &u[0], &u[1]);
+    open_ends(st, st->vx[v].wedge, &ot, &it);
+    p[0] = it, p[1] = ot;
+    for (int k = 0; k < 2; k++)
+        if (u[k] == UINT32_MAX || p[k] == UINT32_MAX || p[k] == u[k] || !same_position(st, u[k], p[k]))
+            u[k] = UINT32_MAX;
+    if (u[1] == u[0])
+        u[1] = UINT32_MAX;
+}
+
+/* The copy of u that v's twin moves onto with v -> u, or UINT32_MAX when
+ * v -> u is no move along the seam (seam_moves). */
+static uint32_t seam_partner(state *st, uint32_t v, uint32_t u)
+{
+    uint32_t us[2], ps[2];
+    seam_moves(st, v, us, ps);
+    return u == us[0] ? ps[0] : u == us[1] ? ps[1] : UINT32_MAX;
 }
 
 static int is_seam(const state *st, uint32_t v)
@@ -626,12 +671,12 @@ static int64_t rank_targets(state *st, uint32_t v)
     uint32_t n = 0;
     const uint32_t *lv = st->pool + st->vx[v].vf_start;
     if (st->welds && is_seam(st, v)) {
-        /* along the seam only: its two open ends */
-        uint32_t ends[2];
-        open_ends(st, v, &ends[0], &ends[1]);
+        /* along the seam only */
+        uint32_t us[2], ps[2];
+        seam_moves(st, v, us, ps);
         for (int k = 0; k < 2; k++)
-            if (ends[k] != UINT32_MAX && (k == 0 || ends[1] != ends[0]))
-                cand[n++] = (target){ move_cost(st, v, ends[k]), ends[k] };
+            if (us[k] != UINT32_MAX)
+                cand[n++] = (target){ move_cost(st, v, us[k]), us[k] };
     }
     for (uint32_t i = 0; i < st->vx[v].vf_count && !(st->welds && is_seam(st, v)); i++) {
         const uint32_t *t = st->tri + 3 * (size_t)lv[i];
@@ -666,17 +711,17 @@ static int64_t rank_targets(state *st, uint32_t v)
  * until a collapse next to it gives it a target.
  */
 /* v's cheapest target by cost (best.u UINT32_MAX: none). */
-static target cheapest_target(const state *st, uint32_t v)
+static target cheapest_target(state *st, uint32_t v)
 {
     const uint32_t *lv = st->pool + st->vx[v].vf_start;
     target best = { 0, UINT32_MAX };
     if (st->welds && is_seam(st, v)) {
-        /* along the seam only, onto positions whose every copy may receive */
-        uint32_t ends[2];
-        open_ends(st, v, &ends[0], &ends[1]);
+        /* along the seam only, onto copies that may both receive */
+        uint32_t us[2], ps[2];
+        seam_moves(st, v, us, ps);
         for (int k = 0; k < 2; k++) {
-            uint32_t u = ends[k], p = u == UINT32_MAX ? u : seam_partner(st, v, u);
-            if (p == UINT32_MAX || !(st->s->vflags[u] & st->s->vflags[p] & EN_V_TARGET))
+            uint32_t u = us[k];
+            if (u == UINT32_MAX || !(st->s->vflags[u] & st->s->vflags[ps[k]] & EN_V_TARGET))
                 continue;
             target t = { move_cost(st, v, u), u };
             if (best.u == UINT32_MAX || target_less(&t, &best))
@@ -885,7 +930,8 @@ typedef struct arrays {
     target *cand;
     uint32_t *faces;
     uint8_t *tiers;
-    size_t pool_cap, vx_bytes, heap_cap, cand_cap, faces_cap, tiers_cap;
+    uint32_t *ends;
+    size_t pool_cap, vx_bytes, heap_cap, cand_cap, faces_cap, tiers_cap, ends_cap;
 } arrays;
 
 static void arrays_destroy(void *item)
@@ -897,6 +943,7 @@ static void arrays_destroy(void *item)
     en_free(a->cand);
     en_free(a->faces);
     en_free(a->tiers);
+    en_free(a->ends);
     en_free(a);
 }
 
@@ -941,6 +988,7 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
     st.heap = own->heap, st.heap_cap = own->heap_cap;
     st.cand = own->cand, st.cand_cap = own->cand_cap;
     st.faces = own->faces, st.faces_cap = own->faces_cap;
+    st.ends = own->ends, st.ends_cap = own->ends_cap;
     int rc = 0;
     st.welds = s->has_welds;
     if (st.welds) {
@@ -1093,6 +1141,7 @@ out:
     own->heap = st.heap, own->heap_cap = st.heap_cap;
     own->cand = st.cand, own->cand_cap = st.cand_cap;
     own->faces = st.faces, own->faces_cap = st.faces_cap;
+    own->ends = st.ends, own->ends_cap = st.ends_cap;
     if (pool)
         en_ctxpool_give(pool, own);
     else
