@@ -82,6 +82,42 @@ def test_attributes_travel_bit_for_bit_with_their_vertex(gen_mesh):
     assert np.array_equal(oa["small"], attrs["small"][idx])
 
 
+def test_a_uv_seam_split_as_trimesh_splits_it_simplifies_along_its_length(gen_mesh):
+    """Arrays from a textured mesh (trimesh, a glTF loader) repeat a vertex
+    for each texture coordinate it has: two copies along a seam. They
+    collapse along the seam together, so the size is met, every output
+    vertex is an input vertex with its own (u, v), and no face stretches
+    across the texture (docs/method.md §6)."""
+    v, f, _ = epsnet.read_mesh(gen_mesh("bumpy", 8000, shuffle=False))
+    lon = np.arctan2(v[:, 1], v[:, 0]) / (2 * np.pi) + 0.5
+    u_corner = lon[f]
+    across = u_corner.max(axis=1) - u_corner.min(axis=1) > 0.5
+    # a face across the date line takes u + 1 on its corners west of it: a
+    # vertex used that way gets a copy
+    shifted = across[:, None] & (u_corner < 0.5)
+    key = f.astype(np.int64) * 2 + shifted
+    uniq, inverse = np.unique(key.ravel(), return_inverse=True)
+    src = uniq // 2
+    vs = v[src]
+    uu = (lon[src] + (uniq % 2)).astype(np.float32)
+    vv = (v[src, 2] * 0.5 + 0.5).astype(np.float32)
+    fs = inverse.reshape(f.shape).astype(np.int64)
+    seam = int((uniq % 2).sum())
+    assert seam > 20, "the test mesh has no seam"
+    goal = round(0.1 * len(fs))
+    ov, of, oa = epsnet.simplify(vs, fs, attributes={"texture_u": uu, "texture_v": vv}, ratio=0.1)
+    assert abs(len(of) - goal) <= max(1, goal // 200), (len(of), goal)
+    record = {(tuple(p), a, b): i for i, (p, a, b) in enumerate(zip(vs.tolist(), uu.tolist(), vv.tolist()))}
+    kept_copies = 0
+    for p, a, b in zip(ov.tolist(), oa["texture_u"].tolist(), oa["texture_v"].tolist()):
+        i = record.get((tuple(p), a, b))
+        assert i is not None, "an output vertex that is no input vertex"
+        kept_copies += int(uniq[i] % 2)
+    spread = oa["texture_u"][of].max(axis=1) - oa["texture_u"][of].min(axis=1)
+    assert spread.max() < 0.75, "a face stretches across the seam"
+    assert 0 < kept_copies < seam, (kept_copies, seam)
+
+
 def test_locked_vertices_all_stay(gen_mesh):
     v, f, _ = epsnet.read_mesh(gen_mesh("bumpy", 8000))
     n = len(v)
