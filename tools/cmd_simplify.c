@@ -178,6 +178,11 @@ int cmd_simplify(int argc, char **argv)
                 secs > 0 ? (double)s->faces / secs / 1e6 : 0.0, (double)s->peak_rss / (1 << 20), s->cpu_main,
                 s->cpu_workers,
                 s->cpu_main + s->cpu_workers > 0 ? 100.0 * s->cpu_main / (s->cpu_main + s->cpu_workers) : 0.0);
+        if (s->seam_vertices || s->cut_end_vertices)
+            fprintf(stderr,
+                    "  attribute seams (UV, normals, materials): %llu copies in pairs along them, %llu where "
+                    "they end (kept)\n",
+                    (unsigned long long)s->seam_vertices, (unsigned long long)s->cut_end_vertices);
         if (targets || m.settings.target_error > 0) {
             /* G has 4 n^2 + 2 vertices at frequency n */
             unsigned n = (unsigned)(sqrt((double)(s->gaussian_vertices - 2) / 4) + 0.5);

@@ -327,7 +327,8 @@ int en_slab_build_stars(en_slab *s)
     uint32_t nboundary = 0;
     for (uint32_t v = 0; v < s->nv; v++) {
         uint8_t kind = order_star(s, v, s->star + s->star_start[v], en_slab_degree(s, v), &w);
-        s->vflags[v] = (uint8_t)((s->vflags[v] & ~(EN_V_BOUNDARY | EN_V_NONMANIFOLD | EN_V_ISOLATED | EN_V_SEAM)) | kind);
+        uint8_t kept = (uint8_t)(s->vflags[v] & ~(EN_V_BOUNDARY | EN_V_NONMANIFOLD | EN_V_ISOLATED | EN_V_SEAM));
+        s->vflags[v] = (uint8_t)(kept | kind);
         /* note: owned ones only. A ghost's star is cut short where the
          * slab ends, so ghosts look like boundaries by the thousand; and no
          * collapse reads a ghost's copies (a collapse's v and u are owned
