@@ -383,7 +383,8 @@ static void warn_missed_target(const en_run *run, const epsnet_stats *st, int st
     else
         snprintf(msg, sizeof msg,
                  "%s: target of %llu %s missed by %llu: %llu removable vertices were refused every collapse "
-                 "(link %llu, normal %llu, zero-area %llu, duplicate %llu); boundary vertices (%llu%s)%s are kept%s",
+                 "(for link %llu, normal %llu, zero-area %llu, duplicate %llu; one may have several reasons); "
+                 "boundary vertices (%llu%s)%s are kept%s",
                  run->path ? run->path : "input", (unsigned long long)want, faces ? "faces" : "vertices",
                  (unsigned long long)(got - want), (unsigned long long)st->remaining_nonsamples,
                  (unsigned long long)st->refused_link, (unsigned long long)st->refused_normal,
