@@ -382,9 +382,9 @@ static void warn_missed_target(const en_run *run, const epsnet_stats *st, int st
                  (unsigned long long)(got - want));
     else
         snprintf(msg, sizeof msg,
-                 "%s: target of %llu %s missed by %llu: %llu removable vertices were refused every collapse "
-                 "(for link %llu, normal %llu, zero-area %llu, duplicate %llu; one may have several reasons); "
-                 "boundary vertices (%llu%s)%s are kept%s",
+                 "%s: target of %llu %s missed by %llu: %llu non-samples are left (refusals: link %llu, normal "
+                 "%llu, zero-area %llu, duplicate %llu; a vertex may have several); boundary vertices (%llu%s)%s "
+                 "are kept%s",
                  run->path ? run->path : "input", (unsigned long long)want, faces ? "faces" : "vertices",
                  (unsigned long long)(got - want), (unsigned long long)st->remaining_nonsamples,
                  (unsigned long long)st->refused_link, (unsigned long long)st->refused_normal,
