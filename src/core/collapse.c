@@ -341,7 +341,7 @@ static int has_face_on(const state *st, uint32_t u, uint32_t x, uint32_t y)
 /* ---- seams (docs/method.md §6) ---- */
 
 /* Is p a copy of u's position (u itself included)? */
-static int same_position(const state *st, uint32_t u, uint32_t p)
+static int is_copy_of(const state *st, uint32_t p, uint32_t u)
 {
     for (uint32_t c = u;;) {
         if (c == p)
@@ -425,7 +425,7 @@ static void seam_moves(state *st, uint32_t v, uint32_t u[2], uint32_t p[2])
     open_ends(st, st->vx[v].wedge, &ot, &it);
     p[0] = it, p[1] = ot;
     for (int k = 0; k < 2; k++)
-        if (u[k] == UINT32_MAX || p[k] == UINT32_MAX || p[k] == u[k] || !same_position(st, u[k], p[k]))
+        if (u[k] == UINT32_MAX || p[k] == UINT32_MAX || p[k] == u[k] || !is_copy_of(st, p[k], u[k]))
             u[k] = UINT32_MAX;
     if (u[1] == u[0])
         u[1] = UINT32_MAX;
@@ -555,8 +555,8 @@ static int check_welded(state *st, uint32_t v, uint32_t u, const uint32_t opp[4]
             if (st->vx[t[0]].mark == stamp || st->vx[t[1]].mark == stamp || st->vx[t[2]].mark == stamp)
                 return EN_REFUSE_LINK;
         }
-        d = st->vx[d].wedge;
-    } while (d != v && is_seam(st, v));
+        d = st->vx[d].wedge; /* its twin; an interior v is its own wedge */
+    } while (d != v);
     return 0;
 }
 
