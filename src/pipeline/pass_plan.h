@@ -71,6 +71,12 @@ typedef struct en_pass_plan {
      * the skeleton and the membranes are sized from (0: the count's). */
     double goal_share;
     double cost_ceiling;          /* > 0: every collapse cheaper is done, none dearer */
+    /* A guard under a ceiling (0: none): each slab keeps at least this
+     * share of the units its own collapses can reach, as keep_share
+     * would, and W at least its pace to goal of expected_in, so that a
+     * round whose ceiling was set from a histogram that missed what it
+     * holds cannot pass the target (docs/architecture.md §7). */
+    double floor_share;
     double max_error;             /* < 0: none; else times the diagonal, a distance */
     double diagonal;              /* the whole mesh's (0: the slab's own, when it is the whole) */
     /* The quadrics are taken afresh once the count is near

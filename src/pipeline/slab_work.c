@@ -140,37 +140,46 @@ static int aims_at_goal(const en_slab_work *w)
     return w->plan->seams == EN_SEAMS_PACED && w->index == 0 && w->last;
 }
 
+/* The units a slab keeps when it keeps `share` of what its own collapses
+ * can reach (after mark_frozen): the faces on inner vertices only (or the
+ * inner vertices); the faces of frozen vertices go to the seams, whose
+ * share the stitcher takes. Measured: a share of all the slab's faces
+ * over-thins the inside of small slabs, whose seams cannot give their
+ * part. */
+static void share_limits(const en_slab_work *w, double share, uint64_t *keep_faces, uint64_t *keep_vertices)
+{
+    uint64_t reach = 0;
+    if (w->plan->by_vertices) {
+        for (uint32_t v = 0; v < w->nowned; v++)
+            reach += inner(w, v) && en_slab_degree(&w->s, v) > 0;
+        uint64_t drop = (uint64_t)((1 - share) * (double)reach), on = vertices_on_faces(&w->s);
+        *keep_faces = 0;
+        *keep_vertices = on > drop ? on - drop : 1;
+        return;
+    }
+    for (uint32_t f = 0; f < w->s.nt; f++) {
+        const uint32_t *c = w->s.tri + 3 * (size_t)f;
+        reach += (w->fflags[f] & EN_F_INTERIOR) && inner(w, c[0]) && inner(w, c[1]) && inner(w, c[2]);
+    }
+    uint64_t drop = (uint64_t)((1 - share) * (double)reach);
+    *keep_faces = w->s.nt > drop ? w->s.nt - drop : 1;
+    *keep_vertices = 0;
+}
+
 /* Faces and vertices the slab may keep under its plan (0: no limit). */
 static void target_limits(const en_slab_work *w, uint64_t *keep_faces, uint64_t *keep_vertices)
 {
     const en_pass_plan *t = w->plan;
     if (t->keep_share > 0) {
-        /* Streamed (after mark_frozen): a share of what the slab's own
-         * collapses can reach, the faces on inner vertices only (or the
-         * inner vertices); the faces of frozen vertices go to the seams,
-         * whose share the stitcher takes. Measured: a share of all the
-         * slab's faces over-thins the inside of small slabs, whose seams
-         * cannot give their part. */
-        uint64_t reach = 0;
-        if (t->by_vertices) {
-            for (uint32_t v = 0; v < w->nowned; v++)
-                reach += inner(w, v) && en_slab_degree(&w->s, v) > 0;
-            uint64_t drop = (uint64_t)((1 - t->keep_share) * (double)reach), on = vertices_on_faces(&w->s);
-            *keep_faces = 0;
-            *keep_vertices = on > drop ? on - drop : 1;
-            if (aims_at_goal(w))
-                *keep_vertices = t->goal ? t->goal : 1;
-            return;
-        }
-        for (uint32_t f = 0; f < w->s.nt; f++) {
-            const uint32_t *c = w->s.tri + 3 * (size_t)f;
-            reach += (w->fflags[f] & EN_F_INTERIOR) && inner(w, c[0]) && inner(w, c[1]) && inner(w, c[2]);
-        }
-        uint64_t drop = (uint64_t)((1 - t->keep_share) * (double)reach);
-        *keep_faces = w->s.nt > drop ? w->s.nt - drop : 1;
-        *keep_vertices = 0;
+        /* streamed: a share of what the slab's own collapses can reach */
+        share_limits(w, t->keep_share, keep_faces, keep_vertices);
         if (aims_at_goal(w))
-            *keep_faces = t->goal ? t->goal : 1;
+            *(t->by_vertices ? keep_vertices : keep_faces) = t->goal ? t->goal : 1;
+        return;
+    }
+    if (t->floor_share > 0) {
+        /* a round: its ceiling stops it; the floor only guards the target */
+        share_limits(w, t->floor_share, keep_faces, keep_vertices);
         return;
     }
     /* a count (or none: the bound or the ceiling alone); a ratio is of the

@@ -355,6 +355,13 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
         cs.max_error = st->plan->max_error * st->plan->diagonal;
     } else if (rule == EN_SEAMS_CEILING) {
         cs.cost_ceiling = st->plan->cost_ceiling; /* the slabs' ceiling */
+        if (st->plan->floor_share > 0) {
+            /* ... and the round's guard: never below the pace to its goal */
+            uint64_t keep = seam_keep(st, last);
+            if (keep >= (st->plan->by_vertices ? st->nwv : st->nwf))
+                goto out;
+            *(st->plan->by_vertices ? &cs.keep_vertices : &cs.keep_faces) = keep ? keep : 1;
+        }
     } else if (rule == EN_SEAMS_LEVEL) {
         /* the seam goes to the level its slabs reached (below 0: none,
          * only priced), so that the thinning keeps no more of a seam than
