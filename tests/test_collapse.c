@@ -2,6 +2,7 @@
  * The collapse core on meshes small enough to follow by hand: which target a
  * vertex goes to, what becomes of its faces, and which refusal stops it.
  */
+#include "core/attr_quadric.h"
 #include "core/collapse.h"
 #include "testlib.h"
 
@@ -328,6 +329,117 @@ TEST(a_seam_pair_collapses_along_the_seam_together)
     en_slab_free(&s);
 }
 
+/* The plane quadric at p, written out (collapse.c keeps its own static). */
+static double plane_eval(const en_quadric *q, const double p[3])
+{
+    double x = p[0], y = p[1], z = p[2];
+    return q->a2 * x * x + 2 * q->ab * x * y + 2 * q->ac * x * z + 2 * q->ad * x + q->b2 * y * y +
+           2 * q->bc * y * z + 2 * q->bd * y + q->c2 * z * z + 2 * q->cd * z + q->d2;
+}
+
+/* The value a face's linear field takes at p: barycentric in its plane
+ * (p's offset along the normal changes nothing). */
+static double field_at(const double (*tp)[3], const double *ta, const double p[3])
+{
+    double e1[3], e2[3], d[3];
+    for (int i = 0; i < 3; i++)
+        e1[i] = tp[1][i] - tp[0][i], e2[i] = tp[2][i] - tp[0][i], d[i] = p[i] - tp[0][i];
+    double a = 0, b = 0, c = 0, x = 0, y = 0;
+    for (int i = 0; i < 3; i++)
+        a += e1[i] * e1[i], b += e1[i] * e2[i], c += e2[i] * e2[i], x += d[i] * e1[i], y += d[i] * e2[i];
+    double det = a * c - b * b, l1 = (x * c - y * b) / det, l2 = (a * y - b * x) / det;
+    return ta[0] + l1 * (ta[1] - ta[0]) + l2 * (ta[2] - ta[0]);
+}
+
+/*
+ * A face's attribute quadric (Hoppe 1999): its fold (in the plane
+ * quadric) plus its attribute part, at any position p and values a, is the
+ * face's area times the squared difference between its fields at p and a,
+ * on the plane and off it; the part's trace term is the fold's trace.
+ */
+TEST(an_attribute_quadric_is_the_squared_field_error)
+{
+    const double p[3][3] = { { 0.3, -1.2, 2.0 }, { 2.1, 0.4, 1.1 }, { -0.7, 1.5, 0.2 } };
+    const double val[3 * 2] = { 0.25, 0.9, 0.75, 0.1, 0.4, 0.6 }; /* two channels per vertex */
+    const uint32_t t[3] = { 0, 1, 2 };
+    en_quadric fold;
+    double aq[2 + 4 * 2];
+    en_attr_face_quadric(&p[0][0], val, 2, t, &fold, aq);
+    double n[3];
+    en_triangle_normal(&p[0][0], t, n);
+    double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]), area = 0.5 * len;
+    CHECK(fabs(aq[0] - area) <= 1e-12 * area);
+    CHECK(fabs(aq[1] - (fold.a2 + fold.b2 + fold.c2)) <= 1e-12 * aq[1]);
+    const double cases[4][6] = { /* l1, l2, height, a0, a1 */
+                                 { 0.2, 0.3, 0.0, 0.5, 0.5 },
+                                 { -0.4, 1.1, 0.7, 0.0, 1.0 },
+                                 { 0.0, 0.0, -2.0, 0.25, 0.9 },
+                                 { 1.5, -0.2, 0.1, 3.0, -1.0 } };
+    for (int k = 0; k < 4; k++) {
+        double q[3], a[2] = { cases[k][3], cases[k][4] };
+        for (int i = 0; i < 3; i++)
+            q[i] = p[0][i] + cases[k][0] * (p[1][i] - p[0][i]) + cases[k][1] * (p[2][i] - p[0][i]) +
+                   cases[k][2] * n[i] / len;
+        double want = 0;
+        for (int c = 0; c < 2; c++) {
+            const double ta[3] = { val[c], val[2 + c], val[4 + c] };
+            double d = field_at(p, ta, q) - a[c];
+            want += area * d * d;
+        }
+        double got = plane_eval(&fold, q) + en_aq_eval(aq, 2, q, a);
+        CHECK(fabs(got - want) <= 1e-9 * (1 + want));
+    }
+}
+
+/*
+ * The flat hexagon of the first test, with one attribute: every geometric
+ * cost is 0 there, so without a weight the centre goes to vertex 1 (the
+ * tie). With values, it goes where its faces' fields at the target differ
+ * least from the target's own value, as a brute-force sum over its faces
+ * computes it (field_at); the values are chosen so that this is not 1.
+ */
+TEST(an_attribute_weight_sends_a_vertex_where_its_fields_agree)
+{
+    const double h = 0.8660254037844386;
+    const double p[7][3] = { { 0, 0, 0 },   { 1, 0, 0 },  { 0.5, h, 0 }, { -0.5, h, 0 },
+                             { -1, 0, 0 },  { -0.5, -h, 0 }, { 0.5, -h, 0 } };
+    const uint32_t f[6][3] = { { 0, 1, 2 }, { 0, 2, 3 }, { 0, 3, 4 }, { 0, 4, 5 }, { 0, 5, 6 }, { 0, 6, 1 } };
+    const double val[7] = { 0.1, 0.9, 0.8, 0.3, 0.15, 0.2, 0.7 };
+    int best = -1;
+    double best_cost = INFINITY;
+    for (int u = 1; u < 7; u++) {
+        double cost = 0;
+        for (int i = 0; i < 6; i++) {
+            const double tp[3][3] = { { p[f[i][0]][0], p[f[i][0]][1], p[f[i][0]][2] },
+                                      { p[f[i][1]][0], p[f[i][1]][1], p[f[i][1]][2] },
+                                      { p[f[i][2]][0], p[f[i][2]][1], p[f[i][2]][2] } };
+            const double ta[3] = { val[f[i][0]], val[f[i][1]], val[f[i][2]] };
+            double n[3];
+            en_triangle_normal(&p[0][0], f[i], n);
+            double d = field_at(tp, ta, p[u]) - val[u];
+            cost += 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) * d * d;
+        }
+        if (cost < best_cost)
+            best_cost = cost, best = u;
+    }
+    CHECK(best != 1);
+    run r;
+    build(&r, p, 7, f, 6);
+    r.removable[0] = 1;
+    double aq[7 * (2 + 4)];
+    en_attr_quadrics_from_faces(&r.s, val, 1, r.q, aq);
+    en_collapse_settings cs = { .max_normal_dev_deg = 60, .attr_channels = 1, .attr_value = val, .aq = aq };
+    CHECK_EQ_INT(en_collapse_slab(&r.s, r.removable, r.q, r.ref, &cs, r.falive, r.valive, r.tri, &r.cc, NULL), 0);
+    CHECK_EQ_U64(r.cc.collapses, 1);
+    /* the faces left are re-cornered onto the brute force's choice */
+    for (int i = 0; i < 6; i++)
+        if (r.falive[i])
+            CHECK(r.tri[3 * i] == (uint32_t)best || r.tri[3 * i + 1] == (uint32_t)best ||
+                  r.tri[3 * i + 2] == (uint32_t)best);
+    CHECK_EQ_INT(r.falive[0] + r.falive[1] + r.falive[2] + r.falive[3] + r.falive[4] + r.falive[5], 4);
+    en_slab_free(&r.s);
+}
+
 int main(void)
 {
     RUN(flat_fan_centre_goes_to_smallest_neighbour_and_its_faces_follow);
@@ -337,5 +449,7 @@ int main(void)
     RUN(second_tier_goes_only_when_the_first_cannot_meet_the_target);
     RUN(error_bound_refuses_dear_collapses);
     RUN(a_seam_pair_collapses_along_the_seam_together);
+    RUN(an_attribute_quadric_is_the_squared_field_error);
+    RUN(an_attribute_weight_sends_a_vertex_where_its_fields_agree);
     return tl_finish();
 }

@@ -127,6 +127,10 @@ def main():
     walk("convert_obj_corners", lambda o: ["convert", tex, "-o", o + ".obj", "-q"], max_points=600)
     walk("simplify_obj_corners", lambda o: ["simplify", tex, "-o", o + ".obj", "--level", "1", "-q"],
          max_points=900, stride=5)
+    # ... with its attributes weighed, on slabs (the values and the
+    # attribute quadrics in each slab and in W: method §9)
+    walk("simplify_attribute_weights", lambda o: ["simplify", tex, "-o", o + ".obj", "--attribute-weight", "1",
+                                                  "--slab", "300", "-j", "3", "-q"], max_points=900, stride=11)
     # The streaming pipeline with many slabs, seams and worker threads.
     smz = os.path.join(TMP, "in.smz")
     p = run(["gen", "bumpy", "--faces", "6000", "-o", smz, "-q"])

@@ -341,4 +341,86 @@ def what_is_not_carried_is_named_and_vt_vn_are_not():
     assert "texture_u" in err and "nz" in err and "material_index" in err and "usemtl" in err, err
 
 
+def texture_slide(tris):
+    """The textured sphere's u is the longitude of a point (its v the
+    height, linear): at points inside each face, the area-weighted RMS
+    distance between the u, v the face interpolates and those of the point
+    itself, the texture's slide over the surface. Away from the poles,
+    where the longitude has no value."""
+    total = weight = 0.0
+    for t in tris:
+        p = [[struct.unpack("<f", x)[0] for x in c[0]] for c in t]
+        uv = [[struct.unpack("<f", x)[0] for x in c[1]] for c in t]
+        e1 = [p[1][i] - p[0][i] for i in range(3)]
+        e2 = [p[2][i] - p[0][i] for i in range(3)]
+        n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]]
+        area = 0.5 * math.sqrt(sum(x * x for x in n))
+        for l0, l1 in ((1 / 3, 1 / 3), (2 / 3, 1 / 6), (1 / 6, 2 / 3), (1 / 6, 1 / 6)):
+            l2 = 1 - l0 - l1
+            q = [l0 * p[0][i] + l1 * p[1][i] + l2 * p[2][i] for i in range(3)]
+            if q[0] * q[0] + q[1] * q[1] < 0.04:
+                continue
+            u = l0 * uv[0][0] + l1 * uv[1][0] + l2 * uv[2][0]
+            v = l0 * uv[0][1] + l1 * uv[1][1] + l2 * uv[2][1]
+            fu = math.atan2(q[1], q[0]) / (2 * math.pi) + 0.5
+            fu += round(u - fu)  # the side of the seam the face is on
+            total += area * ((u - fu) ** 2 + (v - (q[2] * 0.5 + 0.5)) ** 2)
+            weight += area
+    return math.sqrt(total / weight)
+
+
+@case
+def attribute_weights_keep_the_texture_in_place():
+    """--attribute-weight prices a collapse by how far it slides the
+    texture as well as by its distance (docs/method.md §9): on the sphere
+    whose u is the longitude, the texture slides less at the same size, in
+    one slab and on slabs, with every corner still an input corner and the
+    same bytes for any thread count."""
+    src = textured("seams.obj", seams=True)
+    tin, _ = read_obj(src)
+    corners = {c for t in tin for c in t}
+    goal = round(0.1 * len(tin))
+    slide = {}
+    for tag, opts in (("plain", []), ("uv", ["--attribute-weight", "uv=1"]), ("plain_slab", ["--slab", "512"]),
+                      ("uv_slab", ["--slab", "512", "--attribute-weight", "uv=1"])):
+        o = path("weighed_%s.obj" % tag)
+        rc, _, err = run("simplify", src, "-o", o, "-q", "--ratio", "0.1", "-j2", *opts)
+        assert rc == 0, (tag, err)
+        tout, _ = read_obj(o)
+        assert abs(len(tout) - goal) <= 1, f"{tag}: {len(tout)} faces for a target of {goal}"
+        assert all(c in corners for t in tout for c in t), f"{tag}: a corner that is not an input corner"
+        slide[tag] = texture_slide(tout)
+    assert slide["uv"] < 0.7 * slide["plain"], slide
+    assert slide["uv_slab"] < 0.7 * slide["plain_slab"], slide
+    o1, o2 = path("weighed_j1.obj"), path("weighed_j2.obj")
+    for o, j in ((o1, "-j1"), (o2, "-j2")):
+        assert run("simplify", src, "-o", o, "-q", "--ratio", "0.1", "--slab", "512", j,
+                   "--attribute-weight", "uv=1")[0] == 0
+    with open(o1, "rb") as a, open(o2, "rb") as b:
+        assert a.read() == b.read(), "-j1 and -j2 differ with weights"
+
+
+@case
+def attribute_weights_name_what_they_cannot_weigh():
+    src = textured("uv_only_w.obj", seams=True, normals=False)
+    out = path("w_bad.obj")
+    for spec, reason in (("foo=1", "no vertex property 'foo' to weigh"),
+                         ("uv=-1", "a weight is a number, 0 or more: 'uv=-1'"),
+                         ("uv=x", "a weight is a number, 0 or more: 'uv=x'"),
+                         ("normal=1", "the input has no vertex normals"),
+                         ("=1", "a name before '='"),
+                         ("uv=1,texture_u=2", "a property weighed twice")):
+        rc, _, err = run("simplify", src, "-o", out, "--attribute-weight", spec)
+        assert rc == 1 and reason in err and src in err, (spec, rc, err)
+        assert not os.path.exists(out), spec
+    # a bare weight on a mesh with neither: a warning, and the plain run
+    base = path("bumpy.obj")
+    plain, weighed = path("w_plain.obj"), path("w_none.obj")
+    assert run("simplify", base, "-o", plain, "-q", "--ratio", "0.2")[0] == 0
+    rc, _, err = run("simplify", base, "-o", weighed, "--ratio", "0.2", "--attribute-weight", "1")
+    assert rc == 0 and "weighs nothing" in err, err
+    with open(plain, "rb") as a, open(weighed, "rb") as b:
+        assert a.read() == b.read()
+
+
 finish()

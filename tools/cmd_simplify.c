@@ -27,6 +27,14 @@ static void simplify_help(void)
            "      --drop-normals      read no vertex normals, so that an OBJ split by\n"
            "                          them (flat shading, hard edges) simplifies as one\n"
            "                          surface; the output has none\n"
+           "      --attribute-weight [NAME=]W[,...]\n"
+           "                          weigh vertex attributes in the error, so that\n"
+           "                          collapses that slide the texture or bend the\n"
+           "                          shading cost more: W alone weighs the texture\n"
+           "                          coordinates and normals; NAME is uv, normal or\n"
+           "                          any numeric vertex property. At W = 1 an\n"
+           "                          attribute error of 1 costs what a distance of the\n"
+           "                          bounding box diagonal does (try 0.5 to 2)\n"
            "\n"
            "To a size or an error bound (docs/method.md §13): the samples of one ε-net\n"
            "pass are kept as a feature skeleton, every other vertex may go, smallest\n"
@@ -61,6 +69,7 @@ int cmd_simplify(int argc, char **argv)
         { "vertices", required_argument, NULL, 'V' }, { "error", required_argument, NULL, 'E' },
         { "lock", required_argument, NULL, 'L' },
         { "drop-normals", no_argument, NULL, 'N' },
+        { "attribute-weight", required_argument, NULL, 'W' },
         CLI_METHOD_OPTIONS,                          { 0, 0, 0, 0 },
     };
     cli_method m;
@@ -70,6 +79,7 @@ int cmd_simplify(int argc, char **argv)
     uint64_t passes, count;
     double dev, x;
     int targets = 0;
+    char weights[512] = "";
     optind = 1;
     while ((c = getopt_long(argc, argv, "o:j:qh", opts, NULL)) != -1) {
         if ((rc = cli_method_option("simplify", c, optarg, &m)) != 0) {
@@ -125,6 +135,15 @@ int cmd_simplify(int argc, char **argv)
         case 'N':
             m.settings.drop_normals = 1;
             break;
+        case 'W': {
+            /* repeated: one list */
+            size_t have = strlen(weights);
+            if (!*optarg || have + strlen(optarg) + 2 > sizeof weights)
+                return cli_usage_error("simplify", "--attribute-weight needs [NAME=]W[,...] (at most 500 characters)");
+            snprintf(weights + have, sizeof weights - have, "%s%s", have ? "," : "", optarg);
+            m.settings.attribute_weights = weights;
+            break;
+        }
         case 'a': m.settings.ascii = 1; break;
         case 'q': cli_quiet = 1; break;
         case 'h': simplify_help(); return EXIT_OK;

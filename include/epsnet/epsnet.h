@@ -676,7 +676,24 @@ typedef struct epsnet_settings {
      * the output then has no normals (a viewer computes them from the
      * faces), and the dropped warning says so. Default: 0. */
     int drop_normals;
-    uint8_t reserved[44];
+    /* Simplification: weigh vertex attributes in the collapses' error
+     * (docs/method.md §9), so that a collapse that would slide the texture
+     * or bend the shading costs more. A comma-separated list: "W" weighs
+     * the texture coordinates and the normals the input has; "uv=W",
+     * "normal=W" and "NAME=W" (any numeric vertex property) one group
+     * each. Each face's attribute is a linear field over its plane, and a
+     * collapse v -> u costs, besides its geometric quadric error, the
+     * area-weighted squared difference between v's faces' fields at u and
+     * u's own values (Hoppe 1999), times (W times the diagonal of the
+     * mesh's bounding box) squared: at W = 1 an attribute error of 1 costs
+     * what a distance of one diagonal does, as meshoptimizer's attribute
+     * weights do for a mesh scaled to unit size. Values stay exactly the
+     * input's (a collapse keeps u's); the weights change which collapses
+     * are made and in what order. Needs the bounding box ahead (a header,
+     * or an input the run sorts): else EPSNET_EINVAL, as for a property the
+     * input does not have. NULL: none. Default: NULL. */
+    const char *attribute_weights;
+    uint8_t reserved[32]; /* (after drop_normals' padding: the structure keeps its size) */
 } epsnet_settings;
 
 EPSNET_API void epsnet_default_settings(epsnet_settings *s);

@@ -263,6 +263,7 @@ def simplify(
     level: Optional[int] = None,
     lock: Union[str, Any, None] = None,
     attributes: Optional[Mapping[str, Any]] = None,
+    attribute_weights: Union[float, str, Mapping[str, float], None] = None,
     threads: Optional[int] = None,
     passes: Optional[int] = None,
     max_normal_dev: Optional[float] = None,
@@ -297,6 +298,13 @@ def simplify(
                     lock their vertex (as the CLI's --lock), or an (n,) bool array
     attributes      dict of name -> (n,) array (bool, int8 .. uint32, float32, float64):
                     per-vertex values that travel with their vertex, bit for bit
+    attribute_weights  weigh attributes in the collapses' error (the CLI's
+                    --attribute-weight, docs/method.md §9), so that a collapse that
+                    slides the texture or bends the shading costs more: a dict of
+                    attribute name -> weight, e.g. {"u": 1, "v": 1} ("uv" and "normal"
+                    name texture_u/texture_v and nx/ny/nz), or one number for those.
+                    At 1 an attribute error of 1 costs what a distance of the
+                    bounding box diagonal does. Values stay the input's.
     threads         library worker threads, 0 or None = all cores; the output does not depend on it
     passes          ε-net passes without a target (default 1); max_normal_dev: refuse collapses
                     that turn a face by more than this many degrees (default 60)
@@ -342,6 +350,7 @@ def simplify(
         lock=lock_name,
         passes=passes,
         max_normal_dev=max_normal_dev,
+        attribute_weights=attribute_weights,
         tmpdir=tmpdir,
         threads=threads,
         seed=seed,
@@ -376,6 +385,7 @@ def simplify_file(
     passes: Optional[int] = None,
     max_normal_dev: Optional[float] = None,
     drop_normals: bool = False,
+    attribute_weights: Union[float, str, Mapping[str, float], None] = None,
     seed: Optional[int] = None,
     rotation: Optional[str] = None,
     mem: Union[int, str, None] = None,
@@ -394,8 +404,9 @@ def simplify_file(
     on any error, cancel or Ctrl-C nothing is left at dst.
 
     Options are simplify()'s, with lock naming a per-vertex property of the
-    file and drop_normals as the CLI's --drop-normals (read no vertex
-    normals, so a flat-shaded OBJ is one surface).
+    file, drop_normals as the CLI's --drop-normals (read no vertex
+    normals, so a flat-shaded OBJ is one surface) and attribute_weights
+    naming the file's properties.
 
     progress: callable(done, total), called from the calling thread about
     ten times a second with the fraction of one bar for the whole run (the
@@ -419,6 +430,7 @@ def simplify_file(
         passes=passes,
         max_normal_dev=max_normal_dev,
         drop_normals=drop_normals,
+        attribute_weights=attribute_weights,
         tmpdir=tmpdir,
         threads=threads,
         seed=seed,

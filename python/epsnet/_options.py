@@ -5,9 +5,10 @@ so that simplify(), simplify_file() and sample() spell them the same way.
 """
 from __future__ import annotations
 
+import math
 import numbers
 import os
-from typing import Any, Dict, Optional, Union
+from typing import Any, Dict, Mapping, Optional, Union
 
 _SUFFIX = {"": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
 
@@ -78,6 +79,28 @@ def method(
     }
 
 
+def _weights(w: Union[float, str, Mapping[str, float], None]) -> Optional[str]:
+    """attribute_weights as the CLI's --attribute-weight list: a number
+    (texture coordinates and normals), a dict of name -> weight (names:
+    "uv", "normal", or a per-vertex attribute), or the list itself."""
+    if w is None or isinstance(w, str):
+        return w
+    if isinstance(w, Mapping):
+        items = []
+        for name, x in w.items():
+            if not isinstance(name, str) or not name or "," in name or "=" in name:
+                raise ValueError(f"attribute_weights: {name!r} is not an attribute name")
+            items.append(f"{name}={_weight(name, x)!r}")
+        return ",".join(items) or None
+    return repr(_weight("attribute_weights", w))
+
+
+def _weight(name: str, x: Any) -> float:
+    if isinstance(x, bool) or not isinstance(x, numbers.Real) or not math.isfinite(float(x)) or x < 0:
+        raise ValueError(f"attribute_weights: the weight of {name} must be a number, 0 or more, not {x!r}")
+    return float(x)
+
+
 def simplify(
     *,
     ratio: Optional[float] = None,
@@ -89,6 +112,7 @@ def simplify(
     passes: Optional[int] = None,
     max_normal_dev: Optional[float] = None,
     drop_normals: bool = False,
+    attribute_weights: Union[float, str, Mapping[str, float], None] = None,
     tmpdir: Union[str, "os.PathLike[str]", None] = None,
     **method_options: Any,
 ) -> Dict[str, Any]:
@@ -117,6 +141,7 @@ def simplify(
             "passes": _count("passes", passes),
             "max_normal_dev": _number("max_normal_dev", max_normal_dev),
             "drop_normals": 1 if drop_normals else None,
+            "attribute_weights": _weights(attribute_weights),
             "tmpdir": os.fspath(tmpdir) if tmpdir is not None else None,
         }
     )

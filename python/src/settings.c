@@ -98,6 +98,7 @@ int eb_settings(PyObject *options, epsnet_settings *s)
         get_double(options, "target_error", &s->target_error) ||
         get_int(options, "target_level_given", &s->target_level_given) ||
         get_str(options, "lock_property", &s->lock_property) || get_int(options, "drop_normals", &s->drop_normals) ||
+        get_str(options, "attribute_weights", &s->attribute_weights) ||
         get_str(options, "tmpdir", &s->tmpdir))
         return -1;
     if (frequency > UINT32_MAX || slab > UINT32_MAX) {

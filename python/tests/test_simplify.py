@@ -82,26 +82,31 @@ def test_attributes_travel_bit_for_bit_with_their_vertex(gen_mesh):
     assert np.array_equal(oa["small"], attrs["small"][idx])
 
 
+def seam_sphere(gen_mesh):
+    """A bumpy sphere whose u is the longitude and v the height, split as
+    trimesh splits a textured mesh: a face across the date line takes u + 1
+    on its corners west of it, and a vertex used that way gets a copy.
+    Returns the arrays and each vertex's key (input vertex * 2 + shifted)."""
+    v, f, _ = epsnet.read_mesh(gen_mesh("bumpy", 8000, shuffle=False))
+    lon = np.arctan2(v[:, 1], v[:, 0]) / (2 * np.pi) + 0.5
+    u_corner = lon[f]
+    across = u_corner.max(axis=1) - u_corner.min(axis=1) > 0.5
+    shifted = across[:, None] & (u_corner < 0.5)
+    key = f.astype(np.int64) * 2 + shifted
+    uniq, inverse = np.unique(key.ravel(), return_inverse=True)
+    src = uniq // 2
+    uu = (lon[src] + (uniq % 2)).astype(np.float32)
+    vv = (v[src, 2] * 0.5 + 0.5).astype(np.float32)
+    return v[src], inverse.reshape(f.shape).astype(np.int64), uu, vv, uniq
+
+
 def test_a_uv_seam_split_as_trimesh_splits_it_simplifies_along_its_length(gen_mesh):
     """Arrays from a textured mesh (trimesh, a glTF loader) repeat a vertex
     for each texture coordinate it has: two copies along a seam. They
     collapse along the seam together, so the size is met, every output
     vertex is an input vertex with its own (u, v), and no face stretches
     across the texture (docs/method.md §6)."""
-    v, f, _ = epsnet.read_mesh(gen_mesh("bumpy", 8000, shuffle=False))
-    lon = np.arctan2(v[:, 1], v[:, 0]) / (2 * np.pi) + 0.5
-    u_corner = lon[f]
-    across = u_corner.max(axis=1) - u_corner.min(axis=1) > 0.5
-    # a face across the date line takes u + 1 on its corners west of it: a
-    # vertex used that way gets a copy
-    shifted = across[:, None] & (u_corner < 0.5)
-    key = f.astype(np.int64) * 2 + shifted
-    uniq, inverse = np.unique(key.ravel(), return_inverse=True)
-    src = uniq // 2
-    vs = v[src]
-    uu = (lon[src] + (uniq % 2)).astype(np.float32)
-    vv = (v[src, 2] * 0.5 + 0.5).astype(np.float32)
-    fs = inverse.reshape(f.shape).astype(np.int64)
+    vs, fs, uu, vv, uniq = seam_sphere(gen_mesh)
     seam = int((uniq % 2).sum())
     assert seam > 20, "the test mesh has no seam"
     goal = round(0.1 * len(fs))
@@ -116,6 +121,48 @@ def test_a_uv_seam_split_as_trimesh_splits_it_simplifies_along_its_length(gen_me
     spread = oa["texture_u"][of].max(axis=1) - oa["texture_u"][of].min(axis=1)
     assert spread.max() < 0.75, "a face stretches across the seam"
     assert 0 < kept_copies < seam, (kept_copies, seam)
+
+
+def texture_slide(v, f, u, w):
+    """Area-weighted RMS distance, at points inside each face, between the
+    (u, v) the face interpolates and the longitude and height of the point
+    itself: how far the texture slid. Away from the poles."""
+    bary = np.array([[1 / 3, 1 / 3, 1 / 3], [2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]])
+    p = v[f].astype(np.float64)
+    area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    q = np.einsum("kc,fcd->fkd", bary, p)
+    iu = bary @ u[f].T.astype(np.float64)
+    iv = bary @ w[f].T.astype(np.float64)
+    lon = np.arctan2(q[..., 1], q[..., 0]) / (2 * np.pi) + 0.5
+    lon += np.round(iu.T - lon)
+    d2 = (iu.T - lon) ** 2 + (iv.T - (q[..., 2] * 0.5 + 0.5)) ** 2
+    keep = q[..., 0] ** 2 + q[..., 1] ** 2 > 0.04
+    wgt = np.broadcast_to(area[:, None], d2.shape) * keep
+    return float(np.sqrt((d2 * wgt).sum() / wgt.sum()))
+
+
+def test_attribute_weights_keep_the_texture_in_place(gen_mesh):
+    """attribute_weights (the CLI's --attribute-weight): at the same size
+    the texture slides less over the surface, every output vertex is still
+    an input vertex, and a dict, a number and the CLI's list agree."""
+    vs, fs, uu, vv, _ = seam_sphere(gen_mesh)
+    attrs = {"texture_u": uu, "texture_v": vv}
+    goal = round(0.1 * len(fs))
+    ov, of, oa = epsnet.simplify(vs, fs, attributes=attrs, ratio=0.1)
+    plain = texture_slide(ov, of, oa["texture_u"], oa["texture_v"])
+    runs = [epsnet.simplify(vs, fs, attributes=attrs, ratio=0.1, attribute_weights=w)
+            for w in ({"texture_u": 1, "texture_v": 1}, 1, "uv=1", {"uv": 1.0})]
+    for wv, wf, wa in runs[1:]:
+        assert np.array_equal(wv, runs[0][0]) and np.array_equal(wf, runs[0][1])
+    wv, wf, wa = runs[0]
+    assert abs(len(wf) - goal) <= 1, (len(wf), goal)
+    record = {(tuple(p), a, b) for p, a, b in zip(vs.tolist(), uu.tolist(), vv.tolist())}
+    assert all((tuple(p), a, b) in record for p, a, b in zip(wv.tolist(), wa["texture_u"].tolist(), wa["texture_v"].tolist()))
+    weighed = texture_slide(wv, wf, wa["texture_u"], wa["texture_v"])
+    assert weighed < 0.7 * plain, (weighed, plain)
+    for bad in ({"nosuch": 1}, {"texture_u": -1}, {"uv": float("nan")}, "uv=x", -2, {"": 1}):
+        with pytest.raises(ValueError):
+            epsnet.simplify(vs, fs, attributes=attrs, ratio=0.1, attribute_weights=bad)
 
 
 def test_locked_vertices_all_stay(gen_mesh):

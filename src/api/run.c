@@ -5,6 +5,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "api/attr_weights_spec.h"
 #include "common/error.h"
 #include "common/util.h"
 
@@ -235,6 +236,9 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         lock_offset = in->vertex_attrs.attr[i].offset;
         lock_type = (int)in->vertex_attrs.attr[i].type;
     }
+    if (mode == EN_SLAB_SIMPLIFY && (rc = en_attr_weights_from_spec(&run->weights, set, in, path, err)) != 0)
+        return rc;
+    const en_attr_weights *weights = run->weights.channels ? &run->weights : NULL;
     if (pool) {
         run->pool = pool;
         run->borrowed_pool = 1;
@@ -254,6 +258,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
             .attr_size = in ? in->vertex_attrs.size : 0,
             .lock_offset = lock_offset,
             .lock_type = lock_type,
+            .weights = weights,
             .slab_vertices = slab_vertices,
             .mem_budget = run->budget.chain,
             .one_slab_bytes = run->budget.one_slab,
@@ -287,6 +292,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         .out_on_workers = run->staged, /* the target stage's put keeps the stream */
         .lock_offset = lock_offset,
         .lock_type = lock_type,
+        .weights = weights,
         .slab_vertices = slab_vertices,
         .mem_budget = run->budget.chain,
         /* note: two slabs per worker keep every worker busy while the

@@ -10,6 +10,7 @@
 #include "api/budget.h"
 #include "api/context.h"
 #include "common/pool.h"
+#include "pipeline/attr_weights.h"
 #include "pipeline/chain.h"
 #include "pipeline/target_stage.h"
 
@@ -44,6 +45,7 @@ typedef struct en_run {
     en_chain_spares spares;       /* slab works and collapse arrays, from chain to chain */
     int has_target;
     int has_normals;              /* the input's vertices carry normals (nx): its seams may be theirs */
+    en_attr_weights weights;      /* settings.attribute_weights as read against the input */
     int borrowed_pool;
     const char *path;
     double cpu_start;             /* calling thread's CPU clock at open */

@@ -33,6 +33,7 @@
 #include <string.h>
 
 #include "common/alloc.h"
+#include "core/attr_quadric.h"
 #include "epsnet/epsnet.h"
 
 /* ---- quadrics ---- */
@@ -43,7 +44,7 @@ static void quadric_add(en_quadric *a, const en_quadric *b)
     a->bc += b->bc, a->bd += b->bd, a->c2 += b->c2, a->cd += b->cd, a->d2 += b->d2;
 }
 
-static double quadric_eval(const en_quadric *q, const double p[3])
+static inline double quadric_eval(const en_quadric *q, const double p[3])
 {
     double x = p[0], y = p[1], z = p[2];
     return q->a2 * x * x + 2 * q->ab * x * y + 2 * q->ac * x * z + 2 * q->ad * x + q->b2 * y * y +
@@ -147,6 +148,13 @@ typedef struct state {
 
     uint64_t collapses;
     int welds;                /* the slab has copies of positions (en_slab.has_welds) */
+
+    /* Attribute weights (en_collapse_settings.attr_*): k channels, value k
+     * per vertex, aq na per vertex (the caller's, accumulated in place). */
+    uint32_t k;
+    size_t na;
+    const double *value;
+    double *aq;
 
     /* Limits (en_collapse_settings) and what they count. */
     const uint8_t *tier;      /* removable[] as the core takes it (seam_tiers): 2 = second tier */
@@ -599,14 +607,26 @@ static double quadric_area(const en_quadric *q)
     return q->a2 + q->b2 + q->c2;
 }
 
-/* The quadrics of x's position at it: x's own, and its copies' (the sides
- * of a seam stand for one vertex of the surface). */
-static double position_err(const state *st, uint32_t x)
+/* w's attribute part at position p and x's values (0 without weights). */
+static inline double attr_err(const state *st, uint32_t w, const double *p, uint32_t x)
+{
+    return st->k ? en_aq_eval(st->aq + st->na * w, st->k, p, st->value + (size_t)st->k * x) : 0;
+}
+
+/* w's quadric at x: its position, and its values (which a collapse keeps). */
+static inline double err_at(const state *st, uint32_t w, uint32_t x)
 {
     const double *p = st->s->pos + 3 * (size_t)x;
-    double e = quadric_eval(&st->vx[x].q, p);
+    return quadric_eval(&st->vx[w].q, p) + attr_err(st, w, p, x);
+}
+
+/* The quadrics of x's position at it: x's own, and its copies' (the sides
+ * of a seam stand for one vertex of the surface), each at its own values. */
+static double position_err(const state *st, uint32_t x)
+{
+    double e = err_at(st, x, x);
     for (uint32_t c = st->vx[x].wedge; c != x; c = st->vx[c].wedge)
-        e += quadric_eval(&st->vx[c].q, p);
+        e += err_at(st, c, c);
     return e;
 }
 
@@ -623,22 +643,33 @@ static void update_position_err(state *st, uint32_t x)
 
 /* The cost of w -> x for a w that is not one of a seam pair (see
  * move_cost). */
-static double pair_cost(const state *st, uint32_t w, uint32_t x)
+static inline double pair_cost_with(const state *st, uint32_t w, uint32_t x, int attrs)
 {
-    double c = quadric_eval(&st->vx[w].q, st->s->pos + 3 * (size_t)x) + st->vx[x].self_err;
+    const double *p = st->s->pos + 3 * (size_t)x;
+    double c = quadric_eval(&st->vx[w].q, p) + (attrs ? attr_err(st, w, p, x) : 0) + st->vx[x].self_err;
     /* Huge coordinates (1e200) overflow quadrics to inf - inf = NaN. NaN is
      * unequal to itself, so the queue's staleness test would requeue such a
      * pair forever: such pairs go last, at +inf, where the test holds. */
     return c == c ? c : INFINITY;
 }
 
+static double pair_cost(const state *st, uint32_t w, uint32_t x)
+{
+    return pair_cost_with(st, w, x, st->k != 0);
+}
+
 /* The cost of moving w onto x: pair_cost, and for one of a seam pair the
- * twin's quadric at x too (it goes onto a copy of x). */
-static double move_cost(const state *st, uint32_t w, uint32_t x)
+ * twin's quadric at x too (it goes onto px, the copy of x on its side,
+ * whose values it takes; seam_moves). */
+static double move_cost(const state *st, uint32_t w, uint32_t x, uint32_t px)
 {
     double c = pair_cost(st, w, x);
     if (st->welds && is_seam(st, w)) {
-        c += quadric_eval(&st->vx[st->vx[w].wedge].q, st->s->pos + 3 * (size_t)x);
+        if (st->k && px == UINT32_MAX)
+            return INFINITY; /* no move along the seam: refused at the check */
+        uint32_t t = st->vx[w].wedge;
+        const double *p = st->s->pos + 3 * (size_t)x;
+        c += quadric_eval(&st->vx[t].q, p) + attr_err(st, t, p, px);
         c = c == c ? c : INFINITY;
     }
     return c;
@@ -650,6 +681,8 @@ static double move_cost(const state *st, uint32_t w, uint32_t x)
 static double collapse_error2(const state *st, uint32_t w, uint32_t x, double c)
 {
     double area = quadric_area(&st->vx[w].q) + quadric_area(&st->vx[x].q);
+    if (st->k) /* the folds' traces are not area (core/attr_quadric.h) */
+        area -= st->aq[st->na * w + 1] + st->aq[st->na * x + 1];
     double e = area > 0 ? c / area : c;
     return e > 0 ? e : 0; /* rounding can take a sum of squares below zero */
 }
@@ -676,7 +709,7 @@ static int64_t rank_targets(state *st, uint32_t v)
         seam_moves(st, v, us, ps);
         for (int k = 0; k < 2; k++)
             if (us[k] != UINT32_MAX)
-                cand[n++] = (target){ move_cost(st, v, us[k]), us[k] };
+                cand[n++] = (target){ move_cost(st, v, us[k], ps[k]), us[k] };
     }
     for (uint32_t i = 0; i < st->vx[v].vf_count && !(st->welds && is_seam(st, v)); i++) {
         const uint32_t *t = st->tri + 3 * (size_t)lv[i];
@@ -710,12 +743,30 @@ static int64_t rank_targets(state *st, uint32_t v)
  * become a ninth of the run, bench/RESULTS.md). None: v leaves the queue
  * until a collapse next to it gives it a target.
  */
-/* v's cheapest target by cost (best.u UINT32_MAX: none). */
-static target cheapest_target(state *st, uint32_t v)
+/* v's cheapest neighbour by cost (best.u UINT32_MAX: none); attrs is a
+ * constant at each call, so that the run without weights pays nothing
+ * for them in its hottest loop. */
+static inline target cheapest_in_fan(const state *st, uint32_t v, int attrs)
 {
     const uint32_t *lv = st->pool + st->vx[v].vf_start;
     target best = { 0, UINT32_MAX };
+    for (uint32_t i = 0; i < st->vx[v].vf_count; i++) {
+        const uint32_t *tr = st->tri + 3 * (size_t)lv[i];
+        uint32_t u = tr[(corner_at(tr, v) + 1) % 3];
+        if (!(st->s->vflags[u] & EN_V_TARGET))
+            continue;
+        target t = { pair_cost_with(st, v, u, attrs), u };
+        if (best.u == UINT32_MAX || target_less(&t, &best))
+            best = t;
+    }
+    return best;
+}
+
+/* v's cheapest target by cost (best.u UINT32_MAX: none). */
+static target cheapest_target(state *st, uint32_t v)
+{
     if (st->welds && is_seam(st, v)) {
+        target best = { 0, UINT32_MAX };
         /* along the seam only, onto copies that may both receive */
         uint32_t us[2], ps[2];
         seam_moves(st, v, us, ps);
@@ -723,22 +774,13 @@ static target cheapest_target(state *st, uint32_t v)
             uint32_t u = us[k];
             if (u == UINT32_MAX || !(st->s->vflags[u] & st->s->vflags[ps[k]] & EN_V_TARGET))
                 continue;
-            target t = { move_cost(st, v, u), u };
+            target t = { move_cost(st, v, u, ps[k]), u };
             if (best.u == UINT32_MAX || target_less(&t, &best))
                 best = t;
         }
         return best;
     }
-    for (uint32_t i = 0; i < st->vx[v].vf_count; i++) {
-        const uint32_t *tr = st->tri + 3 * (size_t)lv[i];
-        uint32_t u = tr[(corner_at(tr, v) + 1) % 3];
-        if (!(st->s->vflags[u] & EN_V_TARGET))
-            continue;
-        target t = { pair_cost(st, v, u), u };
-        if (best.u == UINT32_MAX || target_less(&t, &best))
-            best = t;
-    }
-    return best;
+    return st->k ? cheapest_in_fan(st, v, 1) : cheapest_in_fan(st, v, 0);
 }
 
 static int queue_cheapest(state *st, uint32_t v)
@@ -825,6 +867,8 @@ static inline int rewrite_onto(state *st, uint32_t v, uint32_t u)
     /* (a seam pair's follower has tier 0: its primary's counts) */
     st->given_up += st->tier[v] == 2 || (st->welds && st->tier[st->vx[v].wedge] == 2);
     quadric_add(&st->vx[u].q, &st->vx[v].q);
+    if (st->k)
+        en_aq_add(st->aq + st->na * u, st->aq + st->na * v, st->k);
     st->collapses++;
     return 0;
 }
@@ -887,7 +931,7 @@ static int do_collapse(state *st, uint32_t v, uint32_t u)
     if (rc)
         return rc;
     if (!st->welds) {
-        st->vx[u].self_err = quadric_eval(&st->vx[u].q, st->s->pos + 3 * (size_t)u);
+        st->vx[u].self_err = err_at(st, u, u);
         return requeue_around(st, u, v, v);
     }
     update_position_err(st, u);
@@ -907,15 +951,26 @@ static void refresh_quadrics(state *st)
     const en_slab *s = st->s;
     for (uint32_t v = 0; v < s->nv; v++)
         memset(&st->vx[v].q, 0, sizeof st->vx[v].q);
+    if (st->k)
+        memset(st->aq, 0, (size_t)s->nv * st->na * sizeof *st->aq);
+    double aqf[2 + 4 * EN_AQ_MAX_CHANNELS];
     for (uint32_t f = 0; f < s->nt; f++) {
         if (!st->falive[f])
             continue;
         const uint32_t *t = st->tri + 3 * (size_t)f;
-        en_quadric k;
+        en_quadric k, fold;
         double un[3];
         face_quadric(s->pos, t, &k, un);
-        for (int i = 0; i < 3; i++)
+        if (st->k) {
+            /* the corners' values now: those of the vertices kept */
+            en_attr_face_quadric(s->pos, st->value, st->k, t, &fold, aqf);
+            quadric_add(&k, &fold);
+        }
+        for (int i = 0; i < 3; i++) {
             quadric_add(&st->vx[t[i]].q, &k);
+            if (st->k)
+                en_aq_add(st->aq + st->na * t[i], aqf, st->k);
+        }
     }
     for (uint32_t v = 0; v < s->nv; v++)
         st->vx[v].self_err = position_err(st, v);
@@ -1016,16 +1071,21 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
         r->vf_start = s->star_start[v];
         r->vf_count = r->vf_cap = en_slab_degree(s, v);
         r->q = q[v];
-        r->self_err = quadric_eval(&r->q, s->pos + 3 * (size_t)v);
         r->wedge = st.welds ? s->wedge[v] : v;
         r->best_u = UINT32_MAX;
         r->heap_pos = UINT32_MAX;
         r->removable = removable[v] == 1;
         r->alive = 1;
     }
-    if (st.welds) /* each copy's error is its position's */
-        for (uint32_t v = 0; v < s->nv; v++)
-            st.vx[v].self_err = position_err(&st, v);
+    if (cs->attr_channels) {
+        st.k = cs->attr_channels;
+        st.na = en_aq_doubles(st.k);
+        st.value = cs->attr_value;
+        st.aq = cs->aq;
+    }
+    /* each copy's error is its position's */
+    for (uint32_t v = 0; v < s->nv; v++)
+        st.vx[v].self_err = st.welds ? position_err(&st, v) : err_at(&st, v, v);
 
     st.tier = removable;
     st.by_error = cs->by_error;
@@ -1059,7 +1119,8 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
             }
             heap_entry e = heap_pop(&st);
             if (!st.vx[e.u].alive || !is_neighbour(&st, e.v, e.u) ||
-                (st.welds ? move_cost(&st, e.v, e.u) : pair_cost(&st, e.v, e.u)) != e.cost) {
+                (st.welds ? move_cost(&st, e.v, e.u, st.k && is_seam(&st, e.v) ? seam_partner(&st, e.v, e.u) : e.u)
+                          : pair_cost(&st, e.v, e.u)) != e.cost) {
                 /* its target went away or got dearer: rank v's targets again */
                 rc = queue_cheapest(&st, e.v);
                 continue;

@@ -74,6 +74,15 @@ typedef struct en_collapse_settings {
      * that other thread may raise to stop the run (EPSNET_EINTR). */
     _Atomic uint64_t *progress;
     _Atomic int *stop;
+    /* Attribute weights (core/attr_quadric.h, docs/method.md §9); 0
+     * channels: none. attr_value holds attr_channels weighted values per
+     * vertex; aq en_aq_doubles(attr_channels) per vertex, the attribute
+     * parts whose folds q already holds, accumulated through the
+     * collapses like q (updated in place). A collapse v -> u is priced at
+     * u's position and u's values, which the output keeps. */
+    uint32_t attr_channels;
+    const double *attr_value;
+    double *aq;
 } en_collapse_settings;
 
 /* Log buckets of quadric costs, sixteen to an octave (a ceiling between

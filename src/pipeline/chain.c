@@ -520,6 +520,7 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     w->quadric_at = c->cfg.quadrics_in ? c->cfg.attr_size : UINT32_MAX;
     w->lock_offset = c->cfg.lock_offset;
     w->lock_type = c->cfg.mode == EN_SLAB_SIMPLIFY ? c->cfg.lock_type : 0;
+    w->weights = c->cfg.mode == EN_SLAB_SIMPLIFY ? c->cfg.weights : NULL;
     w->plan = c->cfg.mode == EN_SLAB_SIMPLIFY ? p->plan : NULL;
     if (watched(p))
         w->progress = &p->progress; /* its only slab: the counts start at zero */
@@ -838,19 +839,23 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
         /* the records' bytes: the attributes, then the carried block (slab_work.h)
          * where the marks are read; the chunker keeps a quadric it starts from */
         int marked = p->plan && p->plan->skeleton == EN_SKELETON_MARKED;
-        size_t in_size = cfg->attr_size + (cfg->quadrics_in ? sizeof(en_quadric) : 0);
+        uint32_t channels = cfg->mode == EN_SLAB_SIMPLIFY && cfg->weights ? cfg->weights->channels : 0;
+        size_t in_size = cfg->attr_size + (cfg->quadrics_in ? en_carried_marks_at(channels) : 0);
         p->batch_attr_size =
-            cfg->mode != EN_SLAB_SIMPLIFY ? 0 : cfg->attr_size + (marked || cfg->quadrics_in ? EN_CARRIED_BYTES : 0);
+            cfg->mode != EN_SLAB_SIMPLIFY ? 0
+                                          : cfg->attr_size + (marked || cfg->quadrics_in ? en_carried_bytes(channels) : 0);
         if (rc == 0 && p->batched && next_fill(p))
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
-        p->ch.mark_at = marked ? cfg->attr_size + (uint32_t)EN_CARRIED_MARKS_AT : UINT32_MAX;
+        p->ch.mark_at = marked ? cfg->attr_size + en_carried_marks_at(channels) : UINT32_MAX;
         p->ch.mark_level = marked ? p->plan->skeleton_level : 0xff;
         p->ch.stash = c->spares->slab_works;
         p->st.collapse_arrays = c->spares->collapse_arrays;
         p->ch.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? (uint32_t)in_size : 0;
         p->st.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? cfg->attr_size : 0;
+        p->st.weights = channels ? cfg->weights : NULL;
+        p->st.na = en_aq_doubles(channels);
         if (cfg->mode == EN_SLAB_SIMPLIFY && (cfg->quadrics_in || cfg->quadrics_out)) {
-            p->st.attr_size += (uint32_t)EN_CARRIED_BYTES;
+            p->st.attr_size += en_carried_bytes(channels);
             p->st.quadric_at = cfg->attr_size;
             p->st.write_quadrics = cfg->quadrics_out;
         }

@@ -63,6 +63,10 @@ typedef struct en_chain_config {
     int quadrics_in, quadrics_out;
     uint32_t lock_offset;         /* the lock property's bytes in them, */
     int lock_type;                /* and its epsnet_attr_type (0: no lock) */
+    /* SIMPLIFY: the attributes weighed in the collapses' error (NULL: none;
+     * must outlive the chain). The carried block then holds each vertex's
+     * attribute part after its quadric (slab_work.h). */
+    const en_attr_weights *weights;
     uint32_t slab_vertices;
     uint64_t mem_budget;          /* bytes the chain may hold beyond the reader's; 0: none */
     size_t ring_capacity;         /* slabs in flight per pass */

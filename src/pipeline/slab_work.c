@@ -24,6 +24,8 @@ void en_slab_work_free(en_slab_work *w)
     en_free(w->vgvertex);
     en_free(w->vlevel);
     en_free(w->q);
+    en_free(w->aq);
+    en_free(w->avalue);
     en_free(w->ref);
     en_free(w->tri);
     en_free(w->falive);
@@ -51,7 +53,7 @@ void en_slab_work_reset(en_slab_work *w)
 #define KEEP(field) w->field = keep.field
     KEEP(owner), KEEP(fflags), KEEP(vclass), KEEP(vgvertex), KEEP(q), KEEP(ref), KEEP(tri), KEEP(falive);
     KEEP(valive), KEEP(border), KEEP(future), KEEP(degree), KEEP(band), KEEP(fnormal), KEEP(ftri), KEEP(removable);
-    KEEP(attr), KEEP(cost_hist), KEEP(bucket_of), KEEP(vlevel), KEEP(level_hist);
+    KEEP(attr), KEEP(cost_hist), KEEP(bucket_of), KEEP(vlevel), KEEP(level_hist), KEEP(aq), KEEP(avalue);
     KEEP(cap);
 #undef KEEP
 }
@@ -459,11 +461,29 @@ static int simplify(en_slab_work *w)
         return oom(w);
     uint8_t *removable = w->removable;
     en_quadrics_from_faces(s, w->q, w->ref);
-    if (w->quadric_at != UINT32_MAX && w->attr)
+    uint32_t channels = w->weights && w->attr ? w->weights->channels : 0;
+    size_t na = en_aq_doubles(channels);
+    int carried = w->quadric_at != UINT32_MAX && w->attr;
+    if (channels) {
+        if (room(&w->aq, &w->cap.aq, na * nv, sizeof *w->aq) ||
+            room(&w->avalue, &w->cap.avalue, channels * nv, sizeof *w->avalue))
+            return oom(w);
+        double diagonal = w->weights->diagonal > 0 ? w->weights->diagonal : slab_diagonal(s);
+        for (uint32_t v = 0; v < s->nv; v++)
+            en_attr_weights_values(w->weights, diagonal, w->attr + (size_t)v * w->attr_size,
+                                   w->avalue + (size_t)channels * v);
+        if (!carried)
+            en_attr_quadrics_from_faces(s, w->avalue, channels, w->q, w->aq);
+    }
+    if (carried)
         /* what the passes before took in, so that costs go on rising from
          * where they stood (a target's rounds, pipeline/target_stage.h) */
-        for (uint32_t v = 0; v < s->nv; v++)
-            memcpy(&w->q[v], w->attr + (size_t)v * w->attr_size + w->quadric_at, sizeof w->q[v]);
+        for (uint32_t v = 0; v < s->nv; v++) {
+            const uint8_t *block = w->attr + (size_t)v * w->attr_size + w->quadric_at;
+            memcpy(&w->q[v], block, sizeof w->q[v]);
+            if (channels)
+                memcpy(w->aq + na * v, block + sizeof w->q[v], na * sizeof *w->aq);
+        }
     mark_frozen(w);
     /* The seam rules (pipeline/seam.h): an owned inner vertex has its whole
      * star here; a frozen one and the ghosts do not. */
@@ -495,7 +515,10 @@ static int simplify(en_slab_work *w)
         w->band_nonsamples += nonsample && w->band[v];
         w->inner_nonsamples += nonsample && !w->band[v];
     }
-    en_collapse_settings cs = { .max_normal_dev_deg = w->max_normal_dev };
+    en_collapse_settings cs = { .max_normal_dev_deg = w->max_normal_dev,
+                                .attr_channels = channels,
+                                .attr_value = w->avalue,
+                                .aq = w->aq };
     const en_pass_plan *t = w->plan;
     if (t) {
         target_limits(w, &cs.keep_faces, &cs.keep_vertices);

@@ -27,6 +27,7 @@
 #include "core/collapse.h"
 #include "core/gauss.h"
 #include "core/slab.h"
+#include "pipeline/attr_weights.h"
 #include "pipeline/pass_plan.h"
 #include "pipeline/seam.h"
 
@@ -34,13 +35,20 @@ typedef enum en_slab_mode { EN_SLAB_SAMPLE, EN_SLAB_SIMPLIFY } en_slab_mode;
 
 /* Between the passes of a target stage (pipeline/target_stage.h), a vertex
  * record's attribute bytes end, after the input's own, in a carried block:
- * the vertex's accumulated quadric, then a word of marks (EN_MARK_*), at
- * EN_CARRIED_MARKS_AT in the block. The public record's fields keep their
- * meaning. Only the chain's own passes write the block (the stitcher's
- * write_quadrics) or read it (the chunker's mark_at, the slab work's
- * quadric_at). */
-#define EN_CARRIED_MARKS_AT sizeof(en_quadric)
-#define EN_CARRIED_BYTES (sizeof(en_quadric) + sizeof(uint64_t))
+ * the vertex's accumulated quadric, its attribute part when attributes are
+ * weighed (core/attr_quadric.h: en_aq_doubles(channels) doubles), then a
+ * word of marks (EN_MARK_*), at en_carried_marks_at() in the block. The
+ * public record's fields keep their meaning. Only the chain's own passes
+ * write the block (the stitcher's write_quadrics) or read it (the
+ * chunker's mark_at, the slab work's quadric_at). */
+static inline uint32_t en_carried_marks_at(uint32_t channels)
+{
+    return (uint32_t)(sizeof(en_quadric) + en_aq_doubles(channels) * sizeof(double));
+}
+static inline uint32_t en_carried_bytes(uint32_t channels)
+{
+    return en_carried_marks_at(channels) + (uint32_t)sizeof(uint64_t);
+}
 #define EN_MARK_SKELETON 1u            /* a skeleton sample */
 /* ... and, in the byte above, log2 of the coarsest frequency it is a
  * sample at (the thinning's levels, nested_density; 0 when not known,
@@ -79,6 +87,9 @@ typedef struct en_slab_work {
      * attribute in a vertex's bytes and its type; lock_type 0: none. */
     uint32_t lock_offset;
     int lock_type;
+    /* The attributes weighed (NULL or no channels: none); their values and
+     * the vertices' attribute parts are worked out here, from attr. */
+    const en_attr_weights *weights;
 
     /* Settings (shared, read only). */
     const gauss_sphere *g;
@@ -96,6 +107,8 @@ typedef struct en_slab_work {
     uint8_t *vclass;              /* EN_C_* per local vertex (owned) */
     int32_t *vgvertex;
     en_quadric *q;                /* SIMPLIFY: per local vertex, accumulated */
+    double *aq;                   /* SIMPLIFY with weights: en_aq_doubles() per local vertex, accumulated */
+    double *avalue;               /* SIMPLIFY with weights: the weighted values, channels per local vertex */
     double *ref;                  /* SIMPLIFY: per face, input unit normal */
     uint32_t *tri;                /* SIMPLIFY: corners after the collapses */
     uint8_t *falive, *valive;
@@ -147,7 +160,7 @@ typedef struct en_slab_work {
     uint16_t *bucket_of;          /* a priced plan's: en_collapse_settings.bucket_of */
     struct { /* in elements; attr in bytes */
         size_t owner, fflags, vclass, vgvertex, q, ref, tri, falive, valive, border, future, degree, band, fnormal,
-            ftri, removable, attr, bucket_of, vlevel;
+            ftri, removable, attr, bucket_of, vlevel, aq, avalue;
     } cap;
 } en_slab_work;
 

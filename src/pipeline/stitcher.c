@@ -84,6 +84,9 @@ void en_stitcher_release(en_stitcher *st)
     en_free(st->local);
     en_slab_free(&st->ws);
     en_free(st->attr);
+    en_free(st->aq);
+    st->aq = NULL;
+    st->aq_cap = 0;
     st->v = NULL, st->free_list = NULL, st->wv = NULL, st->wf = NULL, st->vrun = NULL, st->vheap = NULL, st->fpool = NULL;
     st->local = NULL, st->attr = NULL;
     st->v_len = st->v_cap = st->free_len = st->free_cap = 0;
@@ -117,6 +120,8 @@ static int sv_new(en_stitcher *st, uint32_t *idx)
     if (st->v_len >= UINT32_MAX - 1 || en_grow((void **)&st->v, &st->v_cap, st->v_len + 1, sizeof *st->v))
         return -1;
     if (st->attr_size && en_grow((void **)&st->attr, &st->attr_cap, st->v_len + 1, st->attr_size))
+        return -1;
+    if (st->na && en_grow((void **)&st->aq, &st->aq_cap, (st->v_len + 1) * st->na, sizeof *st->aq))
         return -1;
     *idx = (uint32_t)st->v_len++;
     st->v[*idx].first_face = st->v[*idx].last_face = NO_SLOT;
@@ -325,12 +330,15 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
     /* the run's arrays, in one buffer the stitcher keeps from take to take
      * (a steady run allocates nothing per take) */
     size_t nv = st->nwv + 1, nt = st->nwf + 1;
-    size_t at[8] = { 0 }, size[7] = { nv * sizeof(en_quadric), 3 * nt * sizeof(double), 3 * nt * sizeof(uint32_t),
-                                       nv * sizeof(uint16_t), nv, nv, nt };
-    for (int k = 0; k < 7; k++)
+    uint32_t channels = st->na ? st->weights->channels : 0;
+    size_t at[10] = { 0 }, size[9] = { nv * sizeof(en_quadric), 3 * nt * sizeof(double), 3 * nt * sizeof(uint32_t),
+                                        nv * sizeof(uint16_t), nv, nv, nt, nv * st->na * sizeof(double),
+                                        nv * channels * sizeof(double) };
+    for (int k = 0; k < 9; k++)
         at[k + 1] = at[k] + (size[k] + 7) / 8 * 8;
-    if (en_grow((void **)&st->scratch, &st->scratch_cap, at[7], 1))
+    if (en_grow((void **)&st->scratch, &st->scratch_cap, at[9], 1))
         return oom(err);
+    double *aq = (double *)(void *)(st->scratch + at[7]), *avalue = (double *)(void *)(st->scratch + at[8]);
     en_quadric *q = (en_quadric *)(void *)st->scratch;
     double *ref = (double *)(void *)(st->scratch + at[1]);
     uint32_t *tri = (uint32_t *)(void *)(st->scratch + at[2]);
@@ -346,10 +354,18 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
         if (st->level_hist && (x->state & S_SKELETON) && x->level > 0)
             removable[i] = EN_TIER_PRICED; /* a sample the pass's density may free (slab_work.c) */
         q[i] = x->q;
+        if (channels) {
+            memcpy(aq + st->na * i, st->aq + st->na * st->wv[i], st->na * sizeof *aq);
+            en_attr_weights_values(st->weights, st->weights->diagonal, st->attr + (size_t)st->wv[i] * st->attr_size,
+                                   avalue + (size_t)channels * i);
+        }
     }
     for (size_t f = 0; f < st->nwf; f++)
         memcpy(ref + 3 * f, st->wf[f].ref, 3 * sizeof *ref);
-    en_collapse_settings cs = { .max_normal_dev_deg = st->max_normal_dev };
+    en_collapse_settings cs = { .max_normal_dev_deg = st->max_normal_dev,
+                                .attr_channels = channels,
+                                .attr_value = avalue,
+                                .aq = aq };
     if (rule == EN_SEAMS_ERROR) {
         cs.by_error = 1; /* the slabs' bound, on the whole mesh's diagonal */
         cs.max_error = st->plan->max_error * st->plan->diagonal;
@@ -413,6 +429,8 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
             continue;
         }
         st->v[idx].q = q[i];
+        if (channels)
+            memcpy(st->aq + st->na * idx, aq + st->na * i, st->na * sizeof *aq);
         if (bucket_of)
             st->v[idx].bucket = bucket_of[i];
         st->wv[kept++] = idx;
@@ -526,7 +544,9 @@ static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
                                  : 0;
             uint8_t *block = st->attr + (size_t)e.idx * st->attr_size + st->quadric_at;
             memcpy(block, &x->q, sizeof x->q);
-            memcpy(block + EN_CARRIED_MARKS_AT, &marks, sizeof marks);
+            if (st->na)
+                memcpy(block + sizeof x->q, st->aq + st->na * e.idx, st->na * sizeof *st->aq);
+            memcpy(block + en_carried_marks_at(st->na ? st->weights->channels : 0), &marks, sizeof marks);
         }
         int rc = put(st, EPSNET_REC_VERTEX, 0, 0, 0, x->xyz,
                      st->attr_size ? st->attr + (size_t)e.idx * st->attr_size : NULL, err);
@@ -580,6 +600,8 @@ static int take_vertices(en_stitcher *st, const en_slab_work *w, epsnet_error *e
             memcpy(st->attr + (size_t)idx * st->attr_size, w->attr + (size_t)l * w->attr_size,
                    w->attr_size < st->attr_size ? w->attr_size : st->attr_size);
         x->q = w->q[l];
+        if (st->na && w->aq)
+            memcpy(st->aq + st->na * idx, w->aq + st->na * l, st->na * sizeof *st->aq);
         x->out = UINT64_MAX;
         x->take = st->takes;
         x->bucket = EN_COST_NONE;
@@ -700,7 +722,8 @@ uint64_t en_stitcher_bytes(const en_stitcher *st)
 {
     return (uint64_t)st->v_cap * sizeof *st->v + st->free_cap * sizeof *st->free_list + en_u64map_bytes(&st->map) +
            st->wv_cap * sizeof *st->wv + st->wf_cap * sizeof *st->wf + st->vheap_cap * sizeof *st->vheap +
-           st->vrun_cap * sizeof *st->vrun + st->fpool_cap * sizeof *st->fpool + st->local_cap * sizeof *st->local + st->attr_cap * st->attr_size;
+           st->vrun_cap * sizeof *st->vrun + st->fpool_cap * sizeof *st->fpool + st->local_cap * sizeof *st->local + st->attr_cap * st->attr_size +
+           st->aq_cap * sizeof *st->aq;
 }
 
 int en_stitcher_finish(en_stitcher *st, epsnet_error *err)

@@ -29,6 +29,7 @@
 #include "common/u64map.h"
 #include "core/collapse.h"
 #include "epsnet/epsnet.h"
+#include "pipeline/attr_weights.h"
 #include "pipeline/slab_work.h"
 
 typedef struct en_stitch_vertex en_stitch_vertex;
@@ -111,6 +112,13 @@ typedef struct en_stitcher {
      * its marks (a target stage's passes, en_chain_config.quadrics_out). */
     uint32_t quadric_at;
     int write_quadrics;
+    /* The attributes weighed (NULL or no channels: none): each pool slot's
+     * attribute part (core/attr_quadric.h), na doubles beside v, from the
+     * slab works; W's runs work out the values from attr. */
+    const en_attr_weights *weights;
+    size_t na;
+    double *aq;
+    size_t aq_cap;
     uint8_t *scratch;                 /* a run over W's arrays, kept from take to take (a worker's
                                        * scratch: not in en_stitcher_bytes, docs/architecture.md §12) */
     size_t scratch_cap;

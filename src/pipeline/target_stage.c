@@ -40,7 +40,8 @@
 
 /* One record of the kept stream, as the chain's stitcher wrote it; each
  * vertex is followed by its attribute bytes (attr_size) and the carried
- * block, its accumulated quadric and marks (kept_attr in all). */
+ * block, its accumulated quadric (and attribute part) and marks (kept_attr
+ * in all). */
 typedef struct kept_record {
     uint64_t v[3];
     double xyz[3];
@@ -309,6 +310,7 @@ static int run_chain(en_target_stage *ts, const en_pass_plan *t, kept *from, kep
         .quadrics_out = !last,
         .lock_offset = cfg->lock_offset,
         .lock_type = cfg->lock_type,
+        .weights = cfg->weights,
         .slab_vertices = t->one_slab ? UINT32_MAX - 1 : slab,
         .mem_budget = cfg->mem_budget,
         .ring_capacity = cfg->ring_capacity,
@@ -508,13 +510,13 @@ int en_target_stage_new(en_target_stage **out, const en_target_stage_config *cfg
     *out = NULL;
     en_target_stage *ts = en_calloc(1, sizeof *ts);
     if (!ts || !(ts->hist = en_calloc(EN_COST_BUCKETS, sizeof *ts->hist)) ||
-        !(ts->attr = en_malloc(cfg->attr_size + EN_CARRIED_BYTES))) {
+        !(ts->attr = en_malloc(cfg->attr_size + en_carried_bytes(cfg->weights ? cfg->weights->channels : 0)))) {
         en_target_stage_free(&ts);
         return en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     }
     ts->cfg = *cfg;
     ts->pool = pool;
-    ts->kept_attr = cfg->attr_size + (uint32_t)EN_CARRIED_BYTES;
+    ts->kept_attr = cfg->attr_size + en_carried_bytes(cfg->weights ? cfg->weights->channels : 0);
     int rc = kept_open(ts, &ts->in, err);
     if (rc) {
         en_target_stage_free(&ts);

@@ -77,6 +77,7 @@ typedef struct en_target_stage_config {
     double max_normal_dev;
     uint32_t attr_size, lock_offset;
     int lock_type;
+    const en_attr_weights *weights; /* as the thinning's (NULL: none; outlives the stage) */
     uint32_t slab_vertices;       /* the rounds' slabs: the thinning pass's */
     uint64_t mem_budget;          /* each round's chain (budget.h: the chain's share) */
     uint64_t one_slab_bytes;      /* what a last round in one slab may hold (budget.h) */
