@@ -4,6 +4,7 @@ written as well as read, bit for bit where the format allows; content that
 names its format wins over a wrong extension, with a note; a file that holds
 no mesh statement, or UTF-16 text, is a clear error; a PLY header's free-text
 line is skipped and named."""
+import math
 import os
 import shutil
 import struct
@@ -234,29 +235,60 @@ def flat_shaded_obj(name, faces=6000):
     return p, vs, len(fs)
 
 
+def recomputed_normals(verts, faces):
+    """Each vertex's unit normal from the faces around it, area-weighted:
+    what an output gets after --drop-normals."""
+    acc = [[0.0, 0.0, 0.0] for _ in verts]
+    for t in faces:
+        a, b, c = (verts[i] for i in t)
+        e1 = [b[k] - a[k] for k in range(3)]
+        e2 = [c[k] - a[k] for k in range(3)]
+        n = (e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0])
+        for i in t:
+            for k in range(3):
+                acc[i][k] += n[k]
+    out = []
+    for n in acc:
+        length = math.sqrt(sum(x * x for x in n))
+        out.append([x / length for x in n] if length else [0.0, 0.0, 0.0])
+    return out
+
+
 @case
 def a_flat_shaded_obj_simplifies_with_drop_normals():
     """Issue 25: an OBJ whose corners differ by their normal is all seams;
-    --drop-normals reads it as one surface, meets --ratio 0.1, writes no
-    normals and says so; without it, the miss names the way out."""
+    --drop-normals reads it as one surface and meets --ratio 0.1, and the
+    output's vertex normals are recomputed from its own faces (one vn per
+    vertex); without it, the miss names the way out."""
     p, vs, nf = flat_shaded_obj("flat")
     want = round(0.1 * nf)
-    out = path("flat_out.obj")
-    rc, _, err = run("simplify", p, "-o", out, "--ratio", "0.1", "--drop-normals")
-    assert rc == 0, err
-    assert "vertex normals (--drop-normals" in err, err
-    lines = open(out).read().splitlines()
-    got = sum(1 for l in lines if l.startswith("f "))
-    assert abs(got - want) <= max(1, want // 200), (got, want)
-    assert not any(l.startswith("vn ") for l in lines), "normals written"
-    inputs = {tuple(f32(repr(x)) for x in v) for v in vs}
-    for l in lines:
-        if l.startswith("v "):
-            assert tuple(f32(x) for x in l.split()[1:4]) in inputs, l
+    for name, opts in (("flat_out.obj", []), ("flat_slabs.obj", ["--slab", "500", "-j2"])):
+        out = path(name)
+        rc, _, err = run("simplify", p, "-o", out, "--ratio", "0.1", "--drop-normals", *opts)
+        assert rc == 0, err
+        assert "vertex normals (--drop-normals: not read; an output that holds normals gets them recomputed" in err, err
+        verts, normals, faces = [], [], []
+        for l in open(out).read().splitlines():
+            w = l.split()
+            if w and w[0] == "v":
+                verts.append([float(x) for x in w[1:4]])
+            elif w and w[0] == "vn":
+                normals.append([float(x) for x in w[1:4]])
+            elif w and w[0] == "f":
+                corners = [c.split("/") for c in w[1:]]
+                assert all(c[0] == c[2] for c in corners), f"{name}: a corner's vn is not its vertex's: {l}"
+                faces.append([int(c[0]) - 1 for c in corners])
+        assert abs(len(faces) - want) <= max(1, want // 200), (name, len(faces), want)
+        assert len(normals) == len(verts), (name, len(normals), len(verts))
+        inputs = {tuple(f32(repr(x)) for x in v) for v in vs}
+        assert all(tuple(f32(repr(x)) for x in v) in inputs for v in verts), name
+        for got, exp in zip(normals, recomputed_normals(verts, faces)):
+            assert all(abs(g - e) < 1e-5 for g, e in zip(got, exp)), (name, got, exp)
     # the same mesh without the option: nothing to remove, and the warning says why
     rc, _, err = run("simplify", p, "-o", path("flat_kept.obj"), "--ratio", "0.1")
     assert rc == 0 and "--drop-normals" in err, err
-    # a PLY's normals go the same way: the output has none
+    # a PLY's normals go the same way, and come back recomputed; a .smz
+    # output is a valid stream with them; OFF holds none, and has none
     ply = path("normals.ply")
     rc, _, err = run("convert", p, "-o", ply, "--ascii", "-q")
     assert rc == 0, err
@@ -264,9 +296,21 @@ def a_flat_shaded_obj_simplifies_with_drop_normals():
     assert "nx" in [n for n, _ in props], props
     rc, _, err = run("simplify", ply, "-o", path("normals_out.ply"), "--ascii", "--ratio", "0.5", "--drop-normals")
     assert rc == 0 and "vertex normals" in err, err
-    props, _, _ = read_ascii_ply(path("normals_out.ply"))
+    props, pv, pf = read_ascii_ply(path("normals_out.ply"))
     names = [n for n, _ in props]
-    assert not {"nx", "ny", "nz"} & set(names), names
+    assert names[-3:] == ["nx", "ny", "nz"], names
+    pos = [[float(v[a]) for a in ("x", "y", "z")] for v in pv]
+    for v, exp in zip(pv, recomputed_normals(pos, [list(f) for f in pf])):
+        assert all(abs(float(v[a]) - e) < 1e-5 for a, e in zip(("nx", "ny", "nz"), exp)), (v, exp)
+    smz = path("normals_out.smz")
+    rc, _, err = run("simplify", p, "-o", smz, "--ratio", "0.2", "--drop-normals", "--slab", "500", "-q")
+    assert rc == 0, err
+    rc, out, err = run("check", smz)
+    assert rc == 0 and "valid:       yes" in out, out + err
+    rc, out, _ = run("info", smz)
+    assert "nx, float ny, float nz" in out, out
+    rc, _, err = run("simplify", p, "-o", path("normals_out.off"), "--ratio", "0.2", "--drop-normals", "-q")
+    assert rc == 0 and "nx" not in open(path("normals_out.off")).read(), err
 
 
 def two_material_obj(name, n=40):

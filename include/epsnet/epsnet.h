@@ -673,8 +673,10 @@ typedef struct epsnet_settings {
     /* Simplification: read no vertex normals (PLY nx, ny, nz; OBJ vn), so
      * that an OBJ whose corners differ only by their normal (flat shading,
      * hard edges) is one surface, not pieces whose every border stays;
-     * the output then has no normals (a viewer computes them from the
-     * faces), and the dropped warning says so. Default: 0. */
+     * the dropped warning says so. An output format that holds normals
+     * (OBJ, PLY, .smz) gets vertex normals recomputed from the output's
+     * faces (each the unit sum of its faces' area-weighted normals);
+     * simplify_file only. Default: 0. */
     int drop_normals;
     /* Simplification: weigh vertex attributes in the collapses' error
      * (docs/method.md §9), so that a collapse that would slide the texture

@@ -405,8 +405,9 @@ def simplify_file(
 
     Options are simplify()'s, with lock naming a per-vertex property of the
     file, drop_normals as the CLI's --drop-normals (read no vertex
-    normals, so a flat-shaded OBJ is one surface) and attribute_weights
-    naming the file's properties.
+    normals, so a flat-shaded OBJ is one surface; dst gets normals
+    recomputed from its faces when its format holds them) and
+    attribute_weights naming the file's properties.
 
     progress: callable(done, total), called from the calling thread about
     ten times a second with the fraction of one bar for the whole run (the

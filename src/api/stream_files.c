@@ -16,6 +16,7 @@
 #include "common/util.h"
 #include "io/format.h"
 #include "io/samples_ply.h"
+#include "pipeline/normals_stage.h"
 #include "sort/sort.h"
 
 /* Records between two progress callbacks. */
@@ -79,6 +80,7 @@ typedef struct en_input {
     epsnet_mesh_info info;
     en_budget budget;             /* --mem split for a stream, or for the sort and the chain */
     int was_sorted;
+    int had_normals;              /* the file's vertices had normals (--drop-normals left them) */
     epsnet_sort_stats sorted;
 } en_input;
 
@@ -159,8 +161,10 @@ static int open_input(epsnet_context *ctx, const char *in_path, const epsnet_arr
      * others are named in the one dropped warning (docs/architecture.md §5).
      * Arrays go to arrays, which hold every attribute. */
     int all = arrays || (keep && ctx->settings.lock_property); /* the lock travels even where the output drops it */
-    if (rc == 0)
+    if (rc == 0) {
+        in->had_normals = epsnet_attr_layout_find(&in->r->file_attrs, "nx") >= 0;
         en_reader_keep_attrs(in->r, keep, all, ctx->settings.drop_normals);
+    }
     if (rc == 0)
         in->info = *epsnet_reader_info(in->r);
     if (rc || in->info.streaming)
@@ -257,12 +261,24 @@ int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const epsnet_
     en_stage out = { 0 };
     int rc = file_run_open(&fr, ctx, in_path, arrays, near_path, keep, err);
     int opened = rc == 0;
+    /* --drop-normals did not read the input's normals; an output that holds
+     * normals gets them from its own faces (pipeline/normals_stage.h) */
+    epsnet_mesh_info info = fr.in.info;
+    en_normals_stage *normals = NULL;
+    int recompute = rc == 0 && ctx->settings.drop_normals && fr.in.had_normals && keep && keep->holds_attr &&
+                    en_normals_layout(&fr.in.info.vertex_attrs, &info.vertex_attrs) == 0 &&
+                    keep->holds_attr(&info.vertex_attrs, info.vertex_attrs.count - 3);
+    if (!recompute)
+        info = fr.in.info;
     if (rc == 0)
-        rc = open_out(opaque, &fr.in.info, fr.pool, &out, err);
+        rc = open_out(opaque, &info, fr.pool, &out, err);
+    if (rc == 0 && recompute && (rc = en_normals_stage_new(&normals, fr.in.info.vertex_attrs.size, out, err)) == 0)
+        out = en_normals_stage_input(normals);
     if (rc == 0)
         rc = file_run_feed(&fr, ctx, EN_SLAB_SIMPLIFY, in_path, out, NULL, NULL, err);
     if (opened && release_out)
         release_out(opaque);
+    en_normals_stage_free(&normals);
     file_run_close(&fr, ctx);
     /* note: the sort passes on only referenced vertices, so a mesh without
      * faces is told by the sort's count of the input. */

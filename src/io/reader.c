@@ -173,7 +173,8 @@ void en_reader_keep_attrs(epsnet_reader *r, const en_format *out, int keep_all, 
     memset(&kept, 0, sizeof kept);
     for (uint32_t i = 0; i < f->count; i++) {
         if (drop_normals && is_normal(f->attr[i].name)) {
-            en_reader_drop(r, "vertex normals (--drop-normals: a viewer computes them from the faces)", 0, 0);
+            en_reader_drop(r, "vertex normals (--drop-normals: not read; an output that holds normals gets them "
+                                  "recomputed from its faces)", 0, 0);
             continue;
         }
         if (keep_all || (out && out->holds_attr && out->holds_attr(f, i))) {
