@@ -66,6 +66,7 @@ struct en_target_stage {
     const en_chain *thin;
     kept in;                      /* what the stage's input (the thinning, or a round) wrote */
     uint64_t *hist;               /* EN_COST_BUCKETS: the costs the last pass left */
+    double priced;                /* the share of its non-samples hist holds (ceiling_for) */
     uint32_t kept_attr;           /* a kept vertex's bytes: its attributes, then its quadric */
     uint8_t *attr;                /* one vertex's, for replay */
     en_chain_stats rounds;        /* the rounds' counts, summed */
@@ -249,10 +250,18 @@ static int replay(en_target_stage *ts, kept *k, en_stage into, epsnet_error *err
                              "the target stage's temporary file ended in the middle of a record");
 }
 
-/* The ceiling that takes `want` of the collapses the histogram counts
- * (all of them when it holds fewer). */
-static double ceiling_for(const uint64_t *hist, double want)
+/* The ceiling that takes `want` of the collapses still to do, from a
+ * histogram that holds `priced` of them (all of them when it holds fewer
+ * than want).
+ * note: W prices a vertex only while it has a neighbour that may receive;
+ * one whose neighbours settled first leaves unpriced, though a round can
+ * take it. Where slabs are thinner than the stream is wide, nearly all is
+ * W's, and the histogram held 65% of the non-samples (a 2M-face PLY
+ * sorted on the way in, `--slab 4096`): the want is taken as that share
+ * of the histogram, as if the missing ones cost what the others do. */
+static double ceiling_for(const uint64_t *hist, double want, double priced)
 {
+    want *= priced;
     double sum = 0;
     int top = 0;
     for (int b = 0; b < EN_COST_BUCKETS; b++) {
@@ -264,6 +273,16 @@ static double ceiling_for(const uint64_t *hist, double want)
             return en_cost_bucket_top(b);
     }
     return en_cost_bucket_top(top);
+}
+
+/* The share of a pass's non-samples left that its histogram holds (1
+ * when it holds them all, or more: freed samples are priced too). */
+static double priced_share(const uint64_t *hist, uint64_t nonsamples)
+{
+    double held = 0;
+    for (int b = 0; b < EN_COST_BUCKETS; b++)
+        held += (double)hist[b];
+    return nonsamples && held < (double)nonsamples ? held / (double)nonsamples : 1;
 }
 
 static void add_counts(en_chain_stats *to, const en_chain_stats *from)
@@ -338,6 +357,7 @@ static int run_chain(en_target_stage *ts, const en_pass_plan *t, kept *from, kep
         if (!last) {
             memset(ts->hist, 0, EN_COST_BUCKETS * sizeof *ts->hist);
             en_chain_cost_hist(c, 0xff, ts->hist);
+            ts->priced = priced_share(ts->hist, got->remaining_nonsamples);
         }
     }
     en_chain_free(&c);
@@ -432,6 +452,10 @@ static int stage_end(void *self, epsnet_error *err)
         en_chain_stats_get(ts->thin, &thin);
         if (thin.skeleton_finest_frequency)
             level = en_level_of(thin.skeleton_frequency);
+        /* the non-samples' share priced, then the freed samples' costs */
+        en_chain_cost_hist(ts->thin, 0xff, ts->hist);
+        ts->priced = priced_share(ts->hist, thin.remaining_nonsamples);
+        memset(ts->hist, 0, EN_COST_BUCKETS * sizeof *ts->hist);
         en_chain_cost_hist(ts->thin, level, ts->hist);
     }
     int rc = 0;
@@ -447,7 +471,7 @@ static int stage_end(void *self, epsnet_error *err)
             .skeleton_level = level,
             .skeleton_share = EN_TARGET_SKELETON_SHARE,
             .by_vertices = by_vertices,
-            .cost_ceiling = ceiling_for(ts->hist, (gap > ROUND_NEAR ? ROUND_AIM : ROUND_AIM_NEAR) * need),
+            .cost_ceiling = ceiling_for(ts->hist, (gap > ROUND_NEAR ? ROUND_AIM : ROUND_AIM_NEAR) * need, ts->priced),
             .floor_share = (double)goal / (double)left,
             .goal = goal,
             .expected_in = left,
@@ -516,6 +540,7 @@ int en_target_stage_new(en_target_stage **out, const en_target_stage_config *cfg
     }
     ts->cfg = *cfg;
     ts->pool = pool;
+    ts->priced = 1;
     ts->kept_attr = cfg->attr_size + en_carried_bytes(cfg->weights ? cfg->weights->channels : 0);
     int rc = kept_open(ts, &ts->in, err);
     if (rc) {
