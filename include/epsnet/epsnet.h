@@ -788,6 +788,9 @@ typedef struct epsnet_stats {
     /* A streamed target (docs/architecture.md §7): the rounds its target
      * stage ran under a global cost ceiling before the last one (0: none). */
     uint32_t target_rounds;
+    /* ... and how many of them it ran again because they passed the
+     * target (docs/architecture.md §7: a round never passes it). */
+    uint32_t target_round_retries;
 } epsnet_stats;
 
 typedef struct epsnet_context epsnet_context;

@@ -51,6 +51,9 @@ PyObject *eb_stats_dict(const epsnet_stats *st)
     o = bad ? NULL : PyLong_FromUnsignedLong(st->target_rounds);
     bad = bad || !o || PyDict_SetItemString(d, "target_rounds", o);
     Py_XDECREF(o);
+    o = bad ? NULL : PyLong_FromUnsignedLong(st->target_round_retries);
+    bad = bad || !o || PyDict_SetItemString(d, "target_round_retries", o);
+    Py_XDECREF(o);
     if (bad) {
         Py_XDECREF(d);
         return NULL;

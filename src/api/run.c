@@ -412,11 +412,12 @@ int en_run_end(en_run *run, epsnet_error *err)
     epsnet_stats *st = &run->ctx->stats;
     en_chain_stats cs;
     en_chain_stats_get(run->chain, &cs);
-    int rounds = 0, last_on_slabs = 0;
+    int rounds = 0, retries = 0, last_on_slabs = 0;
     if (run->stage)
-        en_target_stage_stats(run->stage, &cs, &rounds, &last_on_slabs);
+        en_target_stage_stats(run->stage, &cs, &rounds, &retries, &last_on_slabs);
     fill_stats(st, &cs);
     st->target_rounds = (uint32_t)rounds;
+    st->target_round_retries = (uint32_t)retries;
     if (cs.skeleton_frequency && cs.skeleton_frequency != run->ctx->sphere.n) {
         /* the stats report the sphere the skeleton was taken at */
         gauss_sphere chosen;

@@ -113,7 +113,8 @@ void en_target_stage_after(en_target_stage *ts, const en_chain *thin);
  * last round's output, skeleton and target figures put in its place.
  * rounds: how many rounds ran before the last one; last_on_slabs: whether
  * the last one ran on slabs (over the budget's one slab). */
-void en_target_stage_stats(const en_target_stage *ts, en_chain_stats *cs, int *rounds, int *last_on_slabs);
+void en_target_stage_stats(const en_target_stage *ts, en_chain_stats *cs, int *rounds, int *retries,
+                           int *last_on_slabs);
 
 void en_target_stage_free(en_target_stage **ts);
 
