@@ -278,8 +278,8 @@ int en_simplify_streamed(epsnet_context *ctx, const char *in_path, const epsnet_
         rc = file_run_feed(&fr, ctx, EN_SLAB_SIMPLIFY, in_path, out, NULL, NULL, err);
     if (opened && release_out)
         release_out(opaque);
-    en_normals_stage_free(&normals);
     file_run_close(&fr, ctx);
+    en_normals_stage_free(&normals); /* after the run, which may hold it */
     /* note: the sort passes on only referenced vertices, so a mesh without
      * faces is told by the sort's count of the input. */
     uint64_t nv = fr.in.was_sorted ? fr.in.sorted.vertices : ctx->stats.vertices;
