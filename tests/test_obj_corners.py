@@ -5,6 +5,7 @@ different vt or vn (a seam) is split into one record per value, and
 simplify keeps every corner's own values: the two copies along a seam move
 together along it or stay (docs/method.md §6), never across it. Values are
 compared as float32 bits."""
+import json
 import math
 import os
 import struct
@@ -391,6 +392,12 @@ def attribute_weights_keep_the_texture_in_place():
         assert all(c in corners for t in tout for c in t), f"{tag}: a corner that is not an input corner"
         slide[tag] = texture_slide(tout)
     assert slide["uv"] < 0.7 * slide["plain"], slide
+    stats = path("weighed_stats.json")
+    rc, _, err = run("simplify", src, "-o", path("weighed_stats.obj"), "--ratio", "0.1", "--attribute-weight", "1",
+                     "--stats", stats)
+    assert rc == 0 and "attributes weighed: 1 (5 values a vertex)" in err, err  # vt and vn
+    with open(stats) as f:
+        assert json.load(f)["attribute_channels"] == 5
     assert slide["uv_slab"] < 0.7 * slide["plain_slab"], slide
     o1, o2 = path("weighed_j1.obj"), path("weighed_j2.obj")
     for o, j in ((o1, "-j1"), (o2, "-j2")):

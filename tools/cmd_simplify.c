@@ -198,6 +198,9 @@ int cmd_simplify(int argc, char **argv)
                 secs > 0 ? (double)s->faces / secs / 1e6 : 0.0, (double)s->peak_rss / (1 << 20), s->cpu_main,
                 s->cpu_workers,
                 s->cpu_main + s->cpu_workers > 0 ? 100.0 * s->cpu_main / (s->cpu_main + s->cpu_workers) : 0.0);
+        if (s->attribute_channels)
+            fprintf(stderr, "  attributes weighed: %s (%u values a vertex)\n", m.settings.attribute_weights,
+                    (unsigned)s->attribute_channels);
         if (s->seam_vertices || s->cut_end_vertices)
             fprintf(stderr,
                     "  attribute seams (UV, normals, materials): %llu copies in pairs along them, %llu where "

@@ -791,6 +791,9 @@ typedef struct epsnet_stats {
     /* ... and how many of them it ran again because they passed the
      * target (docs/architecture.md §7: a round never passes it). */
     uint32_t target_round_retries;
+    /* The values a vertex's attribute error weighs (settings.attribute_weights:
+     * 2 for texture coordinates, 3 for normals; 0: none). */
+    uint32_t attribute_channels;
 } epsnet_stats;
 
 typedef struct epsnet_context epsnet_context;

@@ -54,6 +54,9 @@ PyObject *eb_stats_dict(const epsnet_stats *st)
     o = bad ? NULL : PyLong_FromUnsignedLong(st->target_round_retries);
     bad = bad || !o || PyDict_SetItemString(d, "target_round_retries", o);
     Py_XDECREF(o);
+    o = bad ? NULL : PyLong_FromUnsignedLong(st->attribute_channels);
+    bad = bad || !o || PyDict_SetItemString(d, "attribute_channels", o);
+    Py_XDECREF(o);
     if (bad) {
         Py_XDECREF(d);
         return NULL;

@@ -148,6 +148,7 @@ int epsnet_stats_write_json(const epsnet_context *c, const char *command, const 
         "  \"gaussian_sphere\": {\"level\": %d, \"frequency\": %u, \"vertices\": %u, \"triangles\": %u},\n"
         "  \"passes_requested\": %d,\n"
         "  \"max_normal_dev\": %.6g,\n"
+        "  \"attribute_channels\": %" PRIu32 ",\n"
         "  \"vertices\": %" PRIu64 ",\n"
         "  \"faces\": %" PRIu64 ",\n"
         "  \"zero_area_faces\": %" PRIu64 ",\n"
@@ -186,7 +187,7 @@ int epsnet_stats_write_json(const epsnet_context *c, const char *command, const 
         "\"write\": %.6f, \"sort\": %.6f},\n"
         "  \"cpu\": {\"main\": %.6f, \"workers\": %.6f}\n"
         "}\n",
-        command ? command : c->command, epsnet_version(), level_of(g->n), g->n, g->nverts, g->ntris, st->passes, st->max_normal_dev, s->vertices, s->faces,
+        command ? command : c->command, epsnet_version(), level_of(g->n), g->n, g->nverts, g->ntris, st->passes, st->max_normal_dev, s->attribute_channels, s->vertices, s->faces,
         s->zero_area_faces, s->isolated_vertices, s->gaussian_vertices, s->feature_edges, s->candidates,
         s->samples, s->locked, s->boundary_vertices, s->nonmanifold_vertices, s->seam_vertices, s->cut_end_vertices, s->needle_vertices,
         s->multi_cover_samples, s->output_vertices, s->output_faces, s->collapses, s->passes,

@@ -418,6 +418,7 @@ int en_run_end(en_run *run, epsnet_error *err)
     fill_stats(st, &cs);
     st->target_rounds = (uint32_t)rounds;
     st->target_round_retries = (uint32_t)retries;
+    st->attribute_channels = run->weights.channels;
     if (cs.skeleton_frequency && cs.skeleton_frequency != run->ctx->sphere.n) {
         /* the stats report the sphere the skeleton was taken at */
         gauss_sphere chosen;
