@@ -162,13 +162,4 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
                      const en_collapse_settings *cs, uint8_t *face_alive, uint8_t *vertex_alive,
                      uint32_t *tri_out, en_collapse_counts *counts, en_ctxpool *arrays);
 
-/*
- * Build the slab of what remains: alive faces (with corners from tri) and
- * the vertices they reference, in the old order, with their quadrics and
- * their faces' reference normals. The new slab's stars are built.
- * @return 0 or -1 (out of memory).
- */
-int en_slab_compact(const en_slab *s, const uint32_t *tri, const uint8_t *face_alive, const en_quadric *q,
-                    const double *ref_normal, en_slab *out, en_quadric **q_out, double **ref_out);
-
 #endif
