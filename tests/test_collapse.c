@@ -329,14 +329,6 @@ TEST(a_seam_pair_collapses_along_the_seam_together)
     en_slab_free(&s);
 }
 
-/* The plane quadric at p, written out (collapse.c keeps its own static). */
-static double plane_eval(const en_quadric *q, const double p[3])
-{
-    double x = p[0], y = p[1], z = p[2];
-    return q->a2 * x * x + 2 * q->ab * x * y + 2 * q->ac * x * z + 2 * q->ad * x + q->b2 * y * y +
-           2 * q->bc * y * z + 2 * q->bd * y + q->c2 * z * z + 2 * q->cd * z + q->d2;
-}
-
 /* The value a face's linear field takes at p: barycentric in its plane
  * (p's offset along the normal changes nothing). */
 static double field_at(const double (*tp)[3], const double *ta, const double p[3])
@@ -386,7 +378,7 @@ TEST(an_attribute_quadric_is_the_squared_field_error)
             double d = field_at(p, ta, q) - a[c];
             want += area * d * d;
         }
-        double got = plane_eval(&fold, q) + en_aq_eval(aq, 2, q, a);
+        double got = en_quadric_eval(&fold, q) + en_aq_eval(aq, 2, q, a);
         CHECK(fabs(got - want) <= 1e-9 * (1 + want));
     }
 }

@@ -49,9 +49,7 @@ void en_attr_quadrics_from_faces(const en_slab *s, const double *value, uint32_t
         en_quadric fold;
         en_attr_face_quadric(s->pos, value, k, t, &fold, aqf);
         for (int i = 0; i < 3; i++) {
-            en_quadric *x = &q[t[i]];
-            x->a2 += fold.a2, x->ab += fold.ab, x->ac += fold.ac, x->ad += fold.ad, x->b2 += fold.b2;
-            x->bc += fold.bc, x->bd += fold.bd, x->c2 += fold.c2, x->cd += fold.cd, x->d2 += fold.d2;
+            en_quadric_add(&q[t[i]], &fold);
             en_aq_add(aq + n * t[i], aqf, k);
         }
     }

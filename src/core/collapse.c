@@ -38,19 +38,6 @@
 
 /* ---- quadrics ---- */
 
-static void quadric_add(en_quadric *a, const en_quadric *b)
-{
-    a->a2 += b->a2, a->ab += b->ab, a->ac += b->ac, a->ad += b->ad, a->b2 += b->b2;
-    a->bc += b->bc, a->bd += b->bd, a->c2 += b->c2, a->cd += b->cd, a->d2 += b->d2;
-}
-
-static inline double quadric_eval(const en_quadric *q, const double p[3])
-{
-    double x = p[0], y = p[1], z = p[2];
-    return q->a2 * x * x + 2 * q->ab * x * y + 2 * q->ac * x * z + 2 * q->ad * x + q->b2 * y * y +
-           2 * q->bc * y * z + 2 * q->bd * y + q->c2 * z * z + 2 * q->cd * z + q->d2;
-}
-
 /* The area-weighted plane quadric of face t into k, its unit normal into
  * un (0 for a zero-area face, whose quadric is then 0 too). */
 static void face_quadric(const double *pos, const uint32_t *t, en_quadric *k, double un[3])
@@ -81,7 +68,7 @@ void en_quadrics_from_faces(const en_slab *s, en_quadric *q, double *unit_normal
         en_quadric k;
         face_quadric(s->pos, t, &k, unit_normal + 3 * (size_t)f);
         for (int i = 0; i < 3; i++)
-            quadric_add(&q[t[i]], &k);
+            en_quadric_add(&q[t[i]], &k);
     }
 }
 
@@ -617,7 +604,7 @@ static inline double attr_err(const state *st, uint32_t w, const double *p, uint
 static inline double err_at(const state *st, uint32_t w, uint32_t x)
 {
     const double *p = st->s->pos + 3 * (size_t)x;
-    return quadric_eval(&st->vx[w].q, p) + attr_err(st, w, p, x);
+    return en_quadric_eval(&st->vx[w].q, p) + attr_err(st, w, p, x);
 }
 
 /* The quadrics of x's position at it: x's own, and its copies' (the sides
@@ -646,7 +633,7 @@ static void update_position_err(state *st, uint32_t x)
 static inline double pair_cost_with(const state *st, uint32_t w, uint32_t x, int attrs)
 {
     const double *p = st->s->pos + 3 * (size_t)x;
-    double c = quadric_eval(&st->vx[w].q, p) + (attrs ? attr_err(st, w, p, x) : 0) + st->vx[x].self_err;
+    double c = en_quadric_eval(&st->vx[w].q, p) + (attrs ? attr_err(st, w, p, x) : 0) + st->vx[x].self_err;
     /* Huge coordinates (1e200) overflow quadrics to inf - inf = NaN. NaN is
      * unequal to itself, so the queue's staleness test would requeue such a
      * pair forever: such pairs go last, at +inf, where the test holds. */
@@ -669,7 +656,7 @@ static double move_cost(const state *st, uint32_t w, uint32_t x, uint32_t px)
             return INFINITY; /* no move along the seam: refused at the check */
         uint32_t t = st->vx[w].wedge;
         const double *p = st->s->pos + 3 * (size_t)x;
-        c += quadric_eval(&st->vx[t].q, p) + attr_err(st, t, p, px);
+        c += en_quadric_eval(&st->vx[t].q, p) + attr_err(st, t, p, px);
         c = c == c ? c : INFINITY;
     }
     return c;
@@ -866,7 +853,7 @@ static inline int rewrite_onto(state *st, uint32_t v, uint32_t u)
     st->vertices_alive--;
     /* (a seam pair's follower has tier 0: its primary's counts) */
     st->given_up += st->tier[v] == 2 || (st->welds && st->tier[st->vx[v].wedge] == 2);
-    quadric_add(&st->vx[u].q, &st->vx[v].q);
+    en_quadric_add(&st->vx[u].q, &st->vx[v].q);
     if (st->k)
         en_aq_add(st->aq + st->na * u, st->aq + st->na * v, st->k);
     st->collapses++;
@@ -964,10 +951,10 @@ static void refresh_quadrics(state *st)
         if (st->k) {
             /* the corners' values now: those of the vertices kept */
             en_attr_face_quadric(s->pos, st->value, st->k, t, &fold, aqf);
-            quadric_add(&k, &fold);
+            en_quadric_add(&k, &fold);
         }
         for (int i = 0; i < 3; i++) {
-            quadric_add(&st->vx[t[i]].q, &k);
+            en_quadric_add(&st->vx[t[i]].q, &k);
             if (st->k)
                 en_aq_add(st->aq + st->na * t[i], aqf, st->k);
         }

@@ -22,6 +22,21 @@ typedef struct en_quadric {
     double a2, ab, ac, ad, b2, bc, bd, c2, cd, d2;
 } en_quadric;
 
+static inline void en_quadric_add(en_quadric *a, const en_quadric *b)
+{
+    a->a2 += b->a2, a->ab += b->ab, a->ac += b->ac, a->ad += b->ad, a->b2 += b->b2;
+    a->bc += b->bc, a->bd += b->bd, a->c2 += b->c2, a->cd += b->cd, a->d2 += b->d2;
+}
+
+/* The quadric's value at p: the area-weighted sum of squared distances to
+ * the planes it holds. */
+static inline double en_quadric_eval(const en_quadric *q, const double p[3])
+{
+    double x = p[0], y = p[1], z = p[2];
+    return q->a2 * x * x + 2 * q->ab * x * y + 2 * q->ac * x * z + 2 * q->ad * x + q->b2 * y * y +
+           2 * q->bc * y * z + 2 * q->bd * y + q->c2 * z * z + 2 * q->cd * z + q->d2;
+}
+
 /* Why a vertex's collapses were refused (bits, one vertex may have several). */
 enum {
     EN_REFUSE_LINK = 1 << 0,      /* link condition: would change topology */

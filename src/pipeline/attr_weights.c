@@ -6,7 +6,7 @@
 
 #include "epsnet/epsnet.h"
 
-static double value_of(const uint8_t *p, int type)
+double en_attr_value(const uint8_t *p, int type)
 {
     switch (type) {
     case EPSNET_ATTR_INT8: return (int8_t)p[0];
@@ -24,7 +24,7 @@ static double value_of(const uint8_t *p, int type)
 void en_attr_weights_values(const en_attr_weights *aw, double diagonal, const uint8_t *bytes, double *out)
 {
     for (uint32_t c = 0; c < aw->channels; c++) {
-        double x = value_of(bytes + aw->ch[c].offset, aw->ch[c].type);
+        double x = en_attr_value(bytes + aw->ch[c].offset, aw->ch[c].type);
         /* note: a NaN texture coordinate would make every cost around it
          * NaN, which the queue sends last; 0 keeps the collapse's other
          * terms meaningful */

@@ -27,6 +27,10 @@ typedef struct en_attr_weights {
     } ch[EN_AQ_MAX_CHANNELS];
 } en_attr_weights;
 
+/* The value of an attribute of type `type` (epsnet_attr_type) at p, as a
+ * double (exact for every type: 32-bit integers fit); 0 for an unknown type. */
+double en_attr_value(const uint8_t *p, int type);
+
 /* The weighted values of one vertex (its attribute bytes) into out
  * (aw->channels doubles); diagonal as en_attr_weights.diagonal, or the
  * slab's own. A value that is not finite counts as 0. */

@@ -338,21 +338,11 @@ static int skeleton_from_marks(en_slab_work *w)
     return 0;
 }
 
-/* Is local vertex v's lock property non-zero (settings.lock_property)? */
+/* Is local vertex v's lock property non-zero (settings.lock_property)? A
+ * NaN is; -0 is zero. */
 static int user_locked(const en_slab_work *w, uint32_t v)
 {
-    const uint8_t *p = w->attr + (size_t)v * w->attr_size + w->lock_offset;
-    switch (w->lock_type) {
-    case EPSNET_ATTR_INT8:
-    case EPSNET_ATTR_UINT8: return p[0] != 0;
-    case EPSNET_ATTR_INT16:
-    case EPSNET_ATTR_UINT16: { uint16_t x; memcpy(&x, p, 2); return x != 0; }
-    case EPSNET_ATTR_INT32:
-    case EPSNET_ATTR_UINT32: { uint32_t x; memcpy(&x, p, 4); return x != 0; }
-    case EPSNET_ATTR_FLOAT32: { float x; memcpy(&x, p, 4); return x != 0; } /* NaN too; -0 is zero */
-    case EPSNET_ATTR_FLOAT64: { double x; memcpy(&x, p, 8); return x != 0; }
-    default: return 0;
-    }
+    return en_attr_value(w->attr + (size_t)v * w->attr_size + w->lock_offset, w->lock_type) != 0;
 }
 
 /* The user's locks join the topology's: an owned vertex whose lock property
