@@ -371,13 +371,6 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
         cs.max_error = st->plan->max_error * st->plan->diagonal;
     } else if (rule == EN_SEAMS_CEILING) {
         cs.cost_ceiling = st->plan->cost_ceiling; /* the slabs' ceiling */
-        if (st->plan->floor_share > 0) {
-            /* ... and the round's guard: never below the pace to its goal */
-            uint64_t keep = seam_keep(st, last);
-            if (keep >= (st->plan->by_vertices ? st->nwv : st->nwf))
-                goto out;
-            *(st->plan->by_vertices ? &cs.keep_vertices : &cs.keep_faces) = keep ? keep : 1;
-        }
     } else if (rule == EN_SEAMS_LEVEL) {
         /* the seam goes to the level its slabs reached (below 0: none,
          * only priced), so that the thinning keeps no more of a seam than
@@ -385,13 +378,16 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
          * at 20M faces (docs/architecture.md §7) */
         cs.cost_ceiling = st->seam_level > 0 ? st->seam_level : -1;
     } else if (rule == EN_SEAMS_PACED) {
+        cs.by_error = 1;
+        cs.max_error = -1;
+    }
+    if (rule == EN_SEAMS_PACED || (rule == EN_SEAMS_CEILING && st->plan->floor_share > 0)) {
+        /* paced, or a round's guard under its ceiling: never below the pace to the goal */
         uint64_t keep = seam_keep(st, last);
         if (keep >= (st->plan->by_vertices ? st->nwv : st->nwf))
             goto out; /* on course: nothing to collapse here */
         /* 0 would be "no limit": one unit is the least there can be */
         *(st->plan->by_vertices ? &cs.keep_vertices : &cs.keep_faces) = keep ? keep : 1;
-        cs.by_error = 1;
-        cs.max_error = -1;
     }
     en_collapse_counts cc;
     cs.bucket_of = bucket_of;
