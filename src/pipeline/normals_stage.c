@@ -62,6 +62,13 @@ static int internal(en_normals_stage *ns, epsnet_error *err, const char *what)
                         "normals: %s (a bug)", what);
 }
 
+/* Is corner k of face v one of its earlier corners? A face that repeats a
+ * corner counts it once. */
+static int repeats(const uint64_t v[3], int k)
+{
+    return (k > 0 && v[k] == v[0]) || (k == 2 && v[2] == v[1]);
+}
+
 static held *slot_of(en_normals_stage *ns, uint64_t id, uint32_t *slot)
 {
     return en_idmap_get(&ns->map, id, slot) ? &ns->v[*slot] : NULL;
@@ -113,20 +120,19 @@ static int write_next(en_normals_stage *ns, epsnet_error *err)
         face *f = &ns->f[fi];
         epsnet_record t = { .kind = EPSNET_REC_TRIANGLE, .v = { f->v[0], f->v[1], f->v[2] } };
         rc = en_stage_put(&ns->next, &t, err);
-        uint64_t corners[3] = { f->v[0], f->v[1], f->v[2] };
         uint32_t next = f->next;
         f->next = ns->free_f;
         ns->free_f = fi;
         fi = next;
         for (int k = 0; k < 3 && rc == 0; k++) {
             uint32_t cs;
-            held *c = slot_of(ns, corners[k], &cs);
+            held *c = slot_of(ns, t.v[k], &cs);
             if (!c)
                 return internal(ns, err, "a face's corner is not held");
-            if (k > 0 && (corners[k] == corners[0] || (k == 2 && corners[2] == corners[1])))
-                continue; /* a corner repeated: counted once */
+            if (repeats(t.v, k))
+                continue;
             c->faces_left--;
-            rc = maybe_finalize(ns, corners[k], cs, err);
+            rc = maybe_finalize(ns, t.v[k], cs, err);
         }
     }
     return rc || last_face_here ? rc : maybe_finalize(ns, id, slot, err);
@@ -185,12 +191,11 @@ static int stage_put(void *self, const epsnet_record *rec, epsnet_error *err)
         uint64_t last = rec->v[0];
         uint32_t ls = s[0];
         for (int k = 0; k < 3; k++) {
-            held *h = &ns->v[s[k]];
-            if (k > 0 && (rec->v[k] == rec->v[0] || (k == 2 && rec->v[2] == rec->v[1])))
+            if (repeats(rec->v, k))
                 continue;
             for (int i = 0; i < 3; i++)
-                h->n[i] += n[i];
-            h->faces_left++;
+                c[k]->n[i] += n[i];
+            c[k]->faces_left++;
             if (rec->v[k] > last)
                 last = rec->v[k], ls = s[k];
         }
