@@ -190,6 +190,24 @@ def main():
     open(coloured, "w").write("\n".join(head + body + lines[end + 1 + nv:]))
     walk("simplify_attributes_locked", lambda o: ["simplify", coloured, "-o", o + ".ply", "--slab", "200", "-j", "3",
                                                   "--lock", "lock", "-q"], max_points=600, stride=7)
+    # A PLY whose faces carry material_index: the vertex block is held and
+    # a record pushed per (vertex, material) (src/io/fmt_ply.c).
+    labelled = os.path.join(TMP, "labelled.ply")
+    n = 12
+    with open(labelled, "w") as f:
+        f.write("ply\nformat ascii 1.0\nelement vertex %d\nproperty float x\nproperty float y\n"
+                "property float z\nelement face %d\nproperty uchar material_index\n"
+                "property list uchar int vertex_indices\nend_header\n" % ((n + 1) ** 2, 2 * n * n))
+        for j in range(n + 1):
+            for i in range(n + 1):
+                f.write("%r %r %r\n" % (i / n, j / n, 0.02 * ((i * 7 + j * 3) % 5)))
+        for j in range(n):
+            for i in range(n):
+                a = j * (n + 1) + i
+                f.write("%d 3 %d %d %d\n%d 3 %d %d %d\n" % (i * 2 // n, a, a + 1, a + n + 2, i * 2 // n, a, a + n + 2,
+                                                            a + n + 1))
+    walk("simplify_ply_face_labels", lambda o: ["simplify", labelled, "-o", o + ".ply", "--ratio", "0.3", "-q"],
+         max_points=300, stride=3)
     hausdorff_without_threads(smz, sma)
     # sort with a budget small enough to spill sorted runs to temporary
     # files (src/sort/extsort.c), then merge them.

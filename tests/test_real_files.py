@@ -415,4 +415,88 @@ def materials_and_groups_travel_with_their_faces():
     assert rc == 0 and "usemtl" in err and "g (2)" in err, err
 
 
+def face_labelled_ply(name, n=40, binary=False, label_first=False):
+    """A bumpy grid as a PLY whose faces carry an int material_index (0 left
+    of x = 0.5, 1 right of it) and a float quality, and one vertex no face
+    uses; binary or ascii, the label before or after the index list."""
+    verts = [(i / n, j / n, 0.01 * ((i * 7 + j * 3) % 5)) for j in range(n + 1) for i in range(n + 1)]
+    verts.append((5.0, 5.0, 5.0))
+    faces = []
+    for j in range(n):
+        for i in range(n):
+            a = j * (n + 1) + i
+            b, c, d = a + 1, a + n + 2, a + n + 1
+            m = 0 if i < n // 2 else 1
+            faces += [(m, (a, b, c)), (m, (a, c, d))]
+    lst, lab = "property list uchar int vertex_indices\n", "property int material_index\n"
+    head = ("ply\nformat %s 1.0\nelement vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
+            "element face %d\n%sproperty float quality\nend_header\n"
+            % ("binary_little_endian" if binary else "ascii", len(verts), len(faces),
+               lab + lst if label_first else lst + lab))
+    p = path(name)
+    with open(p, "wb") as f:
+        f.write(head.encode())
+        for v in verts:
+            f.write(struct.pack("<3f", *v) if binary else ("%r %r %r\n" % v).encode())
+        for m, t in faces:
+            if binary:
+                idx = struct.pack("<B3i", 3, *t)
+                lb = struct.pack("<i", m)
+                f.write((lb + idx if label_first else idx + lb) + struct.pack("<f", 0.5))
+            else:
+                idx, lb = "3 %d %d %d" % t, "%d" % m
+                f.write(("%s %s 0.5\n" % ((lb, idx) if label_first else (idx, lb))).encode())
+    return p, len(faces)
+
+
+@case
+def a_ply_face_material_index_travels_with_its_faces():
+    """Issue 25: a PLY face property such as material_index is carried by the
+    face's corners, as an OBJ's usemtl is: no face changes material, the
+    boundary collapses along its length, and what is not carried (a float
+    face property, a vertex no face uses) is named."""
+    for binary in (False, True):
+        for label_first in (False, True):
+            p, nf = face_labelled_ply("fl_%d%d.ply" % (binary, label_first), binary=binary, label_first=label_first)
+            rc, out, err = run("info", p)
+            assert rc == 0 and "int material_index" in out, (p, out, err)
+            assert "face property quality" in out and "vertices no face uses (1)" in out, out
+            for args in (["--ratio", "0.25"], ["--ratio", "0.25", "--slab", "300", "-j", "2"]):
+                o = path("fl_out.ply")
+                rc, _, err = run("simplify", p, "-o", o, "--ascii", *args)
+                assert rc == 0, (p, args, err)
+                assert "face property quality" in err and "vertices no face uses (1)" in err, err
+                props, verts, faces = read_ascii_ply(o)
+                assert ("material_index", "int") in props, props
+                want = round(0.25 * nf)
+                assert abs(len(faces) - want) <= max(1, want // 200), (p, args, len(faces), want)
+                on = set()
+                for t in faces:
+                    ms = {verts[i]["material_index"] for i in t}
+                    assert len(ms) == 1, (p, args, t, ms)
+                    xs = [float(verts[i]["x"]) for i in t]
+                    if not min(xs) == max(xs) == 0.5:
+                        side = "0" if max(xs) <= 0.5 else "1" if min(xs) >= 0.5 else None
+                        assert side == ms.pop(), (p, args, xs)
+                    on |= {float(verts[i]["y"]) for i in t if float(verts[i]["x"]) == 0.5}
+                # the boundary is a seam: it loses positions along its length
+                assert 2 <= len(on) < 41, (p, args, sorted(on))
+    # the labels are the same records whichever encoding and order
+    outs = []
+    for binary in (False, True):
+        for label_first in (False, True):
+            o = path("fl_conv_%d%d.ply" % (binary, label_first))
+            rc, _, err = run("convert", path("fl_%d%d.ply" % (binary, label_first)), "-o", o, "-q")
+            assert rc == 0, err
+            outs.append(open(o, "rb").read())
+    assert all(o == outs[0] for o in outs), "the four encodings read as different records"
+    # an index past the vertex block is an error naming the face
+    bad = path("fl_bad.ply")
+    text = open(path("fl_00.ply")).read().replace("\n3 0 1 42 0", "\n3 0 1 9999 0", 1)
+    open(bad, "w").write(text)
+    rc, _, err = run("convert", bad, "-o", path("fl_bad_out.ply"), "-q")
+    assert rc != 0 and "vertex index 9999 is out of range" in err, err
+    assert not os.path.exists(path("fl_bad_out.ply"))
+
+
 finish()

@@ -150,7 +150,11 @@ typedef enum epsnet_record_kind {
  * (float32; the PLY names MeshLab, Blender and trimesh read): an OBJ
  * vertex record is then one distinct (position, vt, vn) of the faces, and a
  * position with different values in different faces (a seam) is several
- * records at the same coordinates (docs/architecture.md §13). Zero
+ * records at the same coordinates (docs/architecture.md §13). A PLY face
+ * element's integer scalars ("material_index", "texnumber", a face colour;
+ * not "flags") are carried the same way, after the vertex's own attributes:
+ * a record is then one distinct (vertex, face values), in the order faces
+ * first name them, and a vertex no face names is dropped and counted. Zero
  * attributes (count 0) is the stream of earlier versions: rec.attr is then
  * NULL and nothing else changes.
  */
@@ -486,7 +490,14 @@ typedef struct epsnet_gen_settings {
      *              (default 0.2)
      * Out of range: EPSNET_EINVAL. */
     double param;
-    uint8_t reserved[64];
+    /* A UV atlas of about this many charts, like a photogrammetry texture:
+     * every vertex carries texture_u and texture_v (float32); the grid is cut
+     * into square charts, each with its own tile of the unit square (no two
+     * overlap), and a vertex where charts meet is one record per chart, as
+     * an OBJ reader makes them from `vt` (docs/architecture.md §13). 0: no
+     * texture coordinates. Not with shuffle (EPSNET_EINVAL). Default: 0. */
+    uint64_t charts;
+    uint8_t reserved[56];
 } epsnet_gen_settings;
 
 EPSNET_API void epsnet_gen_default_settings(epsnet_gen_settings *s);

@@ -2,7 +2,10 @@
  * PLY reader and writer (docs/architecture.md §13: ascii, binary little-
  * and big-endian, extra properties skipped, polygons triangulated; and PLY
  * `tristrips`, read as triangles). What is skipped is named through
- * epsnet_reader_dropped() (docs/architecture.md §5).
+ * epsnet_reader_dropped() (docs/architecture.md §5). A face's integer
+ * properties (material_index and the like) travel as its corners'
+ * attributes, which makes the reader hold the vertex block (see
+ * ply_reader.labels).
  *
  * Reading: the header becomes a list of elements with their properties; the
  * body is then walked element by element. The encoding is chosen once, when
@@ -169,6 +172,7 @@ typedef enum ply_role {
     ROLE_X = 0, ROLE_Y = 1, ROLE_Z = 2,
     ROLE_INDICES = 3,
     ROLE_ATTR = 4,          /* a vertex attribute the records carry (epsnet.h §2) */
+    ROLE_LABEL = 5,         /* a face's integer property its corners carry (see face_labels) */
 } ply_role;
 
 typedef struct ply_property {
@@ -176,7 +180,7 @@ typedef struct ply_property {
     ply_type type;          /* scalar type, or the item type of a list */
     ply_type count_type;    /* PLY_NONE for scalars */
     ply_role role;
-    uint32_t attr_offset;   /* ROLE_ATTR: where its bytes go in the vertex's packed bytes */
+    uint32_t attr_offset;   /* ROLE_ATTR, ROLE_LABEL: where its bytes go in the vertex's packed bytes */
 } ply_property;
 
 /* ELEM_STRIPS: the Stanford tools' `tristrips` element (see strip_index()). */
@@ -225,6 +229,27 @@ struct ply_reader {
     uint64_t short_polygons;     /* faces with fewer than 3 corners, skipped */
     ply_strip strip;             /* tristrips only */
     uint64_t strip_turns;        /* strip triangles that repeat an index, skipped */
+
+    /* Face labels (docs/architecture.md §13): the face element's integer
+     * properties (material_index and the like) travel as attributes of its
+     * corners, after the vertex's own (vsize bytes, then lsize of labels).
+     * A PLY lists every vertex before any face, so the vertex block is held
+     * (within settings.mem_limit) and a record is pushed for each distinct
+     * (vertex, labels) that a face names, as the OBJ reader does for its
+     * corners: a vertex whose faces have two materials is two records. */
+    int labels;
+    uint32_t vsize, lsize;
+    uint64_t nheld;              /* vertices read and held */
+    double *held_xyz;            /* 3 per held vertex */
+    uint8_t *held_attr;          /* vsize per held vertex */
+    uint32_t *first;             /* per held vertex: its newest record + 1; 0: none */
+    uint32_t *next;              /* per record: the older record of its vertex + 1 */
+    uint8_t *rec_label;          /* per record: its lsize label bytes */
+    uint64_t xyz_cap, attr_cap, first_cap, next_cap, label_cap;
+    uint64_t *corners;           /* the face being read: its vertex indices */
+    size_t ncorners, corners_cap;
+    uint64_t held_bytes;         /* of the tables above, held to settings.mem_limit */
+    uint8_t out[EPSNET_ATTR_MAX * 8]; /* a record's packed bytes */
 };
 
 /* ------------------------------------------------------------------------
@@ -496,9 +521,36 @@ static int header_format(epsnet_reader *r, ply_reader *p, char *rest, int *seen)
 }
 
 /* Checks that need the whole header, then what the body walk precomputes. */
+/* The face element's integer scalars become labels its corners carry
+ * (material_index, MeshLab's texnumber, a part or segment id, a face
+ * colour). Floating-point face properties (normals, quality) stay dropped
+ * and named: as labels they would make nearly every vertex a seam. So do
+ * `flags` (an editor's selection and visit bits, not a property of the
+ * surface) and a name the vertex element has already. */
+static int face_labels(epsnet_reader *r, ply_reader *p, ply_element *face)
+{
+    p->vsize = r->file_attrs.size;
+    for (size_t k = 0; k < face->nprops; k++) {
+        ply_property *pr = &face->props[k];
+        if (pr->role != ROLE_SKIP || pr->count_type != PLY_NONE || !ply_type_is_int(pr->type) ||
+            strcmp(pr->name, "flags") == 0 || epsnet_attr_layout_find(&r->file_attrs, pr->name) >= 0)
+            continue;
+        int rc = en_reader_add_attr(r, pr->name, (epsnet_attr_type)pr->type);
+        if (rc < 0)
+            return rc;
+        if (rc == 1) {
+            pr->role = ROLE_LABEL;
+            pr->attr_offset = r->file_attrs.attr[r->file_attrs.count - 1].offset;
+            p->labels = 1;
+        }
+    }
+    p->lsize = r->file_attrs.size - p->vsize;
+    return 0;
+}
+
 static int header_finish(epsnet_reader *r, ply_reader *p)
 {
-    const ply_element *vertex = NULL, *faces[2] = { NULL, NULL };
+    ply_element *vertex = NULL, *faces[2] = { NULL, NULL };
     for (size_t i = 0; i < p->nelems; i++) {
         ply_element *e = &p->elems[i];
         e->fixed_size = 0;
@@ -550,6 +602,11 @@ static int header_finish(epsnet_reader *r, ply_reader *p)
                 pr->attr_offset = r->file_attrs.attr[r->file_attrs.count - 1].offset;
             }
         }
+    }
+    if (vertex && faces[0]) {
+        int rc = face_labels(r, p, faces[0]);
+        if (rc)
+            return rc;
     }
     r->info.nfaces = 0;
     for (int f = 0; f < 2; f++) {
@@ -659,11 +716,16 @@ static int read_header(epsnet_reader *r, ply_reader *p)
 typedef struct ply_fan {
     uint64_t first, prev;
     int64_t seen;
+    ply_reader *labelled;        /* non-NULL: collect the corners (labelled_face) */
 } ply_fan;
+
+static int collect_corner(epsnet_reader *r, ply_reader *p, uint64_t v);
 
 /* Feed one corner; emits (first, prev, v) once three corners are known. */
 static inline int fan_corner(epsnet_reader *r, ply_fan *f, uint64_t v)
 {
+    if (f->labelled)
+        return collect_corner(r, f->labelled, v);
     int rc = 0;
     if (f->seen == 0)
         f->first = v;
@@ -672,6 +734,126 @@ static inline int fan_corner(epsnet_reader *r, ply_fan *f, uint64_t v)
     f->prev = v;
     f->seen++;
     return rc;
+}
+
+/* ------------------------------------------------------------------------
+ * Face labels (see ply_reader.labels): the held vertex block and the
+ * records of (vertex, labels)
+ * ------------------------------------------------------------------------ */
+
+/* Grow a held table to need elements, keeping all of them within the
+ * reader's memory budget (they live until the end of the file). */
+static int held_grow(epsnet_reader *r, ply_reader *p, void **buf, uint64_t *cap, uint64_t need,
+                     size_t elem)
+{
+    if (need <= *cap)
+        return 0;
+    uint64_t ncap = *cap ? *cap : 1024;
+    while (ncap < need)
+        ncap *= 2;
+    uint64_t bytes = p->held_bytes - *cap * elem + ncap * elem;
+    if (r->settings.mem_limit && bytes > r->settings.mem_limit)
+        return en_reader_fail(r, EPSNET_ELIMIT,
+                              "a PLY with face properties is held in memory until its faces are read: %" PRIu64
+                              " vertices and %" PRIu64 " corner records need %" PRIu64
+                              " bytes, over the memory budget of %" PRIu64 " bytes",
+                              p->nheld, r->nverts, bytes, r->settings.mem_limit);
+    if (ncap > SIZE_MAX / (elem ? elem : 1))
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    void *q = en_realloc(*buf, (size_t)(ncap * elem));
+    if (!q)
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    *buf = q;
+    *cap = ncap;
+    p->held_bytes = bytes;
+    return 0;
+}
+
+/* A vertex of the file, held until the faces name it. */
+static int hold_vertex(epsnet_reader *r, ply_reader *p, const double xyz[3], const uint8_t *attr)
+{
+    uint64_t n = p->nheld + 1;
+    int rc = held_grow(r, p, (void **)&p->held_xyz, &p->xyz_cap, n, 3 * sizeof(double));
+    if (rc == 0 && p->vsize)
+        rc = held_grow(r, p, (void **)&p->held_attr, &p->attr_cap, n, p->vsize);
+    if (rc == 0)
+        rc = held_grow(r, p, (void **)&p->first, &p->first_cap, n, sizeof(uint32_t));
+    if (rc)
+        return rc;
+    memcpy(p->held_xyz + 3 * p->nheld, xyz, 3 * sizeof(double));
+    if (p->vsize)
+        memcpy(p->held_attr + p->nheld * p->vsize, attr, p->vsize);
+    p->first[p->nheld] = 0;
+    p->nheld = n;
+    return 0;
+}
+
+static int collect_corner(epsnet_reader *r, ply_reader *p, uint64_t v)
+{
+    if (p->ncorners == p->corners_cap) {
+        size_t ncap = p->corners_cap ? 2 * p->corners_cap : 16;
+        uint64_t *q = en_realloc(p->corners, ncap * sizeof *q);
+        if (!q)
+            return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+        p->corners = q;
+        p->corners_cap = ncap;
+    }
+    p->corners[p->ncorners++] = v;
+    return 0;
+}
+
+/* The record of held vertex v with the current face's labels
+ * (p->attr + vsize): found among v's records, or pushed now. */
+static int labelled_record(epsnet_reader *r, ply_reader *p, uint64_t v, uint64_t *id)
+{
+    const uint8_t *label = p->attr + p->vsize;
+    for (uint32_t k = p->first[v]; k; k = p->next[k - 1])
+        if (memcmp(p->rec_label + (size_t)(k - 1) * p->lsize, label, p->lsize) == 0) {
+            *id = k - 1;
+            return 0;
+        }
+    uint64_t n = r->nverts;
+    if (n >= UINT32_MAX - 1)
+        return en_reader_fail(r, EPSNET_ELIMIT, "more than %u corner records", UINT32_MAX - 2);
+    int rc = held_grow(r, p, (void **)&p->next, &p->next_cap, n + 1, sizeof(uint32_t));
+    if (rc == 0)
+        rc = held_grow(r, p, (void **)&p->rec_label, &p->label_cap, n + 1, p->lsize);
+    if (rc)
+        return rc;
+    if (p->vsize)
+        memcpy(p->out, p->held_attr + v * p->vsize, p->vsize);
+    memcpy(p->out + p->vsize, label, p->lsize);
+    const double *xyz = p->held_xyz + 3 * v;
+    if ((rc = en_reader_push_vertex_attr(r, xyz[0], xyz[1], xyz[2], p->out)))
+        return rc;
+    memcpy(p->rec_label + n * p->lsize, label, p->lsize);
+    p->next[n] = p->first[v];
+    p->first[v] = (uint32_t)(n + 1);
+    *id = n;
+    return 0;
+}
+
+/* A face of a labelled file, once its whole record is read (a label may
+ * come after the index list): its corners become records, then triangles. */
+static int labelled_face(epsnet_reader *r, ply_reader *p, uint64_t record)
+{
+    size_t n = p->ncorners;
+    p->ncorners = 0;
+    if (n < 3)
+        return 0;
+    ply_fan fan = { 0, 0, 0, NULL };
+    for (size_t i = 0; i < n; i++) {
+        uint64_t v = p->corners[i], id = 0;
+        if (v >= p->nheld)
+            return en_reader_fail(r, EPSNET_EFORMAT, "face %" PRIu64 ": vertex index %" PRIu64 " is out of range",
+                                  record + 1, v);
+        int rc = labelled_record(r, p, v, &id);
+        if (rc == 0)
+            rc = fan_corner(r, &fan, id);
+        if (rc)
+            return rc;
+    }
+    return 0;
 }
 
 /* ------------------------------------------------------------------------
@@ -787,7 +969,7 @@ static int ascii_list(epsnet_reader *r, ply_reader *p, const ply_element *e, uin
     if (count < 0 || count > PLY_MAX_LIST)
         return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": list count %" PRId64 " is out of range "
                               "(0..%" PRId64 ")", e->name, record + 1, count, PLY_MAX_LIST);
-    ply_fan fan = { 0, 0, 0 };
+    ply_fan fan = { 0, 0, 0, p->labels ? p : NULL };
     for (int64_t i = 0; i < count; i++) {
         tok = next_token(cursor);
         if (pr->role != ROLE_INDICES) {
@@ -969,6 +1151,8 @@ static void binary_attr(uint8_t *dst, const uint8_t *src, size_t size, int swap)
         dst[i] = src[size - 1 - i];
 }
 
+static int vertex_checked(epsnet_reader *r, ply_reader *p, uint64_t offset, const double xyz[3]);
+
 static int ascii_records(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_t n)
 {
     if (e->kind == ELEM_STRIPS)
@@ -992,14 +1176,19 @@ static int ascii_records(epsnet_reader *r, ply_reader *p, ply_element *e, uint64
                 return ascii_bad_value(r, e, p->record, pr, tok);
             if (pr->role >= ROLE_X && pr->role <= ROLE_Z)
                 xyz[pr->role] = v;
-            else if (pr->role == ROLE_ATTR)
+            else if (pr->role == ROLE_ATTR || pr->role == ROLE_LABEL)
                 ascii_attr(p->attr + pr->attr_offset, pr->type, tok, v);
         }
         char *extra = next_token(&line);
         if (extra)
             return en_reader_fail(r, EPSNET_EFORMAT, "%s %" PRIu64 ": unexpected extra value '%s'",
                                   e->name, p->record + 1, extra);
-        if (e->kind == ELEM_VERTEX && (rc = en_reader_push_vertex_attr(r, xyz[0], xyz[1], xyz[2], p->attr)))
+        if (e->kind == ELEM_VERTEX)
+            rc = p->labels ? vertex_checked(r, p, EPSNET_POS_NONE, xyz)
+                           : en_reader_push_vertex_attr(r, xyz[0], xyz[1], xyz[2], p->attr);
+        else if (e->kind == ELEM_FACE && p->labels)
+            rc = labelled_face(r, p, p->record);
+        if (rc)
             return rc;
     }
     return 0;
@@ -1009,13 +1198,22 @@ static int ascii_records(epsnet_reader *r, ply_reader *p, ply_element *e, uint64
  * Binary body: decoders from the codec table, straight out of the window
  * ------------------------------------------------------------------------ */
 
-static int binary_vertex_checked(epsnet_reader *r, uint64_t offset, const double xyz[3], const uint8_t *attr)
+/* A vertex with its attributes in p->attr: pushed, or held when the faces
+ * carry labels. offset: its byte offset, EPSNET_POS_NONE in ascii. */
+static int vertex_checked(epsnet_reader *r, ply_reader *p, uint64_t offset, const double xyz[3])
 {
-    if (!isfinite(xyz[0]) || !isfinite(xyz[1]) || !isfinite(xyz[2]))
+    uint64_t number = (p->labels ? p->nheld : r->nverts) + 1;
+    if (!isfinite(xyz[0]) || !isfinite(xyz[1]) || !isfinite(xyz[2])) {
+        if (offset == EPSNET_POS_NONE)
+            return en_reader_fail(r, EPSNET_EFORMAT, "vertex %" PRIu64 " has a non-finite coordinate (%g %g %g)",
+                                  number, xyz[0], xyz[1], xyz[2]);
         return en_reader_fail_at(r, EPSNET_EFORMAT, offset,
                                  "vertex %" PRIu64 " has a non-finite coordinate (%g %g %g)",
-                                 r->nverts + 1, xyz[0], xyz[1], xyz[2]);
-    return en_reader_push_vertex_attr(r, xyz[0], xyz[1], xyz[2], attr);
+                                 number, xyz[0], xyz[1], xyz[2]);
+    }
+    if (p->labels)
+        return hold_vertex(r, p, xyz, p->attr);
+    return en_reader_push_vertex_attr(r, xyz[0], xyz[1], xyz[2], p->attr);
 }
 
 /* Vertices whose records have a fixed size: the common scanner layout. */
@@ -1057,7 +1255,7 @@ static int binary_fixed_vertices(epsnet_reader *r, ply_reader *p, ply_element *e
             for (size_t a = 0; a < na; a++)
                 binary_attr(p->attr + attrs[a].to, rec + attrs[a].from, attrs[a].size, p->swap);
             s->cur = rec;
-            int rc = binary_vertex_checked(r, en_source_offset(s), xyz, p->attr);
+            int rc = vertex_checked(r, p, en_source_offset(s), xyz);
             if (rc)
                 return rc;
         }
@@ -1098,6 +1296,7 @@ static int binary_list_items(epsnet_reader *r, ply_reader *p, const ply_element 
     en_source *s = r->src;
     const size_t isize = ply_type_size[pr->type];
     int64_t (*get)(const uint8_t *) = p->codec->get_int[pr->type];
+    const uint64_t nverts = p->labels ? p->nheld : r->nverts;
     while (count > 0) {
         size_t k = count < (int64_t)(PLY_CHUNK / isize) ? (size_t)count : PLY_CHUNK / isize;
         const uint8_t *q = need(s, k * isize);
@@ -1106,7 +1305,7 @@ static int binary_list_items(epsnet_reader *r, ply_reader *p, const ply_element 
         if (pr->role == ROLE_INDICES) {
             for (size_t i = 0; i < k; i++) {
                 int64_t v = get(q + i * isize);
-                if (v < 0 || (uint64_t)v >= r->nverts)
+                if (v < 0 || (uint64_t)v >= nverts)
                     return en_reader_fail_at(r, EPSNET_EFORMAT, en_source_offset(s) + i * isize,
                                              v < 0 ? "face %" PRIu64 ": negative vertex index %" PRId64
                                                    : "face %" PRIu64 ": vertex index %" PRId64
@@ -1138,7 +1337,7 @@ static int binary_record(epsnet_reader *r, ply_reader *p, ply_element *e)
                 return truncated_binary(r, e, p->record);
             if (pr->role >= ROLE_X && pr->role <= ROLE_Z)
                 xyz[pr->role] = p->codec->get_real[pr->type](q);
-            else if (pr->role == ROLE_ATTR)
+            else if (pr->role == ROLE_ATTR || pr->role == ROLE_LABEL)
                 binary_attr(p->attr + pr->attr_offset, q, size, p->swap);
             s->cur += size;
             continue;
@@ -1153,7 +1352,7 @@ static int binary_record(epsnet_reader *r, ply_reader *p, ply_element *e)
                                      "%s %" PRIu64 ": list count %" PRId64 " is out of range (0..%" PRId64 ")",
                                      e->name, p->record + 1, count, PLY_MAX_LIST);
         s->cur += csize;
-        ply_fan fan = { 0, 0, 0 };
+        ply_fan fan = { 0, 0, 0, p->labels ? p : NULL };
         int rc = binary_list_items(r, p, e, pr, count, &fan);
         if (rc)
             return rc;
@@ -1161,7 +1360,9 @@ static int binary_record(epsnet_reader *r, ply_reader *p, ply_element *e)
             p->short_polygons++;
     }
     if (e->kind == ELEM_VERTEX)
-        return binary_vertex_checked(r, start, xyz, p->attr);
+        return vertex_checked(r, p, start, xyz);
+    if (e->kind == ELEM_FACE && p->labels)
+        return labelled_face(r, p, p->record);
     return 0;
 }
 
@@ -1204,7 +1405,7 @@ static int binary_simple_faces(epsnet_reader *r, ply_reader *p, ply_element *e, 
         if (!(q = need(s, size)))
             return truncated_binary(r, e, p->record);
         const uint8_t *items = q + before + csize;
-        ply_fan fan = { 0, 0, 0 };
+        ply_fan fan = { 0, 0, 0, NULL };
         for (int64_t k = 0; k < count; k++) {
             int64_t v = get_index(items + k * (int64_t)isize);
             if (v < 0 || (uint64_t)v >= r->nverts)
@@ -1304,7 +1505,7 @@ static int binary_records(epsnet_reader *r, ply_reader *p, ply_element *e, uint6
         return binary_skip_fixed(r, p, e, n);
     if (e->kind == ELEM_STRIPS)
         return binary_strips(r, p, e, n);
-    if (e->kind == ELEM_FACE && has_one_list(e))
+    if (e->kind == ELEM_FACE && has_one_list(e) && !p->labels)
         return binary_simple_faces(r, p, e, n);
     for (uint64_t i = 0; i < n; i++) {
         int rc = binary_record(r, p, e);
@@ -1368,6 +1569,12 @@ static void ply_reader_free(ply_reader *p)
     for (size_t i = 0; i < p->nelems; i++)
         en_free(p->elems[i].props);
     en_free(p->elems);
+    en_free(p->held_xyz);
+    en_free(p->held_attr);
+    en_free(p->first);
+    en_free(p->next);
+    en_free(p->rec_label);
+    en_free(p->corners);
     en_free(p);
 }
 
@@ -1415,6 +1622,12 @@ static int ply_fill(epsnet_reader *r)
      * legal and skipped, but not without a word (docs/architecture.md §5) */
     if (p->short_polygons)
         en_reader_drop(r, "faces with fewer than 3 corners", p->short_polygons, 1);
+    /* note: a held vertex that no face names never becomes a record */
+    uint64_t unused = 0;
+    for (uint64_t v = 0; v < p->nheld; v++)
+        unused += p->first[v] == 0;
+    if (unused)
+        en_reader_drop(r, "vertices no face uses", unused, 1);
     int rc = check_trailing(r, p);
     return rc ? rc : 0;
 }
