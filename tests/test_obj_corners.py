@@ -430,4 +430,81 @@ def attribute_weights_name_what_they_cannot_weigh():
         assert a.read() == b.read()
 
 
+def charts_of(tris):
+    """The charts of a textured mesh: faces joined across every edge whose
+    two corners have the same vt on both faces. Returns each face's chart."""
+    parent = list(range(len(tris)))
+
+    def find(x):
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    by_edge = {}
+    for i, t in enumerate(tris):
+        for k in range(3):
+            a, b = t[k], t[(k + 1) % 3]
+            by_edge.setdefault(frozenset((a[0], b[0])), []).append((i, {a[0]: a[1], b[0]: b[1]}))
+    for uses in by_edge.values():
+        if len(uses) == 2 and uses[0][1] == uses[1][1]:
+            parent[find(uses[0][0])] = find(uses[1][0])
+    return [find(i) for i in range(len(tris))]
+
+
+@case
+def gen_charts_cuts_a_photogrammetry_like_atlas():
+    """Issue 25: gen --charts gives every shape a UV atlas: the same surface
+    as without it, about the charts asked, each in its own part of the unit
+    square (no two overlap, no face turned over in UV), a position where
+    charts meet is one record per chart, and the stream is sorted and
+    finalized. Simplify then keeps every corner and meets the size."""
+    u = lambda c: struct.unpack("<f", c)[0]
+    for shape, faces, charts in (("sphere", 3000, 12), ("torus", 4000, 100), ("terrain", 5000, 30),
+                                 ("cad", 6000, 40), ("bumpy", 20000, 400)):
+        atlas, plain = path("atlas_%s.obj" % shape), path("plain_%s.obj" % shape)
+        for out, extra in ((atlas, ["--charts", str(charts)]), (plain, [])):
+            rc, _, err = run("gen", shape, "--faces", str(faces), "-o", out, "-q", *extra)
+            assert rc == 0, err
+        tris, (nv, nvt, _) = read_obj(atlas)
+        ptris, (pnv, _, _) = read_obj(plain)
+        assert nv == pnv and sorted(rotated([c[0] for c in t]) for t in tris) == \
+            sorted(rotated([c[0] for c in t]) for t in ptris), shape
+        chart = charts_of(tris)
+        n = len(set(chart))
+        assert 0.7 * charts <= n <= 1.5 * charts, (shape, n, charts)
+        box = {}
+        for t, c in zip(tris, chart):
+            us, vs = [u(x[1][0]) for x in t], [u(x[1][1]) for x in t]
+            assert all(0 < x < 1 for x in us + vs), (shape, us, vs)
+            area = (us[1] - us[0]) * (vs[2] - vs[0]) - (us[2] - us[0]) * (vs[1] - vs[0])
+            assert area > 0, (shape, t)
+            b = box.get(c, (2, 2, -1, -1))
+            box[c] = (min(b[0], *us), min(b[1], *vs), max(b[2], *us), max(b[3], *vs))
+        bs = sorted(box.values())
+        for i, a in enumerate(bs):
+            for b in bs[i + 1:]:
+                if b[0] >= a[2]:
+                    break
+                assert not (b[1] < a[3] and a[1] < b[3]), (shape, a, b)
+        # a vt is one chart's: the records are the (position, chart) pairs
+        assert nvt == len({(c[0], ch) for t, ch in zip(tris, chart) for c in t}), shape
+        smz = path("atlas_%s.smz" % shape)
+        rc, _, err = run("gen", shape, "--faces", str(faces), "--charts", str(charts), "-o", smz, "-q")
+        assert rc == 0, err
+        rc, out, err = run("check", smz)
+        assert rc == 0 and "valid:       yes" in out, (shape, out, err)
+        inputs = {c for t in tris for c in t}
+        for ratio in ("0.05", "0.25"):
+            o = path("atlas_out.obj")
+            rc, _, err = run("simplify", smz, "-o", o, "--ratio", ratio, "-q")
+            assert rc == 0, (shape, err)
+            got, _ = read_obj(o)
+            want = round(float(ratio) * len(tris))
+            assert abs(len(got) - want) <= max(1, want // 200), (shape, ratio, len(got), want)
+            assert all(c in inputs for t in got for c in t), (shape, ratio)
+    rc, _, err = run("gen", "sphere", "--charts", "10", "--shuffle", "-o", path("x.obj"), "-q")
+    assert rc != 0 and "shuffle" in err, err
+
+
 finish()

@@ -21,6 +21,9 @@ static void gen_help(void)
            "                      minor/major radius; dimple: dent depth; bumpy:\n"
            "                      amplitude; terrain: relief)\n"
            "      --shuffle       vertices and faces in random order, like a scanner PLY\n"
+           "      --charts K      a UV atlas of about K charts, like a photogrammetry\n"
+           "                      texture: texture_u/texture_v per vertex, one vertex\n"
+           "                      per chart where charts meet (not with --shuffle)\n"
            "      --ascii         ASCII instead of binary PLY\n"
            "  -q, --quiet         no progress or summary\n"
            "  -h, --help          this text\n",
@@ -33,6 +36,7 @@ int cmd_gen(int argc, char **argv)
         { "faces", required_argument, NULL, 'n' }, { "output", required_argument, NULL, 'o' },
         { "seed", required_argument, NULL, 's' },  { "param", required_argument, NULL, 'p' },
         { "shuffle", no_argument, NULL, 'S' },     { "ascii", no_argument, NULL, 'a' },
+        { "charts", required_argument, NULL, 'C' },
         { "quiet", no_argument, NULL, 'q' },       { "help", no_argument, NULL, 'h' },
         { 0, 0, 0, 0 },
     };
@@ -59,6 +63,10 @@ int cmd_gen(int argc, char **argv)
                 return rc;
             break;
         case 'S': gs.shuffle = 1; break;
+        case 'C':
+            if ((rc = cli_parse_size("gen", "--charts", optarg, &gs.charts)))
+                return rc;
+            break;
         case 'a': ws.ascii = 1; break;
         case 'q': cli_quiet = 1; break;
         case 'h': gen_help(); return EXIT_OK;

@@ -36,12 +36,16 @@ int epsnet_gen_info(const epsnet_gen_settings *s, epsnet_mesh_info *info, epsnet
     info->format = "gen";
     info->encoding = "synthetic";
     info->compressed = 0;
-    info->nverts = g.nverts;
+    info->nverts = g.nrecords;
     info->nfaces = g.nfaces;
     info->has_bbox = 0;
     info->coord_type = EPSNET_COORD_FLOAT32;
     info->streaming = s->shuffle ? 0 : 1;
     info->sorted_axis = s->shuffle ? -1 : g.axis;
+    if (g.chart_rows) {
+        epsnet_attr_layout_add(&info->vertex_attrs, "texture_u", EPSNET_ATTR_FLOAT32);
+        epsnet_attr_layout_add(&info->vertex_attrs, "texture_v", EPSNET_ATTR_FLOAT32);
+    }
     return 0;
 }
 

@@ -88,7 +88,14 @@ typedef struct en_gen_grid {
     en_gen_diag_rule diag;
     int axis;           /* stream axis: every row has one value on it */
 
-    uint64_t nverts, nfaces;
+    uint64_t nverts, nfaces;   /* grid vertices and triangles */
+
+    /* UV atlas (gen_atlas.c): charts of chart_rows strips by chart_cols
+     * quads, ncharts_r x ncharts_c of them on a board x board layout;
+     * chart_rows 0: none. nrecords: vertex records, copies included
+     * (nverts without an atlas). */
+    uint64_t chart_rows, chart_cols, ncharts_r, ncharts_c, board;
+    uint64_t nrecords;
 
     /* ring stack of rounded squares (sphere, ellipsoid, roundcube, dimple,
      * bumpy): see gen_shapes.c */
@@ -158,6 +165,20 @@ uint64_t en_gen_vertex_id(const en_gen_grid *g, en_gen_vtx v);
 en_gen_vtx en_gen_vertex_at(const en_gen_grid *g, uint64_t id);
 /* Corners of face id (strip-major), computing the positions it needs. */
 void en_gen_face_at(const en_gen_grid *g, uint64_t id, en_gen_vtx tri[3]);
+
+/* ---- UV atlas (gen_atlas.c) ---- */
+
+/* Cut g's grid into about charts charts (0: no atlas); after the layout. */
+void en_gen_atlas_init(en_gen_grid *g, uint64_t charts);
+/* Records of vertex v (its copies, one per chart at it); 1 without an atlas. */
+uint64_t en_gen_copies(const en_gen_grid *g, en_gen_vtx v);
+/* Records of a row, and those before v's first copy in its row. */
+uint64_t en_gen_row_records(const en_gen_grid *g, uint64_t row);
+uint64_t en_gen_col_offset(const en_gen_grid *g, en_gen_vtx v);
+/* The copy of v that the faces of quad q of strip use. */
+uint64_t en_gen_copy_of(const en_gen_grid *g, en_gen_vtx v, uint64_t strip, uint64_t q);
+/* texture_u, texture_v of copy `copy` of v. */
+void en_gen_copy_uv(const en_gen_grid *g, en_gen_vtx v, uint64_t copy, float uv[2]);
 
 /* ---- emitters (gen_stream.c) ---- */
 

@@ -138,10 +138,11 @@ static int quads_at(const en_gen_grid *g, uint64_t strip, uint64_t col, uint64_t
 }
 
 static int emit_record(streamer *st, epsnet_record_kind kind, uint64_t a, uint64_t b, uint64_t c,
-                       const float *xyz)
+                       const float *xyz, const uint8_t *attr)
 {
     epsnet_record rec;
     memset(&rec, 0, sizeof rec);
+    rec.attr = attr;
     rec.kind = kind;
     rec.v[0] = a;
     rec.v[1] = b;
@@ -154,9 +155,11 @@ static int emit_record(streamer *st, epsnet_record_kind kind, uint64_t a, uint64
     return st->emit(st->ctx, &rec, st->err);
 }
 
-static uint64_t out_index(const streamer *st, en_gen_vtx v)
+/* The record of v that the faces of quad q of strip use (its copy in
+ * that quad's chart, gen_atlas.c). */
+static uint64_t out_index(const streamer *st, en_gen_vtx v, uint64_t strip, uint64_t q)
 {
-    return st->first_out[v.row] + v.col;
+    return st->first_out[v.row] + en_gen_col_offset(st->g, v) + en_gen_copy_of(st->g, v, strip, q);
 }
 
 /* Start row r: count each column's triangles. */
@@ -200,8 +203,11 @@ static int retire_corner(streamer *st, en_gen_vtx v)
     uint32_t *rem = st->remaining[v.row];
     if (--rem[v.col] > 0)
         return 0;
-    int rc = emit_record(st, EPSNET_REC_FINALIZE, out_index(st, v), 0, 0, NULL);
-    st->live--;
+    uint64_t first = st->first_out[v.row] + en_gen_col_offset(st->g, v), copies = en_gen_copies(st->g, v);
+    int rc = 0;
+    for (uint64_t k = 0; k < copies && rc == 0; k++)
+        rc = emit_record(st, EPSNET_REC_FINALIZE, first + k, 0, 0, NULL, NULL);
+    st->live -= copies;
     if (--st->row_live[v.row] == 0) {
         account(st, -(int64_t)(en_gen_row_size(st->g, v.row) * sizeof *rem));
         en_free(rem);
@@ -210,10 +216,10 @@ static int retire_corner(streamer *st, en_gen_vtx v)
     return rc;
 }
 
-static int emit_triangle(streamer *st, const en_gen_vtx tri[3])
+static int emit_triangle(streamer *st, const en_gen_vtx tri[3], uint64_t strip, uint64_t q)
 {
-    int rc = emit_record(st, EPSNET_REC_TRIANGLE, out_index(st, tri[0]), out_index(st, tri[1]),
-                         out_index(st, tri[2]), NULL);
+    int rc = emit_record(st, EPSNET_REC_TRIANGLE, out_index(st, tri[0], strip, q),
+                         out_index(st, tri[1], strip, q), out_index(st, tri[2], strip, q), NULL, NULL);
     for (int v = 0; v < 3 && rc == 0; v++)
         rc = retire_corner(st, tri[v]);
     return rc;
@@ -247,7 +253,7 @@ static int emit_triangles_at(streamer *st, uint64_t r, uint64_t col)
                         last = tri[t][v].col;
                 if (last != col)
                     continue;
-                int rc = emit_triangle(st, tri[t]);
+                int rc = emit_triangle(st, tri[t], strips[s], q);
                 if (rc)
                     return rc;
             }
@@ -319,7 +325,7 @@ static int streamer_init(streamer *st, const en_gen_grid *g, row_key **order)
         uint64_t r = (*order)[k].row;
         st->rank_of[r] = k;
         st->first_out[r] = out;
-        out += en_gen_row_size(g, r);
+        out += en_gen_row_records(g, r);
     }
     return 0;
 }
@@ -341,8 +347,19 @@ int en_gen_emit_sorted(const en_gen_grid *g, en_gen_emit_fn emit, void *ctx, en_
         uint64_t n = en_gen_row_size(g, r);
         for (uint64_t c = 0; c < n && rc == 0; c++) {
             const float *xyz = row_xyz(&st, r) + 3 * c;
-            rc = emit_record(&st, EPSNET_REC_VERTEX, 0, 0, 0, xyz);
-            if (++st.live > st.peak_live)
+            en_gen_vtx v = { r, c };
+            uint64_t copies = en_gen_copies(g, v);
+            for (uint64_t cp = 0; cp < copies && rc == 0; cp++) {
+                float uv[2];
+                const uint8_t *attr = NULL;
+                if (g->chart_rows) {
+                    en_gen_copy_uv(g, v, cp, uv);
+                    attr = (const uint8_t *)uv;
+                }
+                rc = emit_record(&st, EPSNET_REC_VERTEX, 0, 0, 0, xyz, attr);
+            }
+            st.live += copies;
+            if (st.live > st.peak_live)
                 st.peak_live = st.live;
             if (rc == 0)
                 rc = emit_triangles_at(&st, r, c);
