@@ -507,4 +507,23 @@ def gen_charts_cuts_a_photogrammetry_like_atlas():
     assert rc != 0 and "shuffle" in err, err
 
 
+@case
+def a_seam_pairs_copies_are_cut_into_one_slab():
+    """The chunker keeps a position's copies in one slab (a vertex waits for
+    the next cut while a copy is live), so no cut leaves a seam pair as two
+    lone boundaries: the samples and the locked ones are those of one slab,
+    whatever the slab size (docs/method.md §11)."""
+    src = path("cut_atlas.obj")
+    rc, _, err = run("gen", "bumpy", "--faces", "20000", "--charts", "50", "-o", src, "-q")
+    assert rc == 0, err
+    seen = set()
+    for slab in ("1000", "3000", "100000"):
+        rc, out, err = run("simplify", src, "-o", path("cut_out.obj"), "--slab", slab, "-q", "--stats", "-")
+        assert rc == 0, err
+        d = json.loads(out)
+        assert d["slabs"] > 1 or slab == "100000", d["slabs"]
+        seen.add((d["samples"], d["locked"], d["cut_end_vertices"]))
+    assert len(seen) == 1, seen
+
+
 finish()

@@ -19,7 +19,37 @@ int en_chunker_init(en_chunker *c, uint32_t slab_vertices, const char *path)
     size_t ring = 2 * (size_t)slab_vertices;
     /* grown as ids come: a one-slab pass (slab_vertices near 2^32) would
      * take 12 MB at once, the whole of a small --mem */
-    return en_idmap_init_growing(&c->map, ring < ((size_t)1 << 20) ? ring : ((size_t)1 << 20)) ? EPSNET_ENOMEM : 0;
+    if (en_idmap_init_growing(&c->map, ring < ((size_t)1 << 20) ? ring : ((size_t)1 << 20)))
+        return EPSNET_ENOMEM;
+    if (en_u64map_init(&c->live_at)) {
+        en_idmap_free(&c->map);
+        return EPSNET_ENOMEM;
+    }
+    return 0;
+}
+
+/* The key of a position in live_at: its coordinates' bits, as the slab
+ * groups copies (en_slab.wedge). */
+static uint64_t position_key(const double xyz[3])
+{
+    uint64_t b[3];
+    memcpy(b, xyz, sizeof b);
+    /* note: a cheap fold (the map spreads keys over its slots); two
+     * positions that share a key only make a vertex wait one cut longer */
+    uint64_t h = b[0] ^ (b[1] << 21 | b[1] >> 43) ^ (b[2] << 42 | b[2] >> 22);
+    return h == UINT64_MAX ? h - 1 : h; /* the map's reserved key */
+}
+
+/* One more (delta +1) or one fewer (-1) live vertex at xyz. @return 0 or -1. */
+static int count_live_at(en_chunker *c, const double xyz[3], int delta)
+{
+    uint64_t key = position_key(xyz);
+    uint32_t n = 0;
+    en_u64map_get(&c->live_at, key, &n);
+    n = (uint32_t)((int64_t)n + delta);
+    if (n == 0)
+        return en_u64map_remove(&c->live_at, key), 0;
+    return en_u64map_put(&c->live_at, key, n);
 }
 
 void en_chunker_free(en_chunker *c)
@@ -41,6 +71,8 @@ void en_chunker_free(en_chunker *c)
     en_free(c->pool_of);
     en_free(c->sort_tmp);
     en_free(c->attr);
+    en_u64map_free(&c->live_at);
+    en_free(c->waiting);
     memset(c, 0, sizeof *c);
 }
 
@@ -105,6 +137,14 @@ static int new_vertex(en_chunker *c, const epsnet_record *rec, epsnet_error *err
             c->v_len--;
         else
             c->free_list[c->free_len++] = i; /* it came from there: room is left */
+        return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    }
+    if (c->attr_size && count_live_at(c, xyz, +1)) {
+        en_idmap_remove(&c->map, c->next_gid);
+        if (i + 1 == c->v_len)
+            c->v_len--;
+        else
+            c->free_list[c->free_len++] = i;
         return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     }
     c->next_gid++;
@@ -202,12 +242,31 @@ static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
     uint32_t k = c->next_slab;
     w->index = k;
     w->last = c->ended;
+    /* A vertex whose position still has a live copy waits (live_at); the
+     * end takes every vertex. */
+    size_t waiting = 0;
+    int rc = 0;
+    if (c->attr_size && !c->ended) {
+        rc = en_grow((void **)&c->waiting, &c->waiting_cap, c->nfin, sizeof *c->waiting);
+        size_t taken = 0;
+        for (size_t j = 0; j < c->nfin && rc == 0; j++) {
+            uint32_t i = c->fin[j], n;
+            if (en_u64map_get(&c->live_at, position_key(c->v[i].xyz), &n))
+                c->waiting[waiting++] = i;
+            else
+                c->fin[taken++] = i;
+        }
+        if (rc == 0)
+            c->nfin = taken;
+    }
+    c->deferred += waiting;
     w->nowned = (uint32_t)c->nfin;
     w->live_vertices = c->map.count;
     w->live_faces = c->nfaces;
     if (w->live_vertices + w->live_faces > c->max_active)
         c->max_active = w->live_vertices + w->live_faces;
-    int rc = sort_fin_by_gid(c);
+    if (rc == 0)
+        rc = sort_fin_by_gid(c);
     for (size_t j = 0; j < c->nfin && rc == 0; j++) {
         c->v[c->fin[j]].owner = k;
         rc = add_local(c, w, c->fin[j], EN_V_OWNED);
@@ -262,6 +321,10 @@ static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
         if (w->owner[l] >= 0 && c->v[c->pool_of[l]].nref == 0)
             rc = free_vertex(c, c->pool_of[l]);
     c->nfin = 0;
+    if (rc == 0 && waiting) {
+        memcpy(c->fin, c->waiting, waiting * sizeof *c->fin);
+        c->nfin = waiting;
+    }
     if (rc) {
         en_slab_work_free(w);
         en_free(w);
@@ -315,6 +378,8 @@ int en_chunker_put(en_chunker *c, const epsnet_record *rec, en_slab_work **out, 
             return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         c->v[i].owner = EN_OWNER_FINAL;
         c->fin[c->nfin++] = i;
+        if (c->attr_size && count_live_at(c, c->v[i].xyz, -1))
+            return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         if (c->nfin >= c->slab_vertices)
             return cut(c, out, err);
         return 0;
@@ -350,5 +415,6 @@ int en_chunker_finish(en_chunker *c, en_slab_work **out, epsnet_error *err)
 uint64_t en_chunker_bytes(const en_chunker *c)
 {
     return (uint64_t)c->v_cap * sizeof *c->v + c->free_cap * sizeof *c->free_list + en_idmap_bytes(&c->map) +
-           3 * c->faces_cap * sizeof *c->faces + c->fin_cap * sizeof *c->fin + c->attr_cap * c->attr_size;
+           3 * c->faces_cap * sizeof *c->faces + c->fin_cap * sizeof *c->fin + c->attr_cap * c->attr_size +
+           en_u64map_bytes(&c->live_at) + c->waiting_cap * sizeof *c->waiting;
 }

@@ -20,6 +20,7 @@
 
 #include "common/ctxpool.h"
 #include "common/idmap.h"
+#include "common/u64map.h"
 #include "epsnet/epsnet.h"
 #include "pipeline/slab_work.h"
 
@@ -71,6 +72,16 @@ typedef struct en_chunker {
     size_t pool_of_cap;
     uint32_t *sort_tmp;        /* scratch of a cut: radix sort of fin by gid */
     size_t sort_tmp_cap;
+    /* Copies of a position (a UV or material seam, docs/method.md §6) are
+     * cut into one slab: a finalized vertex waits for the next cut while a
+     * vertex at the same coordinates' bits is still live, so that no cut
+     * leaves a seam pair's copies in two slabs, each alone as a boundary
+     * (a locked sample). Kept with attributes only (attr_size > 0), where
+     * copies come from: a hash of the bits -> live vertices there. */
+    en_u64map live_at;
+    uint32_t *waiting;         /* scratch of a cut: the vertices that wait */
+    size_t waiting_cap;
+    uint64_t deferred;         /* finalized vertices a cut left for the next one */
 } en_chunker;
 
 /* @return 0 or EPSNET_ENOMEM. */
