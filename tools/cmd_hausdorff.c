@@ -46,8 +46,11 @@ static void print_table(const char *a, const char *b, const epsnet_hausdorff_res
            "mean/diag", "rms/diag", "samples");
     print_side("A -> B", &r->a_to_b, r->diagonal);
     print_side("B -> A", &r->b_to_a, r->diagonal);
-    printf("  %-10s %-13.6g %-13s %-13s %-11.4e\n\n", "symmetric", r->hausdorff, "", "",
+    printf("  %-10s %-13.6g %-13s %-13s %-11.4e\n", "symmetric", r->hausdorff, "", "",
            r->diagonal > 0 ? r->hausdorff / r->diagonal : 0);
+    const epsnet_hausdorff_side *worst = r->b_to_a.max > r->a_to_b.max ? &r->b_to_a : &r->a_to_b;
+    printf("  worst at (%.9g %.9g %.9g), on %s\n\n", worst->max_at[0], worst->max_at[1], worst->max_at[2],
+           worst == &r->a_to_b ? "A" : "B");
     printf("  %-10s %-13s %-13s %s\n", "normals", "max (deg)", "mean (deg)", "samples");
     printf("  %-10s %-13.6g %-13.6g %" PRIu64 "\n", "A -> B", r->a_to_b.normal_max, r->a_to_b.normal_mean,
            r->a_to_b.normal_samples);

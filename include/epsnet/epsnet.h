@@ -1012,6 +1012,8 @@ EPSNET_API void epsnet_hausdorff_default_settings(epsnet_hausdorff_settings *s);
 /* One direction: the samples of one mesh measured against the other surface. */
 typedef struct epsnet_hausdorff_side {
     double max;                /* largest distance, over every sample */
+    double max_at[3];          /* where: the first sample found at max (the
+                                * same for any thread count), to look there */
     double mean;               /* area-weighted mean distance */
     double rms;                /* area-weighted root mean square distance */
     uint64_t samples;          /* points measured: vertices + edge + face points */

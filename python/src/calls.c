@@ -187,12 +187,13 @@ PyObject *eb_sample(PyObject *self, PyObject *args)
 
 static PyObject *side_dict(const epsnet_hausdorff_side *s, double diagonal)
 {
-    return Py_BuildValue("{s:d,s:d,s:d,s:d,s:d,s:d,s:K,s:d,s:d,s:K,s:d}", "max", s->max, "mean", s->mean, "rms",
-                         s->rms, "max_relative", diagonal > 0 ? s->max / diagonal : 0.0, "mean_relative",
+    return Py_BuildValue("{s:d,s:d,s:d,s:d,s:d,s:d,s:K,s:d,s:d,s:K,s:d,s:(ddd)}", "max", s->max, "mean", s->mean,
+                         "rms", s->rms, "max_relative", diagonal > 0 ? s->max / diagonal : 0.0, "mean_relative",
                          diagonal > 0 ? s->mean / diagonal : 0.0, "rms_relative",
                          diagonal > 0 ? s->rms / diagonal : 0.0, "samples", (unsigned long long)s->samples,
                          "normal_max_deg", s->normal_max, "normal_mean_deg", s->normal_mean, "normal_samples",
-                         (unsigned long long)s->normal_samples, "area", s->area);
+                         (unsigned long long)s->normal_samples, "area", s->area, "max_at", s->max_at[0],
+                         s->max_at[1], s->max_at[2]);
 }
 
 PyObject *eb_hausdorff(PyObject *self, PyObject *args)

@@ -149,10 +149,11 @@ static int write_side(en_sink *sink, const char *name, const epsnet_hausdorff_si
     return sink_printf(sink, err,
                        "  \"%s\": {\"max\": %.17g, \"mean\": %.17g, \"rms\": %.17g, "
                        "\"max_relative\": %s, \"mean_relative\": %s, \"rms_relative\": %s, "
-                       "\"samples\": %" PRIu64 ", \"area\": %.17g, "
+                       "\"max_at\": [%.17g, %.17g, %.17g], \"samples\": %" PRIu64 ", \"area\": %.17g, "
                        "\"normal_deviation_deg\": {\"max\": %.17g, \"mean\": %.17g, \"samples\": %" PRIu64
                        "}}%s\n",
-                       name, s->max, s->mean, s->rms, rmax, rmean, rrms, s->samples, s->area,
+                       name, s->max, s->mean, s->rms, rmax, rmean, rrms, s->max_at[0], s->max_at[1],
+                       s->max_at[2], s->samples, s->area,
                        s->normal_max, s->normal_mean, s->normal_samples, last ? "" : ",");
 }
 

@@ -243,6 +243,7 @@ static int plan_build(sample_plan *p, const en_hd_mesh *m, const uint32_t *order
 /* Sums of one chunk; combined in chunk order. */
 typedef struct side_sums {
     double max, sum_wd, sum_wd2, sum_w;
+    double max_at[3];    /* the first sample, in sampling order, at max */
     uint64_t count;
     double normal_max, sum_wn, sum_wn_w;
     uint64_t normal_count;
@@ -297,7 +298,10 @@ static void measure_point(chunk_state *cs, const double p[3], double weight, con
     double d = sqrt(hit.d2);
     side_sums *s = &cs->sums;
     s->count++;
-    s->max = d > s->max ? d : s->max;
+    if (d > s->max) {
+        s->max = d;
+        memcpy(s->max_at, p, sizeof s->max_at);
+    }
     s->sum_wd += weight * d;
     s->sum_wd2 += weight * d * d;
     s->sum_w += weight;
@@ -414,7 +418,12 @@ static void combine_chunks(const side_sums *partials, uint32_t n, const sample_p
     side_sums t = { 0 };
     for (uint32_t c = 0; c < n; c++) {
         const side_sums *s = &partials[c];
-        t.max = s->max > t.max ? s->max : t.max;
+        /* note: chunks in order and a strict >, so the place named is the
+         * same whatever the thread count */
+        if (s->max > t.max) {
+            t.max = s->max;
+            memcpy(t.max_at, s->max_at, sizeof t.max_at);
+        }
         t.sum_wd += s->sum_wd;
         t.sum_wd2 += s->sum_wd2;
         t.sum_w += s->sum_w;
@@ -426,6 +435,7 @@ static void combine_chunks(const side_sums *partials, uint32_t n, const sample_p
     }
     memset(side, 0, sizeof *side);
     side->max = t.max;
+    memcpy(side->max_at, t.max_at, sizeof side->max_at);
     side->mean = t.sum_w > 0 ? t.sum_wd / t.sum_w : 0;
     side->rms = t.sum_w > 0 ? sqrt(t.sum_wd2 / t.sum_w) : 0;
     side->samples = t.count;
