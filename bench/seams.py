@@ -3,7 +3,9 @@
 count as the same mesh without UVs, and as meshoptimizer 1.x's
 simplifyWithAttributes.
 
-The textured meshes are the shared scans and `epsnet gen` shapes (--gen),
+The textured meshes are `epsnet gen` shapes with the generator's own atlas
+(--gen-atlas: `gen --charts`, square charts of the shape's grid whose UVs
+follow the surface), and the shared scans and `epsnet gen` shapes (--gen),
 given a UV atlas here:
 faces are put in charts by the cell of a C x C x C grid over the bounding box
 their centroid falls in (connected pieces of surface, as an atlas's charts
@@ -24,7 +26,7 @@ that every output corner (position, vt, as float32) is an input corner, and
 that no face has corners of two charts (a seam smeared).
 
   python3 bench/seams.py [--epsnet BIN] [--data DIR] [--gen bumpy:200K] [--cells 4,8]
-                         [--ratios 0.05,0.25] [--out DIR]
+                         [--gen-atlas bumpy:200K:1000] [--ratios 0.05,0.25] [--out DIR]
 
 Python 3 standard library, node with bench/node_modules (npm install in
 bench/). See bench/README.md.
@@ -126,6 +128,33 @@ def corners_of(path):
     return {c for t in tris for c in t}, tris
 
 
+def charts_by_edges(path):
+    """Each corner's chart in a textured OBJ: faces joined across every edge
+    whose two ends have the same vt on both faces."""
+    _, tris = corners_of(path)
+    parent = list(range(len(tris)))
+
+    def find(x):
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    by_edge = {}
+    for i, t in enumerate(tris):
+        for k in range(3):
+            a, b = t[k], t[(k + 1) % 3]
+            by_edge.setdefault(frozenset((a[0], b[0])), []).append((i, {a[0]: a[1], b[0]: b[1]}))
+    for uses in by_edge.values():
+        if len(uses) == 2 and uses[0][1] == uses[1][1]:
+            parent[find(uses[0][0])] = find(uses[1][0])
+    chart = {}
+    for i, t in enumerate(tris):
+        for c in t:
+            chart[c] = find(i)
+    return len({find(i) for i in range(len(tris))}), chart
+
+
 def measure(epsnet, ref, out):
     j = os.path.join(os.path.dirname(out), "h.json")
     sh(epsnet, "hausdorff", ref, out, "--json", j)
@@ -142,6 +171,8 @@ def main():
     ap.add_argument("--cells", default="4,8")
     ap.add_argument("--ratios", default="0.05,0.25")
     ap.add_argument("--gen", default="bumpy:200K", help="generated meshes, SHAPE:FACES,... ('' for none)")
+    ap.add_argument("--gen-atlas", default="", help="generated meshes with gen --charts, SHAPE:FACES:CHARTS,...")
+    ap.add_argument("--scans", default="1", help="0: leave out the shared scans")
     ap.add_argument("--out", default=None)
     a = ap.parse_args()
     tmp = a.out or tempfile.mkdtemp(prefix="epsnet_seams_")
@@ -154,7 +185,17 @@ def main():
     rows, ratios = [], [float(x) for x in a.ratios.split(",")]
     print("| mesh | charts | ratio | target | tool | faces | Hausdorff | mean | vs plain (H, mean) |")
     print("|---|---|---|---|---|---|---|---|---|")
-    meshes = [(name, os.path.join(a.data, file)) for name, file in SCANS]
+    meshes = [(name, os.path.join(a.data, file)) for name, file in SCANS] if a.scans != "0" else []
+    own_atlas = {}
+    for spec in filter(None, a.gen_atlas.split(",")):
+        shape, faces, charts = spec.split(":")
+        name = "%s %s atlas" % (shape, faces)
+        src = os.path.join(tmp, "%s_%s_plain.ply" % (shape, faces))
+        uv = os.path.join(tmp, "%s_%s_k%s.obj" % (shape, faces, charts))
+        sh(a.epsnet, "gen", shape, "--faces", faces, "-o", src, "-q")
+        sh(a.epsnet, "gen", shape, "--faces", faces, "--charts", charts, "-o", uv, "-q")
+        own_atlas[name] = uv
+        meshes.append((name, src))
     for spec in filter(None, a.gen.split(",")):
         shape, faces = spec.split(":")
         src = os.path.join(tmp, "%s_%s.ply" % (shape, faces))
@@ -168,7 +209,10 @@ def main():
         sh(a.epsnet, "convert", src, "-o", plain, "-q", "--float32")
         nfaces = len(read_obj(plain)[2])
         atlases = []
-        for cells in (int(c) for c in a.cells.split(",")):
+        if name in own_atlas:
+            charts, chart = charts_by_edges(own_atlas[name])
+            atlases.append((own_atlas[name], charts, chart))
+        for cells in (int(c) for c in a.cells.split(",") if name not in own_atlas):
             uv = os.path.join(tmp, "%s_c%d.obj" % (name.replace(" ", "_"), cells))
             charts, _ = atlas(plain, uv, cells)
             # each input corner's chart: the faces it is on are all in one
