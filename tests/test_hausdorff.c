@@ -394,6 +394,28 @@ TEST(shifted_square_has_closed_form_errors)
     CHECK(near(r.hausdorff, shift, 1e-15));
 }
 
+/* A tent over the unit square: B's apex is the one point at the worst
+ * distance, and max_at names it. */
+TEST(the_worst_distance_is_found_where_it_is)
+{
+    const double h = 0.125;
+    hand_mesh a = { 0 }, b = { 0 };
+    hm_square(&a, 0, 0, 0);
+    uint32_t c[4] = { hm_vertex(&b, 0, 0, 0), hm_vertex(&b, 1, 0, 0), hm_vertex(&b, 1, 1, 0), hm_vertex(&b, 0, 1, 0) };
+    uint32_t apex = hm_vertex(&b, 0.5, 0.5, h);
+    for (int k = 0; k < 4; k++)
+        hm_face(&b, c[k], c[(k + 1) % 4], apex);
+    en_hd_mesh va = hm_view(&a), vb = hm_view(&b);
+    epsnet_hausdorff_settings s = dense(100);
+    epsnet_hausdorff_result r;
+    CHECK_EQ_INT(en_hausdorff(&va, &vb, &s, &r), 0);
+    CHECK(near(r.b_to_a.max, h, 1e-15));
+    CHECK(r.b_to_a.max_at[0] == 0.5 && r.b_to_a.max_at[1] == 0.5 && r.b_to_a.max_at[2] == h);
+    /* from A the worst is under the apex, on B's faces: within the square */
+    CHECK(r.a_to_b.max_at[2] == 0);
+    CHECK(r.a_to_b.max_at[0] >= 0 && r.a_to_b.max_at[0] <= 1 && r.a_to_b.max_at[1] >= 0 && r.a_to_b.max_at[1] <= 1);
+}
+
 /*
  * Concentric spheres: the generator's sphere (a convex polyhedron) and the
  * same scaled by 1.1. With R_in the smallest distance from the centre to a
@@ -726,6 +748,7 @@ int main(void)
     RUN(parallel_squares_are_d_apart_everywhere);
     RUN(parallel_squares_at_extreme_scales);
     RUN(shifted_square_has_closed_form_errors);
+    RUN(the_worst_distance_is_found_where_it_is);
     RUN(concentric_spheres_are_a_tenth_apart_up_to_faceting);
     RUN(tilted_plane_normal_deviation_is_the_tilt);
     RUN(collinear_triangle_in_b_is_its_segment);
