@@ -229,6 +229,13 @@ void en_reader_drop(epsnet_reader *r, const char *name, uint64_t n, int counted)
 
 /* ---- for library stages that read a user's file ---- */
 
+/* The records epsnet_reader_next() would give next, all those the driver
+ * has queued, without copying them: *recs points into the reader's queue
+ * (attr set), valid until the next call on r. @return 1 with *n > 0, 0 at
+ * the end, or a negative code with err filled (records before an error
+ * come first, as with epsnet_reader_next()). */
+int en_reader_next_batch(epsnet_reader *r, const epsnet_record **recs, size_t *n, epsnet_error *err);
+
 /* Let r's driver decode on pool's workers, if it can (en_format.use_pool);
  * the caller's thread stays the ring's owner and the records come in the
  * same order. Call with NULL before the pool is freed. @return 0 or

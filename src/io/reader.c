@@ -460,7 +460,9 @@ const epsnet_mesh_info *epsnet_reader_info(const epsnet_reader *r)
     return &r->info;
 }
 
-int epsnet_reader_next(epsnet_reader *r, epsnet_record *rec, epsnet_error *err)
+/* Refill the queue when it is empty. @return 1 with records queued, 0 at
+ * the end, or a negative code with err filled. */
+static int queue_ready(epsnet_reader *r, epsnet_error *err)
 {
     while (r->qpos == r->qlen) {
         if (r->failed) {
@@ -486,11 +488,34 @@ int epsnet_reader_next(epsnet_reader *r, epsnet_record *rec, epsnet_error *err)
         if (rc == 0)
             r->done = 1;
     }
+    return 1;
+}
+
+int epsnet_reader_next(epsnet_reader *r, epsnet_record *rec, epsnet_error *err)
+{
+    int rc = queue_ready(r, err);
+    if (rc <= 0)
+        return rc;
     *rec = r->queue[r->qpos];
     rec->attr = NULL;
     if (rec->kind == EPSNET_REC_VERTEX && r->info.vertex_attrs.size)
         rec->attr = r->qattr + r->qpos * (size_t)r->info.vertex_attrs.size;
     r->qpos++;
+    return 1;
+}
+
+int en_reader_next_batch(epsnet_reader *r, const epsnet_record **recs, size_t *n, epsnet_error *err)
+{
+    *n = 0;
+    int rc = queue_ready(r, err);
+    if (rc <= 0)
+        return rc;
+    size_t asz = r->info.vertex_attrs.size;
+    for (size_t i = r->qpos; i < r->qlen; i++)
+        r->queue[i].attr = asz && r->queue[i].kind == EPSNET_REC_VERTEX ? r->qattr + i * asz : NULL;
+    *recs = r->queue + r->qpos;
+    *n = r->qlen - r->qpos;
+    r->qpos = r->qlen;
     return 1;
 }
 

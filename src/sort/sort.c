@@ -724,46 +724,52 @@ static int pass_read(sort_job *j, epsnet_error *err)
     }
     size_t nb = 0, nf = 0;
     uint64_t n = 0;
-    epsnet_record rec;
-    while ((rc = epsnet_reader_next(j->r, &rec, err)) > 0) {
-        if ((++n & PROGRESS_EVERY) == 0 &&
-            (rc = progress(j, epsnet_reader_bytes_read(j->r), epsnet_reader_file_size(j->r), err)))
-            return rc;
-        if (rec.kind == EPSNET_REC_VERTEX) {
-            for (int k = 0; k < 3; k++) {
-                if (rec.xyz[k] < j->lo[k])
-                    j->lo[k] = rec.xyz[k];
-                if (rec.xyz[k] > j->hi[k])
-                    j->hi[k] = rec.xyz[k];
-            }
-            j->st.vertices++;
-            if (j->whole) {
-                if ((rc = whole_vertex(j, rec.xyz, rec.attr, err)) < 0)
-                    return rc;
-                if (rc == 0)
-                    continue;
-                nb = 0; /* no longer whole: the vertex goes to the spill */
-            }
-            vrec_put(j, nb, rec.xyz, rec.attr);
-            if (++nb == BATCH) {
-                if ((rc = en_spill_write(j->vraw, j->vbuf, nb * j->vrec, err)))
-                    return rc;
-                nb = 0;
-            }
-        } else if (rec.kind == EPSNET_REC_TRIANGLE) {
-            j->st.faces++;
-            if (j->whole) {
-                if ((rc = whole_face(j, rec.v, err)) < 0)
-                    return rc;
-                if (rc == 0)
-                    continue;
-                nf = 0;
-            }
-            memcpy(j->fbuf + 3 * nf, rec.v, sizeof rec.v);
-            if (++nf == BATCH) {
-                if ((rc = en_spill_write(j->fraw, j->fbuf, nf * 3 * sizeof *j->fbuf, err)))
-                    return rc;
-                nf = 0;
+    const epsnet_record *batch;
+    size_t count;
+    /* note: straight from the reader's queue, not copied out record by
+     * record (docs/architecture.md §15) */
+    while ((rc = en_reader_next_batch(j->r, &batch, &count, err)) > 0) {
+        for (size_t b = 0; b < count; b++) {
+            const epsnet_record *rec = &batch[b];
+            if ((++n & PROGRESS_EVERY) == 0 &&
+                (rc = progress(j, epsnet_reader_bytes_read(j->r), epsnet_reader_file_size(j->r), err)))
+                return rc;
+            if (rec->kind == EPSNET_REC_VERTEX) {
+                for (int k = 0; k < 3; k++) {
+                    if (rec->xyz[k] < j->lo[k])
+                        j->lo[k] = rec->xyz[k];
+                    if (rec->xyz[k] > j->hi[k])
+                        j->hi[k] = rec->xyz[k];
+                }
+                j->st.vertices++;
+                if (j->whole) {
+                    if ((rc = whole_vertex(j, rec->xyz, rec->attr, err)) < 0)
+                        return rc;
+                    if (rc == 0)
+                        continue;
+                    nb = 0; /* no longer whole: the vertex goes to the spill */
+                }
+                vrec_put(j, nb, rec->xyz, rec->attr);
+                if (++nb == BATCH) {
+                    if ((rc = en_spill_write(j->vraw, j->vbuf, nb * j->vrec, err)))
+                        return rc;
+                    nb = 0;
+                }
+            } else if (rec->kind == EPSNET_REC_TRIANGLE) {
+                j->st.faces++;
+                if (j->whole) {
+                    if ((rc = whole_face(j, rec->v, err)) < 0)
+                        return rc;
+                    if (rc == 0)
+                        continue;
+                    nf = 0;
+                }
+                memcpy(j->fbuf + 3 * nf, rec->v, sizeof rec->v);
+                if (++nf == BATCH) {
+                    if ((rc = en_spill_write(j->fraw, j->fbuf, nf * 3 * sizeof *j->fbuf, err)))
+                        return rc;
+                    nf = 0;
+                }
             }
         }
     }
