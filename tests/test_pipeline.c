@@ -13,6 +13,7 @@
 #include "api/run.h"
 #include "common/pool.h"
 #include "io/format.h"
+#include "pipeline/chunker.h"
 #include "sample_util.h"
 
 static uint64_t *sorted_sample_gids(const char *shape, uint64_t faces, uint64_t *n)
@@ -1122,9 +1123,97 @@ TEST(the_progress_bar_moves_through_a_target_stages_rounds)
     }
 }
 
+/* A seam pair's copies go to one slab: a copy finalized while its twin is
+ * live waits, and waiting neither makes a slab of ghosts nor cuts more
+ * often (chunker.h, live_at). Copy 0 is done with at once, copy 1 only at
+ * the end of a long strip. */
+static int chunk_put(en_chunker *c, const epsnet_record *r, uint32_t *slabs, int *empty, int64_t owner[2])
+{
+    en_slab_work *w = NULL;
+    epsnet_error err;
+    int rc = en_chunker_put(c, r, &w, &err);
+    if (rc == 0 && w) {
+        (*slabs)++;
+        *empty |= w->nowned == 0;
+        for (uint32_t l = 0; l < w->nowned; l++)
+            if (w->s.gid[l] < 2)
+                owner[w->s.gid[l]] = w->index;
+        en_slab_work_free(w);
+        en_free(w);
+    }
+    return rc;
+}
+
+static void copies_wait_for_one_slab(uint32_t slab)
+{
+    enum { STRIP = 200 };
+    en_chunker c;
+    CHECK_EQ_INT(en_chunker_init(&c, slab, "test"), 0);
+    c.attr_size = 4;
+    uint32_t slabs = 0;
+    int empty = 0;
+    int64_t owner[2] = { -1, -2 };
+    uint8_t attr[4] = { 0 };
+    epsnet_record r;
+    memset(&r, 0, sizeof r);
+    r.kind = EPSNET_REC_VERTEX;
+    r.attr = attr;
+    /* gid 0 and 1: the copies, at one position; gid 2 .. STRIP + 1: a strip */
+    for (uint64_t g = 0; g < STRIP + 2; g++) {
+        attr[0] = (uint8_t)g;
+        r.xyz[0] = g < 2 ? 0.5 : (double)g;
+        r.xyz[1] = g < 2 ? 0.0 : (double)(g & 1);
+        CHECK_EQ_INT(chunk_put(&c, &r, &slabs, &empty, owner), 0);
+    }
+    epsnet_record t = { .kind = EPSNET_REC_TRIANGLE, .v = { 0, 2, 3 } };
+    CHECK_EQ_INT(chunk_put(&c, &t, &slabs, &empty, owner), 0);
+    epsnet_record f = { .kind = EPSNET_REC_FINALIZE, .v = { 0 } };
+    CHECK_EQ_INT(chunk_put(&c, &f, &slabs, &empty, owner), 0);
+    for (uint64_t k = 2; k + 2 < STRIP + 2; k++) {
+        t.v[0] = k, t.v[1] = k + 1, t.v[2] = k + 2;
+        CHECK_EQ_INT(chunk_put(&c, &t, &slabs, &empty, owner), 0);
+        f.v[0] = k;
+        CHECK_EQ_INT(chunk_put(&c, &f, &slabs, &empty, owner), 0);
+    }
+    t.v[0] = 1, t.v[1] = STRIP, t.v[2] = STRIP + 1;
+    CHECK_EQ_INT(chunk_put(&c, &t, &slabs, &empty, owner), 0);
+    uint64_t last[3] = { 1, STRIP, STRIP + 1 };
+    for (int k = 0; k < 3; k++) {
+        f.v[0] = last[k];
+        CHECK_EQ_INT(chunk_put(&c, &f, &slabs, &empty, owner), 0);
+    }
+    en_slab_work *w = NULL;
+    epsnet_error err;
+    do {
+        CHECK_EQ_INT(en_chunker_finish(&c, &w, &err), 0);
+        if (w) {
+            slabs++;
+            empty |= w->nowned == 0;
+            for (uint32_t l = 0; l < w->nowned; l++)
+                if (w->s.gid[l] < 2)
+                    owner[w->s.gid[l]] = w->index;
+            en_slab_work_free(w);
+            en_free(w);
+        }
+    } while (w);
+    CHECK(owner[0] >= 0);
+    CHECK_EQ_INT((int)owner[0], (int)owner[1]); /* one slab holds both copies */
+    CHECK(!empty);
+    CHECK(slabs <= (STRIP + 2 + slab - 1) / slab + 1);
+    CHECK(c.deferred > 0);
+    en_chunker_free(&c);
+}
+
+TEST(a_seam_pairs_copies_wait_for_one_slab)
+{
+    copies_wait_for_one_slab(8);
+    copies_wait_for_one_slab(1); /* every cut would otherwise find the copy alone */
+}
+
 int main(void)
 {
     RUN(samples_equal_one_slab_for_any_slab_size);
+    RUN(a_seam_pairs_copies_wait_for_one_slab);
     RUN(same_bytes_for_threads_1_2_3_8);
     RUN(seam_jobs_give_the_same_bytes_for_any_thread_count);
     RUN(damaged_smz_fails_alike_for_any_thread_count);

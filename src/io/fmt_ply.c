@@ -520,7 +520,6 @@ static int header_format(epsnet_reader *r, ply_reader *p, char *rest, int *seen)
     return 0;
 }
 
-/* Checks that need the whole header, then what the body walk precomputes. */
 /* The face element's integer scalars become labels its corners carry
  * (material_index, MeshLab's texnumber, a part or segment id, a face
  * colour). Floating-point face properties (normals, quality) stay dropped
@@ -548,6 +547,7 @@ static int face_labels(epsnet_reader *r, ply_reader *p, ply_element *face)
     return 0;
 }
 
+/* Checks that need the whole header, then what the body walk precomputes. */
 static int header_finish(epsnet_reader *r, ply_reader *p)
 {
     ply_element *vertex = NULL, *faces[2] = { NULL, NULL };

@@ -10,6 +10,7 @@ int en_chunker_init(en_chunker *c, uint32_t slab_vertices, const char *path)
 {
     memset(c, 0, sizeof *c);
     c->slab_vertices = slab_vertices ? slab_vertices : 1;
+    c->cut_at = c->slab_vertices;
     c->path = path;
     c->mark_at = UINT32_MAX;
     c->mark_level = 0xff;
@@ -225,9 +226,50 @@ static int add_local(en_chunker *c, en_slab_work *w, uint32_t i, uint8_t flags)
     return 0;
 }
 
+/* Leave in c->fin the vertices a cut may take, and in c->waiting (returned
+ * count) those whose position still has a live copy (live_at); the end
+ * takes every vertex. @return the count waiting, or -1 (out of memory). */
+static int64_t hold_back_copies(en_chunker *c)
+{
+    if (!c->attr_size || c->ended)
+        return 0;
+    if (en_grow((void **)&c->waiting, &c->waiting_cap, c->nfin, sizeof *c->waiting))
+        return -1;
+    size_t waiting = 0, taken = 0;
+    for (size_t j = 0; j < c->nfin; j++) {
+        uint32_t i = c->fin[j], n;
+        if (en_u64map_get(&c->live_at, position_key(c->v[i].xyz), &n))
+            c->waiting[waiting++] = i;
+        else
+            c->fin[taken++] = i;
+    }
+    c->nfin = taken;
+    return (int64_t)waiting;
+}
+
+/* After a cut (or none, when every vertex waited): the waiting go first
+ * into the next slab, which is due slab_vertices finalizations later, so
+ * that waiting never makes cuts more frequent. */
+static void restore_waiting(en_chunker *c, size_t waiting)
+{
+    memcpy(c->fin + c->nfin, c->waiting, waiting * sizeof *c->fin);
+    c->nfin += waiting;
+    c->cut_at = c->nfin + c->slab_vertices;
+}
+
 /* Cut the finalized vertices in c->fin into slab c->next_slab. */
 static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
 {
+    *out = NULL;
+    int64_t held = hold_back_copies(c);
+    if (held < 0)
+        return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    size_t waiting = (size_t)held;
+    c->deferred += waiting;
+    if (c->nfin == 0 && waiting) {
+        restore_waiting(c, waiting); /* no slab of nothing but ghosts */
+        return 0;
+    }
     en_slab_work *w;
     if (c->nspare || (w = en_ctxpool_take(c->stash)) != NULL) {
         if (c->nspare)
@@ -242,31 +284,12 @@ static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
     uint32_t k = c->next_slab;
     w->index = k;
     w->last = c->ended;
-    /* A vertex whose position still has a live copy waits (live_at); the
-     * end takes every vertex. */
-    size_t waiting = 0;
-    int rc = 0;
-    if (c->attr_size && !c->ended) {
-        rc = en_grow((void **)&c->waiting, &c->waiting_cap, c->nfin, sizeof *c->waiting);
-        size_t taken = 0;
-        for (size_t j = 0; j < c->nfin && rc == 0; j++) {
-            uint32_t i = c->fin[j], n;
-            if (en_u64map_get(&c->live_at, position_key(c->v[i].xyz), &n))
-                c->waiting[waiting++] = i;
-            else
-                c->fin[taken++] = i;
-        }
-        if (rc == 0)
-            c->nfin = taken;
-    }
-    c->deferred += waiting;
     w->nowned = (uint32_t)c->nfin;
     w->live_vertices = c->map.count;
     w->live_faces = c->nfaces;
     if (w->live_vertices + w->live_faces > c->max_active)
         c->max_active = w->live_vertices + w->live_faces;
-    if (rc == 0)
-        rc = sort_fin_by_gid(c);
+    int rc = sort_fin_by_gid(c);
     for (size_t j = 0; j < c->nfin && rc == 0; j++) {
         c->v[c->fin[j]].owner = k;
         rc = add_local(c, w, c->fin[j], EN_V_OWNED);
@@ -321,10 +344,7 @@ static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
         if (w->owner[l] >= 0 && c->v[c->pool_of[l]].nref == 0)
             rc = free_vertex(c, c->pool_of[l]);
     c->nfin = 0;
-    if (rc == 0 && waiting) {
-        memcpy(c->fin, c->waiting, waiting * sizeof *c->fin);
-        c->nfin = waiting;
-    }
+    restore_waiting(c, waiting);
     if (rc) {
         en_slab_work_free(w);
         en_free(w);
@@ -380,7 +400,7 @@ int en_chunker_put(en_chunker *c, const epsnet_record *rec, en_slab_work **out, 
         c->fin[c->nfin++] = i;
         if (c->attr_size && count_live_at(c, c->v[i].xyz, -1))
             return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
-        if (c->nfin >= c->slab_vertices)
+        if (c->nfin >= c->cut_at)
             return cut(c, out, err);
         return 0;
     }

@@ -81,6 +81,7 @@ typedef struct en_chunker {
     en_u64map live_at;
     uint32_t *waiting;         /* scratch of a cut: the vertices that wait */
     size_t waiting_cap;
+    size_t cut_at;             /* cut when nfin reaches it: slab_vertices more than waited */
     uint64_t deferred;         /* finalized vertices a cut left for the next one */
 } en_chunker;
 
