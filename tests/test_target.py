@@ -173,8 +173,14 @@ def a_round_never_passes_the_target():
                 s = json.load(f)
             want, t = s["target"]["faces"], s["target"]
             assert t["rounds"] >= 1, t
-            # forced, every round runs twice more, the last time with its floor
-            assert t["round_retries"] == (2 * t["rounds"] if forced else 0), t
+            # forced, every round runs twice more, the last time with its floor;
+            # unforced, the scaled ceiling may still pass the target once in a
+            # round (its histogram misses W's unpriced vertices, architecture
+            # §15), and that round runs once more
+            if forced:
+                assert t["round_retries"] == 2 * t["rounds"], t
+            else:
+                assert t["round_retries"] <= t["rounds"], t
             assert want - 1 <= s["output_faces"] <= want, (forced, j, s["output_faces"], want)
             outs.append(open(out, "rb").read())
         assert outs[0] == outs[1], f"forced {forced}: -j1 and -j2 differ"

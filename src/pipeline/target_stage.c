@@ -393,7 +393,7 @@ static int run_chain(en_target_stage *ts, const en_pass_plan *t, kept *from, kep
 void en_target_stage_plan_thin(const en_target_size *size, uint64_t nv, uint64_t nf, uint64_t one_slab_bytes,
                                en_pass_plan *thin)
 {
-    double keep = 1.5 * size->share + 0.01;
+    double keep = EN_TARGET_THIN_KEEP * size->share + 0.01;
     keep = keep < 1 ? keep : 1;
     *thin = (en_pass_plan){
         .skeleton = size->choose_density ? EN_SKELETON_CHOSEN : EN_SKELETON_SPHERE,

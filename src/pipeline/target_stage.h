@@ -65,6 +65,17 @@ typedef struct en_target_size {
  * the old list, 32 without the cap): bench/RESULTS.md, session 12. */
 #define EN_TARGET_FINEST_FREQUENCY 16
 
+/* What a streamed thinning keeps of each slab's faces: this many times the
+ * target's share (plus 1%). Each slab stops at its own count, whatever its
+ * costs, so a slab harder than its neighbours (rougher, or cut by seams)
+ * goes deeper than the global order would: at 1.5, `gen bumpy` 200K at 25%
+ * through slabs of 8,192 had twice the one-slab Hausdorff (five times with
+ * a UV atlas); at 2 both are within 1.05, the shared scans' streamed order
+ * went from 1.070 to 1.048 of the one-slab Hausdorff (geometric mean), and
+ * `gen bumpy` 20M at 10% took 1.07 times the wall time (bench/RESULTS.md,
+ * session 16). */
+#define EN_TARGET_THIN_KEEP 2.0
+
 /* The thinning pass's plan, the chain pass before the stage, on an input
  * of nv vertices and nf faces; one_slab_bytes: what one slab may hold
  * (budget.h). */
