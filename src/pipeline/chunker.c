@@ -252,7 +252,8 @@ static int64_t hold_back_copies(en_chunker *c)
  * that waiting never makes cuts more frequent. */
 static void restore_waiting(en_chunker *c, size_t waiting)
 {
-    memcpy(c->fin + c->nfin, c->waiting, waiting * sizeof *c->fin);
+    if (waiting) /* c->waiting may never have been allocated */
+        memcpy(c->fin + c->nfin, c->waiting, waiting * sizeof *c->fin);
     c->nfin += waiting;
     c->cut_at = c->nfin + c->slab_vertices;
 }
