@@ -16,11 +16,6 @@
 
 #include "gen/gen_internal.h"
 
-static int is_pole_row(const en_gen_grid *g, uint64_t row)
-{
-    return (g->pole_first && row == 0) || (g->pole_last && row == g->nrows - 1);
-}
-
 void en_gen_atlas_init(en_gen_grid *g, uint64_t charts)
 {
     g->chart_rows = g->chart_cols = 0;
@@ -59,7 +54,7 @@ void en_gen_atlas_init(en_gen_grid *g, uint64_t charts)
  * different chart rows. */
 static int row_seam(const en_gen_grid *g, uint64_t r)
 {
-    if (is_pole_row(g, r))
+    if (en_gen_is_pole(g, r))
         return 0;
     if (r == 0)
         return g->wrap_rows && g->ncharts_r > 1;
@@ -78,7 +73,7 @@ uint64_t en_gen_copies(const en_gen_grid *g, en_gen_vtx v)
 {
     if (!g->chart_rows)
         return 1;
-    if (is_pole_row(g, v.row))
+    if (en_gen_is_pole(g, v.row))
         return g->ncharts_c;
     return (uint64_t)(1 + row_seam(g, v.row)) * (uint64_t)(1 + col_seam(g, v.col));
 }
@@ -87,7 +82,7 @@ uint64_t en_gen_row_records(const en_gen_grid *g, uint64_t row)
 {
     if (!g->chart_rows)
         return en_gen_row_size(g, row);
-    if (is_pole_row(g, row))
+    if (en_gen_is_pole(g, row))
         return g->ncharts_c;
     uint64_t col_seams = (uint64_t)col_seam(g, 0) + (en_gen_strip_quads(g, 0) - 1) / g->chart_cols;
     return (uint64_t)(1 + row_seam(g, row)) * (g->ncols + col_seams);
@@ -97,7 +92,7 @@ uint64_t en_gen_col_offset(const en_gen_grid *g, en_gen_vtx v)
 {
     if (!g->chart_rows)
         return v.col;
-    if (is_pole_row(g, v.row) || v.col == 0)
+    if (en_gen_is_pole(g, v.row) || v.col == 0)
         return 0;
     uint64_t seams_before = (uint64_t)col_seam(g, 0) + (v.col - 1) / g->chart_cols;
     return (uint64_t)(1 + row_seam(g, v.row)) * (v.col + seams_before);
@@ -107,7 +102,7 @@ uint64_t en_gen_copy_of(const en_gen_grid *g, en_gen_vtx v, uint64_t strip, uint
 {
     if (!g->chart_rows)
         return 0;
-    if (is_pole_row(g, v.row))
+    if (en_gen_is_pole(g, v.row))
         return q / g->chart_cols;
     int cs = col_seam(g, v.col);
     uint64_t rowbit = row_seam(g, v.row) && strip == v.row;
@@ -120,7 +115,7 @@ void en_gen_copy_uv(const en_gen_grid *g, en_gen_vtx v, uint64_t copy, float uv[
     uint64_t strips = en_gen_nstrips(g), quads = en_gen_strip_quads(g, 0);
     uint64_t s, q;
     double ru, cu;   /* the vertex's row and column, unwrapped into the face's chart */
-    if (is_pole_row(g, v.row)) {
+    if (en_gen_is_pole(g, v.row)) {
         s = v.row == 0 ? 0 : strips - 1;
         uint64_t cc = copy, width = quads - cc * g->chart_cols;
         if (width > g->chart_cols)

@@ -11,14 +11,14 @@
  */
 #include "gen/gen_internal.h"
 
-static int is_pole(const en_gen_grid *g, uint64_t row)
+int en_gen_is_pole(const en_gen_grid *g, uint64_t row)
 {
     return (g->pole_first && row == 0) || (g->pole_last && row == g->nrows - 1);
 }
 
 uint64_t en_gen_row_size(const en_gen_grid *g, uint64_t row)
 {
-    return is_pole(g, row) ? 1 : g->ncols;
+    return en_gen_is_pole(g, row) ? 1 : g->ncols;
 }
 
 uint64_t en_gen_nstrips(const en_gen_grid *g)
@@ -43,7 +43,7 @@ static uint64_t strip_faces(const en_gen_grid *g, uint64_t strip)
     uint64_t a, b;
     en_gen_strip_rows(g, strip, &a, &b);
     uint64_t quads = en_gen_strip_quads(g, strip);
-    return is_pole(g, a) || is_pole(g, b) ? quads : 2 * quads;
+    return en_gen_is_pole(g, a) || en_gen_is_pole(g, b) ? quads : 2 * quads;
 }
 
 int en_gen_quad_diag(const en_gen_grid *g, uint64_t strip, uint64_t q, const float *a0,
@@ -62,7 +62,7 @@ int en_gen_quad_tris(const en_gen_grid *g, uint64_t strip, uint64_t q, int diag,
     uint64_t a, b;
     en_gen_strip_rows(g, strip, &a, &b);
     uint64_t q1 = q + 1 == g->ncols ? 0 : q + 1;
-    int pa = is_pole(g, a), pb = is_pole(g, b);
+    int pa = en_gen_is_pole(g, a), pb = en_gen_is_pole(g, b);
     en_gen_vtx a0 = {a, pa ? 0 : q}, a1 = {a, pa ? 0 : q1};
     en_gen_vtx b0 = {b, pb ? 0 : q}, b1 = {b, pb ? 0 : q1};
     if (pa) {

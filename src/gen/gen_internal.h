@@ -140,6 +140,8 @@ typedef struct en_gen_vtx {
     uint64_t row, col;
 } en_gen_vtx;
 
+/* Row is a single pole vertex. */
+int en_gen_is_pole(const en_gen_grid *g, uint64_t row);
 uint64_t en_gen_row_size(const en_gen_grid *g, uint64_t row);
 uint64_t en_gen_nstrips(const en_gen_grid *g);
 /* Rows joined by strip k: lower (a) and upper (b) in adjacency order. */
