@@ -198,27 +198,17 @@ static int next_statement(epsnet_reader *r, obj_reader *st, char **stmt)
  * within the reader's memory budget (they live until the end of the file). */
 static int table_grow(epsnet_reader *r, obj_reader *st, void **buf, size_t *cap, size_t need, size_t elem)
 {
-    if (need <= *cap)
-        return 0;
-    size_t ncap = *cap ? *cap : 1024;
-    while (ncap < need)
-        ncap *= 2;
-    if (need > OBJ_TABLE_MAX || ncap > SIZE_MAX / elem)
+    if (need > OBJ_TABLE_MAX)
         return en_reader_fail(r, EPSNET_ELIMIT, "more than %zu v, vt, vn or corner vertices", OBJ_TABLE_MAX);
-    size_t bytes = st->bytes - *cap * elem + ncap * elem;
-    if (r->settings.mem_limit && bytes > r->settings.mem_limit)
+    size_t bytes = 0;
+    int rc = en_reader_grow_held(r, &st->bytes, buf, cap, need, elem, &bytes);
+    if (rc == EPSNET_ELIMIT)
         return en_reader_fail(r, EPSNET_ELIMIT,
                               "an OBJ with vt/vn is held in memory until its faces are read: %zu v, %zu vt, "
                               "%zu vn and %zu corner vertices need %zu bytes, over the memory budget of %llu bytes",
                               st->npos, st->nvt, st->nvn, st->nrec, bytes,
                               (unsigned long long)r->settings.mem_limit);
-    void *p = en_realloc(*buf, ncap * elem);
-    if (!p)
-        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
-    *buf = p;
-    *cap = ncap;
-    st->bytes = bytes;
-    return 0;
+    return rc;
 }
 
 /* A position of a file whose records are corners: kept until faces name it. */

@@ -245,10 +245,10 @@ struct ply_reader {
     uint32_t *first;             /* per held vertex: its newest record + 1; 0: none */
     uint32_t *next;              /* per record: the older record of its vertex + 1 */
     uint8_t *rec_label;          /* per record: its lsize label bytes */
-    uint64_t xyz_cap, attr_cap, first_cap, next_cap, label_cap;
+    size_t xyz_cap, attr_cap, first_cap, next_cap, label_cap;
     uint64_t *corners;           /* the face being read: its vertex indices */
     size_t ncorners, corners_cap;
-    uint64_t held_bytes;         /* of the tables above, held to settings.mem_limit */
+    size_t held_bytes;           /* of the tables above, held to settings.mem_limit */
     uint8_t out[EPSNET_ATTR_MAX * 8]; /* a record's packed bytes */
 };
 
@@ -743,30 +743,16 @@ static inline int fan_corner(epsnet_reader *r, ply_fan *f, uint64_t v)
 
 /* Grow a held table to need elements, keeping all of them within the
  * reader's memory budget (they live until the end of the file). */
-static int held_grow(epsnet_reader *r, ply_reader *p, void **buf, uint64_t *cap, uint64_t need,
-                     size_t elem)
+static int held_grow(epsnet_reader *r, ply_reader *p, void **buf, size_t *cap, size_t need, size_t elem)
 {
-    if (need <= *cap)
-        return 0;
-    uint64_t ncap = *cap ? *cap : 1024;
-    while (ncap < need)
-        ncap *= 2;
-    uint64_t bytes = p->held_bytes - *cap * elem + ncap * elem;
-    if (r->settings.mem_limit && bytes > r->settings.mem_limit)
+    size_t bytes = 0;
+    int rc = en_reader_grow_held(r, &p->held_bytes, buf, cap, need, elem, &bytes);
+    if (rc == EPSNET_ELIMIT)
         return en_reader_fail(r, EPSNET_ELIMIT,
                               "a PLY with face properties is held in memory until its faces are read: %" PRIu64
-                              " vertices and %" PRIu64 " corner records need %" PRIu64
-                              " bytes, over the memory budget of %" PRIu64 " bytes",
-                              p->nheld, r->nverts, bytes, r->settings.mem_limit);
-    if (ncap > SIZE_MAX / (elem ? elem : 1))
-        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
-    void *q = en_realloc(*buf, (size_t)(ncap * elem));
-    if (!q)
-        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
-    *buf = q;
-    *cap = ncap;
-    p->held_bytes = bytes;
-    return 0;
+                              " vertices and %" PRIu64 " corner records need %zu bytes, over the memory budget of %"
+                              PRIu64 " bytes", p->nheld, r->nverts, bytes, r->settings.mem_limit);
+    return rc;
 }
 
 /* A vertex of the file, held until the faces name it. */
@@ -790,14 +776,8 @@ static int hold_vertex(epsnet_reader *r, ply_reader *p, const double xyz[3], con
 
 static int collect_corner(epsnet_reader *r, ply_reader *p, uint64_t v)
 {
-    if (p->ncorners == p->corners_cap) {
-        size_t ncap = p->corners_cap ? 2 * p->corners_cap : 16;
-        uint64_t *q = en_realloc(p->corners, ncap * sizeof *q);
-        if (!q)
-            return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
-        p->corners = q;
-        p->corners_cap = ncap;
-    }
+    if (en_grow((void **)&p->corners, &p->corners_cap, p->ncorners + 1, sizeof *p->corners))
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
     p->corners[p->ncorners++] = v;
     return 0;
 }

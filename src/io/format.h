@@ -187,6 +187,14 @@ int en_reader_fail_at(epsnet_reader *r, int code, uint64_t offset, const char *f
  * attr (file_attrs.size packed bytes); NULL gives zeros. */
 int en_reader_push_vertex(epsnet_reader *r, double x, double y, double z);
 int en_reader_push_vertex_attr(epsnet_reader *r, double x, double y, double z, const uint8_t *attr);
+/* Grow a table the driver holds to the end of its file (an OBJ's corner
+ * tables, a PLY's vertex block) to need elements of elem bytes, doubling
+ * from 1024, keeping *held (the bytes of all such tables) within
+ * settings.mem_limit. @return 0; EPSNET_ELIMIT with *over the bytes the
+ * tables would take and nothing reported (the driver says what it holds,
+ * with en_reader_fail); or a failure (EPSNET_ENOMEM) reported. */
+int en_reader_grow_held(epsnet_reader *r, size_t *held, void **buf, size_t *cap, size_t need, size_t elem,
+                        size_t *over);
 /* Declare the file's next vertex attribute (open_reader only). @return 1
  * when it is carried, 0 when it is not (past EPSNET_ATTR_MAX: then it is
  * named as dropped, "vertex property NAME"), or a negative code for a name

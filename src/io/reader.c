@@ -272,6 +272,30 @@ static int check_corner(epsnet_reader *r, uint64_t v)
     return 0;
 }
 
+int en_reader_grow_held(epsnet_reader *r, size_t *held, void **buf, size_t *cap, size_t need, size_t elem,
+                        size_t *over)
+{
+    if (need <= *cap)
+        return 0;
+    size_t ncap = *cap ? *cap : 1024;
+    while (ncap < need && ncap <= SIZE_MAX / 2)
+        ncap *= 2;
+    if (ncap < need || (elem && ncap > SIZE_MAX / elem))
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    size_t bytes = *held - *cap * elem + ncap * elem;
+    if (r->settings.mem_limit && bytes > r->settings.mem_limit) {
+        *over = bytes;
+        return EPSNET_ELIMIT;
+    }
+    void *p = en_realloc(*buf, ncap * elem);
+    if (!p)
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    *buf = p;
+    *cap = ncap;
+    *held = bytes;
+    return 0;
+}
+
 int en_reader_push_triangle(epsnet_reader *r, uint64_t a, uint64_t b, uint64_t c)
 {
     int rc;
