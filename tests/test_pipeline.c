@@ -1127,20 +1127,25 @@ TEST(the_progress_bar_moves_through_a_target_stages_rounds)
  * live waits, and waiting neither makes a slab of ghosts nor cuts more
  * often (chunker.h, live_at). Copy 0 is done with at once, copy 1 only at
  * the end of a long strip. */
+/* Count a cut slab, note which slab owns each copy, and free it. */
+static void tally(en_slab_work *w, uint32_t *slabs, int *empty, int64_t owner[2])
+{
+    (*slabs)++;
+    *empty |= w->nowned == 0;
+    for (uint32_t l = 0; l < w->nowned; l++)
+        if (w->s.gid[l] < 2)
+            owner[w->s.gid[l]] = w->index;
+    en_slab_work_free(w);
+    en_free(w);
+}
+
 static int chunk_put(en_chunker *c, const epsnet_record *r, uint32_t *slabs, int *empty, int64_t owner[2])
 {
     en_slab_work *w = NULL;
     epsnet_error err;
     int rc = en_chunker_put(c, r, &w, &err);
-    if (rc == 0 && w) {
-        (*slabs)++;
-        *empty |= w->nowned == 0;
-        for (uint32_t l = 0; l < w->nowned; l++)
-            if (w->s.gid[l] < 2)
-                owner[w->s.gid[l]] = w->index;
-        en_slab_work_free(w);
-        en_free(w);
-    }
+    if (rc == 0 && w)
+        tally(w, slabs, empty, owner);
     return rc;
 }
 
@@ -1184,18 +1189,12 @@ static void copies_wait_for_one_slab(uint32_t slab)
     }
     en_slab_work *w = NULL;
     epsnet_error err;
-    do {
+    for (;;) {
         CHECK_EQ_INT(en_chunker_finish(&c, &w, &err), 0);
-        if (w) {
-            slabs++;
-            empty |= w->nowned == 0;
-            for (uint32_t l = 0; l < w->nowned; l++)
-                if (w->s.gid[l] < 2)
-                    owner[w->s.gid[l]] = w->index;
-            en_slab_work_free(w);
-            en_free(w);
-        }
-    } while (w);
+        if (!w)
+            break;
+        tally(w, &slabs, &empty, owner); /* frees w */
+    }
     CHECK(owner[0] >= 0);
     CHECK_EQ_INT((int)owner[0], (int)owner[1]); /* one slab holds both copies */
     CHECK(!empty);
