@@ -48,9 +48,10 @@ def f32(text):
     return struct.pack("<f", float(text))
 
 
-def read_ascii_ply(p):
-    """An ASCII PLY: the vertex properties as (name, type), each vertex as a
-    dict of its values as written (text), and the faces as index lists."""
+def read_ascii_ply_faced(p):
+    """An ASCII PLY: the vertex and the face properties as (name, type), each
+    vertex and each face's values as a dict of its values as written (text),
+    and the faces as index lists."""
     with open(p) as f:
         lines = f.read().split("\n")
     i, props, counts, order = 0, {}, {}, []
@@ -64,7 +65,7 @@ def read_ascii_ply(p):
             props[order[-1]].append((w[2], w[1]))
         i += 1
     i += 1
-    verts, faces = [], []
+    verts, faces, values = [], [], []
     for el in order:
         for _ in range(counts[el]):
             w = lines[i].split()
@@ -72,8 +73,17 @@ def read_ascii_ply(p):
             if el == "vertex":
                 verts.append(dict(zip([n for n, _ in props[el]], w)))
             elif el == "face":
-                faces.append([int(x) for x in w[1:]])
-    return props["vertex"], verts, faces
+                k = int(w[0])
+                faces.append([int(x) for x in w[1:1 + k]])
+                values.append(dict(zip([n for n, _ in props[el]], w[1 + k:])))
+    return props["vertex"], props.get("face", []), verts, faces, values
+
+
+def read_ascii_ply(p):
+    """An ASCII PLY: the vertex properties as (name, type), each vertex as a
+    dict of its values as written (text), and the faces as index lists."""
+    vprops, _, verts, faces, _ = read_ascii_ply_faced(p)
+    return vprops, verts, faces
 
 
 def finish():

@@ -384,6 +384,16 @@ TEST(attribute_layouts_are_built_and_checked)
     info.vertex_attrs.size = 12;
     CHECK_EQ_INT(epsnet_writer_open(&w, p, NULL, &info, &err), EPSNET_EINVAL);
     info.vertex_attrs = l;
+    info.vertex_attrs.attr[0].of_face = 2; /* a flag: 0 or 1 */
+    CHECK_EQ_INT(epsnet_writer_open(&w, p, NULL, &info, &err), EPSNET_EINVAL);
+    CHECK_STR_CONTAINS(err.reason, "of_face");
+    epsnet_attr_layout faced = l;
+    CHECK_EQ_INT(epsnet_attr_layout_add_of_face(&faced, "material_index", EPSNET_ATTR_UINT16), 0);
+    CHECK_EQ_U64(faced.attr[3].of_face, 1);
+    CHECK_EQ_U64(faced.attr[3].offset, 13);
+    CHECK_EQ_U64(faced.attr[2].of_face, 0);
+    CHECK_EQ_INT(epsnet_attr_layout_add_of_face(&faced, "nx", EPSNET_ATTR_UINT16), EPSNET_EINVAL);
+    info.vertex_attrs = l;
     CHECK_EQ_INT(epsnet_writer_open(&w, p, NULL, &info, &err), 0);
     epsnet_record rec = { .kind = EPSNET_REC_VERTEX };
     CHECK_EQ_INT(epsnet_writer_put(w, &rec, &err), EPSNET_EINVAL);

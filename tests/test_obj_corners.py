@@ -45,22 +45,26 @@ def read_obj(p):
 
 
 def read_ascii_ply(p):
+    """The vertex properties' names, the vertices (dicts of text), the faces'
+    corners, and the face properties' names (a face's values, after its
+    corners, are not read)."""
     with open(p) as f:
         lines = f.read().split("\n")
-    i, names, nv, nf = 0, [], 0, 0
+    i, names, face_names, nv, nf = 0, [], [], 0, 0
     while lines[i] != "end_header":
         w = lines[i].split()
         if w[:2] == ["element", "vertex"]:
             nv, el = int(w[2]), "vertex"
         elif w[:2] == ["element", "face"]:
             nf, el = int(w[2]), "face"
-        elif w and w[0] == "property" and el == "vertex":
-            names.append(w[2])
+        elif w and w[0] == "property" and w[1] != "list":
+            (names if el == "vertex" else face_names).append(w[2])
         i += 1
     i += 1
     verts = [dict(zip(names, lines[i + k].split())) for k in range(nv)]
-    faces = [[int(x) for x in lines[i + nv + k].split()[1:]] for k in range(nf)]
-    return names, verts, faces
+    rows = [lines[i + nv + k].split() for k in range(nf)]
+    faces = [[int(x) for x in w[1:1 + int(w[0])]] for w in rows]
+    return names, verts, faces, face_names
 
 
 def rotated(t):
@@ -138,8 +142,9 @@ def without_seams_obj_and_ply_round_trip_every_corner():
     ply = path("smooth.ply")
     rc, _, err = run("convert", src, "-o", ply, "--ascii", "-q")
     assert rc == 0, err
-    names, verts, faces = read_ascii_ply(ply)
-    assert names == ["x", "y", "z", "texture_u", "texture_v", "nx", "ny", "nz", "material_index"], names
+    names, verts, faces, face_names = read_ascii_ply(ply)
+    assert names == ["x", "y", "z", "texture_u", "texture_v", "nx", "ny", "nz"], names
+    assert face_names == ["material_index"], face_names
     assert len(verts) == counts[0], (len(verts), counts)
     corner = lambda v: (bits([v["x"], v["y"], v["z"]]), bits([v["texture_u"], v["texture_v"]]),
                         bits([v["nx"], v["ny"], v["nz"]]))
@@ -232,8 +237,8 @@ def texture_coordinates_alone_and_through_ply():
     ply = path("uv_only.ply")
     rc, _, err = run("simplify", src, "-o", ply, "-q", "--ascii", "--ratio", "0.2")
     assert rc == 0, err
-    names, verts, faces = read_ascii_ply(ply)
-    assert names == ["x", "y", "z", "texture_u", "texture_v", "material_index"], names
+    names, verts, faces, face_names = read_ascii_ply(ply)
+    assert names == ["x", "y", "z", "texture_u", "texture_v"] and face_names == ["material_index"], (names, face_names)
     for t in faces:
         for i in t:
             v = verts[i]

@@ -10,7 +10,7 @@ import shutil
 import struct
 import subprocess
 
-from clitest import EPSNET, case, f32, finish, path, read_ascii_ply, run
+from clitest import EPSNET, case, f32, finish, path, read_ascii_ply, read_ascii_ply_faced, run
 
 
 def gen(name, faces=3000):
@@ -405,11 +405,15 @@ def materials_and_groups_travel_with_their_faces():
     assert libs == ["mat.mtl"] and len(faces) == nf
     assert [f[0] for f in faces] == ["matA" if (i // 2) % 40 < 20 else "matB" for i in range(nf)]
     assert [f[2] for f in faces] == ["low" if i < nf // 2 else "high" for i in range(nf)]
-    # PLY keeps the index as a vertex property and names the names as dropped
+    # PLY keeps the indices as face properties, one vertex at each position,
+    # and names the names as dropped
     rc, _, err = run("simplify", p, "-o", path("mat_out.ply"), "--ascii", "--ratio", "0.25")
     assert rc == 0 and "material names (usemtl, mtllib), group names (g)" in err, err
-    props, _, _ = read_ascii_ply(path("mat_out.ply"))
-    assert ("material_index", "ushort") in props and ("group_index", "ushort") in props, props
+    vprops, fprops, verts, _, _ = read_ascii_ply_faced(path("mat_out.ply"))
+    assert ("material_index", "ushort") in fprops and ("group_index", "ushort") in fprops, fprops
+    assert "material_index" not in dict(vprops), vprops
+    xyz = [(v["x"], v["y"], v["z"]) for v in verts]
+    assert len(set(xyz)) == len(xyz), "a position written twice"
     # STL holds neither: usemtl and g are named as dropped
     rc, _, err = run("simplify", p, "-o", path("mat_out.stl"), "--ratio", "0.25")
     assert rc == 0 and "usemtl" in err and "g (2)" in err, err
@@ -454,33 +458,57 @@ def a_ply_face_material_index_travels_with_its_faces():
     """Issue 25: a PLY face property such as material_index is carried by the
     face's corners, as an OBJ's usemtl is: no face changes material, the
     boundary collapses along its length, and what is not carried (a float
-    face property, a vertex no face uses) is named."""
+    face property, a vertex no face uses) is named. The output PLY has it on
+    its faces again, and one vertex at each position: the boundary is not a
+    cut."""
     for binary in (False, True):
         for label_first in (False, True):
             p, nf = face_labelled_ply("fl_%d%d.ply" % (binary, label_first), binary=binary, label_first=label_first)
             rc, out, err = run("info", p)
-            assert rc == 0 and "int material_index" in out, (p, out, err)
+            assert rc == 0 and "int material_index (a face's)" in out, (p, out, err)
             assert "face property quality" in out and "vertices no face uses (1)" in out, out
             for args in (["--ratio", "0.25"], ["--ratio", "0.25", "--slab", "300", "-j", "2"]):
                 o = path("fl_out.ply")
                 rc, _, err = run("simplify", p, "-o", o, "--ascii", *args)
                 assert rc == 0, (p, args, err)
                 assert "face property quality" in err and "vertices no face uses (1)" in err, err
-                props, verts, faces = read_ascii_ply(o)
-                assert ("material_index", "int") in props, props
+                vprops, fprops, verts, faces, values = read_ascii_ply_faced(o)
+                assert ("material_index", "int") in fprops and "material_index" not in dict(vprops), (vprops, fprops)
                 want = round(0.25 * nf)
                 assert abs(len(faces) - want) <= max(1, want // 200), (p, args, len(faces), want)
+                xyz = [(v["x"], v["y"], v["z"]) for v in verts]
+                assert len(set(xyz)) == len(xyz), (p, args, "a position written twice")
                 on = set()
-                for t in faces:
-                    ms = {verts[i]["material_index"] for i in t}
-                    assert len(ms) == 1, (p, args, t, ms)
+                for t, val in zip(faces, values):
+                    m = val["material_index"]
                     xs = [float(verts[i]["x"]) for i in t]
                     if not min(xs) == max(xs) == 0.5:
                         side = "0" if max(xs) <= 0.5 else "1" if min(xs) >= 0.5 else None
-                        assert side == ms.pop(), (p, args, xs)
+                        assert side == m, (p, args, xs, m)
                     on |= {float(verts[i]["y"]) for i in t if float(verts[i]["x"]) == 0.5}
                 # the boundary is a seam: it loses positions along its length
                 assert 2 <= len(on) < 41, (p, args, sorted(on))
+    # converted, the file comes back as it was: each face its material, each
+    # position one vertex, and converting that again changes no byte
+    a, b = path("fl_rt_a.ply"), path("fl_rt_b.ply")
+    rc, _, err = run("convert", path("fl_10.ply"), "-o", a, "--ascii", "-q")
+    assert rc == 0, err
+    rc, _, err = run("convert", a, "-o", b, "--ascii", "-q")
+    assert rc == 0, err
+    assert open(a, "rb").read() == open(b, "rb").read(), "a second conversion changed the file"
+    # .smz keeps the values a face's (its attribute table's mark)
+    c, d = path("fl_rt.smz"), path("fl_rt_d.ply")
+    rc, _, err = run("convert", a, "-o", c, "-q")
+    assert rc == 0, err
+    rc, _, err = run("convert", c, "-o", d, "--ascii", "-q")
+    assert rc == 0, err
+    assert open(d, "rb").read() == open(a, "rb").read(), "PLY -> .smz -> PLY changed the file"
+    _, _, verts, faces, values = read_ascii_ply_faced(a)
+    assert len(verts) == 41 * 41 and len(faces) == nf, (len(verts), len(faces))
+    assert sorted(v["material_index"] for v in values) == ["0"] * (nf // 2) + ["1"] * (nf // 2), values[:4]
+    for t, val in zip(faces, values):
+        xs = [float(verts[i]["x"]) for i in t]
+        assert val["material_index"] == ("0" if max(xs) <= 0.5 else "1"), (t, xs, val)
     # the labels are the same records whichever encoding and order
     outs = []
     for binary in (False, True):

@@ -123,8 +123,8 @@ done:
     if (al->count) {
         printf("attributes: ");
         for (uint32_t i = 0; i < al->count; i++)
-            printf(" %s %s%s", epsnet_attr_type_name(al->attr[i].type), al->attr[i].name,
-                   i + 1 < al->count ? "," : "");
+            printf(" %s %s%s%s", epsnet_attr_type_name(al->attr[i].type), al->attr[i].name,
+                   al->attr[i].of_face ? " (a face's)" : "", i + 1 < al->count ? "," : "");
         printf(" (%u bytes per vertex)\n", al->size);
     }
     /* docs/architecture.md §5: what the records do not carry, which every other command drops */

@@ -154,7 +154,9 @@ typedef enum epsnet_record_kind {
  * element's integer scalars ("material_index", "texnumber", a face colour;
  * not "flags") are carried the same way, after the vertex's own attributes:
  * a record is then one distinct (vertex, face values), in the order faces
- * first name them, and a vertex no face names is dropped and counted. Zero
+ * first name them, and a vertex no face names is dropped and counted; such
+ * attributes (and the OBJ materials below) are marked as a face's
+ * (epsnet_attr.of_face), which a PLY writer puts back on its faces. Zero
  * attributes (count 0) is the stream of earlier versions: rec.attr is then
  * NULL and nothing else changes.
  */
@@ -179,6 +181,12 @@ typedef struct epsnet_attr {
     char name[EPSNET_ATTR_NAME_MAX]; /* NUL-terminated, non-empty, no white space */
     epsnet_attr_type type;
     uint32_t offset;                 /* byte offset in the vertex's packed bytes */
+    /* 1: a face's value that its corners carry (a PLY face element's
+     * integer scalar, an OBJ material or group), so that the records of
+     * one vertex differ in it where faces with different values meet; a
+     * writer with face properties (PLY) writes it once a face and welds
+     * those records back into one vertex. 0: the vertex's own. */
+    uint32_t of_face;
 } epsnet_attr;
 
 typedef struct epsnet_attr_layout {
@@ -199,6 +207,8 @@ EPSNET_API const char *epsnet_attr_type_name(epsnet_attr_type t);
  * EPSNET_ATTR_MAX.
  */
 EPSNET_API int epsnet_attr_layout_add(epsnet_attr_layout *layout, const char *name, epsnet_attr_type type);
+/* The same for a face's value its corners carry (epsnet_attr.of_face). */
+EPSNET_API int epsnet_attr_layout_add_of_face(epsnet_attr_layout *layout, const char *name, epsnet_attr_type type);
 /* Index of the attribute called name, or -1. */
 EPSNET_API int epsnet_attr_layout_find(const epsnet_attr_layout *layout, const char *name);
 

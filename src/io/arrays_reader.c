@@ -47,7 +47,8 @@ static int open_arrays(epsnet_reader *r)
 {
     arrays_state *st = r->state;
     for (uint32_t i = 0; i < st->a.attrs.count; i++) {
-        int rc = en_reader_add_attr(r, st->a.attrs.attr[i].name, st->a.attrs.attr[i].type);
+        int rc = en_reader_add_attr_of(r, st->a.attrs.attr[i].name, st->a.attrs.attr[i].type,
+                                       (int)st->a.attrs.attr[i].of_face);
         if (rc < 0)
             return rc;
     }

@@ -67,6 +67,19 @@ int epsnet_attr_layout_add(epsnet_attr_layout *l, const char *name, epsnet_attr_
     return 0;
 }
 
+int epsnet_attr_layout_add_of_face(epsnet_attr_layout *l, const char *name, epsnet_attr_type type)
+{
+    int rc = epsnet_attr_layout_add(l, name, type);
+    if (rc == 0)
+        l->attr[l->count - 1].of_face = 1;
+    return rc;
+}
+
+int en_attr_layout_add_copy(epsnet_attr_layout *l, const epsnet_attr *a)
+{
+    return a->of_face ? epsnet_attr_layout_add_of_face(l, a->name, a->type) : epsnet_attr_layout_add(l, a->name, a->type);
+}
+
 int en_attr_layout_check(const epsnet_attr_layout *l, char *why, size_t why_len)
 {
     if (l->count > EPSNET_ATTR_MAX) {
@@ -82,6 +95,10 @@ int en_attr_layout_check(const epsnet_attr_layout *l, char *why, size_t why_len)
         }
         if (!epsnet_attr_type_size(a->type)) {
             snprintf(why, why_len, "vertex attribute '%s' has an unknown type %d", a->name, (int)a->type);
+            return -1;
+        }
+        if (a->of_face > 1) {
+            snprintf(why, why_len, "vertex attribute '%s' has of_face %u (0 or 1)", a->name, a->of_face);
             return -1;
         }
         if (a->offset != at) {

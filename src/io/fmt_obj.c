@@ -61,6 +61,7 @@
 
 #include "common/alloc.h"
 #include "common/hash64.h"
+#include "common/key_table.h"
 #include "common/u64map.h"
 #include "io/format.h"
 #include "io/text_scan.h"
@@ -780,7 +781,7 @@ static int obj_open_reader(epsnet_reader *r)
             continue;
         if (en_u64map_init(&l->by_name))
             return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
-        if (en_reader_add_attr(r, label_attr[k], EPSNET_ATTR_UINT16) < 0)
+        if (en_reader_add_attr_of(r, label_attr[k], EPSNET_ATTR_UINT16, 1) < 0)
             return r->err.code;
         *(k ? &r->info.groups : &r->info.materials) = &l->tab;
     }
@@ -941,96 +942,6 @@ static size_t format_u64(char *buf, uint64_t v)
     return n;
 }
 
-/*
- * The writer's tables for files whose records are corners (texture
- * coordinates or normals): an exact map from fixed-size byte keys to
- * indices, open addressing, grown at half full.
- */
-typedef struct key_table {
-    uint8_t *slots;                  /* per slot: uint64 value + 1 (0: free), then the key */
-    size_t cap, used, key_size, slot_size;
-} key_table;
-
-static size_t key_hash(const uint8_t *k, size_t n)
-{
-    return en_hash_slot(en_hash_bytes(k, n), SIZE_MAX);
-}
-
-static int key_grow(key_table *t)
-{
-    size_t cap = t->cap ? t->cap * 2 : 1024;
-    uint8_t *slots = en_calloc(cap, t->slot_size);
-    if (!slots)
-        return -1;
-    for (size_t i = 0; i < t->cap; i++) {
-        const uint8_t *s = t->slots + i * t->slot_size;
-        uint64_t v;
-        memcpy(&v, s, 8);
-        if (!v)
-            continue;
-        size_t j = key_hash(s + 8, t->key_size) & (cap - 1);
-        while (memcpy(&v, slots + j * t->slot_size, 8), v)
-            j = (j + 1) & (cap - 1);
-        memcpy(slots + j * t->slot_size, s, t->slot_size);
-    }
-    en_free(t->slots);
-    t->slots = slots;
-    t->cap = cap;
-    return 0;
-}
-
-/* The value of key, or its new value when absent (*added = 1); value
- * UINT64_MAX leaves an absent key out. @return 0 or -1 out of memory. */
-static int key_find(key_table *t, const uint8_t *key, uint64_t value, uint64_t *found, int *added)
-{
-    *added = 0;
-    if ((t->used + 1) * 2 > t->cap && key_grow(t))
-        return -1;
-    size_t j = key_hash(key, t->key_size) & (t->cap - 1);
-    for (;; j = (j + 1) & (t->cap - 1)) {
-        uint8_t *s = t->slots + j * t->slot_size;
-        uint64_t v;
-        memcpy(&v, s, 8);
-        if (!v)
-            break;
-        if (memcmp(s + 8, key, t->key_size) == 0) {
-            *found = v - 1;
-            return 0;
-        }
-    }
-    *found = value;
-    if (value == UINT64_MAX)
-        return 0;
-    uint8_t *s = t->slots + j * t->slot_size;
-    uint64_t v = value + 1;
-    memcpy(s, &v, 8);
-    memcpy(s + 8, key, t->key_size);
-    t->used++;
-    *added = 1;
-    return 0;
-}
-
-/* Overwrite the value of a key that is present. */
-static void key_set(key_table *t, const uint8_t *key, uint64_t value)
-{
-    size_t j = key_hash(key, t->key_size) & (t->cap - 1);
-    for (;; j = (j + 1) & (t->cap - 1)) {
-        uint8_t *s = t->slots + j * t->slot_size;
-        if (memcmp(s + 8, key, t->key_size) == 0) {
-            uint64_t v = value + 1;
-            memcpy(s, &v, 8);
-            return;
-        }
-    }
-}
-
-static void key_init(key_table *t, size_t key_size)
-{
-    memset(t, 0, sizeof *t);
-    t->key_size = key_size;
-    t->slot_size = 8 + key_size;
-}
-
 /* The texture coordinate names the OBJ writer takes for `vt`, in order of
  * preference: what the OBJ reader gives, then the other common PLY names. */
 static const char *const uv_names[][2] = { { "texture_u", "texture_v" }, { "s", "t" }, { "u", "v" } };
@@ -1065,9 +976,9 @@ typedef struct obj_writer {
      * and colour bits) share one `v` line unless that line already has a
      * record with the same vt and vn, so reading the file back gives the
      * same records. */
-    key_table vline;                 /* v line text bits -> newest v line */
-    key_table used;                  /* v line + vt/vn bits -> present */
-    key_table vts, vns;              /* vt / vn bits -> their line */
+    en_key_table vline;                 /* v line text bits -> newest v line */
+    en_key_table used;                  /* v line + vt/vn bits -> present */
+    en_key_table vts, vns;              /* vt / vn bits -> their line */
     uint64_t nv, nvt, nvn;
     uint64_t (*corner)[3];           /* per record: its v, vt, vn lines */
     size_t corner_cap;
@@ -1125,10 +1036,10 @@ static int obj_open_writer(epsnet_writer *w)
                 en_writer_bytes(w, "\n", 1)))
         return w->err.code ? w->err.code : EPSNET_EIO;
     st->library_written = lib != NULL;
-    key_init(&st->vline, 3 * 8 + 3 * 4);
-    key_init(&st->used, 8 + 5 * 4);
-    key_init(&st->vts, 2 * 4);
-    key_init(&st->vns, 3 * 4);
+    en_key_init(&st->vline, 3 * 8 + 3 * 4);
+    en_key_init(&st->used, 8 + 5 * 4);
+    en_key_init(&st->vts, 2 * 4);
+    en_key_init(&st->vns, 3 * 4);
     return 0;
 }
 
@@ -1136,10 +1047,10 @@ static void obj_close_writer(epsnet_writer *w)
 {
     obj_writer *st = w->state;
     if (st) {
-        en_free(st->vline.slots);
-        en_free(st->used.slots);
-        en_free(st->vts.slots);
-        en_free(st->vns.slots);
+        en_key_free(&st->vline);
+        en_key_free(&st->used);
+        en_key_free(&st->vts);
+        en_key_free(&st->vns);
         en_free(st->corner);
         en_free(st->label[0].of);
         en_free(st->label[1].of);
@@ -1227,20 +1138,20 @@ static int put_corner_vertex(epsnet_writer *w, obj_writer *st, const epsnet_reco
     if (st->n[0] >= 0)
         attr_bits(w, rec, st->n, 3, ukey + 16);
     int added;
-    if (key_find(&st->vline, vkey, st->nv, &c[0], &added))
+    if (en_key_find(&st->vline, vkey, st->nv, &c[0], &added))
         return writer_nomem(w);
     memcpy(ukey, &c[0], 8);
     uint64_t ignored;
     int fresh;
-    if (key_find(&st->used, ukey, 0, &ignored, &fresh))
+    if (en_key_find(&st->used, ukey, 0, &ignored, &fresh))
         return writer_nomem(w);
     if (!added && !fresh) {
         /* the v line has a record with these vt and vn bits already: a
          * distinct vertex at the same place gets a line of its own */
         c[0] = st->nv;
-        key_set(&st->vline, vkey, c[0]);
+        en_key_set(&st->vline, vkey, c[0]);
         memcpy(ukey, &c[0], 8);
-        if (key_find(&st->used, ukey, 0, &ignored, &fresh))
+        if (en_key_find(&st->used, ukey, 0, &ignored, &fresh))
             return writer_nomem(w);
         added = 1;
     }
@@ -1252,7 +1163,7 @@ static int put_corner_vertex(epsnet_writer *w, obj_writer *st, const epsnet_reco
     }
     c[1] = c[2] = 0;
     if (st->uv[0] >= 0) {
-        if (key_find(&st->vts, ukey + 8, st->nvt, &c[1], &added))
+        if (en_key_find(&st->vts, ukey + 8, st->nvt, &c[1], &added))
             return writer_nomem(w);
         if (added) {
             st->nvt++;
@@ -1260,7 +1171,7 @@ static int put_corner_vertex(epsnet_writer *w, obj_writer *st, const epsnet_reco
         }
     }
     if (st->n[0] >= 0) {
-        if (key_find(&st->vns, ukey + 16, st->nvn, &c[2], &added))
+        if (en_key_find(&st->vns, ukey + 16, st->nvn, &c[2], &added))
             return writer_nomem(w);
         if (added) {
             st->nvn++;

@@ -19,7 +19,11 @@
  * straight to the output, spills faces to a temporary file and appends them
  * at the end, then patches the header with the real counts. Outputs that
  * cannot be rewritten (.zst, stdout) spill the vertices too, unless the
- * counts were announced.
+ * counts were announced. A face's values (epsnet_attr.of_face: a label the
+ * reader took from a face element, an OBJ material) go back on the face
+ * element, and the records of one position that differ only in them are
+ * welded into one vertex, so that a material boundary is not written as a
+ * cut (put_faced_vertex()).
  */
 #include <inttypes.h>
 #include <math.h>
@@ -28,6 +32,7 @@
 #include <string.h>
 
 #include "common/alloc.h"
+#include "common/key_table.h"
 #include "io/format.h"
 
 #define PLY_NAME_MAX 64
@@ -534,7 +539,7 @@ static int face_labels(epsnet_reader *r, ply_reader *p, ply_element *face)
         if (pr->role != ROLE_SKIP || pr->count_type != PLY_NONE || !ply_type_is_int(pr->type) ||
             strcmp(pr->name, "flags") == 0 || epsnet_attr_layout_find(&r->file_attrs, pr->name) >= 0)
             continue;
-        int rc = en_reader_add_attr(r, pr->name, (epsnet_attr_type)pr->type);
+        int rc = en_reader_add_attr_of(r, pr->name, (epsnet_attr_type)pr->type, 1);
         if (rc < 0)
             return rc;
         if (rc == 1) {
@@ -1660,6 +1665,22 @@ typedef struct ply_writer {
     en_spill *verts;         /* WRITE_SPILL_ALL only */
     en_spill *faces;
     uint64_t max_index;
+    /* Face values (epsnet_attr.of_face): the layout's attributes of each
+     * element, by index; the faces' bytes of them. A vertex record welds
+     * into the vertex of an earlier one at its position with the same own
+     * bytes (weld: xyz bits and own bytes -> vertex) unless that vertex
+     * has a record with the same face bytes already (used: vertex and
+     * face bytes), which is a distinct vertex at the same place. Per
+     * record: its vertex, and its face bytes for the faces naming it. */
+    int faced;
+    uint32_t nown, nface, face_size;
+    uint32_t own[EPSNET_ATTR_MAX], face[EPSNET_ATTR_MAX];
+    en_key_table weld, used;
+    uint64_t nout;           /* vertices written (welded) */
+    uint64_t *rec_vertex;
+    uint8_t *rec_face;
+    size_t rec_vertex_cap, rec_face_cap;
+    uint8_t *key;            /* scratch: one weld key, then one used key */
 } ply_writer;
 
 static void store_le32(uint8_t *p, uint32_t v)
@@ -1674,6 +1695,20 @@ static void store_le64(uint8_t *p, uint64_t v)
 {
     store_le32(p, (uint32_t)v);
     store_le32(p + 4, (uint32_t)(v >> 32));
+}
+
+/* The `property` lines of the layout's attributes at[0 .. n) after the len
+ * bytes of buf. @return the new length, or 0 if they do not fit. */
+static size_t put_properties(char *buf, size_t cap, size_t len, const ply_writer *p, const uint32_t *at, uint32_t n)
+{
+    for (uint32_t i = 0; i < n; i++) {
+        const epsnet_attr *a = &p->attrs->attr[at[i]];
+        int k = snprintf(buf + len, cap - len, "property %s %s\n", epsnet_attr_type_name(a->type), a->name);
+        if (k < 0 || (size_t)k >= cap - len)
+            return 0;
+        len += (size_t)k;
+    }
+    return len;
 }
 
 /* Header text into buf; pad_to > 0 adds a comment line that brings the
@@ -1691,19 +1726,17 @@ static size_t build_header(char *buf, size_t cap, const ply_writer *p, uint64_t 
     if (n < 0 || (size_t)n >= cap)
         return 0;
     size_t len = (size_t)n;
-    /* every attribute with its own name and type (epsnet.h §2) */
-    for (uint32_t i = 0; i < p->attrs->count; i++) {
-        const epsnet_attr *a = &p->attrs->attr[i];
-        n = snprintf(buf + len, cap - len, "property %s %s\n", epsnet_attr_type_name(a->type), a->name);
-        if (n < 0 || (size_t)n >= cap - len)
-            return 0;
-        len += (size_t)n;
-    }
+    /* every attribute with its own name and type (epsnet.h §2), a face's
+     * values on the face element */
+    if (!(len = put_properties(buf, cap, len, p, p->own, p->nown)))
+        return 0;
     n = snprintf(buf + len, cap - len, "element face %" PRIu64 "\nproperty list uchar %s vertex_indices\n", nf,
                  uint_index ? "uint" : "int");
     if (n < 0 || (size_t)n >= cap - len)
         return 0;
     len += (size_t)n;
+    if (!(len = put_properties(buf, cap, len, p, p->face, p->nface)))
+        return 0;
     static const char end[] = "end_header\n";
     if (pad_to) {
         static const char pad[] = "comment";
@@ -1758,11 +1791,12 @@ static int emit_vertex(epsnet_writer *w, const ply_writer *p, const double xyz[3
         size_t len = 0;
         for (int k = 0; k < 3; k++) {
             len += (size_t)en_format_coord(line + len, xyz[k], w->coord_type);
-            line[len++] = k < 2 || l->count ? ' ' : '\n';
+            line[len++] = k < 2 || p->nown ? ' ' : '\n';
         }
-        for (uint32_t i = 0; i < l->count; i++) {
-            len += format_attr(line + len, attr + l->attr[i].offset, l->attr[i].type);
-            line[len++] = i + 1 < l->count ? ' ' : '\n';
+        for (uint32_t i = 0; i < p->nown; i++) {
+            const epsnet_attr *a = &l->attr[p->own[i]];
+            len += format_attr(line + len, attr + a->offset, a->type);
+            line[len++] = i + 1 < p->nown ? ' ' : '\n';
         }
         return en_writer_bytes(w, line, len);
     }
@@ -1786,23 +1820,44 @@ static int emit_vertex(epsnet_writer *w, const ply_writer *p, const double xyz[3
     }
     /* the body is little-endian: each value's host bytes, reversed on a
      * big-endian host */
-    for (uint32_t i = 0; i < l->count; i++) {
-        size_t size = epsnet_attr_type_size(l->attr[i].type);
-        binary_attr(rec + len, attr + l->attr[i].offset, size, PLY_HOST_BE);
+    for (uint32_t i = 0; i < p->nown; i++) {
+        const epsnet_attr *a = &l->attr[p->own[i]];
+        size_t size = epsnet_attr_type_size(a->type);
+        binary_attr(rec + len, attr + a->offset, size, PLY_HOST_BE);
         len += size;
     }
     return en_writer_bytes(w, rec, len);
 }
 
-static int emit_face(epsnet_writer *w, const ply_writer *p, const uint32_t v[3])
+/* A face: its corners, then its values (p->face_size bytes packed in the
+ * order of p->face, when the layout has any). */
+static int emit_face(epsnet_writer *w, const ply_writer *p, const uint32_t v[3], const uint8_t *values)
 {
-    if (p->ascii)
-        return en_writer_printf(w, "3 %" PRIu32 " %" PRIu32 " %" PRIu32 "\n", v[0], v[1], v[2]);
-    uint8_t rec[PLY_FACE_BYTES];
+    const epsnet_attr_layout *l = p->attrs;
+    if (p->ascii) {
+        char line[40 + EPSNET_ATTR_MAX * 34];
+        int n = snprintf(line, sizeof line, "3 %" PRIu32 " %" PRIu32 " %" PRIu32, v[0], v[1], v[2]);
+        size_t len = n > 0 ? (size_t)n : 0;
+        for (uint32_t i = 0, at = 0; i < p->nface; i++) {
+            const epsnet_attr *a = &l->attr[p->face[i]];
+            line[len++] = ' ';
+            len += format_attr(line + len, values + at, a->type);
+            at += (uint32_t)epsnet_attr_type_size(a->type);
+        }
+        line[len++] = '\n';
+        return en_writer_bytes(w, line, len);
+    }
+    uint8_t rec[PLY_FACE_BYTES + EPSNET_ATTR_MAX * 8];
     rec[0] = 3;
     for (int k = 0; k < 3; k++)
         store_le32(rec + 1 + 4 * k, v[k]);
-    return en_writer_bytes(w, rec, PLY_FACE_BYTES);
+    size_t len = PLY_FACE_BYTES;
+    for (uint32_t i = 0; i < p->nface; i++) {
+        size_t size = epsnet_attr_type_size(l->attr[p->face[i]].type);
+        binary_attr(rec + len, values + (len - PLY_FACE_BYTES), size, PLY_HOST_BE);
+        len += size;
+    }
+    return en_writer_bytes(w, rec, len);
 }
 
 static int ply_open_writer(epsnet_writer *w)
@@ -1815,6 +1870,25 @@ static int ply_open_writer(epsnet_writer *w)
     p->attrs = &w->attrs;
     p->ascii = w->settings.ascii != 0;
     p->coord64 = w->coord_type == EPSNET_COORD_FLOAT64;
+    uint32_t own_size = 0;
+    for (uint32_t i = 0; i < p->attrs->count; i++) {
+        const epsnet_attr *a = &p->attrs->attr[i];
+        if (a->of_face) {
+            p->face[p->nface++] = i;
+            p->face_size += (uint32_t)epsnet_attr_type_size(a->type);
+        } else {
+            p->own[p->nown++] = i;
+            own_size += (uint32_t)epsnet_attr_type_size(a->type);
+        }
+    }
+    p->faced = p->nface > 0;
+    if (p->faced) {
+        en_key_init(&p->weld, 24 + own_size);
+        en_key_init(&p->used, 8 + p->face_size);
+        if (!(p->key = en_malloc(24 + own_size + 8 + p->face_size)))
+            return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "out of memory");
+    }
     char hdr[PLY_WRITE_HEADER_MAX];
     if (en_sink_can_patch(w->sink)) {
         p->mode = WRITE_PATCH;
@@ -1824,7 +1898,8 @@ static int ply_open_writer(epsnet_writer *w)
         size_t n = build_header(hdr, sizeof hdr, p, 0, 0, 0, p->header_size);
         return en_writer_bytes(w, hdr, n);
     }
-    if (w->info.nverts != EPSNET_COUNT_UNKNOWN && w->info.nfaces != EPSNET_COUNT_UNKNOWN) {
+    /* (welded, the vertices are fewer than announced) */
+    if (w->info.nverts != EPSNET_COUNT_UNKNOWN && w->info.nfaces != EPSNET_COUNT_UNKNOWN && !p->faced) {
         p->mode = WRITE_ANNOUNCED;
         if (w->info.nverts > (uint64_t)UINT32_MAX + 1)
             return en_error_set(&w->err, EPSNET_EUNSUPPORTED, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
@@ -1838,12 +1913,9 @@ static int ply_open_writer(epsnet_writer *w)
     return 0;
 }
 
-static int put_vertex(epsnet_writer *w, ply_writer *p, const double xyz[3], const uint8_t *attr)
+/* A vertex of the output: written, or spilled until the header can be. */
+static int out_vertex(epsnet_writer *w, ply_writer *p, const double xyz[3], const uint8_t *attr)
 {
-    if (p->faces_direct)
-        return en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "vertex %" PRIu64 " arrives after the %" PRIu64 " vertices announced",
-                            w->nverts, w->info.nverts);
     if (p->mode != WRITE_SPILL_ALL)
         return emit_vertex(w, p, xyz, attr);
     int rc = en_writer_open_spill(w, &p->verts);
@@ -1860,18 +1932,84 @@ static int put_vertex(epsnet_writer *w, ply_writer *p, const double xyz[3], cons
     return rc;
 }
 
+static int writer_nomem(epsnet_writer *w)
+{
+    return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+}
+
+/* A vertex record of a layout with face values: its vertex unless it welds
+ * into an earlier one (see ply_writer.faced); its face bytes are kept for
+ * the faces that name it. */
+static int put_faced_vertex(epsnet_writer *w, ply_writer *p, const double xyz[3], const uint8_t *attr)
+{
+    uint64_t r = w->nverts - 1; /* this record */
+    if (en_grow((void **)&p->rec_vertex, &p->rec_vertex_cap, r + 1, sizeof *p->rec_vertex) ||
+        en_grow((void **)&p->rec_face, &p->rec_face_cap, (r + 1) * p->face_size, 1))
+        return writer_nomem(w);
+    const epsnet_attr_layout *l = p->attrs;
+    uint8_t *key = p->key, *face = p->rec_face + r * p->face_size;
+    size_t n = 24;
+    memcpy(key, xyz, 24);
+    for (uint32_t i = 0; i < p->nown; i++) {
+        size_t size = epsnet_attr_type_size(l->attr[p->own[i]].type);
+        memcpy(key + n, attr + l->attr[p->own[i]].offset, size);
+        n += size;
+    }
+    for (uint32_t i = 0, at = 0; i < p->nface; i++) {
+        size_t size = epsnet_attr_type_size(l->attr[p->face[i]].type);
+        memcpy(face + at, attr + l->attr[p->face[i]].offset, size);
+        at += (uint32_t)size;
+    }
+    uint8_t *ukey = key + n;
+    uint64_t vertex, ignored;
+    int added, fresh;
+    if (en_key_find(&p->weld, key, p->nout, &vertex, &added))
+        return writer_nomem(w);
+    memcpy(ukey, &vertex, 8);
+    memcpy(ukey + 8, face, p->face_size);
+    if (en_key_find(&p->used, ukey, 0, &ignored, &fresh))
+        return writer_nomem(w);
+    if (!added && !fresh) {
+        /* that vertex has a record with these face values: a distinct
+         * vertex at the same place */
+        vertex = p->nout;
+        en_key_set(&p->weld, key, vertex);
+        memcpy(ukey, &vertex, 8);
+        if (en_key_find(&p->used, ukey, 0, &ignored, &fresh))
+            return writer_nomem(w);
+        added = 1;
+    }
+    p->rec_vertex[r] = vertex;
+    if (!added)
+        return 0;
+    p->nout++;
+    return out_vertex(w, p, xyz, attr);
+}
+
+static int put_vertex(epsnet_writer *w, ply_writer *p, const double xyz[3], const uint8_t *attr)
+{
+    if (p->faces_direct)
+        return en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "vertex %" PRIu64 " arrives after the %" PRIu64 " vertices announced",
+                            w->nverts, w->info.nverts);
+    return p->faced ? put_faced_vertex(w, p, xyz, attr) : out_vertex(w, p, xyz, attr);
+}
+
 static int put_triangle(epsnet_writer *w, ply_writer *p, const uint64_t v[3])
 {
     uint32_t idx[3];
+    const uint8_t *values = NULL;
     for (int k = 0; k < 3; k++) {
-        if (v[k] > UINT32_MAX)
+        uint64_t o = p->faced ? p->rec_vertex[v[k]] : v[k]; /* (writer.c checked v[k] came) */
+        if (o > UINT32_MAX)
             return en_error_set(&w->err, EPSNET_EUNSUPPORTED, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                                "PLY output cannot index vertex %" PRIu64 " (at most 2^32 vertices)",
-                                v[k] + 1);
-        if (v[k] > p->max_index)
-            p->max_index = v[k];
-        idx[k] = (uint32_t)v[k];
+                                "PLY output cannot index vertex %" PRIu64 " (at most 2^32 vertices)", o + 1);
+        if (o > p->max_index)
+            p->max_index = o;
+        idx[k] = (uint32_t)o;
     }
+    if (p->faced) /* the face's values are its corners' (the first's, should they differ) */
+        values = p->rec_face + v[0] * p->face_size;
     if (!p->faces_decided) {
         /* note: faces can skip the spill file only when no vertex can follow
          * them, which the caller guarantees by announcing the vertex count. */
@@ -1879,9 +2017,13 @@ static int put_triangle(epsnet_writer *w, ply_writer *p, const uint64_t v[3])
         p->faces_direct = p->mode != WRITE_SPILL_ALL && w->info.nverts == w->nverts;
     }
     if (p->faces_direct)
-        return emit_face(w, p, idx);
+        return emit_face(w, p, idx, values);
     int rc = en_writer_open_spill(w, &p->faces);
-    return rc ? rc : en_spill_write(p->faces, idx, sizeof idx, &w->err);
+    if (rc == 0)
+        rc = en_spill_write(p->faces, idx, sizeof idx, &w->err);
+    if (rc == 0 && p->face_size)
+        rc = en_spill_write(p->faces, values, p->face_size, &w->err);
+    return rc;
 }
 
 static int ply_put(epsnet_writer *w, const epsnet_record *rec)
@@ -1903,11 +2045,10 @@ static int replay(epsnet_writer *w, ply_writer *p, en_spill *sp, int vertices)
     if (rc)
         return rc;
     const size_t rec = vertices ? (p->coord64 ? 3 * sizeof(double) : 3 * sizeof(float)) + p->attrs->size
-                                : 3 * sizeof(uint32_t);
+                                : 3 * sizeof(uint32_t) + p->face_size;
     union {
         double d[3 * 2048];
         uint8_t b[3 * 2048 * sizeof(double)];
-        uint32_t u[3 * 4096];
     } buf;
     for (;;) {
         int64_t got = en_spill_read(sp, &buf, (sizeof buf / rec) * rec, &w->err);
@@ -1934,7 +2075,9 @@ static int replay(epsnet_writer *w, ply_writer *p, en_spill *sp, int vertices)
                 }
                 rc = emit_vertex(w, p, xyz, at + (p->coord64 ? 24 : 12));
             } else {
-                rc = emit_face(w, p, buf.u + 3 * i);
+                uint32_t idx[3];
+                memcpy(idx, buf.b + i * rec, sizeof idx);
+                rc = emit_face(w, p, idx, buf.b + i * rec + sizeof idx);
             }
             if (rc)
                 return rc;
@@ -1946,13 +2089,14 @@ static int ply_finish(epsnet_writer *w)
 {
     ply_writer *p = w->state;
     int uint_index = p->max_index > PLY_INT_INDEX_MAX;
+    uint64_t nverts = p->faced ? p->nout : w->nverts; /* welded (see ply_writer.faced) */
     char hdr[PLY_WRITE_HEADER_MAX];
     int rc;
     switch (p->mode) {
     case WRITE_PATCH: {
         if ((rc = replay(w, p, p->faces, 0)))
             return rc;
-        size_t n = build_header(hdr, sizeof hdr, p, w->nverts, w->ntris, uint_index, p->header_size);
+        size_t n = build_header(hdr, sizeof hdr, p, nverts, w->ntris, uint_index, p->header_size);
         if (n != p->header_size)
             return en_error_set(&w->err, EPSNET_EINTERNAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                                 "PLY header does not fit its reserved space");
@@ -1966,7 +2110,7 @@ static int ply_finish(epsnet_writer *w)
                                 w->info.nverts, w->info.nfaces, w->nverts, w->ntris);
         return replay(w, p, p->faces, 0);
     case WRITE_SPILL_ALL: {
-        size_t n = build_header(hdr, sizeof hdr, p, w->nverts, w->ntris, uint_index, 0);
+        size_t n = build_header(hdr, sizeof hdr, p, nverts, w->ntris, uint_index, 0);
         if ((rc = en_writer_bytes(w, hdr, n)) || (rc = replay(w, p, p->verts, 1)))
             return rc;
         return replay(w, p, p->faces, 0);
@@ -1982,6 +2126,11 @@ static void ply_close_writer(epsnet_writer *w)
         return;
     en_spill_close(&p->verts);
     en_spill_close(&p->faces);
+    en_key_free(&p->weld);
+    en_key_free(&p->used);
+    en_free(p->rec_vertex);
+    en_free(p->rec_face);
+    en_free(p->key);
     en_free(p);
     w->state = NULL;
 }

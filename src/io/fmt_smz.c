@@ -140,7 +140,7 @@ static int read_attr_table(epsnet_reader *r, smz_reader *st)
     if (en_smz_attr_table_decode(tab + 4, body, crc, &l, why, sizeof why))
         return en_reader_fail_at(r, EPSNET_EFORMAT, EN_SMZ_HEADER_BYTES, "%s", why);
     for (uint32_t i = 0; i < l.count; i++)
-        if ((rc = en_reader_add_attr(r, l.attr[i].name, l.attr[i].type)) < 0)
+        if ((rc = en_reader_add_attr_of(r, l.attr[i].name, l.attr[i].type, (int)l.attr[i].of_face)) < 0)
             return rc;
     st->header.attrs = l;
     return 0;

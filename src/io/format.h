@@ -156,6 +156,8 @@ int en_format_holds_every_attr(const epsnet_attr_layout *l, uint32_t i);
 /* Check a layout a caller built (epsnet_writer_open, the push API):
  * types, names, offsets and size agree. @return 0 or -1 with why filled. */
 int en_attr_layout_check(const epsnet_attr_layout *l, char *why, size_t why_len);
+/* Append a copy of a (its name, type and of_face) to l, at l's end. */
+int en_attr_layout_add_copy(epsnet_attr_layout *l, const epsnet_attr *a);
 
 /* A copy of a stream's face labels (epsnet.h epsnet_face_names) that
  * outlives its reader, in one allocation: a sort closes the reader before
@@ -200,6 +202,8 @@ int en_reader_grow_held(epsnet_reader *r, size_t *held, void **buf, size_t *cap,
  * named as dropped, "vertex property NAME"), or a negative code for a name
  * the layout refuses. */
 int en_reader_add_attr(epsnet_reader *r, const char *name, epsnet_attr_type type);
+/* ... a face's value its corners carry when of_face (epsnet_attr.of_face). */
+int en_reader_add_attr_of(epsnet_reader *r, const char *name, epsnet_attr_type type, int of_face);
 
 /*
  * Open a reader whose driver fmt reads memory, not a file (no en_source;

@@ -155,13 +155,16 @@ int en_smz_header_decode(const uint8_t in[EN_SMZ_HEADER_BYTES], en_smz_header *h
 
 /* ---- attribute table (version 2) ---- */
 
+/* The type byte's top bit: a face's value (epsnet_attr.of_face). */
+#define SMZ_ATTR_OF_FACE 0x80
+
 size_t en_smz_attr_table_encode(const epsnet_attr_layout *l, uint8_t *out)
 {
     size_t n = 8;
     put32(out + 4, l->count);
     for (uint32_t i = 0; i < l->count; i++) {
         size_t len = strlen(l->attr[i].name);
-        out[n++] = (uint8_t)l->attr[i].type;
+        out[n++] = (uint8_t)(l->attr[i].type | (l->attr[i].of_face ? SMZ_ATTR_OF_FACE : 0));
         out[n++] = (uint8_t)len;
         memcpy(out + n, l->attr[i].name, len);
         n += len;
@@ -193,8 +196,10 @@ int en_smz_attr_table_decode(const uint8_t *body, uint32_t body_len, uint32_t cr
         char name[EPSNET_ATTR_NAME_MAX];
         memcpy(name, body + at + 2, body[at + 1]);
         name[body[at + 1]] = '\0';
+        epsnet_attr_type type = (epsnet_attr_type)(body[at] & ~SMZ_ATTR_OF_FACE);
         if (strlen(name) != body[at + 1] ||
-            epsnet_attr_layout_add(l, name, (epsnet_attr_type)body[at]) != 0) {
+            ((body[at] & SMZ_ATTR_OF_FACE) ? epsnet_attr_layout_add_of_face(l, name, type)
+                                           : epsnet_attr_layout_add(l, name, type)) != 0) {
             snprintf(why, why_len, "attribute %u of the table has a bad type (%u) or name", i + 1, body[at]);
             return -1;
         }

@@ -1,0 +1,89 @@
+#include "common/key_table.h"
+
+#include <string.h>
+
+#include "common/alloc.h"
+#include "common/hash64.h"
+
+static size_t key_hash(const uint8_t *k, size_t n)
+{
+    return en_hash_slot(en_hash_bytes(k, n), SIZE_MAX);
+}
+
+static int key_grow(en_key_table *t)
+{
+    size_t cap = t->cap ? t->cap * 2 : 1024;
+    uint8_t *slots = en_calloc(cap, t->slot_size);
+    if (!slots)
+        return -1;
+    for (size_t i = 0; i < t->cap; i++) {
+        const uint8_t *s = t->slots + i * t->slot_size;
+        uint64_t v;
+        memcpy(&v, s, 8);
+        if (!v)
+            continue;
+        size_t j = key_hash(s + 8, t->key_size) & (cap - 1);
+        while (memcpy(&v, slots + j * t->slot_size, 8), v)
+            j = (j + 1) & (cap - 1);
+        memcpy(slots + j * t->slot_size, s, t->slot_size);
+    }
+    en_free(t->slots);
+    t->slots = slots;
+    t->cap = cap;
+    return 0;
+}
+
+int en_key_find(en_key_table *t, const uint8_t *key, uint64_t value, uint64_t *found, int *added)
+{
+    *added = 0;
+    if ((t->used + 1) * 2 > t->cap && key_grow(t))
+        return -1;
+    size_t j = key_hash(key, t->key_size) & (t->cap - 1);
+    for (;; j = (j + 1) & (t->cap - 1)) {
+        uint8_t *s = t->slots + j * t->slot_size;
+        uint64_t v;
+        memcpy(&v, s, 8);
+        if (!v)
+            break;
+        if (memcmp(s + 8, key, t->key_size) == 0) {
+            *found = v - 1;
+            return 0;
+        }
+    }
+    *found = value;
+    if (value == UINT64_MAX)
+        return 0;
+    uint8_t *s = t->slots + j * t->slot_size;
+    uint64_t v = value + 1;
+    memcpy(s, &v, 8);
+    memcpy(s + 8, key, t->key_size);
+    t->used++;
+    *added = 1;
+    return 0;
+}
+
+void en_key_set(en_key_table *t, const uint8_t *key, uint64_t value)
+{
+    size_t j = key_hash(key, t->key_size) & (t->cap - 1);
+    for (;; j = (j + 1) & (t->cap - 1)) {
+        uint8_t *s = t->slots + j * t->slot_size;
+        if (memcmp(s + 8, key, t->key_size) == 0) {
+            uint64_t v = value + 1;
+            memcpy(s, &v, 8);
+            return;
+        }
+    }
+}
+
+void en_key_init(en_key_table *t, size_t key_size)
+{
+    memset(t, 0, sizeof *t);
+    t->key_size = key_size;
+    t->slot_size = 8 + key_size;
+}
+
+void en_key_free(en_key_table *t)
+{
+    en_free(t->slots);
+    memset(t, 0, sizeof *t);
+}
