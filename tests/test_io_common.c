@@ -10,6 +10,7 @@
 #include "io/sink.h"
 #include "io/format.h"
 #include "io/source.h"
+#include "common/alloc.h"
 #include "testlib.h"
 
 static int count_entries(const char *dir)
@@ -250,6 +251,44 @@ TEST(plain_spill_keeps_bytes_as_written_across_small_and_large_writes)
     CHECK_EQ_INT(count_entries(dir), 0);
 }
 
+/* Blocks of a MiB and more are mapped (common/alloc.c): a block keeps its
+ * bytes whichever side of that line it grows or shrinks to, calloc's are
+ * zero on both sides, and every one goes back through en_free. */
+TEST(allocations_keep_their_bytes_across_the_mapping_line)
+{
+    const size_t big = (size_t)3 << 20, small = 4000;
+    uint8_t *p = en_malloc(small);
+    CHECK(p != NULL);
+    for (size_t i = 0; i < small; i++)
+        p[i] = (uint8_t)(i * 7);
+    p = en_realloc(p, big); /* malloc -> mapped */
+    CHECK(p != NULL);
+    p[big - 1] = 42;
+    for (size_t i = 0; i < small; i++)
+        CHECK_EQ_INT(p[i], (uint8_t)(i * 7));
+    p = en_realloc(p, 2 * big); /* mapped -> mapped, moved or grown in place */
+    CHECK(p != NULL);
+    CHECK_EQ_INT(p[big - 1], 42);
+    CHECK_EQ_INT(p[small - 1], (uint8_t)((small - 1) * 7));
+    p = en_realloc(p, 100); /* mapped -> malloc */
+    CHECK(p != NULL);
+    for (size_t i = 0; i < 100; i++)
+        CHECK_EQ_INT(p[i], (uint8_t)(i * 7));
+    en_free(p);
+    uint64_t *z = en_calloc(big / 8, 8);
+    CHECK(z != NULL);
+    uint64_t sum = 0;
+    for (size_t i = 0; i < big / 8; i++)
+        sum |= z[i];
+    CHECK_EQ_U64(sum, 0);
+    en_free(z);
+    z = en_calloc(10, 8);
+    CHECK(z != NULL && (z[0] | z[9]) == 0);
+    en_free(z);
+    CHECK(en_calloc(SIZE_MAX / 2, 4) == NULL); /* overflows */
+    en_free(NULL);
+}
+
 TEST(u64set_add_remove_many)
 {
     en_u64set *s = en_u64set_new();
@@ -420,6 +459,7 @@ int main(void)
     RUN(sink_into_missing_directory_fails_cleanly);
     RUN(spill_round_trips_and_leaves_no_file);
     RUN(plain_spill_keeps_bytes_as_written_across_small_and_large_writes);
+    RUN(allocations_keep_their_bytes_across_the_mapping_line);
     RUN(u64set_add_remove_many);
     RUN(parse_size_accepts_binary_suffixes);
     RUN(error_messages_name_file_and_position);

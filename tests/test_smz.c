@@ -6,6 +6,7 @@
  */
 #include <zstd.h>
 
+#include "common/alloc.h"
 #include "io/smz.h"
 #include "testlib.h"
 
@@ -404,7 +405,7 @@ TEST(a_false_sorted_claim_is_rejected)
     CHECK_STR_CONTAINS(epsnet_error_message(&err), "vertex 2 goes back along x");
     CHECK_STR_CONTAINS(epsnet_error_message(&err), "byte 108");
     tl_mesh_free(&m);
-    free(payload);
+    en_free(payload);
     ZSTD_freeCCtx(cctx);
     en_smz_encoder_free(&enc);
 }

@@ -66,8 +66,9 @@ int main(int argc, char **argv)
     /* Slabs are allocated on one thread and freed on another; with glibc's
      * default sliding mmap threshold, their freed arrays stay in the heap
      * arenas and peak RSS creeps up with the slab count (measured: 357 MB
-     * instead of 279 MB on 20M faces at -j2 --mem 1G). Large arrays always
-     * mmapped go back to the system when freed. */
+     * instead of 279 MB on 20M faces at -j2 --mem 1G). The library maps its
+     * own large blocks (src/common/alloc.c); this fixes the threshold for
+     * the rest of the process (zstd's buffers, the C library's). */
     mallopt(M_MMAP_THRESHOLD, 1 << 20);
 
     if (argc < 2) {
