@@ -463,7 +463,8 @@ def gen_charts_cuts_a_photogrammetry_like_atlas():
     as without it, about the charts asked, each in its own part of the unit
     square (no two overlap, no face turned over in UV), a position where
     charts meet is one record per chart, and the stream is sorted and
-    finalized. Simplify then keeps every corner and meets the size."""
+    finalized, or shuffled with the same corners. Simplify then keeps every
+    corner and meets the size."""
     u = lambda c: struct.unpack("<f", c)[0]
     for shape, faces, charts in (("sphere", 3000, 12), ("torus", 4000, 100), ("terrain", 5000, 30),
                                  ("cad", 6000, 40), ("bumpy", 20000, 400)):
@@ -508,8 +509,22 @@ def gen_charts_cuts_a_photogrammetry_like_atlas():
             want = round(float(ratio) * len(tris))
             assert abs(len(got) - want) <= max(1, want // 200), (shape, ratio, len(got), want)
             assert all(c in inputs for t in got for c in t), (shape, ratio)
-    rc, _, err = run("gen", "sphere", "--charts", "10", "--shuffle", "-o", path("x.obj"), "-q")
-    assert rc != 0 and "shuffle" in err, err
+        # shuffled, like a scanner's file: the same corners, in another
+        # order, and simplify (which sorts it) meets the size all the same
+        shuffled = path("atlas_shuffled_%s.obj" % shape)
+        rc, _, err = run("gen", shape, "--faces", str(faces), "--charts", str(charts), "--shuffle", "-o", shuffled,
+                         "-q")
+        assert rc == 0, err
+        stris, (snv, snvt, _) = read_obj(shuffled)
+        assert (snv, snvt) == (nv, nvt) and sorted(map(rotated, stris)) == sorted(map(rotated, tris)), shape
+        assert stris != tris, (shape, "not shuffled")
+        o = path("atlas_shuffled_out.obj")
+        rc, _, err = run("simplify", shuffled, "-o", o, "--ratio", "0.25", "-q")
+        assert rc == 0, (shape, err)
+        got, _ = read_obj(o)
+        want = round(0.25 * len(tris))
+        assert abs(len(got) - want) <= max(1, want // 200), (shape, len(got), want)
+        assert all(c in inputs for t in got for c in t), shape
 
 
 @case

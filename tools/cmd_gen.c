@@ -23,7 +23,7 @@ static void gen_help(void)
            "      --shuffle       vertices and faces in random order, like a scanner PLY\n"
            "      --charts K      a UV atlas of about K charts, like a photogrammetry\n"
            "                      texture: texture_u/texture_v per vertex, one vertex\n"
-           "                      per chart where charts meet (not with --shuffle)\n"
+           "                      per chart where charts meet\n"
            "      --ascii         ASCII instead of binary PLY\n"
            "  -q, --quiet         no progress or summary\n"
            "  -h, --help          this text\n",

@@ -504,8 +504,9 @@ typedef struct epsnet_gen_settings {
      * every vertex carries texture_u and texture_v (float32); the grid is cut
      * into square charts, each with its own tile of the unit square (no two
      * overlap), and a vertex where charts meet is one record per chart, as
-     * an OBJ reader makes them from `vt` (docs/architecture.md §13). 0: no
-     * texture coordinates. Not with shuffle (EPSNET_EINVAL). Default: 0. */
+     * an OBJ reader makes them from `vt` (docs/architecture.md §13); with
+     * shuffle, those records too come in a random order. 0: no texture
+     * coordinates. Default: 0. */
     uint64_t charts;
     uint8_t reserved[56];
 } epsnet_gen_settings;

@@ -103,7 +103,7 @@ en_gen_vtx en_gen_vertex_at(const en_gen_grid *g, uint64_t id)
     return v;
 }
 
-void en_gen_face_at(const en_gen_grid *g, uint64_t id, en_gen_vtx out[3])
+void en_gen_face_at(const en_gen_grid *g, uint64_t id, en_gen_vtx out[3], uint64_t *strip_out, uint64_t *quad_out)
 {
     uint64_t count0 = strip_faces(g, 0), strip, within;
     if (id < count0) {
@@ -138,4 +138,6 @@ void en_gen_face_at(const en_gen_grid *g, uint64_t id, en_gen_vtx out[3])
     out[0] = tri[t][0];
     out[1] = tri[t][1];
     out[2] = tri[t][2];
+    *strip_out = strip;
+    *quad_out = q;
 }

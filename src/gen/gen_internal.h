@@ -165,8 +165,9 @@ int en_gen_quad_tris(const en_gen_grid *g, uint64_t strip, uint64_t q, int diag,
 /* Global grid indices (adjacency order) and back. */
 uint64_t en_gen_vertex_id(const en_gen_grid *g, en_gen_vtx v);
 en_gen_vtx en_gen_vertex_at(const en_gen_grid *g, uint64_t id);
-/* Corners of face id (strip-major), computing the positions it needs. */
-void en_gen_face_at(const en_gen_grid *g, uint64_t id, en_gen_vtx tri[3]);
+/* Corners of face id (strip-major), computing the positions it needs, and
+ * its strip and quad (for en_gen_copy_of). */
+void en_gen_face_at(const en_gen_grid *g, uint64_t id, en_gen_vtx tri[3], uint64_t *strip, uint64_t *quad);
 
 /* ---- UV atlas (gen_atlas.c) ---- */
 

@@ -578,9 +578,6 @@ int en_gen_grid_init(en_gen_grid *g, const epsnet_gen_settings *s, epsnet_error 
     layout(g, best_h);
     if (fabs((double)g->nfaces - target) <= 0.25 * target)
         refine_columns(g, s->faces);
-    if (s->charts && s->shuffle)
-        return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "charts (a UV atlas) need the sorted order, not shuffle");
     en_gen_atlas_init(g, s->charts);
     return 0;
 }

@@ -10,8 +10,11 @@
  * row), a few cached rows of positions and diagonals, and the counts of the
  * rows still live, so O(rows + columns) = O(sqrt(faces)).
  *
- * Shuffled: a keyed bijection of the vertex indices and another of the face
- * indices; each record is computed from its index, in constant memory.
+ * Shuffled: a keyed bijection of the vertex records' indices and another of
+ * the face indices; each record is computed from its index. With an atlas
+ * the records are numbered row by row (each row's first record kept, one
+ * entry per row), a vertex's copies together, so a record finds its vertex
+ * and copy by two searches.
  */
 #include <stdlib.h>
 #include <string.h>
@@ -377,35 +380,78 @@ int en_gen_emit_sorted(const en_gen_grid *g, en_gen_emit_fn emit, void *ctx, en_
     return rc;
 }
 
+/* Row r's first record, numbered row by row (first[R]: all of them). */
+static uint64_t *records_by_row(const en_gen_grid *g)
+{
+    uint64_t *first = en_malloc((g->nrows + 1) * sizeof *first);
+    if (!first)
+        return NULL;
+    first[0] = 0;
+    for (uint64_t r = 0; r < g->nrows; r++)
+        first[r + 1] = first[r] + en_gen_row_records(g, r);
+    return first;
+}
+
+/* The vertex and the copy of record id (numbered by records_by_row). */
+static en_gen_vtx record_at(const en_gen_grid *g, const uint64_t *first, uint64_t id, uint64_t *copy)
+{
+    uint64_t lo = 0, hi = g->nrows; /* the last row whose first record is at or before id */
+    while (hi - lo > 1) {
+        uint64_t mid = lo + (hi - lo) / 2;
+        *(first[mid] <= id ? &lo : &hi) = mid;
+    }
+    en_gen_vtx v = { lo, 0 };
+    uint64_t within = id - first[lo], n = en_gen_row_size(g, lo);
+    uint64_t clo = 0, chi = n; /* the last column whose records start at or before within */
+    while (chi - clo > 1) {
+        uint64_t mid = clo + (chi - clo) / 2;
+        en_gen_vtx m = { lo, mid };
+        *(en_gen_col_offset(g, m) <= within ? &clo : &chi) = mid;
+    }
+    v.col = clo;
+    *copy = within - en_gen_col_offset(g, v);
+    return v;
+}
+
 int en_gen_emit_shuffled(const en_gen_grid *g, uint64_t seed, en_gen_emit_fn emit, void *ctx,
                          epsnet_error *err)
 {
+    uint64_t *first = records_by_row(g);
+    if (!first)
+        return en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "out of memory generating a mesh");
     en_gen_perm vperm, fperm;
-    en_gen_perm_init(&vperm, g->nverts, seed);
+    en_gen_perm_init(&vperm, g->nrecords, seed);
     en_gen_perm_init(&fperm, g->nfaces, ~seed);
     epsnet_record rec;
     memset(&rec, 0, sizeof rec);
     rec.kind = EPSNET_REC_VERTEX;
-    for (uint64_t p = 0; p < g->nverts; p++) {
-        en_gen_vtx v = en_gen_vertex_at(g, en_gen_perm_inv(&vperm, p));
+    int rc = 0;
+    float uv[2];
+    for (uint64_t p = 0; p < g->nrecords && rc == 0; p++) {
+        uint64_t copy;
+        en_gen_vtx v = record_at(g, first, en_gen_perm_inv(&vperm, p), &copy);
         float xyz[3];
         en_gen_point_f(g, v.row, v.col, xyz);
         for (int k = 0; k < 3; k++)
             rec.xyz[k] = xyz[k];
-        int rc = emit(ctx, &rec, err);
-        if (rc)
-            return rc;
+        if (g->chart_rows) {
+            en_gen_copy_uv(g, v, copy, uv);
+            rec.attr = (const uint8_t *)uv;
+        }
+        rc = emit(ctx, &rec, err);
     }
     memset(&rec, 0, sizeof rec);
     rec.kind = EPSNET_REC_TRIANGLE;
-    for (uint64_t p = 0; p < g->nfaces; p++) {
+    for (uint64_t p = 0; p < g->nfaces && rc == 0; p++) {
         en_gen_vtx tri[3];
-        en_gen_face_at(g, en_gen_perm_inv(&fperm, p), tri);
+        uint64_t strip, q;
+        en_gen_face_at(g, en_gen_perm_inv(&fperm, p), tri, &strip, &q);
         for (int k = 0; k < 3; k++)
-            rec.v[k] = en_gen_perm_fwd(&vperm, en_gen_vertex_id(g, tri[k]));
-        int rc = emit(ctx, &rec, err);
-        if (rc)
-            return rc;
+            rec.v[k] = en_gen_perm_fwd(&vperm, first[tri[k].row] + en_gen_col_offset(g, tri[k]) +
+                                                   en_gen_copy_of(g, tri[k], strip, q));
+        rc = emit(ctx, &rec, err);
     }
-    return 0;
+    en_free(first);
+    return rc;
 }
