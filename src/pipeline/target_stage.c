@@ -82,7 +82,6 @@ struct en_target_stage {
     uint32_t retries;             /* rounds run again (ROUND_RETRIES) */
     double priced;                /* the share of its non-samples hist holds (ceiling_for) */
     uint32_t kept_attr;           /* a kept vertex's bytes: its attributes, then its quadric */
-    uint8_t *attr;                /* one vertex's, for replay */
     en_chain_stats rounds;        /* the rounds' counts, summed */
     en_chain_stats last;          /* the last round's */
     /* Progress (cfg.tick), in records taken by the rounds: those of the
@@ -252,8 +251,7 @@ static int replay(en_target_stage *ts, kept *k, en_stage into, epsnet_error *err
         if (rec.kind == EPSNET_REC_VERTEX) {
             if (!(p = kept_read(k, ts->kept_attr, &got, &rc, err)))
                 break;
-            memcpy(ts->attr, p, ts->kept_attr); /* stays valid while the record is put */
-            rec.attr = ts->attr;
+            rec.attr = p; /* valid until the next kept_read, after the put has copied it */
         }
         rc = en_stage_put(&into, &rec, err);
         if (rc == 0 && (uint64_t)++ts->round_taken % TICK_RECORDS == 0)
@@ -565,8 +563,7 @@ int en_target_stage_new(en_target_stage **out, const en_target_stage_config *cfg
     *out = NULL;
     en_target_stage *ts = en_calloc(1, sizeof *ts);
     if (!ts || !(ts->hist = en_calloc(EN_COST_BUCKETS, sizeof *ts->hist)) ||
-        !(ts->hist_before = en_calloc(EN_COST_BUCKETS, sizeof *ts->hist)) ||
-        !(ts->attr = en_malloc(cfg->attr_size + en_carried_bytes(cfg->weights ? cfg->weights->channels : 0)))) {
+        !(ts->hist_before = en_calloc(EN_COST_BUCKETS, sizeof *ts->hist))) {
         en_target_stage_free(&ts);
         return en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     }
@@ -619,7 +616,6 @@ void en_target_stage_free(en_target_stage **pts)
     kept_close(&ts->in);
     en_free(ts->hist);
     en_free(ts->hist_before);
-    en_free(ts->attr);
     en_free(ts);
     *pts = NULL;
 }
