@@ -392,9 +392,13 @@ static uint64_t *records_by_row(const en_gen_grid *g)
     return first;
 }
 
-/* The vertex and the copy of record id (numbered by records_by_row). */
+/* The vertex and the copy of record id (numbered by records_by_row: the
+ * grid's own order without an atlas, found by division then). */
 static en_gen_vtx record_at(const en_gen_grid *g, const uint64_t *first, uint64_t id, uint64_t *copy)
 {
+    *copy = 0;
+    if (!g->chart_rows)
+        return en_gen_vertex_at(g, id);
     uint64_t lo = 0, hi = g->nrows; /* the last row whose first record is at or before id */
     while (hi - lo > 1) {
         uint64_t mid = lo + (hi - lo) / 2;
@@ -448,8 +452,9 @@ int en_gen_emit_shuffled(const en_gen_grid *g, uint64_t seed, en_gen_emit_fn emi
         uint64_t strip, q;
         en_gen_face_at(g, en_gen_perm_inv(&fperm, p), tri, &strip, &q);
         for (int k = 0; k < 3; k++)
-            rec.v[k] = en_gen_perm_fwd(&vperm, first[tri[k].row] + en_gen_col_offset(g, tri[k]) +
-                                                   en_gen_copy_of(g, tri[k], strip, q));
+            rec.v[k] = en_gen_perm_fwd(&vperm, g->chart_rows ? first[tri[k].row] + en_gen_col_offset(g, tri[k]) +
+                                                                   en_gen_copy_of(g, tri[k], strip, q)
+                                                             : en_gen_vertex_id(g, tri[k]));
         rc = emit(ctx, &rec, err);
     }
     en_free(first);
