@@ -392,13 +392,10 @@ static uint64_t *records_by_row(const en_gen_grid *g)
     return first;
 }
 
-/* The vertex and the copy of record id (numbered by records_by_row: the
- * grid's own order without an atlas, found by division then). */
+/* The vertex and the copy of record id of an atlas (numbered by
+ * records_by_row). */
 static en_gen_vtx record_at(const en_gen_grid *g, const uint64_t *first, uint64_t id, uint64_t *copy)
 {
-    *copy = 0;
-    if (!g->chart_rows)
-        return en_gen_vertex_at(g, id);
     uint64_t lo = 0, hi = g->nrows; /* the last row whose first record is at or before id */
     while (hi - lo > 1) {
         uint64_t mid = lo + (hi - lo) / 2;
@@ -420,8 +417,9 @@ static en_gen_vtx record_at(const en_gen_grid *g, const uint64_t *first, uint64_
 int en_gen_emit_shuffled(const en_gen_grid *g, uint64_t seed, en_gen_emit_fn emit, void *ctx,
                          epsnet_error *err)
 {
-    uint64_t *first = records_by_row(g);
-    if (!first)
+    /* without an atlas the records are the grid's vertices, in its own order */
+    uint64_t *first = NULL;
+    if (g->chart_rows && !(first = records_by_row(g)))
         return en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "out of memory generating a mesh");
     en_gen_perm vperm, fperm;
@@ -433,13 +431,13 @@ int en_gen_emit_shuffled(const en_gen_grid *g, uint64_t seed, en_gen_emit_fn emi
     int rc = 0;
     float uv[2];
     for (uint64_t p = 0; p < g->nrecords && rc == 0; p++) {
-        uint64_t copy;
-        en_gen_vtx v = record_at(g, first, en_gen_perm_inv(&vperm, p), &copy);
+        uint64_t id = en_gen_perm_inv(&vperm, p), copy = 0;
+        en_gen_vtx v = first ? record_at(g, first, id, &copy) : en_gen_vertex_at(g, id);
         float xyz[3];
         en_gen_point_f(g, v.row, v.col, xyz);
         for (int k = 0; k < 3; k++)
             rec.xyz[k] = xyz[k];
-        if (g->chart_rows) {
+        if (first) {
             en_gen_copy_uv(g, v, copy, uv);
             rec.attr = (const uint8_t *)uv;
         }
@@ -452,9 +450,9 @@ int en_gen_emit_shuffled(const en_gen_grid *g, uint64_t seed, en_gen_emit_fn emi
         uint64_t strip, q;
         en_gen_face_at(g, en_gen_perm_inv(&fperm, p), tri, &strip, &q);
         for (int k = 0; k < 3; k++)
-            rec.v[k] = en_gen_perm_fwd(&vperm, g->chart_rows ? first[tri[k].row] + en_gen_col_offset(g, tri[k]) +
-                                                                   en_gen_copy_of(g, tri[k], strip, q)
-                                                             : en_gen_vertex_id(g, tri[k]));
+            rec.v[k] = en_gen_perm_fwd(&vperm, first ? first[tri[k].row] + en_gen_col_offset(g, tri[k]) +
+                                                           en_gen_copy_of(g, tri[k], strip, q)
+                                                     : en_gen_vertex_id(g, tri[k]));
         rc = emit(ctx, &rec, err);
     }
     en_free(first);

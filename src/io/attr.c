@@ -67,17 +67,17 @@ int epsnet_attr_layout_add(epsnet_attr_layout *l, const char *name, epsnet_attr_
     return 0;
 }
 
-int epsnet_attr_layout_add_of_face(epsnet_attr_layout *l, const char *name, epsnet_attr_type type)
+int en_attr_layout_add_as(epsnet_attr_layout *l, const char *name, epsnet_attr_type type, int of_face)
 {
     int rc = epsnet_attr_layout_add(l, name, type);
     if (rc == 0)
-        l->attr[l->count - 1].of_face = 1;
+        l->attr[l->count - 1].of_face = of_face != 0;
     return rc;
 }
 
-int en_attr_layout_add_copy(epsnet_attr_layout *l, const epsnet_attr *a)
+int epsnet_attr_layout_add_of_face(epsnet_attr_layout *l, const char *name, epsnet_attr_type type)
 {
-    return a->of_face ? epsnet_attr_layout_add_of_face(l, a->name, a->type) : epsnet_attr_layout_add(l, a->name, a->type);
+    return en_attr_layout_add_as(l, name, type, 1);
 }
 
 int en_attr_layout_check(const epsnet_attr_layout *l, char *why, size_t why_len)

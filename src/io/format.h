@@ -156,8 +156,9 @@ int en_format_holds_every_attr(const epsnet_attr_layout *l, uint32_t i);
 /* Check a layout a caller built (epsnet_writer_open, the push API):
  * types, names, offsets and size agree. @return 0 or -1 with why filled. */
 int en_attr_layout_check(const epsnet_attr_layout *l, char *why, size_t why_len);
-/* Append a copy of a (its name, type and of_face) to l, at l's end. */
-int en_attr_layout_add_copy(epsnet_attr_layout *l, const epsnet_attr *a);
+/* epsnet_attr_layout_add, or _add_of_face when of_face (a copy of another
+ * layout's attribute keeps its mark). */
+int en_attr_layout_add_as(epsnet_attr_layout *l, const char *name, epsnet_attr_type type, int of_face);
 
 /* A copy of a stream's face labels (epsnet.h epsnet_face_names) that
  * outlives its reader, in one allocation: a sort closes the reader before

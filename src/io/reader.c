@@ -149,8 +149,7 @@ int en_reader_add_attr_of(epsnet_reader *r, const char *name, epsnet_attr_type t
 {
     if (epsnet_attr_layout_find(&r->file_attrs, name) >= 0)
         return en_reader_fail(r, EPSNET_EFORMAT, "vertex property '%s' appears twice", name);
-    int rc = of_face ? epsnet_attr_layout_add_of_face(&r->file_attrs, name, type)
-                     : epsnet_attr_layout_add(&r->file_attrs, name, type);
+    int rc = en_attr_layout_add_as(&r->file_attrs, name, type, of_face);
     if (rc) {
         /* note: past EPSNET_ATTR_MAX, or a name a layout refuses (too long,
          * unprintable bytes): skipped and named, as before attributes were
@@ -185,7 +184,7 @@ void en_reader_keep_attrs(epsnet_reader *r, const en_format *out, int keep_all, 
         }
         if (keep_all || (out && out->holds_attr && out->holds_attr(f, i))) {
             r->attr_from[kept.count] = f->attr[i].offset;
-            (void)en_attr_layout_add_copy(&kept, &f->attr[i]);
+            (void)en_attr_layout_add_as(&kept, f->attr[i].name, f->attr[i].type, (int)f->attr[i].of_face);
             continue;
         }
         char what[EN_DROP_NAME];

@@ -196,13 +196,12 @@ int en_smz_attr_table_decode(const uint8_t *body, uint32_t body_len, uint32_t cr
         char name[EPSNET_ATTR_NAME_MAX];
         memcpy(name, body + at + 2, body[at + 1]);
         name[body[at + 1]] = '\0';
-        epsnet_attr_type type = (epsnet_attr_type)(body[at] & ~SMZ_ATTR_OF_FACE);
         if (strlen(name) != body[at + 1] ||
-            ((body[at] & SMZ_ATTR_OF_FACE) ? epsnet_attr_layout_add_of_face(l, name, type)
-                                           : epsnet_attr_layout_add(l, name, type)) != 0) {
+            epsnet_attr_layout_add(l, name, (epsnet_attr_type)(body[at] & ~SMZ_ATTR_OF_FACE)) != 0) {
             snprintf(why, why_len, "attribute %u of the table has a bad type (%u) or name", i + 1, body[at]);
             return -1;
         }
+        l->attr[i].of_face = (body[at] & SMZ_ATTR_OF_FACE) != 0;
         at += 2u + body[at + 1];
     }
     if (at != body_len) {

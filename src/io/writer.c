@@ -75,7 +75,7 @@ static int choose_attrs(epsnet_writer *w)
     for (uint32_t i = 0; i < in->count; i++) {
         if (w->fmt->holds_attr && w->fmt->holds_attr(in, i)) {
             w->attr_from[w->attrs.count] = in->attr[i].offset;
-            (void)en_attr_layout_add_copy(&w->attrs, &in->attr[i]);
+            (void)en_attr_layout_add_as(&w->attrs, in->attr[i].name, in->attr[i].type, (int)in->attr[i].of_face);
             continue;
         }
         char what[EPSNET_ATTR_NAME_MAX + 24];
