@@ -12,6 +12,8 @@ import subprocess
 import sys
 import tempfile
 
+from meshes import tube_ply
+
 EPSNET = sys.argv[1] if len(sys.argv) > 1 else os.environ["EPSNET_BIN"]
 TMP = tempfile.mkdtemp(prefix="epsnet-fault-")
 failures = 0
@@ -114,9 +116,10 @@ def main():
     assert p.returncode == 0, p.stderr
     walk("convert_ply_to_smb", lambda o: ["convert", src, "-o", o + ".smb", "-q"])
     walk("convert_sma_to_ply_zst", lambda o: ["convert", sma, "-o", o + ".ply.zst", "-q"])
-    walk("sample", lambda o: ["sample", src, "-o", o + ".ply", "--level", "2", "-q"])
+    # (every third point: the walks below cover the same code again, and CI's 15 minutes are shared)
+    walk("sample", lambda o: ["sample", src, "-o", o + ".ply", "--level", "2", "-q"], stride=3)
     walk("simplify_two_passes", lambda o: ["simplify", src, "-o", o + ".ply", "--level", "2", "--passes", "2",
-                                           "-q"], max_points=600)
+                                           "-q"], max_points=600, stride=3)
     # OBJ vt/vn: the reader's corner tables and read-ahead, the writer's weld.
     plain_obj = os.path.join(TMP, "in_plain.obj")
     p = run(["gen", "bumpy", "--faces", "2000", "-o", plain_obj, "-q"])
@@ -164,6 +167,14 @@ def main():
     walk("full_disk_simplify_target_rounds", lambda o: ["simplify", smz, "-o", o + ".smz", "--ratio", "0.1",
                                                         "--slab", "300", "--mem", "600K", "-j", "3", "-q"],
          what="EPSNET_FAIL_WRITE")
+    # ... and a stream long enough for a size's pricing windows: they are
+    # read through the block index, thinned twice over, and the thinning
+    # held to the ceiling they price (docs/architecture.md §7).
+    tube = os.path.join(TMP, "tube.smz")
+    p = run(["sort", tube_ply(TMP, "tube.ply", 12, 2000), "-o", tube, "-q"])
+    assert p.returncode == 0, p.stderr
+    walk("simplify_target_priced", lambda o: ["simplify", tube, "-o", o + ".smz", "--ratio", "0.2", "--slab", "64",
+                                              "-j", "3", "-q"], max_points=300, stride=89)
     walk("simplify_error_bound_on_slabs", lambda o: ["simplify", smz, "-o", o + ".smz", "--error", "0.001", "--slab",
                                                      "300", "-j", "3", "-q"], max_points=600, stride=7)
     # A glued double sheet (a fin on edge 0-1 of a tetrahedron), which a

@@ -6,7 +6,8 @@ any thread count, slab size and target, through PLY and OBJ."""
 import json
 import os
 
-from clitest import case, f32, finish, path, read_ascii_ply, run
+from clitest import TMP, case, f32, finish, path, read_ascii_ply, run
+from meshes import tube_ply
 
 
 def coloured_mesh():
@@ -128,6 +129,28 @@ def obj_vertex_colours_survive_simplify():
                     assert want.get(k) == tuple(f32(x) for x in w[4:7]), f"{opts}: colour changed: {line!r}"
                     n += 1
         assert n > 0
+
+
+@case
+def locked_vertices_stay_under_a_priced_ceiling():
+    """A long sorted .smz with a lock property: the pricing windows carry the
+    lock as the stream does, and neither they nor the thinning under their
+    ceiling, the rounds or the last round remove a locked vertex."""
+    tube = tube_ply(TMP, "locked_tube.ply", 24, 5000, lock_every=50)
+    _, verts, _ = read_ascii_ply(tube)
+    locked = {key(v) for v in verts if v["lock"] == "1"}
+    smz = path("locked_tube.smz")
+    rc, _, err = run("sort", tube, "-o", smz, "-q")
+    assert rc == 0, err
+    for opts in (("--ratio", "0.1", "--slab", "256"), ("--ratio", "0.2", "--slab", "256", "-j", "2")):
+        out, stats = path("locked_tube_out.ply"), path("locked_tube.json")
+        rc, _, err = run("simplify", smz, "-o", out, "--ascii", "-q", "--lock", "lock", "--stats", stats, *opts)
+        assert rc == 0, err
+        s = json.load(open(stats))
+        assert s["target"]["price_ceiling"] > 0, (opts, s["target"])
+        _, vout, _ = read_ascii_ply(out)
+        missing = locked - {key(v) for v in vout}
+        assert not missing, f"{opts}: {len(missing)} of {len(locked)} locked vertices gone"
 
 
 @case

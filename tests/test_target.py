@@ -8,7 +8,8 @@ import json
 import os
 import subprocess
 
-from clitest import EPSNET, case, f32, finish, path, read_ascii_ply, run
+from clitest import EPSNET, TMP, case, f32, finish, path, read_ascii_ply, run
+from meshes import tube_ply
 
 
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "data")
@@ -145,6 +146,91 @@ def a_target_whose_finish_is_over_the_budget_goes_through_rounds_on_slabs():
             assert s["passes"] >= 2 and want - 1 <= s["output_faces"] <= want, (ratio, j, s["output_faces"], want)
             outs.append(open(out, "rb").read())
         assert outs[0] == outs[1], f"--ratio {ratio}: -j1 and -j2 differ"
+
+
+@case
+def a_long_sorted_smz_is_thinned_under_a_ceiling_priced_from_windows():
+    """A sorted .smz long enough for a few windows of its stream (read
+    through its block index) is thinned under one global cost ceiling priced
+    from them, each slab above a floor and each seam above its pace to the
+    target (docs/architecture.md §7): the size is exact, the bytes do not
+    depend on -j, and the skeleton is the one the same mesh gets unpriced
+    (the same tube shuffled and sorted on the way in, which has no index,
+    and the .smz with the pricing switched off). A ceiling priced far too
+    high cannot take the thinning past the target."""
+    tube = tube_ply(TMP, "priced_tube.ply", 24, 5000)
+    smz = path("priced_tube.smz")
+    rc, _, err = run("sort", tube, "-o", smz, "-q")
+    assert rc == 0, err
+    outs = []
+    for j in ("1", "2"):
+        out = path(f"priced_{j}.ply")
+        s, _ = simplify(smz, out, "--ratio", "0.1", "--slab", "256", "--ascii", "-j", j)
+        t = s["target"]
+        assert t["price_ceiling"] > 0 and t["price_vertices"] > 0, t
+        assert s["output_faces"] == t["faces"] == 24000, (s["output_faces"], t["faces"])
+        verts, faces = ascii_ply(out)
+        _, closed = euler_and_closed(verts, faces)
+        assert closed, "the closed tube came out open"
+        outs.append(open(out, "rb").read())
+    assert outs[0] == outs[1], "-j1 and -j2 differ"
+    priced = s
+    # the same mesh unpriced: shuffled through the sort, and the .smz with
+    # the pricing switched off (EPSNET_FAIL_PRICE_SKIP)
+    rc, _, err = run("convert", tube, "-o", path("priced_tube.smb"), "-q")
+    assert rc == 0, err
+    env = dict(os.environ, EPSNET_FAIL_PRICE_SKIP="1")
+    for src, e in ((path("priced_tube.smb"), None), (smz, env)):
+        st = path("unpriced.json")
+        p = subprocess.run([EPSNET, "simplify", src, "-o", path("unpriced.ply"), "--ratio", "0.1", "--slab", "256",
+                            "-q", "--stats", st], capture_output=True, text=True, env=e)
+        assert p.returncode == 0, p.stderr
+        u = json.load(open(st))
+        assert u["target"]["price_ceiling"] == 0, (src, u["target"])
+        assert u["output_faces"] == 24000, (src, u["output_faces"])
+        assert u["gaussian_sphere"]["frequency"] == priced["gaussian_sphere"]["frequency"], (
+            src, u["gaussian_sphere"], priced["gaussian_sphere"])
+        assert u["target"]["skeleton_vertices"] == priced["target"]["skeleton_vertices"], (src, u["target"],
+                                                                                            priced["target"])
+    # windows that missed a harder stream: the floor and the pace hold
+    st = path("high.json")
+    p = subprocess.run([EPSNET, "simplify", smz, "-o", path("high.ply"), "--ratio", "0.1", "--slab", "256", "-q",
+                        "--stats", st], capture_output=True, text=True,
+                       env=dict(os.environ, EPSNET_FAIL_PRICE_HIGH="1"))
+    assert p.returncode == 0, p.stderr
+    h = json.load(open(st))
+    assert h["target"]["price_ceiling"] > 1e3 * priced["target"]["price_ceiling"], h["target"]
+    assert h["output_faces"] == 24000, (h["output_faces"], p.stderr)
+    # a stream too short, or too wide for its slabs, is not priced
+    for opts in (("--slab", "2048"), ("--slab", "64")):
+        s, _ = simplify(smz, path("unpriced_short.ply"), "--ratio", "0.1", *opts)
+        assert s["target"]["price_ceiling"] == 0 and s["output_faces"] == 24000, (opts, s["target"])
+
+
+@case
+def a_bad_block_in_a_window_is_the_readers_to_report():
+    """A corrupt block where a pricing window reads it: the run fails with
+    the reader's message, where it is, as it does without a target (the
+    windows do not report it: they go without the pricing)."""
+    tube = tube_ply(TMP, "priced_tube.ply", 24, 5000)
+    smz = path("priced_tube.smz")
+    if not os.path.exists(smz):
+        rc, _, err = run("sort", tube, "-o", smz, "-q")
+        assert rc == 0, err
+    data = bytearray(open(smz, "rb").read())
+    # the second of the four windows is about 3/8 along the stream, and the
+    # blocks are in stream order
+    at = 3 * len(data) // 8
+    data[at] ^= 0x5A
+    bad = path("bad_block.smz")
+    open(bad, "wb").write(bytes(data))
+    errs = []
+    for opts in ((), ("--ratio", "0.1")):
+        out = path("bad_block_out.ply")
+        rc, _, err = run("simplify", bad, "-o", out, "--slab", "256", "-q", *opts)
+        assert rc != 0 and not os.path.exists(out), (opts, rc, err)
+        errs.append(err.strip().splitlines()[-1])
+    assert errs[0] == errs[1] and "block" in errs[0], errs
 
 
 @case

@@ -69,8 +69,10 @@ test)
     [ -d build-tsan ] || meson setup build-tsan -Dwerror=true -Db_sanitize=thread -Db_lundef=false \
         --buildtype=debug -Dslow_tests=false >/dev/null
     ninja -C build-tsan tests/test_pool tests/test_hausdorff tests/test_pipeline tests/test_arrays tools/epsnet >/dev/null
-    # (of `target`, only its case through the target stage's rounds, where its threads meet: CI time)
-    TSAN_OPTIONS=halt_on_error=1 EPSNET_TEST_ONLY=a_target_whose_finish_is_over_the_budget_goes_through_rounds_on_slabs \
+    # (of `target`, only its cases through the target stage's rounds and its pricing windows, where
+    # its threads meet: CI time)
+    TSAN_OPTIONS=halt_on_error=1 \
+    EPSNET_TEST_ONLY=a_target_whose_finish_is_over_the_budget_goes_through_rounds_on_slabs,a_long_sorted_smz_is_thinned_under_a_ceiling_priced_from_windows \
         meson test -C build-tsan --no-rebuild pool hausdorff pipeline arrays target \
         --num-processes "$jobs" --print-errorlogs || status=1
     exit $status

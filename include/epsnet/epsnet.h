@@ -668,7 +668,9 @@ typedef struct epsnet_settings {
      * 262,144 vertices by default) is then one slab, and the target is met
      * exactly; a larger one is thinned on slabs, in parallel, kept in a
      * temporary file, taken towards the target by rounds on slabs under a
-     * rising global ceiling on collapse cost, and finished exactly: in one
+     * rising global ceiling on collapse cost (a long sorted .smz: the
+     * thinning itself under a ceiling priced from a few windows of the
+     * stream first, so that it ends near the target), and finished exactly: in one
      * slab when what is left fits a few slabs and mem's one-slab share
      * (2/5 of it, at about 640 bytes a vertex), else on slabs whose seams
      * end it at the target (docs/architecture.md §7). An error bound
@@ -813,6 +815,13 @@ typedef struct epsnet_stats {
     /* ... and how many of them it ran again because they passed the
      * target (docs/architecture.md §7: a round never passes it). */
     uint32_t target_round_retries;
+    /* A streamed target over a long sorted .smz: the global ceiling on
+     * collapse cost that its thinning pass held every slab and seam to,
+     * priced before the pass from windows of the stream read through the
+     * block index, and the vertices of those windows (0, 0: none;
+     * docs/architecture.md §7). */
+    double target_price_ceiling;
+    uint64_t target_price_vertices;
     /* The values a vertex's attribute error weighs (settings.attribute_weights:
      * 2 for texture coordinates, 3 for normals; 0: none). */
     uint32_t attribute_channels;

@@ -178,7 +178,7 @@ int epsnet_stats_write_json(const epsnet_context *c, const char *command, const 
         ", \"inner_left\": %" PRIu64 "},\n"
         "  \"target\": {\"faces\": %" PRIu64 ", \"skeleton_vertices\": %" PRIu64 ", \"samples_given_up\": %" PRIu64
         ", \"membrane_faces\": %" PRIu64 ", \"finest_frequency\": %" PRIu32 ", \"rounds\": %" PRIu32
-        ", \"round_retries\": %" PRIu32 "},\n"
+        ", \"round_retries\": %" PRIu32 ", \"price_ceiling\": %.9g, \"price_vertices\": %" PRIu64 "},\n"
         "  \"dropped\": %" PRIu64 ",\n"
         "  \"peak_rss\": %" PRIu64 ",\n"
         "  \"budget\": {\"total\": %" PRIu64 ", \"reader\": %" PRIu64 ", \"sort\": %" PRIu64 ", \"chain\": %" PRIu64
@@ -193,7 +193,7 @@ int epsnet_stats_write_json(const epsnet_context *c, const char *command, const 
         s->multi_cover_samples, s->output_vertices, s->output_faces, s->collapses, s->passes,
         s->remaining_nonsamples, s->refused_link, s->refused_normal, s->refused_zero_area, s->refused_duplicate,
         s->max_active, s->slabs, s->seam_faces, s->seam_collapses, s->band_nonsamples,
-        s->band_nonsamples_left, s->inner_nonsamples, s->inner_nonsamples_left, s->target_faces, s->skeleton_vertices, s->samples_given_up, s->membrane_faces, s->skeleton_finest_frequency, s->target_rounds, s->target_round_retries, s->dropped, s->peak_rss, s->budget_total, s->budget_reader, s->budget_sort, s->budget_chain, s->budget_one_slab, s->seconds_read, s->seconds_normals, s->seconds_classify,
+        s->band_nonsamples_left, s->inner_nonsamples, s->inner_nonsamples_left, s->target_faces, s->skeleton_vertices, s->samples_given_up, s->membrane_faces, s->skeleton_finest_frequency, s->target_rounds, s->target_round_retries, s->target_price_ceiling, s->target_price_vertices, s->dropped, s->peak_rss, s->budget_total, s->budget_reader, s->budget_sort, s->budget_chain, s->budget_one_slab, s->seconds_read, s->seconds_normals, s->seconds_classify,
         s->seconds_simplify, s->seconds_write, s->seconds_sort, s->cpu_main, s->cpu_workers);
     if (n < 0 || (size_t)n >= sizeof buf)
         return en_error_set(err, EPSNET_EINTERNAL, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "stats too long");

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include "api/attr_weights_spec.h"
+#include "api/smz_windows.h"
 #include "common/error.h"
 #include "common/util.h"
 
@@ -277,6 +278,21 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         };
         if ((rc = en_target_stage_new(&run->stage, &tc, run->pool, err)) != 0)
             return rc;
+        /* a long sorted .smz: the thinning's ceiling from windows of it
+         * (pipeline/target_stage.h: en_window_source) */
+        if (in && in->nverts != EPSNET_COUNT_UNKNOWN &&
+            (double)in->nverts * EN_PRICE_MAX_SHARE >= 3.0 * EN_PRICE_WINDOWS * slab_vertices) {
+            en_smz_windows *sw = NULL;
+            en_window_source src;
+            rc = en_smz_windows_open(&sw, path, &in->vertex_attrs, slab_vertices,
+                                     en_target_price_margin_widths(run->size.share), &src, err);
+            if (rc == 0 && sw)
+                rc = en_target_stage_price(run->stage, &src, &run->plan, &run->ceiling, err);
+            run->price_vertices = run->ceiling > 0 ? src.vertices : 0;
+            en_smz_windows_close(&sw);
+            if (rc)
+                return rc;
+        }
         out = en_target_stage_input(run->stage);
     }
     en_chain_config cfg = {
@@ -359,16 +375,26 @@ static void fill_stats(epsnet_stats *st, const en_chain_stats *cs)
     st->target_faces = cs->target_faces;
 }
 
-/* A count target above which the run ended: why, in one line. */
+/* A count target the run ended above (or, priced, below): why, in one line. */
 static void warn_missed_target(const en_run *run, const epsnet_stats *st, int stopped_by_error, int last_on_slabs)
 {
     const epsnet_settings *set = &run->ctx->settings;
     int faces = st->target_faces > 0;
     uint64_t want = faces ? st->target_faces : set->target_vertices;
     uint64_t got = faces ? st->output_faces : st->output_vertices;
+    char msg[1024], cut_ends[96] = "";
+    if (set->warning && want && got < want && run->ceiling > 0) {
+        /* docs/architecture.md §7, "known weak points" */
+        snprintf(msg, sizeof msg,
+                 "%s: target of %llu %s passed by %llu: the thinning pass held every slab to a cost ceiling priced "
+                 "from %llu vertices of the stream, and the rest of the stream was easier to thin than they were",
+                 run->path ? run->path : "input", (unsigned long long)want, faces ? "faces" : "vertices",
+                 (unsigned long long)(want - got), (unsigned long long)run->price_vertices);
+        set->warning(set->warning_opaque, msg);
+        return;
+    }
     if (!set->warning || !want || got <= want)
         return;
-    char msg[1024], cut_ends[96] = "";
     if (st->cut_end_vertices)
         snprintf(cut_ends, sizeof cut_ends, ", %llu of them where seams end",
                  (unsigned long long)st->cut_end_vertices);
@@ -418,6 +444,8 @@ int en_run_end(en_run *run, epsnet_error *err)
     fill_stats(st, &cs);
     st->target_rounds = (uint32_t)rounds;
     st->target_round_retries = (uint32_t)retries;
+    st->target_price_ceiling = run->ceiling;
+    st->target_price_vertices = run->price_vertices;
     st->attribute_channels = run->weights.channels;
     if (cs.skeleton_frequency && cs.skeleton_frequency != run->ctx->sphere.n) {
         /* the stats report the sphere the skeleton was taken at */

@@ -42,6 +42,8 @@ typedef struct en_run {
     int passes;                   /* the chain's passes (1 with a streamed target: the thinning) */
     int staged;                   /* a streamed target: the target stage follows the chain */
     en_target_stage *stage;
+    double ceiling;               /* the thinning's, from a pricing pass (0: none), */
+    uint64_t price_vertices;      /* ... and the windows' vertices */
     en_chain_spares spares;       /* slab works and collapse arrays, from chain to chain */
     int has_target;
     int has_normals;              /* the input's vertices carry normals (nx): its seams may be theirs */

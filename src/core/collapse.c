@@ -1132,6 +1132,8 @@ int en_collapse_slab(const en_slab *s, const uint8_t *removable, en_quadric *q, 
             }
             rc = do_collapse(&st, e.v, e.u);
             st.top_cost = e.cost > st.top_cost ? e.cost : st.top_cost;
+            if (cs->taken && en_in_ranges(cs->taken_ranges, cs->taken_nranges, s->gid[e.v]))
+                cs->taken[en_cost_bucket(st.top_cost)]++;
             if (cs->progress && (st.collapses & 1023) == 0) {
                 atomic_store_explicit(cs->progress, st.collapses, memory_order_relaxed);
                 if (cs->stop && atomic_load_explicit(cs->stop, memory_order_relaxed))

@@ -84,6 +84,16 @@ typedef struct en_collapse_settings {
      * waiting, EN_COST_NONE for every other vertex: what the target stage
      * counts to set its next round's ceiling. */
     uint16_t *bucket_of;
+    /* When not NULL (EN_COST_BUCKETS counts): one count for each collapse
+     * that took a vertex whose global id (en_slab.gid) lies in one of the
+     * taken_nranges ranges [lo, hi) of taken_ranges (sorted), at the
+     * bucket of the highest cost collapsed so far (the run's level then):
+     * the counts up to a ceiling's bucket are what a run under that
+     * ceiling would have taken there. What the target stage's pricing
+     * pass measures (docs/architecture.md §7). */
+    uint64_t *taken;
+    const uint64_t *taken_ranges;
+    uint32_t taken_nranges;
     /* When not NULL: the collapses done so far, stored now and then
      * (relaxed) for a progress report read on another thread; and a flag
      * that other thread may raise to stop the run (EPSNET_EINTR). */
@@ -121,6 +131,20 @@ static inline int en_cost_bucket(double c)
     long b = (long)(bits >> 48) - (1023 + EN_COST_BUCKET_EXP0) * 16 + 1;
     return b < 1 ? 1 : b >= EN_COST_BUCKETS ? EN_COST_BUCKETS - 1 : (int)b;
 }
+/* Does id lie in one of the n sorted ranges [lo, hi) of r (2n values)? */
+static inline int en_in_ranges(const uint64_t *r, uint32_t n, uint64_t id)
+{
+    uint32_t lo = 0, hi = n;
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if (id >= r[2 * mid + 1])
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo < n && id >= r[2 * lo];
+}
+
 /* The upper edge of bucket b, which holds the costs from the edge of b - 1
  * up to it: a ceiling there takes the whole bucket. */
 static inline double en_cost_bucket_top(int b)

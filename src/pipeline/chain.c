@@ -20,6 +20,7 @@
  */
 #include "pipeline/chain.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -94,6 +95,7 @@ struct en_pass {
      * the samples of the slabs retired, by level (en_slab_work.level_count). */
     const en_pass_plan *plan;
     uint64_t level_total[EN_LEVELS];
+    uint64_t retired_vertices;    /* ... and their vertices (en_pass_plan.skeleton_expected) */
     /* Batched: only the chunk jobs touch it (see chunk_job). */
     en_chunker ch;
     /* batched: the chunker runs as chunk jobs (the pass's input was checked
@@ -139,6 +141,7 @@ struct en_chain {
     en_chain_stats stats;          /* pass-summed counts; seam counts are added at the end */
     uint64_t *cost_hist;           /* a priced plan: the slabs' costs left (EN_COST_BUCKETS), summed at retire */
     uint64_t *level_hist;          /* ... and their samples', by level (en_slab_work.level_hist) */
+    uint64_t *taken_hist;          /* a plan with count ranges: the slabs' (en_slab_work.taken_hist), summed at retire */
     en_chain_spares own;           /* without cfg.spares */
     en_chain_spares *spares;       /* cfg.spares, or &own */
 };
@@ -411,6 +414,9 @@ static int retire_one(en_pass *p, epsnet_error *err)
         if (plan && plan->priced && w->has_levels && w->level_hist && c->level_hist)
             for (size_t b = 0; b < (size_t)EN_LEVELS * EN_COST_BUCKETS; b++)
                 c->level_hist[b] += w->level_hist[b];
+        if (plan && plan->count_nranges && w->taken_hist && c->taken_hist)
+            for (int b = 0; b < EN_COST_BUCKETS; b++)
+                c->taken_hist[b] += w->taken_hist[b];
         if (plan && !plan->priced) { /* a priced pass's skeleton goes on to the next */
             c->stats.skeleton_kept += w->skeleton_kept;
             c->stats.samples_given_up += w->given_up;
@@ -421,6 +427,7 @@ static int retire_one(en_pass *p, epsnet_error *err)
         if (plan && plan->skeleton == EN_SKELETON_CHOSEN) {
             for (int k = 0; k < EN_LEVELS; k++)
                 p->level_total[k] += w->level_count[k];
+            p->retired_vertices += plan->count_nranges ? w->counted_vertices : w->nowned;
             if (plan->one_slab)
                 c->stats.skeleton_frequency = w->chosen.n;
         }
@@ -486,7 +493,10 @@ static int lower_candidate(en_pass *p, epsnet_error *err)
     while (rc == 0 && en_jobring_in_flight(p->ring))
         rc = retire_one(p, err);
     int top = en_level_of(p->g.n);
-    int k = en_skeleton_level(p->level_total, top, (double)p->plan->skeleton_budget);
+    double budget = (double)p->plan->skeleton_budget;
+    if (p->plan->skeleton_expected)
+        budget *= fmin(1.0, (double)p->retired_vertices / (double)p->plan->skeleton_expected);
+    int k = en_skeleton_level(p->level_total, top, budget);
     if (rc == 0 && k < top) {
         gauss_rotation rot = p->g.rot;
         if (gauss_init(&p->g, 1u << k, &rot))
@@ -871,6 +881,10 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             (!(p->st.level_hist = en_calloc(nlevel, sizeof *p->st.level_hist)) ||
              (!c->level_hist && !(c->level_hist = en_calloc(nlevel, sizeof *c->level_hist)))))
             rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+        if (rc == 0 && p->plan && p->plan->count_nranges && streamed &&
+            (!(p->st.taken_hist = en_calloc(EN_COST_BUCKETS, sizeof *p->st.taken_hist)) ||
+             (!c->taken_hist && !(c->taken_hist = en_calloc(EN_COST_BUCKETS, sizeof *c->taken_hist)))))
+            rc = en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         /* a paced pass's last take aims at its goal (an error bound's last
          * slab is as any other) */
         p->ch.cut_last = streamed && p->plan->seams != EN_SEAMS_ERROR;
@@ -941,6 +955,15 @@ void en_chain_cost_hist(const en_chain *c, int skeleton_level, uint64_t *add)
     }
 }
 
+void en_chain_taken_hist(const en_chain *c, uint64_t *add)
+{
+    for (int b = 0; c->taken_hist && b < EN_COST_BUCKETS; b++)
+        add[b] += c->taken_hist[b];
+    for (int i = 0; i < c->cfg.passes; i++)
+        for (int b = 0; c->pass[i].st.taken_hist && b < EN_COST_BUCKETS; b++)
+            add[b] += c->pass[i].st.taken_hist[b];
+}
+
 void en_chain_free(en_chain **pc)
 {
     en_chain *c = pc ? *pc : NULL;
@@ -976,6 +999,7 @@ void en_chain_free(en_chain **pc)
     en_free(c->pass);
     en_free(c->cost_hist);
     en_free(c->level_hist);
+    en_free(c->taken_hist);
     en_chain_spares_free(&c->own);
     en_free(c);
     *pc = NULL;

@@ -137,6 +137,10 @@ void en_chain_stats_get(const en_chain *chain, en_chain_stats *stats);
  * and its samples above skeleton_level (log2 of the frequency the skeleton
  * takes; EN_SKELETON_CHOSEN marks each with its level). */
 void en_chain_cost_hist(const en_chain *chain, int skeleton_level, uint64_t *add);
+/* A plan with count ranges (after the end): add into add[]
+ * (EN_COST_BUCKETS) its slabs' and seams' collapses of the vertices in
+ * them, by the level each had reached (en_collapse_settings.taken). */
+void en_chain_taken_hist(const en_chain *chain, uint64_t *add);
 
 /* Wait for the slabs in flight, free everything; sets *chain to NULL.
  * Accepts NULL. */

@@ -52,6 +52,11 @@ typedef struct en_pass_plan {
      * pass (one slab: skeleton_share of what it keeps). */
     uint32_t finest_frequency;
     uint64_t skeleton_budget;
+    /* EN_SKELETON_CHOSEN on slabs: when not 0, the vertices the pass
+     * expects, and each candidate's check holds the counts so far to the
+     * budget's share of the vertices so far, not to the whole budget (a
+     * pricing pass, whose few windows stand for the whole stream). */
+    uint64_t skeleton_expected;
     int skeleton_level;           /* EN_SKELETON_MARKED: see there */
     /* Samples (and the non-manifold corners kept as samples) are a second
      * tier that a count takes last, when it cannot be met without them;
@@ -88,6 +93,15 @@ typedef struct en_pass_plan {
      * and its quadric, and counts the costs of the collapses it left
      * (en_chain_cost_hist): a target stage's pass before its last. */
     int priced;
+    /* The target stage's pricing pass over windows of the input
+     * (target_stage.h: en_window_source): when count_nranges > 0, the
+     * vertices whose ids lie in these sorted ranges [lo, hi) (2 values
+     * each; the windows' insides, away from their cut ends) are the ones
+     * the pass counts: its collapses of them, by the level the slab or
+     * seam had reached (en_chain_taken_hist), and a chosen skeleton's
+     * samples. */
+    const uint64_t *count_ranges;
+    uint32_t count_nranges;
     /* The pass is one slab of its whole input, held against the memory
      * budget as such. */
     int one_slab;

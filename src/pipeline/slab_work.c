@@ -40,6 +40,7 @@ void en_slab_work_free(en_slab_work *w)
     en_free(w->attr);
     en_free(w->cost_hist);
     en_free(w->level_hist);
+    en_free(w->taken_hist);
     en_free(w->bucket_of);
     en_slab_work_init(w);
 }
@@ -53,7 +54,7 @@ void en_slab_work_reset(en_slab_work *w)
 #define KEEP(field) w->field = keep.field
     KEEP(owner), KEEP(fflags), KEEP(vclass), KEEP(vgvertex), KEEP(q), KEEP(ref), KEEP(tri), KEEP(falive);
     KEEP(valive), KEEP(border), KEEP(future), KEEP(degree), KEEP(band), KEEP(fnormal), KEEP(ftri), KEEP(removable);
-    KEEP(attr), KEEP(cost_hist), KEEP(bucket_of), KEEP(vlevel), KEEP(level_hist), KEEP(aq), KEEP(avalue);
+    KEEP(attr), KEEP(cost_hist), KEEP(bucket_of), KEEP(vlevel), KEEP(level_hist), KEEP(taken_hist), KEEP(aq), KEEP(avalue);
     KEEP(cap);
 #undef KEEP
 }
@@ -166,6 +167,18 @@ static void share_limits(const en_slab_work *w, double share, uint64_t *keep_fac
     uint64_t drop = (uint64_t)((1 - share) * (double)reach);
     *keep_faces = w->s.nt > drop ? w->s.nt - drop : 1;
     *keep_vertices = 0;
+}
+
+/* A pricing pass's window cut (en_pass_plan.count_ranges): a boundary
+ * vertex outside the windows' insides stands for a frozen band of the
+ * stream, not a border of the mesh, so it receives no collapse, as no
+ * slab's frozen band does, and its samples count for no density. (With
+ * margins of a few widths the rule did not move the ceiling priced on
+ * `gen bumpy` 20M; the margins of whole slabs did: target_stage.h.) */
+static int cut_end(const en_pass_plan *t, const en_slab *s, uint32_t v)
+{
+    return t && t->count_nranges && (s->vflags[v] & EN_V_BOUNDARY) &&
+           !en_in_ranges(t->count_ranges, t->count_nranges, s->gid[v]);
 }
 
 /* Faces and vertices the slab may keep under its plan (0: no limit). */
@@ -299,9 +312,19 @@ static int nested_density(en_slab_work *w)
     if (rc)
         return rc;
     memset(w->level_count, 0, sizeof w->level_count);
+    const en_pass_plan *t = w->plan;
+    w->counted_vertices = 0;
     for (uint32_t v = 0; v < w->nowned; v++) {
+        /* a pricing pass's window cuts are borders, whose vertices are
+         * samples at every level: they stand for no density */
+        int counted = !cut_end(t, &w->s, v);
+        w->counted_vertices += (uint64_t)counted;
         if (!(w->vclass[v] & EN_C_SAMPLE))
             continue;
+        if (!counted) {
+            w->vlevel[v] = 0;
+            continue;
+        }
         int kept = w->vlevel[v] < top ? w->vlevel[v] : top; /* locked and needles: at every one */
         w->vlevel[v] = (uint8_t)(top - kept);
         w->level_count[top - kept]++;
@@ -484,6 +507,8 @@ static int simplify(en_slab_work *w)
             k = en_vertex_kind_of(w->border[v] == EN_BORDER_INNER, 0,
                                   en_seam_locked(s->vflags[v]) || (w->vclass[v] & EN_C_LOCKED),
                                   (w->vclass[v] & EN_C_SAMPLE) != 0);
+        if (k == EN_VK_LOCKED && cut_end(w->plan, s, v))
+            k = EN_VK_OPEN;
         removable[v] = (uint8_t)en_removable(k);
         /* under a target, samples are the second tier (en_collapse_slab),
          * and so are the non-manifold vertices, which are kept as samples
@@ -554,6 +579,14 @@ static int simplify(en_slab_work *w)
             }
             cs.bucket_of = w->bucket_of; /* filled by the collapse core, when it runs */
         }
+        if (t->count_nranges) {
+            if (!w->taken_hist && !(w->taken_hist = en_malloc(EN_COST_BUCKETS * sizeof *w->taken_hist)))
+                return oom(w);
+            memset(w->taken_hist, 0, EN_COST_BUCKETS * sizeof *w->taken_hist);
+            cs.taken = w->taken_hist;
+            cs.taken_ranges = t->count_ranges;
+            cs.taken_nranges = t->count_nranges;
+        }
     }
     if (w->progress) {
         /* what the limits leave to do: each collapse takes two faces, or one vertex */
@@ -568,7 +601,9 @@ static int simplify(en_slab_work *w)
     }
     en_collapse_counts cc;
     int crc;
-    if (nremovable == 0) {
+    /* nothing to remove, or a plan that keeps everything and prices
+     * nothing (a pricing pass's count of samples alone) */
+    if (nremovable == 0 || (t && t->keep_share >= 1 && !t->priced)) {
         if (s->nt) /* a slab of isolated vertices has no face array at all */
             memcpy(w->tri, s->tri, 3 * sizeof *w->tri * (size_t)s->nt);
         memset(w->falive, 1, nt);

@@ -150,6 +150,11 @@ typedef struct en_slab_work {
     /* ... and with has_levels, those of the samples, by level (EN_LEVELS
      * rows of EN_COST_BUCKETS): what the pass's choice of density frees. */
     uint64_t *level_hist;
+    /* A plan with count ranges: the collapses of vertices in them, by
+     * level (en_collapse_settings.taken; EN_COST_BUCKETS counts), and the
+     * vertices in them this slab owns. */
+    uint64_t *taken_hist;
+    uint64_t counted_vertices;
 
     /* Worker scratch, and the capacity of every array above: a slab work is
      * reused for a later cut (en_slab_work_reset), so a run in its steady

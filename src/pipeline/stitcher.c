@@ -65,6 +65,7 @@ void en_stitcher_free(en_stitcher *st)
     en_stitcher_release(st);
     en_free(st->cost_hist);
     en_free(st->level_hist);
+    en_free(st->taken_hist);
     memset(st, 0, sizeof *st);
 }
 
@@ -327,6 +328,12 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
     }
     if (en_slab_build_stars(ws))
         return oom(err);
+    if (st->plan && st->plan->count_nranges)
+        /* a pricing pass's window cuts receive nothing (slab_work.c: cut_end) */
+        for (size_t i = 0; i < st->nwv; i++)
+            if ((ws->vflags[i] & EN_V_BOUNDARY) &&
+                !en_in_ranges(st->plan->count_ranges, st->plan->count_nranges, ws->gid[i]))
+                ws->vflags[i] &= (uint8_t)~EN_V_TARGET;
     /* the run's arrays, in one buffer the stitcher keeps from take to take
      * (a steady run allocates nothing per take) */
     size_t nv = st->nwv + 1, nt = st->nwf + 1;
@@ -391,6 +398,11 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
     }
     en_collapse_counts cc;
     cs.bucket_of = bucket_of;
+    if (st->taken_hist) {
+        cs.taken = st->taken_hist;
+        cs.taken_ranges = st->plan->count_ranges;
+        cs.taken_nranges = st->plan->count_nranges;
+    }
     if (en_collapse_slab(ws, removable, q, ref, &cs, falive, valive, tri, &cc, st->collapse_arrays)) {
         rc = oom(err);
         goto out;

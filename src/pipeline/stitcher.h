@@ -102,6 +102,9 @@ typedef struct en_stitcher {
     /* ... and with the slabs' levels (en_slab_work.level_hist), those of
      * the samples, by level. */
     uint64_t *level_hist;
+    /* A plan with count ranges: W's collapses of vertices in them, by
+     * level (en_collapse_settings.taken); NULL otherwise. */
+    uint64_t *taken_hist;
     /* Vertex attributes: attr_size bytes per pool slot (beside v), from
      * the slab works, into the vertex records it emits. */
     uint32_t attr_size;

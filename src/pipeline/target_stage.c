@@ -40,6 +40,8 @@
 #define ROUND_RETRIES 2
 #define ROUND_RETRY_AIM 0.25
 static en_fault round_aim_fault = EN_FAULT_INIT("EPSNET_FAIL_ROUND_AIM");
+static en_fault price_high_fault = EN_FAULT_INIT("EPSNET_FAIL_PRICE_HIGH");
+static en_fault price_skip_fault = EN_FAULT_INIT("EPSNET_FAIL_PRICE_SKIP");
 /* For the progress bar's estimate of the rounds to come: the share of a
  * round's gap to the goal that is left after it (measured on `gen bumpy`
  * 20M at 10%: 3.51M kept vertices, then 1.66M, 1.30M, 1.12M, 1.06M for a
@@ -321,6 +323,30 @@ static uint32_t round_slab(const en_target_stage *ts, const kept *from)
     return n < ts->cfg.slab_vertices ? (uint32_t)n : ts->cfg.slab_vertices;
 }
 
+/* A chain of the stage under plan p: the run's settings; its input was
+ * checked (a stitcher or a pricing window wrote it). */
+static en_chain_config stage_chain(const en_target_stage *ts, const en_pass_plan *p)
+{
+    const en_target_stage_config *cfg = &ts->cfg;
+    return (en_chain_config){
+        .mode = EN_SLAB_SIMPLIFY,
+        .path = cfg->path,
+        .sphere = cfg->sphere,
+        .passes = 1,
+        .max_normal_dev = cfg->max_normal_dev,
+        .plan = p,
+        .attr_size = cfg->attr_size,
+        .lock_offset = cfg->lock_offset,
+        .lock_type = cfg->lock_type,
+        .weights = cfg->weights,
+        .slab_vertices = cfg->slab_vertices,
+        .mem_budget = cfg->mem_budget,
+        .ring_capacity = cfg->ring_capacity,
+        .checked_input = 1,
+        .spares = cfg->spares,
+    };
+}
+
 /* One chain over the kept stream `from`: a round into `to`, or the last one
  * into cfg.out (to NULL). */
 static int run_chain(en_target_stage *ts, const en_pass_plan *t, kept *from, kept *to, int last, en_chain_stats *got,
@@ -328,30 +354,14 @@ static int run_chain(en_target_stage *ts, const en_pass_plan *t, kept *from, kep
 {
     const en_target_stage_config *cfg = &ts->cfg;
     kept_sink sink = { ts, to };
-    uint32_t slab = round_slab(ts, from);
-    en_chain_config cc = {
-        .mode = EN_SLAB_SIMPLIFY,
-        .path = cfg->path,
-        .sphere = cfg->sphere,
-        .passes = 1,
-        .max_normal_dev = cfg->max_normal_dev,
-        .plan = t,
-        .attr_size = cfg->attr_size,
-        .quadrics_in = !last, /* the last round starts afresh, as its refresh would (slab_work.c) */
-        .quadrics_out = !last,
-        .lock_offset = cfg->lock_offset,
-        .lock_type = cfg->lock_type,
-        .weights = cfg->weights,
-        .slab_vertices = t->one_slab ? UINT32_MAX - 1 : slab,
-        .mem_budget = cfg->mem_budget,
-        .ring_capacity = cfg->ring_capacity,
-        .checked_input = 1, /* a stitcher wrote it */
-        .tick = last && cfg->tick ? last_tick : NULL,
-        .tick_opaque = ts,
-        .spares = cfg->spares,
-        .out = last ? cfg->out : (en_stage){ kept_put, kept_end, &sink },
-        .out_on_workers = !last, /* the kept stream is the stage's own */
-    };
+    en_chain_config cc = stage_chain(ts, t);
+    cc.quadrics_in = !last; /* the last round starts afresh, as its refresh would (slab_work.c) */
+    cc.quadrics_out = !last;
+    cc.slab_vertices = t->one_slab ? UINT32_MAX - 1 : round_slab(ts, from);
+    cc.tick = last && cfg->tick ? last_tick : NULL;
+    cc.tick_opaque = ts;
+    cc.out = last ? cfg->out : (en_stage){ kept_put, kept_end, &sink };
+    cc.out_on_workers = !last; /* the kept stream is the stage's own */
     en_chain *c = NULL;
     ts->round_records = (double)(from->vertices + from->faces);
     ts->round_taken = 0;
@@ -416,6 +426,155 @@ void en_target_stage_plan_thin(const en_target_size *size, uint64_t nv, uint64_t
                                                                                                  : EN_SEAMS_PACED,
         .priced = 1,
     };
+}
+
+/*
+ * note: the pricing pass (docs/architecture.md §7). The thinning's slabs
+ * each kept EN_TARGET_THIN_KEEP times the target's share, and the rounds
+ * after it took the rest of the way in a global order: at 20M faces four
+ * rounds, as long as the thinning itself (bench/RESULTS.md, session 17).
+ * A ceiling for the thinning from the slabs retired so far failed: the
+ * sorted stream is not stationary (its first slabs collapsed at costs two
+ * to three orders below the rest). Windows spread along the whole stream
+ * see all of it: each is thinned as the thinning would thin it, on its
+ * slabs, at its density, past the target (PRICE_DEEP of its share),
+ * counting what its collapses took at each level; a run under a ceiling
+ * is the prefix of that order below it, so the ceiling under which the
+ * windows' insides would have kept PRICE_AIM times the target's share is
+ * one the thinning can hold every slab and seam to.
+ * - PRICE_AIM: the thinning is not taken to the target itself. On `gen
+ *   bumpy` 20M at 10%, a ceiling aimed at 1.06 times the target ended the
+ *   thinning 3% above it and a last round took the rest: 1.26 times the
+ *   mean error of the rounds' way (0.73 times its Hausdorff); aimed at
+ *   1.25, then rounds: 1.015 times (0.64), in 0.8 times the time. The
+ *   collapses near the thinning's seams, where W may only merge band
+ *   vertices with each other, are what the rounds, on other cuts, do
+ *   better (bench/RESULTS.md, session 18).
+ * - PRICE_FLOOR and the pace: each slab keeps at least PRICE_FLOOR of the
+ *   target's share, and W at least its pace to the target (floor_share),
+ *   so that windows that missed a harder part of the stream cannot take
+ *   the thinning past the target: on a 120K-vertex tube whose four windows
+ *   held 512 counted vertices, the ceiling took it 14-42% past without the
+ *   pace, and exactly to the target with it.
+ */
+#define PRICE_DEEP 0.5
+#define PRICE_AIM 1.25
+#define PRICE_FLOOR 0.5
+
+double en_target_price_margin_widths(double share)
+{
+    double w = 10 * sqrt(0.1 / (share > 1e-6 ? share : 1e-6));
+    return w > 3 ? w : 3;
+}
+
+static int discard_put(void *self, const epsnet_record *rec, epsnet_error *err)
+{
+    (void)self;
+    (void)rec;
+    (void)err;
+    return 0;
+}
+
+/* One chain of the pricing pass over the windows of src, under plan p:
+ * its counts, and what it took (en_chain_taken_hist) in hist_before. */
+static int price_chain(en_target_stage *ts, const en_window_source *src, const en_pass_plan *p, en_chain_stats *st,
+                       epsnet_error *err)
+{
+    en_chain_config cc = stage_chain(ts, p);
+    cc.out = (en_stage){ discard_put, NULL, NULL };
+    en_chain *c = NULL;
+    int rc = en_chain_new(&c, &cc, ts->pool, err);
+    en_stage in = rc == 0 ? en_chain_input(c) : (en_stage){ 0 };
+    uint64_t base = 0;
+    for (uint32_t w = 0; rc == 0 && w < src->windows; w++)
+        rc = src->push(src->opaque, w, base, &in, &base, err);
+    if (rc == 0)
+        rc = en_stage_end(&in, err);
+    if (rc == 0) {
+        en_chain_stats_get(c, st);
+        memset(ts->hist_before, 0, EN_COST_BUCKETS * sizeof *ts->hist_before);
+        en_chain_taken_hist(c, ts->hist_before);
+    }
+    en_chain_free(&c);
+    return rc;
+}
+
+int en_target_stage_price(en_target_stage *ts, const en_window_source *src, en_pass_plan *thin, double *ceiling,
+                          epsnet_error *err)
+{
+    *ceiling = 0;
+    const en_target_size *size = &ts->cfg.size;
+    if (!src->windows || !src->inside_vertices || en_fault_hit(&price_skip_fault))
+        return 0;
+    en_pass_plan p = *thin;
+    p.priced = 0;
+    p.seams = EN_SEAMS_CEILING; /* 0: no ceiling; W goes as deep as it can */
+    p.count_ranges = src->inside;
+    p.count_nranges = src->windows;
+    en_chain_stats st;
+    int rc = 0;
+    if (p.skeleton == EN_SKELETON_CHOSEN) {
+        /* The density first, from the windows' counts, without collapses
+         * (a choice on slabs classifies its first slabs at the finest
+         * candidate, whose samples would hold the windows above the
+         * target). At the coarsest, the skeleton alone is over what the
+         * target keeps: no ceiling gets there, the last round gives
+         * samples up. */
+        en_pass_plan d = p;
+        d.keep_share = 1;
+        d.skeleton_budget = (uint64_t)(EN_TARGET_SKELETON_SHARE * size->share * (double)src->vertices);
+        d.skeleton_expected = src->vertices;
+        if ((rc = price_chain(ts, src, &d, &st, err)) == 0 && st.skeleton_frequency <= 1)
+            return 0;
+        p.finest_frequency = st.skeleton_frequency;
+    }
+    /* Then past the target, counting what each level takes. */
+    p.keep_share = size->share * PRICE_DEEP;
+    if (rc == 0)
+        rc = price_chain(ts, src, &p, &st, err);
+    if (rc == EPSNET_ENOMEM || rc == EPSNET_EINTR)
+        return rc;
+    if (rc)
+        return 0; /* a bad block or record: no ceiling, and the stream's reader reports it where it is */
+    /* The level under which the windows' insides keep the aim, in
+     * vertices (two faces a vertex inside a surface, whatever the target
+     * counts); within its bucket, the costs taken as spread evenly on a
+     * log scale. Windows that never get there (refusals, locks) price
+     * nothing. */
+    double may_take = (double)src->inside_vertices * (1 - PRICE_AIM * size->share), taken = 0, part = 1;
+    int top = 0;
+    for (int b = 0; b < EN_COST_BUCKETS; b++) {
+        if (!ts->hist_before[b])
+            continue;
+        top = b;
+        if (taken + (double)ts->hist_before[b] > may_take) {
+            part = (may_take - taken) / (double)ts->hist_before[b];
+            taken = may_take;
+            break;
+        }
+        taken += (double)ts->hist_before[b];
+    }
+    if (top == 0 || !(may_take > 0) || taken < may_take)
+        return 0;
+    double lo = en_cost_bucket_top(top - 1), hi = en_cost_bucket_top(top);
+    *ceiling = lo > 0 ? lo * pow(hi / lo, part) : hi;
+    /* (EPSNET_FAIL_PRICE: a ceiling far too high, as windows that missed a
+     * much harder stream would price it, so that the tests see the
+     * thinning pass the target and the run say so) */
+    if (en_fault_hit(&price_high_fault))
+        *ceiling *= 1e6;
+    /* The thinning: every slab and seam under the ceiling, each slab above
+     * the floor and W above the pace to the target; its skeleton's
+     * candidate the windows' density (the whole stream's counts may still
+     * lower it, never raise it). */
+    thin->cost_ceiling = *ceiling;
+    thin->seams = EN_SEAMS_CEILING;
+    thin->keep_share = size->share * PRICE_FLOOR;
+    thin->goal = (uint64_t)llround(thin->keep_share * (double)thin->expected_in);
+    thin->floor_share = size->share;
+    thin->goal = size->goal;
+    thin->finest_frequency = p.finest_frequency;
+    return 0;
 }
 
 static int stage_fail(en_target_stage *ts, int rc, const epsnet_error *err)

@@ -82,6 +82,48 @@ typedef struct en_target_size {
 void en_target_stage_plan_thin(const en_target_size *size, uint64_t nv, uint64_t nf, uint64_t one_slab_bytes,
                                en_pass_plan *thin);
 
+/*
+ * Windows of the input for the pricing pass (en_target_stage_price): a
+ * few stretches of the sorted stream, spread evenly along it, each pushed
+ * as a mesh of its own (a face with a corner outside its window is left
+ * out, so its cut ends are borders). The caller who can seek into its
+ * input offers them (a sorted .smz, through its block index).
+ */
+/* note: a window is a slab (its inside, which the pass counts) between
+ * two margins of whole slabs. A cut changes what the slabs near it do:
+ * on `gen bumpy` 20M at 10% (slabs 14 times as long as the stream is
+ * wide), margins of half a slab priced the ceiling at a third of the whole
+ * stream's, margins of one slab at its value; on 400K faces with slabs of
+ * 1.5 widths and margins of 3, the thinning ended at half the target
+ * (bench/RESULTS.md, session 18). So a margin is at least
+ * en_target_price_margin_widths() widths (longer where the target keeps
+ * less: its collapses reach further), a slab at least
+ * EN_PRICE_SLAB_WIDTHS, and the windows at most EN_PRICE_MAX_SHARE of the
+ * stream; else no pricing. Four windows: eight cost twice the time, and
+ * the thinning under their ceiling ended 1.02 times where it aimed, under
+ * four's 1.03. */
+#define EN_PRICE_WINDOWS 4
+#define EN_PRICE_SLAB_WIDTHS 4
+double en_target_price_margin_widths(double share);
+#define EN_PRICE_MAX_SHARE 0.1
+
+typedef struct en_window_source {
+    uint32_t windows;
+    /* The insides the pass counts: one sorted range [lo, hi) of vertex ids
+     * per window (2 values each), ids numbered as the windows push them,
+     * and how many vertices they hold. */
+    const uint64_t *inside;
+    uint64_t inside_vertices;
+    uint64_t vertices;            /* in all the windows */
+    /* Push window w's records into `into` (not ended), its vertices
+     * numbered after the `base` vertices of the windows before it; add
+     * how many vertices it pushed to *pushed. @return 0, EPSNET_EFORMAT
+     * for a block that does not read (the stream's reader reports it,
+     * later, where it is), or a negative code with err filled. */
+    int (*push)(void *opaque, uint32_t w, uint64_t base, en_stage *into, uint64_t *pushed, epsnet_error *err);
+    void *opaque;
+} en_window_source;
+
 typedef struct en_target_stage_config {
     const char *path;             /* names the input in messages */
     const gauss_sphere *sphere;   /* the chains' (unused by rounds: their skeleton is marked) */
@@ -115,6 +157,20 @@ int en_target_stage_new(en_target_stage **ts, const en_target_stage_config *cfg,
  * call at a time (en_chain_config.out_on_workers); its end on the thread
  * that made the stage. */
 en_stage en_target_stage_input(en_target_stage *ts);
+
+/*
+ * The pricing pass: the thinning's own plan run over the windows, first
+ * for the skeleton's density, then deeper than the target, counting what
+ * its collapses took by cost; from those counts, a global cost ceiling for
+ * the thinning (thin->cost_ceiling, thin->seams) under which the windows
+ * keep 1.25 times the target, the density as its candidate, and a floor
+ * and a pace under it. Run before the thinning chain takes its first
+ * record. *ceiling: the ceiling set (0: none, and thin as it was: the
+ * skeleton alone over the target, windows that never got there, or a
+ * block that does not read). @return 0, or a negative code with err.
+ */
+int en_target_stage_price(en_target_stage *ts, const en_window_source *src, en_pass_plan *thin, double *ceiling,
+                          epsnet_error *err);
 
 /* The thinning chain, whose costs left (en_chain_cost_hist) the first
  * round's ceiling comes from; set before the chain's end. */
