@@ -175,6 +175,10 @@ def main():
     assert p.returncode == 0, p.stderr
     walk("simplify_target_priced", lambda o: ["simplify", tube, "-o", o + ".smz", "--ratio", "0.2", "--slab", "64",
                                               "-j", "3", "-q"], max_points=300, stride=89)
+    # ... the same, shuffled: the windows from the sort's arrays
+    shuffled = tube_ply(TMP, "tube_shuffled.ply", 12, 2000, shuffle=True)
+    walk("simplify_target_priced_sorted", lambda o: ["simplify", shuffled, "-o", o + ".smz", "--ratio", "0.2",
+                                                     "--slab", "64", "-j", "3", "-q"], max_points=300, stride=89)
     walk("simplify_error_bound_on_slabs", lambda o: ["simplify", smz, "-o", o + ".smz", "--error", "0.001", "--slab",
                                                      "300", "-j", "3", "-q"], max_points=600, stride=7)
     # A glued double sheet (a fin on edge 0-1 of a tetrahedron), which a

@@ -85,7 +85,8 @@ static int stream_samples(const char *path, uint32_t slab, int threads, gid_list
     epsnet_error err;
     epsnet_record rec;
     memset(out, 0, sizeof *out);
-    int rc = en_run_open(&run, ctx, EN_SLAB_SAMPLE, path, NULL, NULL, 0, NULL, (en_stage){ 0 }, collect_gid, out, &err);
+    int rc = en_run_open(&run, ctx, EN_SLAB_SAMPLE, path, NULL, NULL, NULL, 0, NULL, (en_stage){ 0 }, collect_gid, out,
+                         &err);
     if (rc == 0)
         rc = epsnet_reader_open(&r, path, NULL, &err);
     while (rc == 0 && (rc = epsnet_reader_next(r, &rec, &err)) == 1)

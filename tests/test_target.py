@@ -149,38 +149,41 @@ def a_target_whose_finish_is_over_the_budget_goes_through_rounds_on_slabs():
 
 
 @case
-def a_long_sorted_smz_is_thinned_under_a_ceiling_priced_from_windows():
-    """A sorted .smz long enough for a few windows of its stream (read
-    through its block index) is thinned under one global cost ceiling priced
-    from them, each slab above a floor and each seam above its pace to the
-    target (docs/architecture.md §7): the size is exact, the bytes do not
-    depend on -j, and the skeleton is the one the same mesh gets unpriced
-    (the same tube shuffled and sorted on the way in, which has no index,
-    and the .smz with the pricing switched off). A ceiling priced far too
-    high cannot take the thinning past the target."""
+def a_long_stream_is_thinned_under_a_ceiling_priced_from_windows():
+    """A stream long enough for a few windows of it, read in stretches before
+    the run reads it (a sorted .smz through its block index, a PLY through
+    the sort's arrays), is thinned under one global cost ceiling priced from
+    them, each slab above a floor and each seam above its pace to the target
+    (docs/architecture.md §7): the size is exact, the bytes do not depend on
+    -j, and the skeleton is the one the same mesh gets unpriced (as SMB, a
+    stream with no index, and with the pricing switched off). A ceiling
+    priced far too high cannot take the thinning past the target."""
     tube = tube_ply(TMP, "priced_tube.ply", 24, 5000)
+    shuffled = tube_ply(TMP, "priced_tube_shuffled.ply", 24, 5000, shuffle=True)
     smz = path("priced_tube.smz")
     rc, _, err = run("sort", tube, "-o", smz, "-q")
     assert rc == 0, err
-    outs = []
-    for j in ("1", "2"):
-        out = path(f"priced_{j}.ply")
-        s, _ = simplify(smz, out, "--ratio", "0.1", "--slab", "256", "--ascii", "-j", j)
-        t = s["target"]
-        assert t["price_ceiling"] > 0 and t["price_vertices"] > 0, t
-        assert s["output_faces"] == t["faces"] == 24000, (s["output_faces"], t["faces"])
-        verts, faces = ascii_ply(out)
-        _, closed = euler_and_closed(verts, faces)
-        assert closed, "the closed tube came out open"
-        outs.append(open(out, "rb").read())
-    assert outs[0] == outs[1], "-j1 and -j2 differ"
-    priced = s
-    # the same mesh unpriced: shuffled through the sort, and the .smz with
-    # the pricing switched off (EPSNET_FAIL_PRICE_SKIP)
+    priced = {}
+    for src in (smz, shuffled):
+        outs = []
+        for j in ("1", "2"):
+            out = path(f"priced_{j}.ply")
+            s, _ = simplify(src, out, "--ratio", "0.1", "--slab", "256", "--ascii", "-j", j)
+            t = s["target"]
+            assert t["price_ceiling"] > 0 and t["price_vertices"] > 0, (src, t)
+            assert s["output_faces"] == t["faces"] == 24000, (src, s["output_faces"], t["faces"])
+            verts, faces = ascii_ply(out)
+            _, closed = euler_and_closed(verts, faces)
+            assert closed, f"{src}: the closed tube came out open"
+            outs.append(open(out, "rb").read())
+        assert outs[0] == outs[1], f"{src}: -j1 and -j2 differ"
+        priced[src] = s
+    # the same mesh unpriced: as SMB (a stream with no index), and the .smz
+    # and the PLY with the pricing switched off (EPSNET_FAIL_PRICE_SKIP)
     rc, _, err = run("convert", tube, "-o", path("priced_tube.smb"), "-q")
     assert rc == 0, err
     env = dict(os.environ, EPSNET_FAIL_PRICE_SKIP="1")
-    for src, e in ((path("priced_tube.smb"), None), (smz, env)):
+    for src, e in ((path("priced_tube.smb"), None), (smz, env), (shuffled, env)):
         st = path("unpriced.json")
         p = subprocess.run([EPSNET, "simplify", src, "-o", path("unpriced.ply"), "--ratio", "0.1", "--slab", "256",
                             "-q", "--stats", st], capture_output=True, text=True, env=e)
@@ -188,10 +191,11 @@ def a_long_sorted_smz_is_thinned_under_a_ceiling_priced_from_windows():
         u = json.load(open(st))
         assert u["target"]["price_ceiling"] == 0, (src, u["target"])
         assert u["output_faces"] == 24000, (src, u["output_faces"])
-        assert u["gaussian_sphere"]["frequency"] == priced["gaussian_sphere"]["frequency"], (
-            src, u["gaussian_sphere"], priced["gaussian_sphere"])
-        assert u["target"]["skeleton_vertices"] == priced["target"]["skeleton_vertices"], (src, u["target"],
-                                                                                            priced["target"])
+        for q in priced.values():
+            assert u["gaussian_sphere"]["frequency"] == q["gaussian_sphere"]["frequency"], (
+                src, u["gaussian_sphere"], q["gaussian_sphere"])
+            assert u["target"]["skeleton_vertices"] == q["target"]["skeleton_vertices"], (src, u["target"],
+                                                                                          q["target"])
     # windows that missed a harder stream: the floor and the pace hold
     st = path("high.json")
     p = subprocess.run([EPSNET, "simplify", smz, "-o", path("high.ply"), "--ratio", "0.1", "--slab", "256", "-q",
@@ -199,7 +203,7 @@ def a_long_sorted_smz_is_thinned_under_a_ceiling_priced_from_windows():
                        env=dict(os.environ, EPSNET_FAIL_PRICE_HIGH="1"))
     assert p.returncode == 0, p.stderr
     h = json.load(open(st))
-    assert h["target"]["price_ceiling"] > 1e3 * priced["target"]["price_ceiling"], h["target"]
+    assert h["target"]["price_ceiling"] > 1e3 * priced[smz]["target"]["price_ceiling"], h["target"]
     assert h["output_faces"] == 24000, (h["output_faces"], p.stderr)
     # a stream too short, or too wide for its slabs, is not priced
     for opts in (("--slab", "2048"), ("--slab", "64")):

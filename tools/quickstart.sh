@@ -72,7 +72,7 @@ test)
     # (of `target`, only its cases through the target stage's rounds and its pricing windows, where
     # its threads meet: CI time)
     TSAN_OPTIONS=halt_on_error=1 \
-    EPSNET_TEST_ONLY=a_target_whose_finish_is_over_the_budget_goes_through_rounds_on_slabs,a_long_sorted_smz_is_thinned_under_a_ceiling_priced_from_windows \
+    EPSNET_TEST_ONLY=a_target_whose_finish_is_over_the_budget_goes_through_rounds_on_slabs,a_long_stream_is_thinned_under_a_ceiling_priced_from_windows \
         meson test -C build-tsan --no-rebuild pool hausdorff pipeline arrays target \
         --num-processes "$jobs" --print-errorlogs || status=1
     exit $status

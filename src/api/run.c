@@ -6,7 +6,7 @@
 #include <unistd.h>
 
 #include "api/attr_weights_spec.h"
-#include "api/smz_windows.h"
+#include "api/windows.h"
 #include "common/error.h"
 #include "common/util.h"
 
@@ -200,8 +200,8 @@ int en_run_pool_new(en_pool **pool, const epsnet_settings *set, const char *path
 }
 
 int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char *path,
-                const epsnet_mesh_info *in, const en_budget *budget, int checked, en_pool *pool, en_stage out,
-                en_sample_fn on_sample, void *sample_opaque, epsnet_error *err)
+                const epsnet_mesh_info *in, const en_window_backend *windows, const en_budget *budget, int checked,
+                en_pool *pool, en_stage out, en_sample_fn on_sample, void *sample_opaque, epsnet_error *err)
 {
     memset(run, 0, sizeof *run);
     if (budget)
@@ -278,18 +278,18 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         };
         if ((rc = en_target_stage_new(&run->stage, &tc, run->pool, err)) != 0)
             return rc;
-        /* a long sorted .smz: the thinning's ceiling from windows of it
-         * (pipeline/target_stage.h: en_window_source) */
-        if (in && in->nverts != EPSNET_COUNT_UNKNOWN &&
-            (double)in->nverts * EN_PRICE_MAX_SHARE >= 3.0 * EN_PRICE_WINDOWS * slab_vertices) {
-            en_smz_windows *sw = NULL;
+        /* a long stream that can be read in stretches: the thinning's
+         * ceiling from windows of it (api/windows.h) */
+        if (windows && windows->vertices &&
+            (double)windows->vertices * EN_PRICE_MAX_SHARE >= 3.0 * EN_PRICE_WINDOWS * slab_vertices) {
+            en_windows *w = NULL;
             en_window_source src;
-            rc = en_smz_windows_open(&sw, path, &in->vertex_attrs, slab_vertices,
-                                     en_target_price_margin_widths(run->size.share), &src, err);
-            if (rc == 0 && sw)
+            rc = en_windows_open(&w, windows, slab_vertices, en_target_price_margin_widths(run->size.share), &src,
+                                 err);
+            if (rc == 0 && w)
                 rc = en_target_stage_price(run->stage, &src, &run->plan, &run->ceiling, err);
             run->price_vertices = run->ceiling > 0 ? src.vertices : 0;
-            en_smz_windows_close(&sw);
+            en_windows_close(&w);
             if (rc)
                 return rc;
         }

@@ -8,6 +8,7 @@
 #define EN_API_RUN_H
 
 #include "api/budget.h"
+#include "api/windows.h"
 #include "api/context.h"
 #include "common/pool.h"
 #include "pipeline/attr_weights.h"
@@ -73,8 +74,8 @@ typedef struct en_run {
  * running and run_close() is still safe).
  */
 int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char *path,
-                const epsnet_mesh_info *in, const en_budget *budget, int checked, en_pool *pool, en_stage out,
-                en_sample_fn on_sample, void *sample_opaque, epsnet_error *err);
+                const epsnet_mesh_info *in, const en_window_backend *windows, const en_budget *budget, int checked,
+                en_pool *pool, en_stage out, en_sample_fn on_sample, void *sample_opaque, epsnet_error *err);
 
 /* The run's one pool of -j workers (en_run_workers), made before the run
  * when the sort must share it. @return 0 or a negative code with err. */

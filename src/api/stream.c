@@ -62,7 +62,7 @@ int epsnet_stream_open(epsnet_stream **out, epsnet_context *ctx, epsnet_error *e
     if (!s)
         return en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     snprintf(ctx->command, sizeof ctx->command, "simplify");
-    int rc = en_run_open(&s->run, ctx, EN_SLAB_SIMPLIFY, NULL, NULL, NULL, 0, NULL, (en_stage){ queue_put, NULL, s }, NULL,
+    int rc = en_run_open(&s->run, ctx, EN_SLAB_SIMPLIFY, NULL, NULL, NULL, NULL, 0, NULL, (en_stage){ queue_put, NULL, s }, NULL,
                          NULL, err);
     if (rc) {
         epsnet_stream_close(&s);

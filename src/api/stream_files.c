@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "api/run.h"
+#include "api/smz_windows.h"
 #include "api/stream_files.h"
 #include "common/alloc.h"
 #include "common/error.h"
@@ -239,11 +240,31 @@ static int file_run_open(file_run *fr, epsnet_context *ctx, const char *in_path,
     return rc ? rc : open_input(ctx, in_path, arrays, near_path, keep, fr->pool, &fr->in, &fr->sort_seconds, err);
 }
 
+static int sort_walk(void *opaque, uint64_t lo, uint64_t hi, uint64_t base, en_stage *into, uint64_t *pushed,
+                     uint64_t *cut, epsnet_error *err)
+{
+    return en_sort_window(opaque, lo, hi, base, into, pushed, cut, err);
+}
+
 static int file_run_feed(file_run *fr, epsnet_context *ctx, en_slab_mode mode, const char *in_path, en_stage out,
                          en_sample_fn on_sample, void *sample_opaque, epsnet_error *err)
 {
-    int rc = en_run_open(&fr->run, ctx, mode, in_path, &fr->in.info, &fr->in.budget, 1, fr->pool, out, on_sample,
-                         sample_opaque, err);
+    /* a size's pricing windows (api/windows.h): a sorted .smz through its
+     * index, a sort through its arrays when it ran in memory */
+    en_window_backend wb = { 0 };
+    en_smz_windows *sw = NULL;
+    int rc = 0;
+    if (mode == EN_SLAB_SIMPLIFY && en_run_has_target(&ctx->settings)) {
+        uint64_t ranks;
+        if (fr->in.sort && en_sort_windowed(fr->in.sort, &ranks))
+            wb = (en_window_backend){ ranks, sort_walk, fr->in.sort };
+        else if (!fr->in.sort)
+            rc = en_smz_windows_open(&sw, in_path, &fr->in.info.vertex_attrs, &wb, err);
+    }
+    if (rc == 0)
+        rc = en_run_open(&fr->run, ctx, mode, in_path, &fr->in.info, &wb, &fr->in.budget, 1, fr->pool, out,
+                         on_sample, sample_opaque, err);
+    en_smz_windows_close(&sw);
     fr->run.cpu_start = fr->cpu0; /* the sort before the run is its work too */
     if (rc == 0)
         en_reader_use_pool(fr->in.r, fr->pool); /* ENOMEM: it decodes alone, as before */

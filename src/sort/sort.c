@@ -1673,6 +1673,62 @@ void en_sort_info(const en_sort *j, epsnet_mesh_info *info)
         info->bbox_min[k] = j->lo[k], info->bbox_max[k] = j->hi[k];
 }
 
+int en_sort_windowed(const en_sort *j, uint64_t *ranks)
+{
+    *ranks = j->st.vertices;
+    return j->whole && j->sxyz && j->fend && j->fitems && j->last_of;
+}
+
+int en_sort_window(en_sort *j, uint64_t lo, uint64_t hi, uint64_t base, en_stage *into, uint64_t *pushed,
+                   uint64_t *cut, epsnet_error *err)
+{
+    uint32_t *loc = NULL;
+    if (hi > lo && !(loc = en_malloc((hi - lo) * sizeof *loc)))
+        return nomem(j, err);
+    uint64_t n = 0;
+    int rc = 0;
+    for (uint64_t r = lo; r < hi && rc == 0; r++) {
+        loc[r - lo] = UINT32_MAX;
+        if (j->last_of[r] == UINT32_MAX)
+            continue; /* no face uses it: the stream drops it */
+        loc[r - lo] = (uint32_t)n++;
+        epsnet_record v = { .kind = EPSNET_REC_VERTEX, .attr = j->asz ? j->sattr + r * j->asz : NULL };
+        memcpy(v.xyz, j->sxyz + 3 * r, sizeof v.xyz);
+        rc = into ? en_stage_put(into, &v, err) : 0;
+    }
+    uint8_t *on_cut = NULL;
+    if (rc == 0 && hi > lo && !(on_cut = en_calloc(hi - lo, 1)))
+        rc = nomem(j, err);
+    for (uint64_t r = lo; r < hi && rc == 0; r++) {
+        for (uint32_t i = r ? j->fend[r - 1] : 0; i < j->fend[r] && rc == 0; i++) {
+            const uint64_t *it = j->fitems + 2 * (size_t)i;
+            uint64_t c[3] = { (uint32_t)(it[0] >> 32), (uint32_t)it[1], (uint32_t)(it[1] >> 32) };
+            if (c[0] < lo || c[1] < lo || c[2] < lo) {
+                for (int k = 0; k < 3; k++) /* its last corner is r: the others are below hi */
+                    if (c[k] >= lo)
+                        on_cut[c[k] - lo] = 1;
+                continue;
+            }
+            epsnet_record f = { .kind = EPSNET_REC_TRIANGLE };
+            for (int k = 0; k < 3; k++)
+                f.v[k] = base + loc[c[k] - lo];
+            rc = into ? en_stage_put(into, &f, err) : 0;
+        }
+    }
+    /* faces after hi that use these ranks are left out: those corners are on the cut too */
+    for (uint64_t r = lo; r < hi && rc == 0; r++) {
+        if (loc[r - lo] == UINT32_MAX)
+            continue;
+        *cut += on_cut[r - lo] || j->last_of[r] >= hi;
+        if (into)
+            rc = en_stage_put(into, &(epsnet_record){ .kind = EPSNET_REC_FINALIZE, .v = { base + loc[r - lo] } }, err);
+    }
+    *pushed += n;
+    en_free(loc);
+    en_free(on_cut);
+    return rc;
+}
+
 int en_sort_emit(en_sort *j, en_sort_emit_fn emit, void *opaque, epsnet_error *err)
 {
     j->phase = 6;

@@ -43,6 +43,7 @@
 #define EN_SORT_SORT_H
 
 #include "common/pool.h"
+#include "common/stage.h"
 #include "epsnet/epsnet.h"
 
 /*
@@ -88,6 +89,19 @@ void en_sort_info(const en_sort *s, epsnet_mesh_info *info);
  * (sort.c: emit_arrays), which at 20M faces are 84 MB on top of the chain;
  * the live map stands for them, as wide as the stream. */
 void en_sort_lean(en_sort *s);
+/*
+ * Windows of the sorted stream before pass 6 (a size's pricing pass,
+ * docs/architecture.md §7), when the sort ran in memory (sort.c: whole):
+ * en_sort_windowed() says so. en_sort_window() pushes the vertices of
+ * ranks [lo, hi) that faces use, numbered from base in rank order, then the
+ * faces whose corners are all among them, then a finalization of each;
+ * *pushed gets how many vertices it pushed, and *cut adds those on a face
+ * it left out. The ranks are en_sort_info()'s vertices, with the unused
+ * ones among them. @return 0, or what into returned.
+ */
+int en_sort_windowed(const en_sort *s, uint64_t *ranks);
+int en_sort_window(en_sort *s, uint64_t lo, uint64_t hi, uint64_t base, en_stage *into, uint64_t *pushed,
+                   uint64_t *cut, epsnet_error *err);
 /* Pass 6; once per en_sort. emit's non-zero return stops it and is returned. */
 int en_sort_emit(en_sort *s, en_sort_emit_fn emit, void *opaque, epsnet_error *err);
 /* Free everything (also after a failure), removing every temporary, and

@@ -1,0 +1,88 @@
+#include "api/windows.h"
+
+#include <string.h>
+
+#include "common/alloc.h"
+#include "common/error.h"
+
+struct en_windows {
+    en_window_backend b;
+    uint64_t lo[EN_PRICE_WINDOWS], hi[EN_PRICE_WINDOWS];
+    uint64_t inside[2 * EN_PRICE_WINDOWS]; /* en_window_source.inside */
+};
+
+static int push(void *opaque, uint32_t w, uint64_t base, en_stage *into, uint64_t *pushed, epsnet_error *err)
+{
+    en_windows *x = opaque;
+    uint64_t cut = 0;
+    return x->b.walk(x->b.opaque, x->lo[w], x->hi[w], base, into, pushed, &cut, err);
+}
+
+/* The stretch of n ids around mid, within the stream. */
+static void place(uint64_t total, uint64_t mid, uint64_t n, uint64_t *lo, uint64_t *hi)
+{
+    *lo = mid > n / 2 ? mid - n / 2 : 0;
+    *hi = *lo + n < total ? *lo + n : total;
+}
+
+int en_windows_open(en_windows **out, const en_window_backend *b, uint64_t slab_vertices, double margin_widths,
+                    en_window_source *src, epsnet_error *err)
+{
+    *out = NULL;
+    memset(src, 0, sizeof *src);
+    uint64_t total = b->vertices;
+    if (total < 8 || !slab_vertices)
+        return 0;
+    /* the stream's width at its middle: half the vertices on the two cuts
+     * of a stretch long enough that they are two rings of it, not all */
+    uint64_t len = 4 * slab_vertices > 4096 ? 4 * slab_vertices : 4096, lo, hi, n = 0, width = 0;
+    place(total, total / 2, len < total / 2 ? len : total / 2, &lo, &hi);
+    int rc = b->walk(b->opaque, lo, hi, 0, NULL, &n, &width, err);
+    if (rc)
+        return rc == EPSNET_EFORMAT ? 0 : rc;
+    width /= 2;
+    if ((double)slab_vertices < EN_PRICE_SLAB_WIDTHS * (double)width)
+        return 0;
+    uint64_t margin = slab_vertices;
+    while ((double)margin < margin_widths * (double)width)
+        margin += slab_vertices;
+    uint64_t len_w = slab_vertices + 2 * margin;
+    if ((double)EN_PRICE_WINDOWS * (double)len_w > EN_PRICE_MAX_SHARE * (double)total)
+        return 0;
+    en_windows *x = en_calloc(1, sizeof *x);
+    if (!x)
+        return en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    x->b = *b;
+    /* the insides, numbered as the windows push their vertices (a backend
+     * may push fewer than it spans: a sort drops the vertices no face uses) */
+    uint64_t base = 0;
+    for (uint32_t w = 0; w < EN_PRICE_WINDOWS && rc == 0; w++) {
+        place(total, (2 * (uint64_t)w + 1) * total / (2 * EN_PRICE_WINDOWS), len_w, &x->lo[w], &x->hi[w]);
+        uint64_t before = 0, inside = 0, after = 0, cut = 0;
+        if ((rc = b->walk(b->opaque, x->lo[w], x->lo[w] + margin, 0, NULL, &before, &cut, err)) == 0 &&
+            (rc = b->walk(b->opaque, x->lo[w] + margin, x->hi[w] - margin, 0, NULL, &inside, &cut, err)) == 0)
+            rc = b->walk(b->opaque, x->hi[w] - margin, x->hi[w], 0, NULL, &after, &cut, err);
+        x->inside[2 * w] = base + before;
+        x->inside[2 * w + 1] = base + before + inside;
+        src->inside_vertices += inside;
+        src->vertices += before + inside + after;
+        base += before + inside + after;
+    }
+    if (rc || !src->inside_vertices) {
+        en_free(x);
+        memset(src, 0, sizeof *src);
+        return rc == EPSNET_EFORMAT ? 0 : rc;
+    }
+    src->windows = EN_PRICE_WINDOWS;
+    src->inside = x->inside;
+    src->push = push;
+    src->opaque = x;
+    *out = x;
+    return 0;
+}
+
+void en_windows_close(en_windows **w)
+{
+    en_free(*w);
+    *w = NULL;
+}
