@@ -452,10 +452,11 @@ void en_target_stage_plan_thin(const en_target_size *size, uint64_t nv, uint64_t
  *   better (bench/RESULTS.md, session 18).
  * - PRICE_FLOOR and the pace: each slab keeps at least PRICE_FLOOR of the
  *   target's share, and W at least its pace to the target (floor_share),
- *   so that windows that missed a harder part of the stream cannot take
+ *   so that windows that missed a harder part of the stream do not take
  *   the thinning past the target: on a 120K-vertex tube whose four windows
  *   held 512 counted vertices, the ceiling took it 14-42% past without the
- *   pace, and exactly to the target with it.
+ *   pace, and exactly to the target with it. No guarantee: W holds only
+ *   what the seams hold (api/run.c warns when a thinning ends below).
  */
 #define PRICE_DEEP 0.5
 #define PRICE_AIM 1.25
