@@ -452,7 +452,8 @@ void en_target_stage_plan_thin(const en_target_size *size, uint64_t nv, uint64_t
  *   bumpy` 20M at 10%, a ceiling aimed at 1.06 times the target ended the
  *   thinning 3% above it and a last round took the rest: 1.26 times the
  *   mean error of the rounds' way (0.73 times its Hausdorff); aimed at
- *   1.25, then rounds: 1.015 times (0.64), in 0.8 times the time. The
+ *   1.25, then rounds: 1.015 times (0.64), in 0.84 times the time of
+ *   the thinning without a ceiling and its rounds. The
  *   collapses near the thinning's seams, where W may only merge band
  *   vertices with each other, are what the rounds, on other cuts, do
  *   better (bench/RESULTS.md, session 18).
@@ -531,9 +532,11 @@ int en_target_stage_price(en_target_stage *ts, const en_window_source *src, en_p
         d.keep_share = 1;
         d.skeleton_budget = (uint64_t)(EN_TARGET_SKELETON_SHARE * size->share * (double)src->vertices);
         d.skeleton_expected = src->vertices;
-        if ((rc = price_chain(ts, src, &d, &st, err)) == 0 && st.skeleton_frequency <= 1)
-            return 0;
-        p.finest_frequency = st.skeleton_frequency;
+        if ((rc = price_chain(ts, src, &d, &st, err)) == 0) {
+            if (st.skeleton_frequency <= 1)
+                return 0;
+            p.finest_frequency = st.skeleton_frequency;
+        }
     }
     /* Then past the target, counting what each level takes. */
     p.keep_share = size->share * PRICE_DEEP;
@@ -565,9 +568,9 @@ int en_target_stage_price(en_target_stage *ts, const en_window_source *src, en_p
         return 0;
     double lo = en_cost_bucket_top(top - 1), hi = en_cost_bucket_top(top);
     *ceiling = lo > 0 ? lo * pow(hi / lo, part) : hi;
-    /* (EPSNET_FAIL_PRICE: a ceiling far too high, as windows that missed a
-     * much harder stream would price it, so that the tests see the
-     * thinning pass the target and the run say so) */
+    /* (EPSNET_FAIL_PRICE_HIGH: a ceiling far too high, as windows that
+     * missed a much harder stream would price it, so that the tests see
+     * the floor and the pace hold the thinning) */
     if (en_fault_hit(&price_high_fault))
         *ceiling *= 1e6;
     /* The thinning: every slab and seam under the ceiling, each slab above
@@ -577,9 +580,8 @@ int en_target_stage_price(en_target_stage *ts, const en_window_source *src, en_p
     thin->cost_ceiling = *ceiling;
     thin->seams = EN_SEAMS_CEILING;
     thin->keep_share = size->share * PRICE_FLOOR;
-    thin->goal = (uint64_t)llround(thin->keep_share * (double)thin->expected_in);
     thin->floor_share = size->share;
-    thin->goal = size->goal;
+    thin->goal = size->goal; /* W's pace (stitcher.c: seam_keep) */
     thin->finest_frequency = p.finest_frequency;
     return 0;
 }
