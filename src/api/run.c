@@ -280,8 +280,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
             return rc;
         /* a long stream that can be read in stretches: the thinning's
          * ceiling from windows of it (api/windows.h) */
-        if (windows && windows->vertices &&
-            (double)windows->vertices * EN_PRICE_MAX_SHARE >= 3.0 * EN_PRICE_WINDOWS * slab_vertices) {
+        if (windows && windows->vertices) {
             en_windows *w = NULL;
             en_window_source src;
             rc = en_windows_open(&w, windows, slab_vertices, en_target_price_margin_widths(run->size.share), &src,

@@ -64,10 +64,8 @@ static int walk(void *opaque, uint64_t lo, uint64_t hi, uint64_t base, en_stage 
         if (pread(sw->fd, bh, sizeof bh, (off_t)e->offset) != (ssize_t)sizeof bh ||
             en_smz_block_header_decode(bh, &b, why, sizeof why) || b.first_vertex != e->first_vertex)
             return en_error_set(err, EPSNET_EFORMAT, sw->path, EPSNET_POS_NONE, e->offset, "a window's block");
-        if (en_grow((void **)&sw->payload, &sw->payload_cap, b.compressed_bytes, 1) ||
-            en_grow((void **)&sw->raw, &sw->raw_cap, b.raw_bytes, 1) ||
-            en_grow((void **)&sw->recs, &sw->recs_cap, b.records, sizeof *sw->recs) ||
-            (h->attrs.size && en_grow((void **)&sw->attrs, &sw->attrs_cap, (size_t)b.nverts * h->attrs.size, 1)) ||
+        if (en_smz_block_room(h, &b, &sw->payload, &sw->payload_cap, &sw->raw, &sw->raw_cap, &sw->recs, &sw->recs_cap,
+                              &sw->attrs, &sw->attrs_cap) ||
             en_smz_scratch_reserve(&sw->sc, &b, h))
             return en_error_set(err, EPSNET_ENOMEM, sw->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         if (pread(sw->fd, sw->payload, b.compressed_bytes, (off_t)(e->offset + sizeof bh)) !=

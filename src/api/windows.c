@@ -30,8 +30,10 @@ int en_windows_open(en_windows **out, const en_window_backend *b, uint64_t slab_
 {
     *out = NULL;
     memset(src, 0, sizeof *src);
+    /* a window is at least three slabs (the inside and a margin each
+     * side): a stream too short for them is not read at all */
     uint64_t total = b->vertices;
-    if (total < 8 || !slab_vertices)
+    if (!slab_vertices || (double)EN_PRICE_WINDOWS * 3.0 * (double)slab_vertices > EN_PRICE_MAX_SHARE * (double)total)
         return 0;
     /* the stream's width at its middle: half the vertices on the two cuts
      * of a stretch long enough that they are two rings of it, not all */

@@ -32,8 +32,7 @@ static int en_alloc_should_fail(void)
  * process (the Python package) must not change that process's policy, so
  * it maps its own large blocks: the same behaviour, for its blocks only
  * (bench/RESULTS.md, session 17: the Python peak of `gen bumpy` 2M). Every
- * block starts with a header of EN_ALLOC_HEAD bytes: its size, and whether
- * it is mapped. Under the address sanitizer every block comes from malloc,
+ * block starts with a header of EN_ALLOC_HEAD bytes: its size. Under the address sanitizer every block comes from malloc,
  * whose overflows it checks.
  */
 #define EN_MAP_MIN ((size_t)1 << 20)
@@ -49,9 +48,10 @@ static int en_alloc_should_fail(void)
 #define EN_MAP_BLOCKS 1
 #endif
 
+/* A block's header: the caller's bytes. Whether it is mapped follows
+ * from them (maps()): a resize across EN_MAP_MIN moves the block. */
 typedef struct head {
-    size_t size;   /* the caller's bytes */
-    size_t mapped; /* 1: from mmap, 0: from malloc */
+    size_t size;
 } head;
 
 static int maps(size_t n)
@@ -74,7 +74,6 @@ static void *block(size_t n, int zero)
         return NULL;
     }
     h->size = n;
-    h->mapped = maps(n);
     return (uint8_t *)h + EN_ALLOC_HEAD;
 }
 
@@ -107,14 +106,14 @@ void *en_realloc(void *p, size_t n)
     if (n > SIZE_MAX - EN_ALLOC_HEAD)
         return NULL;
     head *h = head_of(p);
-    if (!h->mapped && !maps(n)) {
+    if (!maps(h->size) && !maps(n)) {
         if (!(h = realloc(h, n + EN_ALLOC_HEAD)))
             return NULL;
         h->size = n;
         return (uint8_t *)h + EN_ALLOC_HEAD;
     }
 #ifdef MREMAP_MAYMOVE
-    if (h->mapped && maps(n)) {
+    if (maps(h->size) && maps(n)) {
         void *m = mremap(h, h->size + EN_ALLOC_HEAD, n + EN_ALLOC_HEAD, MREMAP_MAYMOVE);
         if (m == MAP_FAILED)
             return NULL;
@@ -137,7 +136,7 @@ void en_free(void *p)
     if (!p)
         return;
     head *h = head_of(p);
-    if (h->mapped)
+    if (maps(h->size))
         munmap(h, h->size + EN_ALLOC_HEAD);
     else
         free(h);

@@ -191,11 +191,6 @@ static int smz_open_reader(epsnet_reader *r)
     return 0;
 }
 
-static int grow_to(void **p, size_t *cap, size_t need, size_t elem)
-{
-    return need <= *cap ? 0 : en_grow(p, cap, need, elem);
-}
-
 static int first_vertex_check(epsnet_reader *r, smz_reader *st, const en_smz_block_header *b)
 {
     if (b->first_vertex != r->nverts)
@@ -236,21 +231,6 @@ static void block_decoded(epsnet_reader *r, smz_reader *st, const en_smz_block_h
     st->block_no++;
 }
 
-/* Room for block b's buffers. @return 0 or -1 (out of memory). */
-static int block_room(const en_smz_header *h, const en_smz_block_header *b, uint8_t **payload, size_t *payload_cap,
-                      uint8_t **raw, size_t *raw_cap, epsnet_record **recs, size_t *recs_cap, uint8_t **attrs,
-                      size_t *attrs_cap)
-{
-    void *pp = *payload, *rp = *raw, *qp = *recs, *ap = *attrs;
-    if (grow_to(&pp, payload_cap, b->compressed_bytes, 1) || (*payload = pp, 0) ||
-        grow_to(&rp, raw_cap, b->raw_bytes, 1) || (*raw = rp, 0) ||
-        grow_to(&qp, recs_cap, b->records, sizeof **recs) || (*recs = qp, 0))
-        return -1;
-    if (h->attrs.size && (grow_to(&ap, attrs_cap, (size_t)b->nverts * h->attrs.size, 1) || (*attrs = ap, 0)))
-        return -1;
-    return 0;
-}
-
 /* Read, check and decode the block whose tag starts at st->block_offset. */
 static int read_block(epsnet_reader *r, smz_reader *st)
 {
@@ -268,7 +248,7 @@ static int read_block(epsnet_reader *r, smz_reader *st)
                                  (unsigned long long)st->block_no, why);
     if ((rc = first_vertex_check(r, st, &b)))
         return rc;
-    if (block_room(&st->header, &b, &st->payload, &st->payload_cap, &st->raw, &st->raw_cap, &st->recs,
+    if (en_smz_block_room(&st->header, &b, &st->payload, &st->payload_cap, &st->raw, &st->raw_cap, &st->recs,
                    &st->recs_cap, &st->attrs, &st->attrs_cap))
         return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
     rc = en_source_read(r->src, st->payload, b.compressed_bytes, what, &r->err);
@@ -462,7 +442,7 @@ static void read_ahead(epsnet_reader *r, smz_reader *st)
                       (size_t)b.nverts * st->header.attrs.size;
         if (need > before && !ahead_fits(r, st, need - before))
             break; /* waits for the blocks in flight to be used up */
-        if (block_room(&st->header, &b, &j->payload, &j->payload_cap, &j->raw, &j->raw_cap, &j->recs,
+        if (en_smz_block_room(&st->header, &b, &j->payload, &j->payload_cap, &j->raw, &j->raw_cap, &j->recs,
                        &j->recs_cap, &j->attrs, &j->attrs_cap) ||
             en_smz_scratch_reserve(&j->sc, &b, &st->header)) {
             st->ahead_bytes += job_bytes(j) - before;

@@ -140,6 +140,14 @@ int en_smz_scratch_reserve(en_smz_scratch *sc, const en_smz_block_header *b, con
 /* The bytes sc holds. */
 size_t en_smz_scratch_bytes(const en_smz_scratch *sc);
 
+/* Room for block b of a file with header h in a reader's buffers: its
+ * compressed payload, raw payload, records and (version 2) attribute
+ * bytes, grown as needed and kept by the caller. @return 0 or -1 (out of
+ * memory). */
+int en_smz_block_room(const en_smz_header *h, const en_smz_block_header *b, uint8_t **payload, size_t *payload_cap,
+                      uint8_t **raw, size_t *raw_cap, epsnet_record **recs, size_t *recs_cap, uint8_t **attrs,
+                      size_t *attrs_cap);
+
 /* en_smz_decode_block() decodes version 1 payloads only; this one any
  * version, by the file's header h (version, axis, attributes): each vertex
  * record's attr points into attr_out, which holds b->nverts *

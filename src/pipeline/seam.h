@@ -10,7 +10,9 @@
 #include <stdint.h>
 
 #include "core/classify.h"
+#include "core/collapse.h"
 #include "core/slab.h"
+#include "pipeline/pass_plan.h"
 
 /* Face flags, set by the chunker for each face of a slab. */
 enum {
@@ -95,6 +97,18 @@ static inline int en_removable(en_vertex_kind k)
 static inline int en_receives(en_vertex_kind k)
 {
     return en_can_collapse[EN_VK_FREE][k];
+}
+
+/* A pricing pass's window cut (en_pass_plan.count_ranges): a boundary
+ * vertex outside the windows' insides stands for a frozen band of the
+ * stream, not a border of the mesh, so it receives no collapse, as no
+ * slab's frozen band does, and its samples count for no density. (With
+ * margins of a few widths the rule did not move the ceiling priced on
+ * `gen bumpy` 20M; the margins of whole slabs did: target_stage.h.) */
+static inline int en_cut_end(const en_pass_plan *t, const en_slab *s, uint32_t v)
+{
+    return t && t->count_nranges && (s->vflags[v] & EN_V_BOUNDARY) &&
+           !en_in_ranges(t->count_ranges, t->count_nranges, s->gid[v]);
 }
 
 #endif

@@ -169,18 +169,6 @@ static void share_limits(const en_slab_work *w, double share, uint64_t *keep_fac
     *keep_vertices = 0;
 }
 
-/* A pricing pass's window cut (en_pass_plan.count_ranges): a boundary
- * vertex outside the windows' insides stands for a frozen band of the
- * stream, not a border of the mesh, so it receives no collapse, as no
- * slab's frozen band does, and its samples count for no density. (With
- * margins of a few widths the rule did not move the ceiling priced on
- * `gen bumpy` 20M; the margins of whole slabs did: target_stage.h.) */
-static int cut_end(const en_pass_plan *t, const en_slab *s, uint32_t v)
-{
-    return t && t->count_nranges && (s->vflags[v] & EN_V_BOUNDARY) &&
-           !en_in_ranges(t->count_ranges, t->count_nranges, s->gid[v]);
-}
-
 /* Faces and vertices the slab may keep under its plan (0: no limit). */
 static void target_limits(const en_slab_work *w, uint64_t *keep_faces, uint64_t *keep_vertices)
 {
@@ -317,7 +305,7 @@ static int nested_density(en_slab_work *w)
     for (uint32_t v = 0; v < w->nowned; v++) {
         /* a pricing pass's window cuts are borders, whose vertices are
          * samples at every level: they stand for no density */
-        int counted = !cut_end(t, &w->s, v);
+        int counted = !en_cut_end(t, &w->s, v);
         w->counted_vertices += (uint64_t)counted;
         if (!(w->vclass[v] & EN_C_SAMPLE))
             continue;
@@ -507,7 +495,7 @@ static int simplify(en_slab_work *w)
             k = en_vertex_kind_of(w->border[v] == EN_BORDER_INNER, 0,
                                   en_seam_locked(s->vflags[v]) || (w->vclass[v] & EN_C_LOCKED),
                                   (w->vclass[v] & EN_C_SAMPLE) != 0);
-        if (k == EN_VK_LOCKED && cut_end(w->plan, s, v))
+        if (k == EN_VK_LOCKED && en_cut_end(w->plan, s, v))
             k = EN_VK_OPEN;
         removable[v] = (uint8_t)en_removable(k);
         /* under a target, samples are the second tier (en_collapse_slab),

@@ -328,12 +328,9 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
     }
     if (en_slab_build_stars(ws))
         return oom(err);
-    if (st->plan && st->plan->count_nranges)
-        /* a pricing pass's window cuts receive nothing (slab_work.c: cut_end) */
-        for (size_t i = 0; i < st->nwv; i++)
-            if ((ws->vflags[i] & EN_V_BOUNDARY) &&
-                !en_in_ranges(st->plan->count_ranges, st->plan->count_nranges, ws->gid[i]))
-                ws->vflags[i] &= (uint8_t)~EN_V_TARGET;
+    for (uint32_t i = 0; st->plan && st->plan->count_nranges && i < ws->nv; i++)
+        if (en_cut_end(st->plan, ws, i)) /* a pricing pass's window cuts receive nothing */
+            ws->vflags[i] &= (uint8_t)~EN_V_TARGET;
     /* the run's arrays, in one buffer the stitcher keeps from take to take
      * (a steady run allocates nothing per take) */
     size_t nv = st->nwv + 1, nt = st->nwf + 1;
