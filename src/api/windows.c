@@ -8,14 +8,21 @@
 struct en_windows {
     en_window_backend b;
     uint64_t lo[EN_PRICE_WINDOWS], hi[EN_PRICE_WINDOWS];
+    uint64_t margin;                       /* ids of each margin */
+    /* ids either side of an inside that complete its vertices' stars:
+     * twice the stream's width (a vertex's neighbours are about one width
+     * from it along the stream), at most the margin */
+    uint64_t ring;
     uint64_t inside[2 * EN_PRICE_WINDOWS]; /* en_window_source.inside */
+    uint64_t inside_alone[2 * EN_PRICE_WINDOWS]; /* en_window_source.inside_alone */
 };
 
-static int push(void *opaque, uint32_t w, uint64_t base, en_stage *into, uint64_t *pushed, epsnet_error *err)
+static int push(void *opaque, uint32_t w, int inside, uint64_t base, en_stage *into, uint64_t *pushed,
+                epsnet_error *err)
 {
     en_windows *x = opaque;
-    uint64_t cut = 0;
-    return x->b.walk(x->b.opaque, x->lo[w], x->hi[w], base, into, pushed, &cut, err);
+    uint64_t cut = 0, m = inside ? x->margin - x->ring : 0;
+    return x->b.walk(x->b.opaque, x->lo[w] + m, x->hi[w] - m, base, into, pushed, &cut, err);
 }
 
 /* The stretch of n ids around mid, within the stream. */
@@ -55,20 +62,29 @@ int en_windows_open(en_windows **out, const en_window_backend *b, uint64_t slab_
     if (!x)
         return en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     x->b = *b;
+    x->margin = margin;
+    x->ring = 2 * width < margin ? 2 * width : margin;
     /* the insides, numbered as the windows push their vertices (a backend
      * may push fewer than it spans: a sort drops the vertices no face uses) */
-    uint64_t base = 0;
+    uint64_t base = 0, base_alone = 0;
     for (uint32_t w = 0; w < EN_PRICE_WINDOWS && rc == 0; w++) {
         place(total, (2 * (uint64_t)w + 1) * total / (2 * EN_PRICE_WINDOWS), len_w, &x->lo[w], &x->hi[w]);
-        uint64_t before = 0, inside = 0, after = 0, cut = 0;
-        if ((rc = b->walk(b->opaque, x->lo[w], x->lo[w] + margin, 0, NULL, &before, &cut, err)) == 0 &&
-            (rc = b->walk(b->opaque, x->lo[w] + margin, x->hi[w] - margin, 0, NULL, &inside, &cut, err)) == 0)
-            rc = b->walk(b->opaque, x->hi[w] - margin, x->hi[w], 0, NULL, &after, &cut, err);
+        uint64_t in_lo = x->lo[w] + margin, in_hi = x->hi[w] - margin;
+        uint64_t before = 0, inside = 0, after = 0, ring_before = 0, ring_after = 0, cut = 0;
+        if ((rc = b->walk(b->opaque, x->lo[w], in_lo, 0, NULL, &before, &cut, err)) == 0 &&
+            (rc = b->walk(b->opaque, in_lo, in_hi, 0, NULL, &inside, &cut, err)) == 0 &&
+            (rc = b->walk(b->opaque, in_hi, x->hi[w], 0, NULL, &after, &cut, err)) == 0 &&
+            (rc = b->walk(b->opaque, in_lo - x->ring, in_lo, 0, NULL, &ring_before, &cut, err)) == 0)
+            rc = b->walk(b->opaque, in_hi, in_hi + x->ring, 0, NULL, &ring_after, &cut, err);
         x->inside[2 * w] = base + before;
         x->inside[2 * w + 1] = base + before + inside;
+        x->inside_alone[2 * w] = base_alone + ring_before;
+        x->inside_alone[2 * w + 1] = base_alone + ring_before + inside;
         src->inside_vertices += inside;
         src->vertices += before + inside + after;
+        src->inside_ring_vertices += ring_before + inside + ring_after;
         base += before + inside + after;
+        base_alone += ring_before + inside + ring_after;
     }
     if (rc || !src->inside_vertices) {
         en_free(x);
@@ -77,6 +93,7 @@ int en_windows_open(en_windows **out, const en_window_backend *b, uint64_t slab_
     }
     src->windows = EN_PRICE_WINDOWS;
     src->inside = x->inside;
+    src->inside_alone = x->inside_alone;
     src->push = push;
     src->opaque = x;
     *out = x;

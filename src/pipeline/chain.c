@@ -509,7 +509,12 @@ static int lower_candidate(en_pass *p, epsnet_error *err)
 /* The frequency a chosen skeleton ends at (after the pass's end). */
 static uint32_t chosen_frequency(const en_pass *p)
 {
-    return 1u << en_skeleton_level(p->level_total, en_level_of(p->g.n), (double)p->plan->skeleton_budget);
+    /* a pricing pass counts no cut end (seam.h: en_cut_end): its budget
+     * is pro rata to the vertices it counted */
+    double budget = (double)p->plan->skeleton_budget;
+    if (p->plan->count_nranges && p->plan->skeleton_expected)
+        budget *= fmin(1.0, (double)p->retired_vertices / (double)p->plan->skeleton_expected);
+    return 1u << en_skeleton_level(p->level_total, en_level_of(p->g.n), budget);
 }
 
 static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)

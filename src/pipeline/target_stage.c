@@ -20,14 +20,19 @@
  *   with coarser buckets, once 124% when little was left: a bucket holds
  *   many vertices of about one cost).
  *   So the aim falls to ROUND_AIM_NEAR when the gap is small, and rounds
- *   stop at ROUND_CLOSE: the last round's own order decides the rest.
+ *   stop at ROUND_CLOSE: the last round's own order decides the rest. A
+ *   round costs what passing the whole kept mesh through slabs and seams
+ *   costs, however little it takes: on `gen bumpy` 20M at 10% the round
+ *   from 6.6% over the target to 4% took 1.9 s of 19.6, and leaving those
+ *   6.6% to the last round moved the mean error by 0.5% and the
+ *   Hausdorff distance not at all (bench/RESULTS.md, session 19).
  * - ROUND_STALL: a round that takes less than this share of the gap says
  *   the rest is held by refusals or by the skeleton: the last round sees to it.
  */
 #define ROUND_AIM 0.9
 #define ROUND_AIM_NEAR 0.6
 #define ROUND_NEAR 0.2
-#define ROUND_CLOSE 0.05
+#define ROUND_CLOSE 0.1
 #define ROUND_STALL 0.05
 #define ROUND_MAX 12
 /* - ROUND_RETRIES: a round that passed the target is run again from the
@@ -485,8 +490,8 @@ static int discard_put(void *self, const epsnet_record *rec, epsnet_error *err)
 
 /* One chain of the pricing pass over the windows of src, under plan p:
  * its counts, and what it took (en_chain_taken_hist) in hist_before. */
-static int price_chain(en_target_stage *ts, const en_window_source *src, const en_pass_plan *p, en_chain_stats *st,
-                       epsnet_error *err)
+static int price_chain(en_target_stage *ts, const en_window_source *src, int inside, const en_pass_plan *p,
+                       en_chain_stats *st, epsnet_error *err)
 {
     en_chain_config cc = stage_chain(ts, p);
     cc.out = (en_stage){ discard_put, NULL, NULL };
@@ -495,7 +500,7 @@ static int price_chain(en_target_stage *ts, const en_window_source *src, const e
     en_stage in = rc == 0 ? en_chain_input(c) : (en_stage){ 0 };
     uint64_t base = 0;
     for (uint32_t w = 0; rc == 0 && w < src->windows; w++)
-        rc = src->push(src->opaque, w, base, &in, &base, err);
+        rc = src->push(src->opaque, w, inside, base, &in, &base, err);
     if (rc == 0)
         rc = en_stage_end(&in, err);
     if (rc == 0) {
@@ -527,12 +532,18 @@ int en_target_stage_price(en_target_stage *ts, const en_window_source *src, en_p
          * candidate, whose samples would hold the windows above the
          * target). At the coarsest, the skeleton alone is over what the
          * target keeps: no ceiling gets there, the last round gives
-         * samples up. */
+         * samples up. It reads the insides alone, each with the ring
+         * that completes its stars (a vertex's level is its own star's):
+         * the margins are for the collapses' cuts. On `gen bumpy` 20M at
+         * 10% that took it from 0.58 s to 0.31 s, the same frequency from
+         * the same level shares (bench/RESULTS.md, session 19). */
         en_pass_plan d = p;
         d.keep_share = 1;
-        d.skeleton_budget = (uint64_t)(EN_TARGET_SKELETON_SHARE * size->share * (double)src->vertices);
-        d.skeleton_expected = src->vertices;
-        if ((rc = price_chain(ts, src, &d, &st, err)) == 0) {
+        d.skeleton_budget =
+            (uint64_t)(EN_TARGET_SKELETON_SHARE * size->share * (double)src->inside_ring_vertices);
+        d.skeleton_expected = src->inside_ring_vertices;
+        d.count_ranges = src->inside_alone;
+        if ((rc = price_chain(ts, src, 1, &d, &st, err)) == 0) {
             if (st.skeleton_frequency <= 1)
                 return 0;
             p.finest_frequency = st.skeleton_frequency;
@@ -541,7 +552,7 @@ int en_target_stage_price(en_target_stage *ts, const en_window_source *src, en_p
     /* Then past the target, counting what each level takes. */
     p.keep_share = size->share * PRICE_DEEP;
     if (rc == 0)
-        rc = price_chain(ts, src, &p, &st, err);
+        rc = price_chain(ts, src, 0, &p, &st, err);
     if (rc == EPSNET_ENOMEM || rc == EPSNET_EINTR)
         return rc;
     if (rc)
