@@ -57,20 +57,22 @@ static en_fault price_skip_fault = EN_FAULT_INIT("EPSNET_FAIL_PRICE_SKIP");
 /* Records between two reports while a round takes its input. */
 #define TICK_RECORDS 65536
 
-/* One record of the kept stream, as the chain's stitcher wrote it; each
- * vertex is followed by its attribute bytes (attr_size) and the carried
- * block, its accumulated quadric (and attribute part) and marks (kept_attr
- * in all). */
-typedef struct kept_record {
-    uint64_t v[3];
-    double xyz[3];
-    uint32_t kind;
-    uint32_t pad;
-} kept_record;
+/* A record of the kept stream, as the chain's stitcher wrote it: its kind
+ * in a byte, then what that kind has. A vertex: its coordinates, its
+ * attribute bytes (attr_size) and the carried block, its accumulated
+ * quadric (and attribute part) and marks (kept_attr in all); a triangle:
+ * its corners; a finalize: its vertex. note: whole epsnet_records (56
+ * bytes each, a finalize for every vertex) were 1.8 times these bytes,
+ * written and read again by every round (bench/RESULTS.md, session 19). */
+#define KEPT_MAX_RECORD (1 + 3 * 8)
 
 /* A kept stream: the temporary file and what it holds. Records pass
  * through buf a block at a time: one zstd call per record cost more than
- * the round's collapses (0.35 s of feeding for 335K faces). */
+ * the round's collapses (0.35 s of feeding for 335K faces). note: the file
+ * is plain, not zstd's: its fastest level made `gen bumpy` 20M at 10%
+ * 1.06 times slower (writing on the workers, reading again on the calling
+ * thread) for a third fewer temporary bytes, 152 MB against 225 MB
+ * (bench/RESULTS.md, session 19). */
 #define KEPT_BLOCK ((size_t)1 << 18)
 typedef struct kept {
     en_spill *sp;
@@ -108,7 +110,7 @@ static int kept_open(en_target_stage *ts, kept *k, epsnet_error *err)
     memset(k, 0, sizeof *k);
     if (!(k->buf = en_malloc(KEPT_BLOCK)))
         return en_error_set(err, EPSNET_ENOMEM, ts->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
-    return en_spill_open(&k->sp, ts->cfg.tmpdir, ts->cfg.path ? ts->cfg.path : "target stage", err);
+    return en_spill_open_plain(&k->sp, ts->cfg.tmpdir, ts->cfg.path ? ts->cfg.path : "target stage", err);
 }
 
 static void kept_close(kept *k)
@@ -164,11 +166,11 @@ typedef struct kept_sink {
 static int kept_put(void *self, const epsnet_record *rec, epsnet_error *err)
 {
     kept_sink *to = self;
-    kept_record r = { { rec->v[0], rec->v[1], rec->v[2] },
-                      { rec->xyz[0], rec->xyz[1], rec->xyz[2] },
-                      (uint32_t)rec->kind,
-                      0 };
-    int rc = kept_write(to->k, &r, sizeof r, err);
+    uint8_t r[KEPT_MAX_RECORD];
+    size_t n = 1 + (rec->kind == EPSNET_REC_FINALIZE ? 8 : 24);
+    r[0] = (uint8_t)rec->kind;
+    memcpy(r + 1, rec->kind == EPSNET_REC_VERTEX ? (const void *)rec->xyz : (const void *)rec->v, n - 1);
+    int rc = kept_write(to->k, r, n, err);
     if (rc == 0 && rec->kind == EPSNET_REC_VERTEX)
         rc = kept_write(to->k, rec->attr, to->ts->kept_attr, err);
     to->k->vertices += rec->kind == EPSNET_REC_VERTEX;
@@ -244,17 +246,20 @@ static int replay(en_target_stage *ts, kept *k, en_stage into, epsnet_error *err
         rc = en_spill_rewind(k->sp, err);
     while (rc == 0) {
         size_t got = 0;
-        const uint8_t *p = kept_read(k, sizeof(kept_record), &got, &rc, err);
+        const uint8_t *p = kept_read(k, 1, &got, &rc, err);
         if (!p) {
             if (rc == 0 && got == 0)
                 return en_stage_end(&into, err); /* the end, between records */
             break;
         }
-        kept_record r;
-        memcpy(&r, p, sizeof r);
-        epsnet_record rec = { .kind = (epsnet_record_kind)r.kind };
-        memcpy(rec.v, r.v, sizeof rec.v);
-        memcpy(rec.xyz, r.xyz, sizeof rec.xyz);
+        epsnet_record rec = { .kind = (epsnet_record_kind)*p };
+        size_t n = rec.kind == EPSNET_REC_FINALIZE ? 8 : 24;
+        if (rec.kind != EPSNET_REC_VERTEX && rec.kind != EPSNET_REC_TRIANGLE && rec.kind != EPSNET_REC_FINALIZE)
+            return en_error_set(err, EPSNET_EIO, ts->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "the target stage's temporary file holds a record of unknown kind %d", *p);
+        if (!(p = kept_read(k, n, &got, &rc, err)))
+            break;
+        memcpy(rec.kind == EPSNET_REC_VERTEX ? (void *)rec.xyz : (void *)rec.v, p, n);
         if (rec.kind == EPSNET_REC_VERTEX) {
             if (!(p = kept_read(k, ts->kept_attr, &got, &rc, err)))
                 break;
