@@ -24,6 +24,18 @@ int en_run_has_target(const epsnet_settings *set)
     return set->target_faces || set->target_ratio != 0 || set->target_vertices || set->target_error > 0;
 }
 
+/* A small input (at most this many of the settings' slabs) is one slab
+ * (plan_target), and the target stage's last round takes at most this
+ * many slabs in one: the thinning's, or the default's at least, so that
+ * memory does not grow with the mesh (a larger one goes through rounds on
+ * slabs first). */
+#define ONE_SLAB_SLABS 4
+static uint64_t last_slab_vertices(uint32_t slab_vertices)
+{
+    return ONE_SLAB_SLABS *
+           (uint64_t)(slab_vertices > EN_BUDGET_DEFAULT_SLAB ? slab_vertices : EN_BUDGET_DEFAULT_SLAB);
+}
+
 /*
  * A streamed size (docs/architecture.md §7): the thinning pass on slabs,
  * then the target stage over what it left (pipeline/target_stage.h): rounds
@@ -40,7 +52,8 @@ static void plan_streamed(en_run *run, const epsnet_settings *set, uint64_t nv, 
         .share = by_vertices ? (double)set->target_vertices / (double)nv : (double)n_faces / (double)nf,
         .choose_density = !set->target_level_given,
     };
-    en_target_stage_plan_thin(&run->size, nv, nf, run->budget.one_slab, &run->plan);
+    en_target_stage_plan_thin(&run->size, nv, nf, run->budget.one_slab, last_slab_vertices(run->budget.slab_vertices),
+                              &run->plan);
     run->passes = 1;
     run->staged = 1;
 }
@@ -61,7 +74,6 @@ static void plan_streamed(en_run *run, const epsnet_settings *set, uint64_t nv, 
  * the same error (bench/RESULTS.md). Below a few slabs the two cost alike
  * and one slab's global order is the better result.
  */
-#define ONE_SLAB_SLABS 4
 static int plan_target(en_run *run, const epsnet_settings *set, const char *path, const epsnet_mesh_info *in,
                        uint32_t *slab_vertices, epsnet_error *err)
 {
@@ -263,11 +275,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
             .slab_vertices = slab_vertices,
             .mem_budget = run->budget.chain,
             .one_slab_bytes = run->budget.one_slab,
-            /* a few slabs: the thinning's, or the default's at least,
-             * so that memory does not grow with the mesh (a larger one
-             * goes through rounds on slabs first) */
-            .one_slab_vertices = ONE_SLAB_SLABS * (slab_vertices > EN_BUDGET_DEFAULT_SLAB ? slab_vertices
-                                                                                           : EN_BUDGET_DEFAULT_SLAB),
+            .one_slab_vertices = (uint32_t)last_slab_vertices(slab_vertices),
             .ring_capacity = ring,
             .tmpdir = ctx->tmpdir,
             .size = run->size,

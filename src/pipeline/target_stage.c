@@ -415,9 +415,12 @@ static int run_chain(en_target_stage *ts, const en_pass_plan *t, kept *from, kep
  * memory is the default path's (bench/RESULTS.md).
  */
 void en_target_stage_plan_thin(const en_target_size *size, uint64_t nv, uint64_t nf, uint64_t one_slab_bytes,
-                               en_pass_plan *thin)
+                               uint64_t one_slab_vertices, en_pass_plan *thin)
 {
     double keep = EN_TARGET_THIN_KEEP * size->share + 0.01;
+    double wide = EN_TARGET_THIN_KEEP_ONE_SLAB * size->share + 0.01, wide_v = wide * (double)nv;
+    if (wide_v <= (double)one_slab_vertices && wide_v * EN_ONE_SLAB_BYTES_PER_VERTEX <= (double)one_slab_bytes)
+        keep = wide;
     keep = keep < 1 ? keep : 1;
     *thin = (en_pass_plan){
         .skeleton = size->choose_density ? EN_SKELETON_CHOSEN : EN_SKELETON_SPHERE,

@@ -75,12 +75,23 @@ typedef struct en_target_size {
  * `gen bumpy` 20M at 10% took 1.07 times the wall time (bench/RESULTS.md,
  * session 16). */
 #define EN_TARGET_THIN_KEEP 2.0
+/* ... and this many times where that is few enough to go straight to the
+ * last round's one slab, with no round between: keeping more there costs
+ * a larger slab, not a pass, and the one slab's global order does more of
+ * the work. The shared scans forced through `--slab 4096` and `16384`,
+ * against one slab: Hausdorff 1.048 and 1.035 times (geometric means,
+ * worst 1.31 and 1.58) at 2, 1.030 and 1.016 (worst 1.14 and 1.19) at 3,
+ * 1.059 and 1.063 at 2.5 (the maximum distance moves case by case). Where
+ * rounds follow, 3 made a shuffled 20M-face PLY at 10% take four rounds
+ * instead of three and 1.02-1.10 times the wall (bench/RESULTS.md,
+ * session 19). */
+#define EN_TARGET_THIN_KEEP_ONE_SLAB 3.0
 
 /* The thinning pass's plan, the chain pass before the stage, on an input
- * of nv vertices and nf faces; one_slab_bytes: what one slab may hold
- * (budget.h). */
+ * of nv vertices and nf faces; one_slab_bytes, one_slab_vertices: what the
+ * last round's one slab may hold (budget.h; en_target_stage_config). */
 void en_target_stage_plan_thin(const en_target_size *size, uint64_t nv, uint64_t nf, uint64_t one_slab_bytes,
-                               en_pass_plan *thin);
+                               uint64_t one_slab_vertices, en_pass_plan *thin);
 
 /*
  * Windows of the input for the pricing pass (en_target_stage_price): a
