@@ -133,10 +133,11 @@ typedef struct en_window_source {
     uint64_t inside_ring_vertices;
     const uint64_t *inside_alone;
     /* Push window w's records into `into` (not ended), or with inside
-     * only its inside and ring, its vertices numbered after the `base` vertices of the windows before it; add
-     * how many vertices it pushed to *pushed. @return 0, EPSNET_EFORMAT
-     * for a block that does not read (the stream's reader reports it,
-     * later, where it is), or a negative code with err filled. */
+     * only its inside and ring, its vertices numbered after the `base`
+     * vertices of the windows before it; add how many vertices it pushed
+     * to *pushed. @return 0, EPSNET_EFORMAT for a block that does not
+     * read (the stream's reader reports it, later, where it is), or a
+     * negative code with err filled. */
     int (*push)(void *opaque, uint32_t w, int inside, uint64_t base, en_stage *into, uint64_t *pushed,
                 epsnet_error *err);
     void *opaque;
