@@ -32,8 +32,9 @@ static int en_alloc_should_fail(void)
  * process (the Python package) must not change that process's policy, so
  * it maps its own large blocks: the same behaviour, for its blocks only
  * (bench/RESULTS.md, session 17: the Python peak of `gen bumpy` 2M). Every
- * block starts with a header of EN_ALLOC_HEAD bytes: its size. Under the address sanitizer every block comes from malloc,
- * whose overflows it checks.
+ * block starts with a header of EN_ALLOC_HEAD bytes: its size. Under the
+ * address sanitizer every block comes from malloc, whose overflows it
+ * checks.
  */
 #define EN_MAP_MIN ((size_t)1 << 20)
 #define EN_ALLOC_HEAD 16 /* keeps malloc's 16-byte alignment */

@@ -1304,12 +1304,8 @@ int en_smz_block_room(const en_smz_header *h, const en_smz_block_header *b, uint
                       uint8_t **raw, size_t *raw_cap, epsnet_record **recs, size_t *recs_cap, uint8_t **attrs,
                       size_t *attrs_cap)
 {
-    void *pp = *payload, *rp = *raw, *qp = *recs, *ap = *attrs;
-    if (en_grow(&pp, payload_cap, b->compressed_bytes, 1) || (*payload = pp, 0) ||
-        en_grow(&rp, raw_cap, b->raw_bytes, 1) || (*raw = rp, 0) ||
-        en_grow(&qp, recs_cap, b->records, sizeof **recs) || (*recs = qp, 0))
+    if (en_grow((void **)payload, payload_cap, b->compressed_bytes, 1) ||
+        en_grow((void **)raw, raw_cap, b->raw_bytes, 1) || en_grow((void **)recs, recs_cap, b->records, sizeof **recs))
         return -1;
-    if (h->attrs.size && (en_grow(&ap, attrs_cap, (size_t)b->nverts * h->attrs.size, 1) || (*attrs = ap, 0)))
-        return -1;
-    return 0;
+    return h->attrs.size && en_grow((void **)attrs, attrs_cap, (size_t)b->nverts * h->attrs.size, 1) ? -1 : 0;
 }

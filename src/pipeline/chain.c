@@ -141,7 +141,8 @@ struct en_chain {
     en_chain_stats stats;          /* pass-summed counts; seam counts are added at the end */
     uint64_t *cost_hist;           /* a priced plan: the slabs' costs left (EN_COST_BUCKETS), summed at retire */
     uint64_t *level_hist;          /* ... and their samples', by level (en_slab_work.level_hist) */
-    uint64_t *taken_hist;          /* a plan with count ranges: the slabs' (en_slab_work.taken_hist), summed at retire */
+    uint64_t *taken_hist;          /* a plan with count ranges: the slabs' (en_slab_work.taken_hist),
+                                    * summed at retire */
     en_chain_spares own;           /* without cfg.spares */
     en_chain_spares *spares;       /* cfg.spares, or &own */
 };
@@ -472,6 +473,16 @@ static int tick(en_pass *p, int done_now, epsnet_error *err)
     return 0;
 }
 
+/* The skeleton's budget for the vertices retired so far: with
+ * skeleton_expected, its share of them (en_pass_plan.skeleton_expected). */
+static double budget_so_far(const en_pass *p)
+{
+    double budget = (double)p->plan->skeleton_budget;
+    if (p->plan->skeleton_expected)
+        budget *= fmin(1.0, (double)p->retired_vertices / (double)p->plan->skeleton_expected);
+    return budget;
+}
+
 /*
  * EN_SKELETON_CHOSEN on slabs (slab_work.c: nested_density), before slab
  * k = 1, 2, 4, 8, ..., and every CANDIDATE_EVERY slabs from there: with
@@ -493,10 +504,7 @@ static int lower_candidate(en_pass *p, epsnet_error *err)
     while (rc == 0 && en_jobring_in_flight(p->ring))
         rc = retire_one(p, err);
     int top = en_level_of(p->g.n);
-    double budget = (double)p->plan->skeleton_budget;
-    if (p->plan->skeleton_expected)
-        budget *= fmin(1.0, (double)p->retired_vertices / (double)p->plan->skeleton_expected);
-    int k = en_skeleton_level(p->level_total, top, budget);
+    int k = en_skeleton_level(p->level_total, top, budget_so_far(p));
     if (rc == 0 && k < top) {
         gauss_rotation rot = p->g.rot;
         if (gauss_init(&p->g, 1u << k, &rot))
@@ -506,14 +514,12 @@ static int lower_candidate(en_pass *p, epsnet_error *err)
     return rc;
 }
 
-/* The frequency a chosen skeleton ends at (after the pass's end). */
+/* The frequency a chosen skeleton ends at (after the pass's end). A
+ * pricing pass counts no cut end (seam.h: en_cut_end): its budget is pro
+ * rata to the vertices it counted; any other's is the whole budget. */
 static uint32_t chosen_frequency(const en_pass *p)
 {
-    /* a pricing pass counts no cut end (seam.h: en_cut_end): its budget
-     * is pro rata to the vertices it counted */
-    double budget = (double)p->plan->skeleton_budget;
-    if (p->plan->count_nranges && p->plan->skeleton_expected)
-        budget *= fmin(1.0, (double)p->retired_vertices / (double)p->plan->skeleton_expected);
+    double budget = p->plan->count_nranges ? budget_so_far(p) : (double)p->plan->skeleton_budget;
     return 1u << en_skeleton_level(p->level_total, en_level_of(p->g.n), budget);
 }
 
