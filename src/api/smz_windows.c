@@ -51,6 +51,10 @@ static int walk(void *opaque, uint64_t lo, uint64_t hi, uint64_t base, en_stage 
     en_smz_windows *sw = opaque;
     const en_smz_header *h = &sw->idx.header;
     uint64_t nv = hi - lo;
+    if (!into && !cut) {
+        *pushed += nv; /* every id of the stretch is pushed (below) */
+        return 0;
+    }
     if (en_grow((void **)&sw->finalized, &sw->finalized_cap, nv, 1))
         return en_error_set(err, EPSNET_ENOMEM, sw->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     memset(sw->finalized, 0, nv);
@@ -114,7 +118,8 @@ static int walk(void *opaque, uint64_t lo, uint64_t hi, uint64_t base, en_stage 
         }
     }
     for (uint64_t v = 0; v < nv && rc == 0; v++) {
-        *cut += (sw->finalized[v] & CUT) != 0;
+        if (cut)
+            *cut += (sw->finalized[v] & CUT) != 0;
         if (sw->finalized[v] & FINAL)
             continue;
         if (into)

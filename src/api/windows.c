@@ -21,8 +21,8 @@ static int push(void *opaque, uint32_t w, int inside, uint64_t base, en_stage *i
                 epsnet_error *err)
 {
     en_windows *x = opaque;
-    uint64_t cut = 0, m = inside ? x->margin - x->ring : 0;
-    return x->b.walk(x->b.opaque, x->lo[w] + m, x->hi[w] - m, base, into, pushed, &cut, err);
+    uint64_t m = inside ? x->margin - x->ring : 0;
+    return x->b.walk(x->b.opaque, x->lo[w] + m, x->hi[w] - m, base, into, pushed, NULL, err);
 }
 
 /* The stretch of n ids around mid, within the stream. */
@@ -70,12 +70,13 @@ int en_windows_open(en_windows **out, const en_window_backend *b, uint64_t slab_
     for (uint32_t w = 0; w < EN_PRICE_WINDOWS && rc == 0; w++) {
         place(total, (2 * (uint64_t)w + 1) * total / (2 * EN_PRICE_WINDOWS), len_w, &x->lo[w], &x->hi[w]);
         uint64_t in_lo = x->lo[w] + margin, in_hi = x->hi[w] - margin;
-        uint64_t before = 0, inside = 0, after = 0, ring_before = 0, ring_after = 0, cut = 0;
-        if ((rc = b->walk(b->opaque, x->lo[w], in_lo, 0, NULL, &before, &cut, err)) == 0 &&
-            (rc = b->walk(b->opaque, in_lo, in_hi, 0, NULL, &inside, &cut, err)) == 0 &&
-            (rc = b->walk(b->opaque, in_hi, x->hi[w], 0, NULL, &after, &cut, err)) == 0 &&
-            (rc = b->walk(b->opaque, in_lo - x->ring, in_lo, 0, NULL, &ring_before, &cut, err)) == 0)
-            rc = b->walk(b->opaque, in_hi, in_hi + x->ring, 0, NULL, &ring_after, &cut, err);
+        /* counts only: a .smz answers them from the ids, without reading */
+        uint64_t before = 0, inside = 0, after = 0, ring_before = 0, ring_after = 0;
+        if ((rc = b->walk(b->opaque, x->lo[w], in_lo, 0, NULL, &before, NULL, err)) == 0 &&
+            (rc = b->walk(b->opaque, in_lo, in_hi, 0, NULL, &inside, NULL, err)) == 0 &&
+            (rc = b->walk(b->opaque, in_hi, x->hi[w], 0, NULL, &after, NULL, err)) == 0 &&
+            (rc = b->walk(b->opaque, in_lo - x->ring, in_lo, 0, NULL, &ring_before, NULL, err)) == 0)
+            rc = b->walk(b->opaque, in_hi, in_hi + x->ring, 0, NULL, &ring_after, NULL, err);
         x->inside[2 * w] = base + before;
         x->inside[2 * w + 1] = base + before + inside;
         x->inside_alone[2 * w] = base_alone + ring_before;

@@ -21,7 +21,9 @@ typedef struct en_window_backend {
      * mesh of its own, its vertices numbered from base, a face with a
      * corner outside it left out, every vertex finalized by its end; add
      * how many vertices it pushed to *pushed and how many of them are on
-     * a face left out to *cut. @return 0, EPSNET_EFORMAT for what does not
+     * a face left out to *cut (cut NULL: not counted; with into NULL too,
+     * a backend that pushes every id of the stretch counts without reading
+     * it). @return 0, EPSNET_EFORMAT for what does not
      * read (the stream's reader reports it where it is), or a negative
      * code with err filled. */
     int (*walk)(void *opaque, uint64_t lo, uint64_t hi, uint64_t base, en_stage *into, uint64_t *pushed,

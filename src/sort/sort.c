@@ -1719,7 +1719,8 @@ int en_sort_window(en_sort *j, uint64_t lo, uint64_t hi, uint64_t base, en_stage
     for (uint64_t r = lo; r < hi && rc == 0; r++) {
         if (loc[r - lo] == UINT32_MAX)
             continue;
-        *cut += on_cut[r - lo] || j->last_of[r] >= hi;
+        if (cut)
+            *cut += on_cut[r - lo] || j->last_of[r] >= hi;
         if (into)
             rc = en_stage_put(into, &(epsnet_record){ .kind = EPSNET_REC_FINALIZE, .v = { base + loc[r - lo] } }, err);
     }

@@ -95,8 +95,8 @@ void en_sort_lean(en_sort *s);
  * en_sort_windowed() says so. en_sort_window() pushes the vertices of
  * ranks [lo, hi) that faces use, numbered from base in rank order, then the
  * faces whose corners are all among them, then a finalization of each;
- * *pushed gets how many vertices it pushed, and *cut adds those on a face
- * it left out. The ranks are en_sort_info()'s vertices, with the unused
+ * *pushed gets how many vertices it pushed, and *cut (unless NULL) adds
+ * those on a face it left out. The ranks are en_sort_info()'s vertices, with the unused
  * ones among them. @return 0, or what into returned.
  */
 int en_sort_windowed(const en_sort *s, uint64_t *ranks);
