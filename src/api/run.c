@@ -341,6 +341,13 @@ int en_run_put(en_run *run, const epsnet_record *rec, epsnet_error *err)
     return en_stage_put(&run->input, rec, err);
 }
 
+int en_run_put_many(en_run *run, const epsnet_record *recs, size_t n, epsnet_error *err)
+{
+    for (size_t i = 0; i < n; i++)
+        run->ctx->stats.faces += recs[i].kind == EPSNET_REC_TRIANGLE;
+    return en_chain_put_many(run->chain, recs, n, err);
+}
+
 /* The one place where the chain's counts become the public statistics. */
 static void fill_stats(epsnet_stats *st, const en_chain_stats *cs)
 {

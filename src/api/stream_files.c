@@ -115,9 +115,8 @@ static int feed(epsnet_context *ctx, en_run *run, en_input *in, const char *path
     /* note: straight from the reader's queue, one copy fewer than
      * epsnet_reader_next() (docs/architecture.md §15) */
     while ((rc = en_reader_next_batch(r, &recs, &n, err)) == 1) {
-        for (size_t i = 0; i < n; i++)
-            if ((rc = en_run_put(run, &recs[i], err)) != 0)
-                return rc;
+        if ((rc = en_run_put_many(run, recs, n, err)) != 0)
+            return rc;
         seen += n;
         if (ctx->settings.progress && seen >= next_report) {
             next_report = seen + PROGRESS_EVERY;
@@ -259,7 +258,7 @@ static int file_run_feed(file_run *fr, epsnet_context *ctx, en_slab_mode mode, c
         if (fr->in.sort && en_sort_windowed(fr->in.sort, &ranks))
             wb = (en_window_backend){ ranks, sort_walk, fr->in.sort };
         else if (!fr->in.sort)
-            rc = en_smz_windows_open(&sw, in_path, &fr->in.info.vertex_attrs, &wb, err);
+            rc = en_smz_windows_open(&sw, in_path, &fr->in.info.vertex_attrs, fr->pool, &wb, err);
     }
     if (rc == 0)
         rc = en_run_open(&fr->run, ctx, mode, in_path, &fr->in.info, &wb, &fr->in.budget, 1, fr->pool, out,

@@ -782,6 +782,51 @@ static int chain_put(void *self, const epsnet_record *rec, epsnet_error *err)
     return rc ? fail(c, rc, err) : 0;
 }
 
+int en_chain_put_many(en_chain *c, const epsnet_record *recs, size_t n, epsnet_error *err)
+{
+    en_pass *p = &c->pass[0];
+    if (c->failed) {
+        *err = c->failure;
+        return c->failed;
+    }
+    if (!p->batched) {
+        int rc = 0;
+        for (size_t i = 0; i < n && rc == 0; i++)
+            rc = chain_put(c, &recs[i], err);
+        return rc;
+    }
+    int rc = 0;
+    size_t asz = p->batch_attr_size;
+    while (n > 0 && rc == 0) {
+        chunk_job *j = p->fill;
+        if (!j) {
+            rc = en_error_set(err, EPSNET_ENOMEM, c->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+            break;
+        }
+        size_t k = CHUNK_BATCH - j->nrecs < n ? CHUNK_BATCH - j->nrecs : n;
+        memcpy(&j->recs[j->nrecs], recs, k * sizeof *recs);
+        for (size_t i = 0; i < k; i++) {
+            const epsnet_record *r = &recs[i];
+            c->stats.vertices_in += r->kind == EPSNET_REC_VERTEX;
+            c->stats.faces_in += r->kind == EPSNET_REC_TRIANGLE;
+            if (asz && r->kind == EPSNET_REC_VERTEX) {
+                uint8_t *to = j->attr + j->nattr++ * asz;
+                if (r->attr)
+                    memcpy(to, r->attr, asz);
+                else
+                    memset(to, 0, asz);
+            }
+        }
+        j->nrecs += k;
+        p->records += k;
+        recs += k;
+        n -= k;
+        if (j->nrecs >= CHUNK_BATCH)
+            rc = chunk_submit(p, 0, err);
+    }
+    return rc ? fail(c, rc, err) : 0;
+}
+
 static int chain_end(void *self, epsnet_error *err)
 {
     en_chain *c = self;

@@ -128,6 +128,12 @@ int en_chain_new(en_chain **chain, const en_chain_config *cfg, en_pool *pool, ep
  * every call returns it again. */
 en_stage en_chain_input(en_chain *chain);
 
+/* n records at once: what n puts to en_chain_input() do, with a batched
+ * first pass (en_chain_config.checked_input) taking them by whole runs of
+ * records (a file run's calling thread put each record through three calls
+ * before: docs/architecture.md §10). */
+int en_chain_put_many(en_chain *chain, const epsnet_record *recs, size_t n, epsnet_error *err);
+
 /* Counts so far (complete after the end). */
 void en_chain_stats_get(const en_chain *chain, en_chain_stats *stats);
 
