@@ -236,9 +236,10 @@ def flat_shaded_obj(name, faces=6000):
 
 
 def recomputed_normals(verts, faces):
-    """Each vertex's unit normal from the faces around it, area-weighted:
-    what an output gets after --drop-normals."""
-    acc = [[0.0, 0.0, 0.0] for _ in verts]
+    """Each vertex's unit normal from the faces around its position (around
+    every copy of it), area-weighted: what an output gets after
+    --drop-normals."""
+    acc = {tuple(v): [0.0, 0.0, 0.0] for v in verts}
     for t in faces:
         a, b, c = (verts[i] for i in t)
         e1 = [b[k] - a[k] for k in range(3)]
@@ -246,9 +247,10 @@ def recomputed_normals(verts, faces):
         n = (e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0])
         for i in t:
             for k in range(3):
-                acc[i][k] += n[k]
+                acc[tuple(verts[i])][k] += n[k]
     out = []
-    for n in acc:
+    for v in verts:
+        n = acc[tuple(v)]
         length = math.sqrt(sum(x * x for x in n))
         out.append([x / length for x in n] if length else [0.0, 0.0, 0.0])
     return out
@@ -311,6 +313,72 @@ def a_flat_shaded_obj_simplifies_with_drop_normals():
     assert "nx, float ny, float nz" in out, out
     rc, _, err = run("simplify", p, "-o", path("normals_out.off"), "--ratio", "0.2", "--drop-normals", "-q")
     assert rc == 0 and "nx" not in open(path("normals_out.off")).read(), err
+
+
+@case
+def copies_of_a_position_get_one_recomputed_normal():
+    """Issue 25: after --drop-normals, the copies of a position (a material
+    border, a UV seam) get the normal of the whole surface around it, so a
+    PLY welds a material border back into one vertex a position (it was cut
+    along it: 258 vertices for 241 positions) and no seam shows in the
+    shading."""
+    n = 20
+    verts = [(i / n, j / n, 0.02 * ((i * 7 + j * 3) % 5)) for j in range(n + 1) for i in range(n + 1)]
+    faces = []
+    for j in range(n):
+        for i in range(n):
+            a = j * (n + 1) + i
+            m = 0 if i < n // 2 else 1
+            faces += [(a, a + 1, a + n + 2, m), (a, a + n + 2, a + n + 1, m)]
+    p = path("labelled_normals.ply")
+    with open(p, "w") as f:
+        f.write("ply\nformat ascii 1.0\nelement vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
+                "property float nx\nproperty float ny\nproperty float nz\nelement face %d\n"
+                "property list uchar int vertex_indices\nproperty uchar material_index\nend_header\n"
+                % (len(verts), len(faces)))
+        for v in verts:
+            f.write("%r %r %r 0 0 1\n" % v)
+        for t in faces:
+            f.write("3 %d %d %d %d\n" % t)
+    for opts in ([], ["--slab", "60", "-j", "2"]):
+        out = path("labelled_normals_out.ply")
+        rc, _, err = run("simplify", p, "-o", out, "--ascii", "--ratio", "0.5", "--drop-normals", "-q", *opts)
+        assert rc == 0, err
+        props, pv, pf = read_ascii_ply(out)
+        pos = [tuple(float(v[a]) for a in ("x", "y", "z")) for v in pv]
+        assert len(set(pos)) == len(pos), (opts, len(pos), len(set(pos)))
+        for v, exp in zip(pv, recomputed_normals([list(q) for q in pos], [list(f) for f in pf])):
+            assert all(abs(float(v[a]) - e) < 1e-5 for a, e in zip(("nx", "ny", "nz"), exp)), (opts, v, exp)
+    # an OBJ's UV seam: its two sides' copies get one normal
+    obj = path("uv_seam_normals.obj")
+    with open(obj, "w") as f:
+        for v in verts:
+            f.write("v %r %r %r\nvn 0 0 1\n" % v)
+        for v in verts:
+            f.write("vt %r %r\n" % (v[0], v[1]))
+        for v in verts:
+            f.write("vt %r %r\n" % (v[0] + 2.0, v[1]))  # the right half's chart
+        nv = len(verts)
+        for a, b, c, m in faces:
+            off = nv if m else 0
+            f.write("f %s\n" % " ".join("%d/%d/%d" % (i + 1, i + 1 + off, i + 1) for i in (a, b, c)))
+    out = path("uv_seam_normals_out.obj")
+    rc, _, err = run("simplify", obj, "-o", out, "--ratio", "0.5", "--drop-normals", "-q")
+    assert rc == 0, err
+    ov, on, normal_of = [], [], {}
+    for l in open(out).read().splitlines():
+        w = l.split()
+        if w and w[0] == "v":
+            ov.append(tuple(float(x) for x in w[1:4]))
+        elif w and w[0] == "vn":
+            on.append(tuple(float(x) for x in w[1:4]))
+        elif w and w[0] == "f":
+            for c in w[1:]:
+                vi, _, ni = c.split("/")
+                normal_of.setdefault(ov[int(vi) - 1], set()).add(on[int(ni) - 1])
+    assert any(abs(q[0] - 0.5) < 1e-9 for q in normal_of), "the seam is gone"
+    split = {q: ns for q, ns in normal_of.items() if len(ns) > 1}
+    assert not split, list(split.items())[:3]
 
 
 def two_material_obj(name, n=40):

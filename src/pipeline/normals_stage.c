@@ -6,7 +6,9 @@
 
 #include "common/alloc.h"
 #include "common/error.h"
+#include "common/hash64.h"
 #include "common/idmap.h"
+#include "common/u64map.h"
 
 #define NO_FACE UINT32_MAX
 
@@ -15,7 +17,9 @@ typedef struct held {
     double n[3];              /* Σ of its faces' cross products (twice their areas) */
     uint32_t faces_left;      /* faces that arrived and are not written yet */
     uint32_t first, last;     /* faces whose last corner it is, in arrival order */
+    uint32_t copy;            /* the next held copy of its position (a ring; itself when alone) */
     uint8_t finalized, written;
+    uint8_t shared;           /* n is its position's whole sum, set when the first copy is written */
 } held;
 
 typedef struct face {
@@ -27,6 +31,7 @@ struct en_normals_stage {
     en_stage next;
     uint32_t in_size, out_size;
     en_idmap map;             /* live id -> slot in v */
+    en_u64map at;             /* position -> a slot of its ring of copies, until one is written */
     held *v;
     uint8_t *attr;            /* out_size bytes per slot: the record's, then the normal */
     uint32_t *free_v;
@@ -74,6 +79,55 @@ static held *slot_of(en_normals_stage *ns, uint64_t id, uint32_t *slot)
     return en_idmap_get(&ns->map, id, slot) ? &ns->v[*slot] : NULL;
 }
 
+/* The key of a position in `at` (UINT64_MAX is the map's own). */
+static uint64_t position_key(const double xyz[3])
+{
+    uint64_t k = en_hash_bytes(xyz, 3 * sizeof *xyz);
+    return k == UINT64_MAX ? k - 1 : k;
+}
+
+/* Take slot's position out of `at` when the entry is its ring's (another
+ * position with the same key may have taken it over). */
+static void forget_position(en_normals_stage *ns, uint32_t slot)
+{
+    uint64_t key = position_key(ns->v[slot].xyz);
+    uint32_t s;
+    if (en_u64map_get(&ns->at, key, &s) && memcmp(ns->v[s].xyz, ns->v[slot].xyz, sizeof ns->v[s].xyz) == 0)
+        en_u64map_remove(&ns->at, key);
+}
+
+/* Whether slot can be written: it is finalized, and so are the copies of
+ * its position, unless their sum is taken already. */
+static int ready(const en_normals_stage *ns, uint32_t slot)
+{
+    const held *h = &ns->v[slot];
+    if (!h->finalized)
+        return 0;
+    for (uint32_t c = h->copy; !h->shared && c != slot; c = ns->v[c].copy)
+        if (!ns->v[c].finalized)
+            return 0;
+    return 1;
+}
+
+/* Give slot's ring of copies their position's sum, once. */
+static void share(en_normals_stage *ns, uint32_t slot)
+{
+    held *h = &ns->v[slot];
+    if (h->shared)
+        return;
+    double sum[3] = { h->n[0], h->n[1], h->n[2] };
+    for (uint32_t c = h->copy; c != slot; c = ns->v[c].copy)
+        for (int k = 0; k < 3; k++)
+            sum[k] += ns->v[c].n[k];
+    uint32_t c = slot;
+    do {
+        memcpy(ns->v[c].n, sum, sizeof sum);
+        ns->v[c].shared = 1;
+        c = ns->v[c].copy;
+    } while (c != slot);
+    forget_position(ns, slot); /* later copies make a ring of their own */
+}
+
 /* Vertex id's finalization, once it is written and its faces are. */
 static int maybe_finalize(en_normals_stage *ns, uint64_t id, uint32_t slot, epsnet_error *err)
 {
@@ -85,6 +139,10 @@ static int maybe_finalize(en_normals_stage *ns, uint64_t id, uint32_t slot, epsn
     if (rc)
         return rc;
     en_idmap_remove(&ns->map, id);
+    uint32_t p = slot;
+    while (ns->v[p].copy != slot)
+        p = ns->v[p].copy;
+    ns->v[p].copy = h->copy; /* out of its ring */
     ns->free_v[ns->nfree_v++] = slot;
     return 0;
 }
@@ -98,6 +156,7 @@ static int write_next(en_normals_stage *ns, epsnet_error *err)
     held *h = slot_of(ns, id, &slot);
     if (!h)
         return internal(ns, err, "a vertex to write is not held");
+    share(ns, slot);
     float n[3] = { 0, 0, 0 };
     double len = sqrt(h->n[0] * h->n[0] + h->n[1] * h->n[1] + h->n[2] * h->n[2]);
     if (len > 0 && isfinite(len))
@@ -143,8 +202,7 @@ static int flush(en_normals_stage *ns, epsnet_error *err)
     int rc = 0;
     uint32_t slot;
     while (rc == 0 && ns->next_out < ns->next_in) {
-        held *h = slot_of(ns, ns->next_out, &slot);
-        if (!h || !h->finalized)
+        if (!slot_of(ns, ns->next_out, &slot) || !ready(ns, slot))
             break;
         rc = write_next(ns, err);
     }
@@ -173,6 +231,15 @@ static int stage_put(void *self, const epsnet_record *rec, epsnet_error *err)
         memset(h, 0, sizeof *h);
         memcpy(h->xyz, rec->xyz, sizeof h->xyz);
         h->first = h->last = NO_FACE;
+        h->copy = slot;
+        uint64_t key = position_key(h->xyz);
+        uint32_t other;
+        if (en_u64map_get(&ns->at, key, &other) && memcmp(ns->v[other].xyz, h->xyz, sizeof h->xyz) == 0) {
+            h->copy = ns->v[other].copy; /* into the ring of its position's copies */
+            ns->v[other].copy = slot;
+        } else if (en_u64map_put(&ns->at, key, slot)) {
+            return oom(ns, err);
+        }
         if (ns->in_size)
             memcpy(ns->attr + (size_t)slot * ns->out_size, rec->attr, ns->in_size);
         ns->next_in++;
@@ -251,7 +318,9 @@ static int stage_end(void *self, epsnet_error *err)
 int en_normals_stage_new(en_normals_stage **out, uint32_t in_attr_size, en_stage next, epsnet_error *err)
 {
     en_normals_stage *ns = en_calloc(1, sizeof *ns);
-    if (!ns || en_idmap_init_growing(&ns->map, (size_t)1 << 24)) {
+    if (!ns || en_idmap_init_growing(&ns->map, (size_t)1 << 24) || en_u64map_init(&ns->at)) {
+        if (ns)
+            en_idmap_free(&ns->map);
         en_free(ns);
         *out = NULL;
         return en_error_set(err, EPSNET_ENOMEM, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
@@ -275,6 +344,7 @@ void en_normals_stage_free(en_normals_stage **p)
     if (!ns)
         return;
     en_idmap_free(&ns->map);
+    en_u64map_free(&ns->at);
     en_free(ns->v);
     en_free(ns->attr);
     en_free(ns->free_v);

@@ -3,13 +3,19 @@
  * docs/architecture.md §13): a stage between the last pass and the writer
  * that gives every vertex record three more float32 attributes, nx, ny, nz,
  * the unit sum of its faces' area-weighted normals (0, 0, 0 when they
- * cancel or there are none).
+ * cancel or there are none). The records of one position (the copies at a
+ * UV seam or a material border: docs/method.md §6) get one normal, the sum
+ * over all their faces: the copies split what the texture or the material
+ * needs, not the surface, and a writer can weld them again (a PLY's face
+ * values: docs/architecture.md §13).
  *
  * A vertex's faces are all known only when it is finalized, which in a
  * stream comes after them; so the stage holds each vertex from its record
  * to its finalization, writes vertices in their input order (a sorted
  * stream stays sorted, and the ids do not change), each face once its last
- * corner is written, and each finalization once the vertex's faces are. It
+ * corner is written, and each finalization once the vertex's faces are; a
+ * vertex waits, too, for the copies of its position that arrived before it
+ * is written (a copy that comes after that gets a normal of its own). It
  * holds what the stream's window holds, not the mesh.
  */
 #ifndef EN_PIPELINE_NORMALS_STAGE_H
