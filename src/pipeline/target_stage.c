@@ -658,6 +658,12 @@ static int stage_end(void *self, epsnet_error *err)
         en_chain_cost_hist(ts->thin, level, ts->hist);
     }
     int rc = 0;
+    if (ts->cfg.spares) {
+        /* the thinning's slab works are its slabs' size, four times a
+         * round's (round_slab): they go, and the rounds make their own */
+        en_ctxpool_trim(ts->cfg.spares->slab_works);
+        en_ctxpool_trim(ts->cfg.spares->collapse_arrays);
+    }
     for (; ts->nrounds < ROUND_MAX && rc == 0; ts->nrounds++) {
         uint64_t left = by_vertices ? ts->in.vertices : ts->in.faces;
         if ((double)left <= (double)goal * (1 + ROUND_CLOSE) || fits_one_slab(ts))
