@@ -328,10 +328,13 @@ static void add_counts(en_chain_stats *to, const en_chain_stats *from)
  * the rounds' slabs of 65,536 in flight took `gen bumpy` 20M at 10% from
  * the thinning's 269 MB to 399 MB; of 20,000 (a 64th of what was kept),
  * 313 MB, with the same Hausdorff and mean error (1.158e-4 and 7.178e-6
- * against 1.142e-4 and 7.176e-6; bench/RESULTS.md, session 18). */
+ * against 1.142e-4 and 7.176e-6; bench/RESULTS.md, session 18). Since the
+ * thinning's slab works go before the rounds (stage_end), 32,768 peaks as
+ * 16,384 did (272 MB), 0.94 times the wall at 10% (fewer seams), the same
+ * Hausdorff distance; 65,536 still peaks at 335 MB (session 20). */
 #define ROUND_SLABS 16
 #define ROUND_SLAB_MIN 8192
-#define ROUND_SLAB_MAX 16384
+#define ROUND_SLAB_MAX 32768
 static uint32_t round_slab(const en_target_stage *ts, const kept *from)
 {
     uint64_t n = from->vertices / (uint64_t)ROUND_SLABS;
