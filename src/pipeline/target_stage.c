@@ -662,7 +662,7 @@ static int stage_end(void *self, epsnet_error *err)
     }
     int rc = 0;
     if (ts->cfg.spares) {
-        /* the thinning's slab works are its slabs' size, four times a
+        /* the thinning's slab works are its slabs' size, larger than a
          * round's (round_slab): they go, and the rounds make their own */
         en_ctxpool_trim(ts->cfg.spares->slab_works);
         en_ctxpool_trim(ts->cfg.spares->collapse_arrays);
