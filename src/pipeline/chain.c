@@ -635,7 +635,7 @@ static int chunk_retire(en_pass *p, epsnet_error *err)
 }
 
 /* The next batch to fill, with room for a whole batch made at once, so that
- * batch_put, once per record on the calling thread, only copies.
+ * batch_put, on the calling thread, only copies.
  * @return 0 or -1 (out of memory). */
 static int next_fill(en_pass *p)
 {
@@ -678,24 +678,35 @@ static int chunk_submit(en_pass *p, int finish, epsnet_error *err)
     return 0;
 }
 
-/* A batched pass takes a record: a copy into the batch (its attribute bytes
- * live only until the producer's next record). */
-static int batch_put(en_pass *p, const epsnet_record *rec, epsnet_error *err)
+/* A batched pass takes n records: copies into the batch, whole runs at a
+ * time (their attribute bytes live only until the producer's next record). */
+static int batch_put(en_pass *p, const epsnet_record *recs, size_t n, epsnet_error *err)
 {
-    chunk_job *j = p->fill;
     size_t asz = p->batch_attr_size;
-    if (!j)
-        return en_error_set(err, EPSNET_ENOMEM, p->chain->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                            "out of memory");
-    memcpy(&j->recs[j->nrecs++], rec, sizeof *rec);
-    if (asz && rec->kind == EPSNET_REC_VERTEX) {
-        uint8_t *to = j->attr + j->nattr++ * asz;
-        if (rec->attr)
-            memcpy(to, rec->attr, asz);
-        else
-            memset(to, 0, asz);
+    int rc = 0;
+    while (n > 0 && rc == 0) {
+        chunk_job *j = p->fill;
+        if (!j)
+            return en_error_set(err, EPSNET_ENOMEM, p->chain->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "out of memory");
+        size_t k = CHUNK_BATCH - j->nrecs < n ? CHUNK_BATCH - j->nrecs : n;
+        memcpy(&j->recs[j->nrecs], recs, k * sizeof *recs);
+        for (size_t i = 0; asz && i < k; i++) {
+            if (recs[i].kind != EPSNET_REC_VERTEX)
+                continue;
+            uint8_t *to = j->attr + j->nattr++ * asz;
+            if (recs[i].attr)
+                memcpy(to, recs[i].attr, asz);
+            else
+                memset(to, 0, asz);
+        }
+        j->nrecs += k;
+        recs += k;
+        n -= k;
+        if (j->nrecs >= CHUNK_BATCH)
+            rc = chunk_submit(p, 0, err);
     }
-    return j->nrecs >= CHUNK_BATCH ? chunk_submit(p, 0, err) : 0;
+    return rc;
 }
 
 static int pass_put(void *self, const epsnet_record *rec, epsnet_error *err)
@@ -703,7 +714,7 @@ static int pass_put(void *self, const epsnet_record *rec, epsnet_error *err)
     en_pass *p = self;
     p->records++;
     if (p->batched)
-        return batch_put(p, rec, err);
+        return batch_put(p, rec, 1, err);
     en_slab_work *w = NULL;
     int rc = en_chunker_put(&p->ch, rec, &w, err);
     if (rc == 0 && w)
@@ -785,45 +796,22 @@ static int chain_put(void *self, const epsnet_record *rec, epsnet_error *err)
 int en_chain_put_many(en_chain *c, const epsnet_record *recs, size_t n, epsnet_error *err)
 {
     en_pass *p = &c->pass[0];
-    if (c->failed) {
-        *err = c->failure;
-        return c->failed;
-    }
+    int rc = 0;
     if (!p->batched) {
-        int rc = 0;
         for (size_t i = 0; i < n && rc == 0; i++)
             rc = chain_put(c, &recs[i], err);
         return rc;
     }
-    int rc = 0;
-    size_t asz = p->batch_attr_size;
-    while (n > 0 && rc == 0) {
-        chunk_job *j = p->fill;
-        if (!j) {
-            rc = en_error_set(err, EPSNET_ENOMEM, c->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
-            break;
-        }
-        size_t k = CHUNK_BATCH - j->nrecs < n ? CHUNK_BATCH - j->nrecs : n;
-        memcpy(&j->recs[j->nrecs], recs, k * sizeof *recs);
-        for (size_t i = 0; i < k; i++) {
-            const epsnet_record *r = &recs[i];
-            c->stats.vertices_in += r->kind == EPSNET_REC_VERTEX;
-            c->stats.faces_in += r->kind == EPSNET_REC_TRIANGLE;
-            if (asz && r->kind == EPSNET_REC_VERTEX) {
-                uint8_t *to = j->attr + j->nattr++ * asz;
-                if (r->attr)
-                    memcpy(to, r->attr, asz);
-                else
-                    memset(to, 0, asz);
-            }
-        }
-        j->nrecs += k;
-        p->records += k;
-        recs += k;
-        n -= k;
-        if (j->nrecs >= CHUNK_BATCH)
-            rc = chunk_submit(p, 0, err);
+    if (c->failed) {
+        *err = c->failure;
+        return c->failed;
     }
+    for (size_t i = 0; i < n; i++) {
+        c->stats.vertices_in += recs[i].kind == EPSNET_REC_VERTEX;
+        c->stats.faces_in += recs[i].kind == EPSNET_REC_TRIANGLE;
+    }
+    p->records += n;
+    rc = batch_put(p, recs, n, err);
     return rc ? fail(c, rc, err) : 0;
 }
 
