@@ -705,6 +705,102 @@ TEST(vertices_near_returns_every_vertex_in_the_cap)
     }
 }
 
+/* A polygon around a random axis: most corners random, some on lattice
+ * directions or on the great arc between two lattice points (ties the
+ * chart cannot call), with a random spread. */
+static size_t rnd_polygon(const gauss_sphere *g, double nv[][3], int with_ties)
+{
+    size_t m = 3 + rnd() % 6;
+    double axis[3];
+    rnd_direction(axis);
+    /* up to a few dozen Gaussian vertices across, at any frequency */
+    double spread = (0.02 + (double)(rnd() % 1000) / 1000.0) * (g->n < 16 ? 1.0 : 16.0 / g->n);
+    for (size_t i = 0; i < m; i++) {
+        double d[3];
+        rnd_direction(d);
+        for (int k = 0; k < 3; k++)
+            nv[i][k] = axis[k] + spread * d[k];
+        if (with_ties && rnd() % 3 == 0) {
+            /* snap to the lattice point nearest N n / |n|_1, or the mid
+             * point of it and a neighbour */
+            double l1 = fabs(nv[i][0]) + fabs(nv[i][1]) + fabs(nv[i][2]);
+            int32_t p[3];
+            for (int k = 0; k < 2; k++)
+                p[k] = (int32_t)lround(nv[i][k] * g->n / l1);
+            int32_t rest = (int32_t)g->n - abs(p[0]) - abs(p[1]);
+            if (rest < 0)
+                continue;
+            p[2] = nv[i][2] < 0 ? -rest : rest;
+            for (int k = 0; k < 3; k++)
+                nv[i][k] = p[k];
+            if (rnd() % 2 && p[0] != 0) {
+                int32_t q[3] = {p[0] > 0 ? p[0] - 1 : p[0] + 1, p[1] >= 0 ? p[1] + 1 : p[1] - 1, p[2]};
+                for (int k = 0; k < 3; k++)
+                    nv[i][k] = p[k] + q[k];
+            }
+        }
+    }
+    return m;
+}
+
+TEST(enclosed_vertices_by_face_charts_are_exactly_those_the_winding_counts)
+{
+    static int32_t xyz[20000][3];
+    static uint32_t ref[20000];
+    double chart[8][2];
+    long charted = 0, tested = 0, found = 0;
+    for (int level = 0; level <= 14; level++) {
+        gauss_rotation rot;
+        if (level % 2)
+            gauss_rotation_identity(&rot);
+        else
+            gauss_rotation_default(&rot);
+        gauss_sphere g;
+        gauss_init_level(&g, level, &rot);
+        for (int it = 0; it < 400; it++) {
+            double nv[8][3], centre[3];
+            size_t m = rnd_polygon(&g, nv, it % 2);
+            if (gauss_in_open_hemisphere((const double(*)[3])nv, m, centre) != GAUSS_HEMI_CENTRE)
+                continue;
+            double oct[3];
+            if (gauss_in_one_octant((const double(*)[3])nv, m, oct))
+                for (size_t i = 0; i < m; i++)
+                    CHECK(oct[0] * nv[i][0] + oct[1] * nv[i][1] + oct[2] * nv[i][2] > 0);
+            tested++;
+            /* the reference: every vertex in the polygon's cap, exactly wound */
+            double cl = sqrt(centre[0] * centre[0] + centre[1] * centre[1] + centre[2] * centre[2]), cr = 1.0;
+            for (size_t i = 0; i < m; i++) {
+                double nl = sqrt(nv[i][0] * nv[i][0] + nv[i][1] * nv[i][1] + nv[i][2] * nv[i][2]);
+                double c = (nv[i][0] * centre[0] + nv[i][1] * centre[1] + nv[i][2] * centre[2]) / (nl * cl);
+                cr = c < cr ? c : cr;
+            }
+            size_t nn = gauss_vertices_near(&g, centre, cr, xyz, 20000), nref = 0;
+            CHECK(nn <= 20000);
+            for (size_t i = 0; i < nn && i < 20000; i++)
+                if (gauss_winding_at(&g, (const double(*)[3])nv, m, xyz[i], centre) != 0)
+                    ref[nref++] = gauss_vertex_id(&g, xyz[i][0], xyz[i][1], xyz[i][2]);
+            size_t got = gauss_vertices_enclosed(&g, (const double(*)[3])nv, m, chart, xyz, 20000);
+            if (got == GAUSS_NOT_CHARTED)
+                continue;
+            charted++;
+            found += (long)got;
+            CHECK_EQ_INT((int)got, (int)nref);
+            for (size_t i = 0; i < got && i < 20000; i++) {
+                uint32_t id = gauss_vertex_id(&g, xyz[i][0], xyz[i][1], xyz[i][2]);
+                int present = 0;
+                for (size_t j = 0; j < nref && !present; j++)
+                    present = ref[j] == id;
+                CHECK(present);
+                for (size_t j = 0; j < i; j++) /* listed once */
+                    CHECK(!(xyz[j][0] == xyz[i][0] && xyz[j][1] == xyz[i][1] && xyz[j][2] == xyz[i][2]));
+            }
+        }
+    }
+    /* the charts decide most polygons, and many enclose vertices */
+    CHECK(charted > tested * 3 / 4);
+    CHECK(found > 1000);
+}
+
 int main(void)
 {
     RUN(sphere_has_4n2_plus_2_vertices_and_is_a_closed_oriented_triangulation);
@@ -718,5 +814,6 @@ int main(void)
     RUN(needle_tip_normals_are_not_in_an_open_hemisphere);
     RUN(hemisphere_test_agrees_with_exact_hull_test_on_random_sets);
     RUN(vertices_near_returns_every_vertex_in_the_cap);
+    RUN(enclosed_vertices_by_face_charts_are_exactly_those_the_winding_counts);
     return tl_finish();
 }

@@ -62,12 +62,14 @@ static uint64_t feature_edges_at(const en_slab *s, uint32_t v, const int32_t *ft
     uint32_t deg = en_slab_degree(s, v);
     uint64_t n = 0;
     for (uint32_t i = 0; i + 1 < deg + (closed ? 1u : 0u); i++) {
-        uint32_t f = star[i], h = star[(i + 1) % deg];
+        uint32_t f = star[i], h = star[i + 1 == deg ? 0 : i + 1];
+        /* note: the Gaussian triangles first; most pairs share one, and the
+         * shared corner's record is then never read */
+        if (ftri[f] < 0 || ftri[h] < 0 || ftri[f] == ftri[h])
+            continue;
         const uint32_t *t = s->tri + 3 * (size_t)f;
         uint32_t x = t[0] == v ? t[2] : t[1] == v ? t[0] : t[1]; /* corner before v: shared with h */
-        int here = s->gid[v] < s->gid[x] || (s->vflags[x] & (EN_V_BOUNDARY | EN_V_NONMANIFOLD));
-        if (here && ftri[f] >= 0 && ftri[h] >= 0 && ftri[f] != ftri[h])
-            n++;
+        n += s->gid[v] < s->gid[x] || (s->vflags[x] & (EN_V_BOUNDARY | EN_V_NONMANIFOLD));
     }
     return n;
 }
@@ -84,6 +86,48 @@ static uint8_t halvings_kept(const gauss_sphere *g, const int32_t c[3])
         j++;
     }
     return j;
+}
+
+/* The Gaussian vertices the polygon winds about, into *near (grown as
+ * needed), their number into *covered. Charted on G's faces where it can be
+ * (bench/RESULTS.md, session 21); otherwise every vertex in the smallest cap
+ * around centre (a verified hemisphere centre) that holds every normal is
+ * tested: the polygon lies in the spherical hull of its vertices, inside
+ * that cap. */
+static int enclosed(const gauss_sphere *g, const double (*normals)[3], uint32_t m, double (*chart)[2],
+                    const double centre[3], int32_t (**near)[3], size_t *near_cap, size_t *covered)
+{
+    size_t nn = gauss_vertices_enclosed(g, normals, m, chart, *near, *near_cap);
+    if (nn != GAUSS_NOT_CHARTED && nn > *near_cap) {
+        if (en_grow((void **)near, near_cap, nn, sizeof **near))
+            return EPSNET_ENOMEM;
+        nn = gauss_vertices_enclosed(g, normals, m, chart, *near, *near_cap);
+    }
+    if (nn != GAUSS_NOT_CHARTED) {
+        *covered = nn;
+        return 0;
+    }
+    double cl = sqrt(centre[0] * centre[0] + centre[1] * centre[1] + centre[2] * centre[2]);
+    double cos_r = 1.0;
+    for (uint32_t i = 0; i < m; i++) {
+        const double *n = normals[i];
+        double nl = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        double c = (n[0] * centre[0] + n[1] * centre[1] + n[2] * centre[2]) / (nl * cl);
+        if (c < cos_r)
+            cos_r = c;
+    }
+    nn = gauss_vertices_near(g, centre, cos_r, *near, *near_cap);
+    if (nn > *near_cap) {
+        if (en_grow((void **)near, near_cap, nn, sizeof **near))
+            return EPSNET_ENOMEM;
+        nn = gauss_vertices_near(g, centre, cos_r, *near, *near_cap);
+    }
+    size_t kept = 0;
+    for (size_t i = 0; i < nn; i++)
+        if (gauss_winding_at(g, normals, m, (*near)[i], centre) != 0)
+            memmove((*near)[kept++], (*near)[i], sizeof **near);
+    *covered = kept;
+    return 0;
 }
 
 int en_classify_vertices(const gauss_sphere *g, const en_slab *s, const double *fnormal,
@@ -103,10 +147,11 @@ int en_classify_vertices_levels(const gauss_sphere *g, const en_slab *s, const d
         maxdeg = d > maxdeg ? d : maxdeg;
     }
     double (*normals)[3] = en_malloc((size_t)maxdeg * sizeof *normals);
+    double (*chart)[2] = en_malloc((size_t)maxdeg * sizeof *chart);
     uint32_t *ring = en_malloc((size_t)maxdeg * sizeof *ring);
     size_t near_cap = 256;
     int32_t (*near)[3] = en_malloc(near_cap * sizeof *near);
-    int rc = normals && ring && near ? 0 : EPSNET_ENOMEM;
+    int rc = normals && chart && ring && near ? 0 : EPSNET_ENOMEM;
     for (uint32_t v = v0; v < v1 && rc == 0; v++) {
         if (!(s->vflags[v] & EN_V_OWNED))
             continue;
@@ -156,46 +201,29 @@ int en_classify_vertices_levels(const gauss_sphere *g, const en_slab *s, const d
         vclass[v] |= EN_C_CANDIDATE;
         counts->candidates++;
 
+        /* note: a polygon in one octant is in an open hemisphere (its
+         * octant's), so only the others need the hemisphere search */
         double centre[3];
-        int hemi = gauss_in_open_hemisphere((const double(*)[3])normals, m, centre);
-        if (hemi != GAUSS_HEMI_CENTRE) {
-            vclass[v] |= EN_C_SAMPLE | EN_C_NEEDLE;
-            if (vlevel)
-                vlevel[v] = EN_LEVEL_ALL;
-            counts->samples++;
-            counts->needles++;
-            counts->unverified_hemisphere += hemi == GAUSS_HEMI_UNVERIFIED;
-            continue;
-        }
-        /* Only Gaussian vertices inside the smallest cap around centre that
-         * holds every normal can be enclosed (the polygon lies in the
-         * spherical hull of its vertices, inside that cap). */
-        double cl = sqrt(centre[0] * centre[0] + centre[1] * centre[1] + centre[2] * centre[2]);
-        double cos_r = 1.0;
-        for (uint32_t i = 0; i < m; i++) {
-            const double *n = normals[i];
-            double nl = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-            double c = (n[0] * centre[0] + n[1] * centre[1] + n[2] * centre[2]) / (nl * cl);
-            if (c < cos_r)
-                cos_r = c;
-        }
-        size_t nn = gauss_vertices_near(g, centre, cos_r, near, near_cap);
-        if (nn > near_cap) {
-            if (en_grow((void **)&near, &near_cap, nn, sizeof *near)) {
-                rc = EPSNET_ENOMEM;
-                break;
-            }
-            nn = gauss_vertices_near(g, centre, cos_r, near, near_cap);
-        }
-        int covered = 0;
-        uint8_t kept = 0;
-        for (size_t i = 0; i < nn; i++) {
-            /* note: by lattice point, so that an id is computed only for
-             * a vertex the polygon covers (bench/RESULTS.md, session 13) */
-            if (gauss_winding_at(g, (const double(*)[3])normals, m, near[i], centre) == 0)
+        if (!gauss_in_one_octant((const double(*)[3])normals, m, centre)) {
+            int hemi = gauss_in_open_hemisphere((const double(*)[3])normals, m, centre);
+            if (hemi != GAUSS_HEMI_CENTRE) {
+                vclass[v] |= EN_C_SAMPLE | EN_C_NEEDLE;
+                if (vlevel)
+                    vlevel[v] = EN_LEVEL_ALL;
+                counts->samples++;
+                counts->needles++;
+                counts->unverified_hemisphere += hemi == GAUSS_HEMI_UNVERIFIED;
                 continue;
+            }
+        }
+        size_t covered;
+        rc = enclosed(g, (const double(*)[3])normals, m, chart, centre, &near, &near_cap, &covered);
+        if (rc)
+            break;
+        uint8_t kept = 0;
+        for (size_t i = 0; i < covered; i++) {
             int32_t id = (int32_t)gauss_vertex_id(g, near[i][0], near[i][1], near[i][2]);
-            if (covered++ == 0 || id < vgvertex[v])
+            if (i == 0 || id < vgvertex[v])
                 vgvertex[v] = id;
             if (vlevel) {
                 uint8_t j = halvings_kept(g, near[i]);
@@ -214,6 +242,7 @@ int en_classify_vertices_levels(const gauss_sphere *g, const en_slab *s, const d
         }
     }
     en_free(normals);
+    en_free(chart);
     en_free(ring);
     en_free(near);
     return rc;

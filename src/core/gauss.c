@@ -847,3 +847,137 @@ size_t gauss_vertices_near(const gauss_sphere *g, const double c[3], double cos_
     }
     return count;
 }
+
+/* Bit k of *pos (*neg): some normal has component k > 0 (< 0). */
+static void sign_bits(const double (*nv)[3], size_t m, int *pos, int *neg)
+{
+    *pos = *neg = 0;
+    for (size_t i = 0; i < m; i++)
+        for (int k = 0; k < 3; k++) {
+            *pos |= (nv[i][k] > 0) << k;
+            *neg |= (nv[i][k] < 0) << k;
+        }
+}
+
+int gauss_in_one_octant(const double (*nv)[3], size_t m, double centre[3])
+{
+    int pos, neg;
+    sign_bits(nv, m, &pos, &neg);
+    for (int k = 0; k < 3; k++)
+        centre[k] = neg >> k & 1 ? -1.0 : 1.0;
+    return !(pos & neg);
+}
+
+/* note: a face's points map to its plane's chart by (x, y, z) -> (|x|, |y|),
+ * affine on the face, and a normal n maps by its central projection onto the
+ * plane s . p = N, (s_x n_x, s_y n_y) N / (s . n). Great arcs become
+ * segments, so the planar winding number about a point of the face is the
+ * spherical one up to the chart's orientation (the product of s's signs).
+ * With r = |n|_1 / (s . n), s . n is rounded by at most 2u r of itself (u =
+ * 2^-53), so a chart coordinate, at most N r, is within N r (2r + 3) u of the
+ * exact projection; err (below) is four times the largest such bound, and at
+ * least CHART_ERR. A vertex that close to the ray's height, or a side test
+ * that close to zero, sends the point to gauss_winding_at(), which also
+ * breaks ties by the perturbation. */
+#define CHART_ERR 1e-9
+
+static int winding_in_chart(const gauss_sphere *g, const double (*nv)[3], const double (*chart)[2], size_t m,
+                            double err, const int32_t gp[3], const double s[3])
+{
+    double qx = abs(gp[0]), qy = abs(gp[1]);
+    int winding = 0;
+    for (size_t i = 0; i < m; i++) {
+        const double *a = chart[i], *b = chart[i + 1 == m ? 0 : i + 1];
+        double ay = a[1] - qy, by = b[1] - qy;
+        if (fabs(ay) <= err || fabs(by) <= err)
+            return gauss_winding_at(g, nv, m, gp, s);
+        if ((ay < 0) == (by < 0))
+            continue;
+        /* the side of q from the segment a -> b */
+        double ex = b[0] - a[0], ey = b[1] - a[1], ax = a[0] - qx;
+        double side = ax * ey - ay * ex;
+        double bound = 4 * err * (fabs(ax) + fabs(ay) + fabs(ex) + fabs(ey)) + 16 * err * err +
+                       1e-12 * (fabs(ax * ey) + fabs(ay * ex));
+        if (fabs(side) <= bound)
+            return gauss_winding_at(g, nv, m, gp, s);
+        if (ay < 0 && side > 0) /* upwards, q on its left */
+            winding++;
+        else if (ay > 0 && side < 0) /* downwards, q on its right */
+            winding--;
+    }
+    return (s[0] < 0) ^ (s[1] < 0) ^ (s[2] < 0) ? -winding : winding;
+}
+
+/* The enclosed lattice points of the face with signs s (bit k set: s_k =
+ * -1), appended to xyz from count on; points with a zero coordinate on an
+ * axis in skip (where the neighbouring face lists them) are left out. 0, or
+ * -1 when a normal is not well inside s's half-space (r above CHART_RMAX,
+ * where the chart would send most points to the exact test). */
+#define CHART_RMAX 64.0
+static int enclosed_on_face(const gauss_sphere *g, const double (*nv)[3], size_t m, double (*chart)[2], int signs,
+                            int skip, int32_t (*xyz)[3], size_t cap, size_t *count)
+{
+    double s[3] = {signs & 1 ? -1.0 : 1.0, signs & 2 ? -1.0 : 1.0, signs & 4 ? -1.0 : 1.0};
+    double n = (double)g->n, lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    double rmax = 1.0;
+    for (size_t i = 0; i < m; i++) {
+        double a[3] = {s[0] * nv[i][0], s[1] * nv[i][1], s[2] * nv[i][2]};
+        double dot = a[0] + a[1] + a[2], r = (fabs(a[0]) + fabs(a[1]) + fabs(a[2])) / dot;
+        if (!(dot > 0 && r <= CHART_RMAX))
+            return -1;
+        rmax = r > rmax ? r : rmax;
+        double scale = n / dot;
+        for (int k = 0; k < 3; k++) {
+            double c = a[k] * scale;
+            lo[k] = c < lo[k] ? c : lo[k];
+            hi[k] = c > hi[k] ? c : hi[k];
+            if (k < 2)
+                chart[i][k] = c;
+        }
+    }
+    /* q in the polygon's hull is a non-negative combination of the normals,
+     * so each of its face coordinates N s_k q_k / (s . q) is a weighted mean
+     * of the normals' (weights s . n_i > 0): the box holds it */
+    double err = fmax(CHART_ERR, 4 * n * rmax * (2 * rmax + 3) * 0x1p-53);
+    int32_t ilo[3], ihi[3];
+    for (int k = 0; k < 3; k++) {
+        double l = ceil(lo[k] - 2 * err), h = floor(hi[k] + 2 * err);
+        ilo[k] = l < 0 ? 0 : (int32_t)l;
+        ihi[k] = h > n ? (int32_t)g->n : (int32_t)h;
+        if (skip >> k & 1 && ilo[k] == 0)
+            ilo[k] = 1;
+    }
+    for (int32_t x = ilo[0]; x <= ihi[0]; x++)
+        for (int32_t y = ilo[1]; y <= ihi[1]; y++) {
+            int32_t z = (int32_t)g->n - x - y;
+            if (z < ilo[2] || z > ihi[2])
+                continue;
+            int32_t q[3] = {signs & 1 ? -x : x, signs & 2 ? -y : y, signs & 4 ? -z : z};
+            if (winding_in_chart(g, nv, (const double(*)[2])chart, m, err, q, s) == 0)
+                continue;
+            if (*count < cap)
+                memcpy(xyz[*count], q, sizeof q);
+            (*count)++;
+        }
+    return 0;
+}
+
+size_t gauss_vertices_enclosed(const gauss_sphere *g, const double (*nv)[3], size_t m, double (*chart)[2],
+                               int32_t (*xyz)[3], size_t cap)
+{
+    int pos, neg;
+    sign_bits(nv, m, &pos, &neg);
+    /* the hull stays on the side every normal is on, for each axis where
+     * they agree; the axes where they differ ("open") leave both faces */
+    int open = pos & neg, fixed = neg & ~open;
+    size_t count = 0;
+    for (int signs = 0; signs < 8; signs++) {
+        if ((signs & ~open) != fixed)
+            continue;
+        /* a point on a plane between two open faces is listed once, by the
+         * face on that axis's positive side */
+        if (enclosed_on_face(g, nv, m, chart, signs, signs & open, xyz, cap, &count) < 0)
+            return GAUSS_NOT_CHARTED;
+    }
+    return count;
+}
