@@ -763,7 +763,8 @@ TEST(enclosed_vertices_by_face_charts_are_exactly_those_the_winding_counts)
             if (gauss_in_open_hemisphere((const double(*)[3])nv, m, centre) != GAUSS_HEMI_CENTRE)
                 continue;
             double oct[3];
-            if (gauss_in_one_octant((const double(*)[3])nv, m, oct))
+            int signs;
+            if (gauss_in_one_octant((const double(*)[3])nv, m, oct, &signs))
                 for (size_t i = 0; i < m; i++)
                     CHECK(oct[0] * nv[i][0] + oct[1] * nv[i][1] + oct[2] * nv[i][2] > 0);
             tested++;
@@ -779,7 +780,7 @@ TEST(enclosed_vertices_by_face_charts_are_exactly_those_the_winding_counts)
             for (size_t i = 0; i < nn && i < 20000; i++)
                 if (gauss_winding_at(&g, (const double(*)[3])nv, m, xyz[i], centre) != 0)
                     ref[nref++] = gauss_vertex_id(&g, xyz[i][0], xyz[i][1], xyz[i][2]);
-            size_t got = gauss_vertices_enclosed(&g, (const double(*)[3])nv, m, chart, xyz, 20000);
+            size_t got = gauss_vertices_enclosed(&g, (const double(*)[3])nv, m, signs, chart, xyz, 20000);
             if (got == GAUSS_NOT_CHARTED)
                 continue;
             charted++;

@@ -94,14 +94,14 @@ static uint8_t halvings_kept(const gauss_sphere *g, const int32_t c[3])
  * around centre (a verified hemisphere centre) that holds every normal is
  * tested: the polygon lies in the spherical hull of its vertices, inside
  * that cap. */
-static int enclosed(const gauss_sphere *g, const double (*normals)[3], uint32_t m, double (*chart)[2],
+static int enclosed(const gauss_sphere *g, const double (*normals)[3], uint32_t m, int signs, double (*chart)[2],
                     const double centre[3], int32_t (**near)[3], size_t *near_cap, size_t *covered)
 {
-    size_t nn = gauss_vertices_enclosed(g, normals, m, chart, *near, *near_cap);
+    size_t nn = gauss_vertices_enclosed(g, normals, m, signs, chart, *near, *near_cap);
     if (nn != GAUSS_NOT_CHARTED && nn > *near_cap) {
         if (en_grow((void **)near, near_cap, nn, sizeof **near))
             return EPSNET_ENOMEM;
-        nn = gauss_vertices_enclosed(g, normals, m, chart, *near, *near_cap);
+        nn = gauss_vertices_enclosed(g, normals, m, signs, chart, *near, *near_cap);
     }
     if (nn != GAUSS_NOT_CHARTED) {
         *covered = nn;
@@ -204,7 +204,8 @@ int en_classify_vertices_levels(const gauss_sphere *g, const en_slab *s, const d
         /* note: a polygon in one octant is in an open hemisphere (its
          * octant's), so only the others need the hemisphere search */
         double centre[3];
-        if (!gauss_in_one_octant((const double(*)[3])normals, m, centre)) {
+        int signs;
+        if (!gauss_in_one_octant((const double(*)[3])normals, m, centre, &signs)) {
             int hemi = gauss_in_open_hemisphere((const double(*)[3])normals, m, centre);
             if (hemi != GAUSS_HEMI_CENTRE) {
                 vclass[v] |= EN_C_SAMPLE | EN_C_NEEDLE;
@@ -217,7 +218,7 @@ int en_classify_vertices_levels(const gauss_sphere *g, const en_slab *s, const d
             }
         }
         size_t covered;
-        rc = enclosed(g, (const double(*)[3])normals, m, chart, centre, &near, &near_cap, &covered);
+        rc = enclosed(g, (const double(*)[3])normals, m, signs, chart, centre, &near, &near_cap, &covered);
         if (rc)
             break;
         uint8_t kept = 0;

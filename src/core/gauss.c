@@ -859,10 +859,11 @@ static void sign_bits(const double (*nv)[3], size_t m, int *pos, int *neg)
         }
 }
 
-int gauss_in_one_octant(const double (*nv)[3], size_t m, double centre[3])
+int gauss_in_one_octant(const double (*nv)[3], size_t m, double centre[3], int *signs)
 {
     int pos, neg;
     sign_bits(nv, m, &pos, &neg);
+    *signs = pos | neg << 3;
     for (int k = 0; k < 3; k++)
         centre[k] = neg >> k & 1 ? -1.0 : 1.0;
     return !(pos & neg);
@@ -922,11 +923,11 @@ static int enclosed_on_face(const gauss_sphere *g, const double (*nv)[3], size_t
     double rmax = 1.0;
     for (size_t i = 0; i < m; i++) {
         double a[3] = {s[0] * nv[i][0], s[1] * nv[i][1], s[2] * nv[i][2]};
-        double dot = a[0] + a[1] + a[2], r = (fabs(a[0]) + fabs(a[1]) + fabs(a[2])) / dot;
+        double dot = a[0] + a[1] + a[2], inv = 1.0 / dot, r = (fabs(a[0]) + fabs(a[1]) + fabs(a[2])) * inv;
         if (!(dot > 0 && r <= CHART_RMAX))
             return -1;
         rmax = r > rmax ? r : rmax;
-        double scale = n / dot;
+        double scale = n * inv;
         for (int k = 0; k < 3; k++) {
             double c = a[k] * scale;
             lo[k] = c < lo[k] ? c : lo[k];
@@ -938,12 +939,20 @@ static int enclosed_on_face(const gauss_sphere *g, const double (*nv)[3], size_t
     /* q in the polygon's hull is a non-negative combination of the normals,
      * so each of its face coordinates N s_k q_k / (s . q) is a weighted mean
      * of the normals' (weights s . n_i > 0): the box holds it */
-    double err = fmax(CHART_ERR, 4 * n * rmax * (2 * rmax + 3) * 0x1p-53);
+    double err = 4 * n * rmax * (2 * rmax + 3) * 0x1p-53;
+    err = err > CHART_ERR ? err : CHART_ERR;
     int32_t ilo[3], ihi[3];
     for (int k = 0; k < 3; k++) {
-        double l = ceil(lo[k] - 2 * err), h = floor(hi[k] + 2 * err);
-        ilo[k] = l < 0 ? 0 : (int32_t)l;
-        ihi[k] = h > n ? (int32_t)g->n : (int32_t)h;
+        /* clamped to [-1, N + 1] first, so the conversions are exact; a cast
+         * and a step stand for ceil() and floor(), a call each here */
+        double l = lo[k] - 2 * err, h = hi[k] + 2 * err;
+        l = l < -1 ? -1 : l > n + 1 ? n + 1 : l;
+        h = h < -1 ? -1 : h > n + 1 ? n + 1 : h;
+        int32_t il = (int32_t)l, ih = (int32_t)h; /* towards zero */
+        il += (double)il < l;
+        ih -= (double)ih > h;
+        ilo[k] = il < 0 ? 0 : il;
+        ihi[k] = ih > (int32_t)g->n ? (int32_t)g->n : ih;
         if (skip >> k & 1 && ilo[k] == 0)
             ilo[k] = 1;
     }
@@ -962,11 +971,10 @@ static int enclosed_on_face(const gauss_sphere *g, const double (*nv)[3], size_t
     return 0;
 }
 
-size_t gauss_vertices_enclosed(const gauss_sphere *g, const double (*nv)[3], size_t m, double (*chart)[2],
-                               int32_t (*xyz)[3], size_t cap)
+size_t gauss_vertices_enclosed(const gauss_sphere *g, const double (*nv)[3], size_t m, int signs_taken,
+                               double (*chart)[2], int32_t (*xyz)[3], size_t cap)
 {
-    int pos, neg;
-    sign_bits(nv, m, &pos, &neg);
+    int pos = signs_taken & 7, neg = signs_taken >> 3;
     /* the hull stays on the side every normal is on, for each axis where
      * they agree; the axes where they differ ("open") leave both faces */
     int open = pos & neg, fixed = neg & ~open;

@@ -208,14 +208,15 @@ size_t gauss_vertices_near(const gauss_sphere *g, const double c[3], double cos_
                            size_t cap);
 
 /* 1 when the m normals (none zero) lie in one closed octant (no coordinate
- * takes both signs); centre then gets the octant's sign vector, a verified
+ * takes both signs); *signs gets the signs the normals take, for
+ * gauss_vertices_enclosed(), and centre then gets the octant's sign vector, a verified
  * hemisphere centre (its dot product with each normal is the normal's
  * 1-norm). gauss_in_open_hemisphere() finds a centre for every such polygon:
  * its first candidate, the sum of the unit normals, has a positive dot
  * product with each (no term is negative, and the term of the normal's
  * largest component, at least half its length, survives the candidate's
  * flush of tiny components). */
-int gauss_in_one_octant(const double (*normals)[3], size_t m, double centre[3]);
+int gauss_in_one_octant(const double (*normals)[3], size_t m, double centre[3], int *signs);
 
 /*
  * The Gaussian vertices the polygon normals[0..m-1] winds about (winding
@@ -228,12 +229,13 @@ int gauss_in_one_octant(const double (*normals)[3], size_t m, double centre[3]);
  * Charted when, for every octant the normals' signs leave open, every normal
  * is well inside that octant's half-space (s . n >= |n|_1 / 4), which holds
  * for nearly every polygon; the polygon must be in an open hemisphere.
- * chart is scratch for m points. Writes up to cap points to xyz, each once.
+ * signs from gauss_in_one_octant(); chart is scratch for m points. Writes up
+ * to cap points to xyz, each once.
  * @return the number of enclosed vertices (may exceed cap), or
  * GAUSS_NOT_CHARTED: then use gauss_vertices_near() and gauss_winding_at().
  */
 #define GAUSS_NOT_CHARTED SIZE_MAX
-size_t gauss_vertices_enclosed(const gauss_sphere *g, const double (*normals)[3], size_t m, double (*chart)[2],
-                               int32_t (*xyz)[3], size_t cap);
+size_t gauss_vertices_enclosed(const gauss_sphere *g, const double (*normals)[3], size_t m, int signs,
+                               double (*chart)[2], int32_t (*xyz)[3], size_t cap);
 
 #endif /* EN_CORE_GAUSS_H */
