@@ -89,44 +89,17 @@ static uint8_t halvings_kept(const gauss_sphere *g, const int32_t c[3])
 }
 
 /* The Gaussian vertices the polygon winds about, into *near (grown as
- * needed), their number into *covered. Charted on G's faces where it can be
- * (bench/RESULTS.md, session 21); otherwise every vertex in the smallest cap
- * around centre (a verified hemisphere centre) that holds every normal is
- * tested: the polygon lies in the spherical hull of its vertices, inside
- * that cap. */
-static int enclosed(const gauss_sphere *g, const double (*normals)[3], uint32_t m, int signs, double (*chart)[2],
-                    const double centre[3], int32_t (**near)[3], size_t *near_cap, size_t *covered)
+ * needed), their number into *covered (bench/RESULTS.md, session 21). */
+static int enclosed(const gauss_sphere *g, const double (*normals)[3], uint32_t m, int signs, const double centre[3],
+                    double (*chart)[2], int32_t (**near)[3], size_t *near_cap, size_t *covered)
 {
-    size_t nn = gauss_vertices_enclosed(g, normals, m, signs, chart, *near, *near_cap);
-    if (nn != GAUSS_NOT_CHARTED && nn > *near_cap) {
+    size_t nn = gauss_vertices_enclosed(g, normals, m, signs, centre, chart, *near, *near_cap);
+    while (nn > *near_cap) {
         if (en_grow((void **)near, near_cap, nn, sizeof **near))
             return EPSNET_ENOMEM;
-        nn = gauss_vertices_enclosed(g, normals, m, signs, chart, *near, *near_cap);
+        nn = gauss_vertices_enclosed(g, normals, m, signs, centre, chart, *near, *near_cap);
     }
-    if (nn != GAUSS_NOT_CHARTED) {
-        *covered = nn;
-        return 0;
-    }
-    double cl = sqrt(centre[0] * centre[0] + centre[1] * centre[1] + centre[2] * centre[2]);
-    double cos_r = 1.0;
-    for (uint32_t i = 0; i < m; i++) {
-        const double *n = normals[i];
-        double nl = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-        double c = (n[0] * centre[0] + n[1] * centre[1] + n[2] * centre[2]) / (nl * cl);
-        if (c < cos_r)
-            cos_r = c;
-    }
-    nn = gauss_vertices_near(g, centre, cos_r, *near, *near_cap);
-    if (nn > *near_cap) {
-        if (en_grow((void **)near, near_cap, nn, sizeof **near))
-            return EPSNET_ENOMEM;
-        nn = gauss_vertices_near(g, centre, cos_r, *near, *near_cap);
-    }
-    size_t kept = 0;
-    for (size_t i = 0; i < nn; i++)
-        if (gauss_winding_at(g, normals, m, (*near)[i], centre) != 0)
-            memmove((*near)[kept++], (*near)[i], sizeof **near);
-    *covered = kept;
+    *covered = nn;
     return 0;
 }
 
@@ -218,7 +191,7 @@ int en_classify_vertices_levels(const gauss_sphere *g, const en_slab *s, const d
             }
         }
         size_t covered;
-        rc = enclosed(g, (const double(*)[3])normals, m, signs, chart, centre, &near, &near_cap, &covered);
+        rc = enclosed(g, (const double(*)[3])normals, m, signs, centre, chart, &near, &near_cap, &covered);
         if (rc)
             break;
         uint8_t kept = 0;

@@ -873,40 +873,45 @@ int gauss_in_one_octant(const double (*nv)[3], size_t m, double centre[3], int *
  * affine on the face, and a normal n maps by its central projection onto the
  * plane s . p = N, (s_x n_x, s_y n_y) N / (s . n). Great arcs become
  * segments, so the planar winding number about a point of the face is the
- * spherical one up to the chart's orientation (the product of s's signs).
- * With r = |n|_1 / (s . n), s . n is rounded by at most 2u r of itself (u =
- * 2^-53), so a chart coordinate, at most N r, is within N r (2r + 3) u of the
- * exact projection; err (below) is four times the largest such bound, and at
- * least CHART_ERR. A vertex that close to the ray's height, or a side test
- * that close to zero, sends the point to gauss_winding_at(), which also
- * breaks ties by the perturbation. */
+ * spherical one up to the chart's orientation. With r = |n|_1 / (s . n),
+ * s . n is rounded by at most 2u r of itself (u = 2^-53), so a chart
+ * coordinate, at most N r, is within N r (2r + 3) u of the exact projection;
+ * err (below) is four times the largest such bound, and at least CHART_ERR.
+ * A vertex that close to the ray's height, or a side test that close to
+ * zero, sends the point to gauss_winding_at(), which also breaks ties by the
+ * perturbation. */
 #define CHART_ERR 1e-9
 
-static int winding_in_chart(const gauss_sphere *g, const double (*nv)[3], const double (*chart)[2], size_t m,
-                            double err, const int32_t gp[3], const double s[3])
+/* The winding number about (qx, qy) of the polygon chart[0..m-1], each
+ * coordinate of which, like q's, is within err of its exact chart (up to
+ * the chart's orientation); where that is too close to call, gauss_winding_at()
+ * about gp with the hemisphere centre centre. */
+static int planar_winding(const gauss_sphere *g, const double (*nv)[3], const double (*chart)[2], size_t m,
+                          double err, double qx, double qy, const int32_t gp[3], const double centre[3])
 {
-    double qx = abs(gp[0]), qy = abs(gp[1]);
     int winding = 0;
     for (size_t i = 0; i < m; i++) {
         const double *a = chart[i], *b = chart[i + 1 == m ? 0 : i + 1];
         double ay = a[1] - qy, by = b[1] - qy;
-        if (fabs(ay) <= err || fabs(by) <= err)
-            return gauss_winding_at(g, nv, m, gp, s);
+        if (fabs(ay) <= 2 * err || fabs(by) <= 2 * err)
+            return gauss_winding_at(g, nv, m, gp, centre);
         if ((ay < 0) == (by < 0))
             continue;
-        /* the side of q from the segment a -> b */
+        /* the side of q from the segment a -> b; each difference is within
+         * 2 err, each product within 2 err (|x| + |y|) + 4 err^2, and the
+         * rounding is the last term */
         double ex = b[0] - a[0], ey = b[1] - a[1], ax = a[0] - qx;
         double side = ax * ey - ay * ex;
         double bound = 4 * err * (fabs(ax) + fabs(ay) + fabs(ex) + fabs(ey)) + 16 * err * err +
                        1e-12 * (fabs(ax * ey) + fabs(ay * ex));
         if (fabs(side) <= bound)
-            return gauss_winding_at(g, nv, m, gp, s);
+            return gauss_winding_at(g, nv, m, gp, centre);
         if (ay < 0 && side > 0) /* upwards, q on its left */
             winding++;
         else if (ay > 0 && side < 0) /* downwards, q on its right */
             winding--;
     }
-    return (s[0] < 0) ^ (s[1] < 0) ^ (s[2] < 0) ? -winding : winding;
+    return winding;
 }
 
 /* The enclosed lattice points of the face with signs s (bit k set: s_k =
@@ -962,7 +967,7 @@ static int enclosed_on_face(const gauss_sphere *g, const double (*nv)[3], size_t
             if (z < ilo[2] || z > ihi[2])
                 continue;
             int32_t q[3] = {signs & 1 ? -x : x, signs & 2 ? -y : y, signs & 4 ? -z : z};
-            if (winding_in_chart(g, nv, (const double(*)[2])chart, m, err, q, s) == 0)
+            if (planar_winding(g, nv, (const double(*)[2])chart, m, err, x, y, q, s) == 0)
                 continue;
             if (*count < cap)
                 memcpy(xyz[*count], q, sizeof q);
@@ -971,8 +976,73 @@ static int enclosed_on_face(const gauss_sphere *g, const double (*nv)[3], size_t
     return 0;
 }
 
+/* The chart about a hemisphere centre c: p -> (u . p, v . p) / (c . p) for
+ * any u, v completing c to a basis (a central projection onto the plane
+ * c . p = 1 in other coordinates, so arcs still become segments). Into
+ * xy, and into *err a bound on its rounding: each dot product is within 3u
+ * of the sum of its terms' sizes (A for u and v, C for c), so a coordinate X
+ * is within 4u (A / d + |X| (C / d + 1)), d = c . p. 0, or -1 when p is
+ * not well inside the hemisphere (C / d above CHART_RMAX). */
+static int cap_chart(const double uvc[3][3], const double p[3], double xy[2], double *err)
+{
+    double dot[3], size[3];
+    for (int r = 0; r < 3; r++) {
+        dot[r] = uvc[r][0] * p[0] + uvc[r][1] * p[1] + uvc[r][2] * p[2];
+        size[r] = fabs(uvc[r][0] * p[0]) + fabs(uvc[r][1] * p[1]) + fabs(uvc[r][2] * p[2]);
+    }
+    double d = dot[2];
+    if (!(d > 0 && size[2] <= CHART_RMAX * d))
+        return -1;
+    xy[0] = dot[0] / d;
+    xy[1] = dot[1] / d;
+    *err = 4 * 0x1p-53 * ((size[0] + size[1]) / d + (fabs(xy[0]) + fabs(xy[1])) * (size[2] / d + 1));
+    return 0;
+}
+
+/* The Gaussian vertices in the smallest cap around centre that holds every
+ * normal (the polygon lies in the spherical hull of its vertices, inside that
+ * cap) that the polygon winds about, counted in the chart about centre. */
+static size_t enclosed_in_cap(const gauss_sphere *g, const double (*nv)[3], size_t m, const double c[3],
+                              double (*chart)[2], int32_t (*xyz)[3], size_t cap)
+{
+    double cl = norm3(c), cos_r = 1.0;
+    for (size_t i = 0; i < m; i++) {
+        double cosine = (nv[i][0] * c[0] + nv[i][1] * c[1] + nv[i][2] * c[2]) / (norm3(nv[i]) * cl);
+        cos_r = cosine < cos_r ? cosine : cos_r;
+    }
+    size_t nn = gauss_vertices_near(g, c, cos_r, xyz, cap);
+    if (nn > cap)
+        return nn;
+    /* u: c x the axis c is least along; v: c x u */
+    int k = fabs(c[0]) <= fabs(c[1]) && fabs(c[0]) <= fabs(c[2]) ? 0 : fabs(c[1]) <= fabs(c[2]) ? 1 : 2;
+    double e[3] = {k == 0, k == 1, k == 2}, uvc[3][3];
+    cross3(c, e, uvc[0]);
+    cross3(c, uvc[0], uvc[1]);
+    memcpy(uvc[2], c, sizeof uvc[2]);
+    double err = 0;
+    int charted = 1;
+    for (size_t i = 0; i < m && charted; i++) {
+        double ei;
+        charted = cap_chart((const double(*)[3])uvc, nv[i], chart[i], &ei) == 0;
+        err = ei > err ? ei : err;
+    }
+    size_t kept = 0;
+    for (size_t i = 0; i < nn; i++) {
+        double p[3], q[2], eq;
+        lattice_to_double(xyz[i], p);
+        int w;
+        if (!charted || cap_chart((const double(*)[3])uvc, p, q, &eq) < 0)
+            w = gauss_winding_at(g, nv, m, xyz[i], c);
+        else
+            w = planar_winding(g, nv, (const double(*)[2])chart, m, eq > err ? eq : err, q[0], q[1], xyz[i], c);
+        if (w != 0)
+            memmove(xyz[kept++], xyz[i], sizeof *xyz);
+    }
+    return kept;
+}
+
 size_t gauss_vertices_enclosed(const gauss_sphere *g, const double (*nv)[3], size_t m, int signs_taken,
-                               double (*chart)[2], int32_t (*xyz)[3], size_t cap)
+                               const double centre[3], double (*chart)[2], int32_t (*xyz)[3], size_t cap)
 {
     int pos = signs_taken & 7, neg = signs_taken >> 3;
     /* the hull stays on the side every normal is on, for each axis where
@@ -985,7 +1055,7 @@ size_t gauss_vertices_enclosed(const gauss_sphere *g, const double (*nv)[3], siz
         /* a point on a plane between two open faces is listed once, by the
          * face on that axis's positive side */
         if (enclosed_on_face(g, nv, m, chart, signs, signs & open, xyz, cap, &count) < 0)
-            return GAUSS_NOT_CHARTED;
+            return enclosed_in_cap(g, nv, m, centre, chart, xyz, cap);
     }
     return count;
 }

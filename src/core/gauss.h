@@ -226,16 +226,17 @@ int gauss_in_one_octant(const double (*normals)[3], size_t m, double centre[3], 
  * the normals' projections onto the face's plane, and the winding number is
  * counted on that plane (great arcs project to segments) in doubles, falling
  * back to gauss_winding_at() only where a crossing is too close to call.
- * Charted when, for every octant the normals' signs leave open, every normal
- * is well inside that octant's half-space (s . n >= |n|_1 / 4), which holds
- * for nearly every polygon; the polygon must be in an open hemisphere.
- * signs from gauss_in_one_octant(); chart is scratch for m points. Writes up
- * to cap points to xyz, each once.
- * @return the number of enclosed vertices (may exceed cap), or
- * GAUSS_NOT_CHARTED: then use gauss_vertices_near() and gauss_winding_at().
+ * A face is charted when every normal is well inside its half-space (s . n
+ * >= |n|_1 / 64), as nearly every polygon's faces are; otherwise every
+ * Gaussian vertex in the smallest cap around centre that holds the normals
+ * is tested (gauss_vertices_near()), counted in the chart about centre the
+ * same way. centre: a verified hemisphere centre of the polygon
+ * (gauss_in_one_octant() or gauss_in_open_hemisphere()); signs from
+ * gauss_in_one_octant(); chart is scratch for m points. Writes up to cap
+ * points to xyz, each once. @return the number of enclosed vertices, or,
+ * when above cap, a number of points to make room for and call again.
  */
-#define GAUSS_NOT_CHARTED SIZE_MAX
 size_t gauss_vertices_enclosed(const gauss_sphere *g, const double (*normals)[3], size_t m, int signs,
-                               double (*chart)[2], int32_t (*xyz)[3], size_t cap);
+                               const double centre[3], double (*chart)[2], int32_t (*xyz)[3], size_t cap);
 
 #endif /* EN_CORE_GAUSS_H */
