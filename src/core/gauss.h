@@ -208,10 +208,10 @@ size_t gauss_vertices_near(const gauss_sphere *g, const double c[3], double cos_
                            size_t cap);
 
 /* 1 when the m normals (none zero) lie in one closed octant (no coordinate
- * takes both signs); *signs gets the signs the normals take, for
- * gauss_vertices_enclosed(), and centre then gets the octant's sign vector, a verified
- * hemisphere centre (its dot product with each normal is the normal's
- * 1-norm). gauss_in_open_hemisphere() finds a centre for every such polygon:
+ * takes both signs). *signs gets the signs the normals take, for
+ * gauss_vertices_enclosed(); centre the octant's sign vector, then a
+ * verified hemisphere centre (its dot product with each normal is the
+ * normal's 1-norm). gauss_in_open_hemisphere() finds a centre for every such polygon:
  * its first candidate, the sum of the unit normals, has a positive dot
  * product with each (no term is negative, and the term of the normal's
  * largest component, at least half its length, survives the candidate's
