@@ -29,8 +29,9 @@
  * its reverse). Faces that repeat a corner are never membranes. With
  * fflags, a sheet goes only when every face of it has all the bits of need
  * (a slab drops only what no other slab holds).
- * Needs the stars of s. Deterministic: it depends on the faces and their
- * order only.
+ * Needs the stars of s and their flags (en_slab_build_stars), an owned
+ * vertex's star whole (slab.h: EN_V_OWNED). Deterministic: it depends on
+ * the faces and their order only.
  * @return the number of faces marked, or -1 when out of memory.
  */
 int64_t en_find_membranes(const en_slab *s, const uint8_t *fflags, uint8_t need, uint8_t *drop);
