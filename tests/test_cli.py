@@ -689,9 +689,18 @@ def what_an_input_holds_beyond_the_mesh_is_named_in_one_warning_line():
     rc, _, err = run("simplify", obj, "-o", path("extras_obj.ply"), "-q", "--stats", path("extras_obj.json"))
     assert rc == 0, err
     # the faces name the vt: it is carried (texture_u, texture_v), through simplify too, and so
-    # are each face's material and group (material_index, group_index); a PLY cannot hold their names
-    assert err.splitlines() == [f"warning: {path('extras_obj.ply')}: dropped: material names (usemtl, mtllib), "
-                                "group names (g)"], err
+    # are each face's material and group (material_index, group_index), whose names a PLY holds
+    # in its header's comments
+    assert err == "", err
+    with open(path("extras_obj.ply"), "rb") as f:
+        head = f.read().split(b"end_header")[0].decode()
+    assert ("comment epsnet mtllib m.mtl\ncomment epsnet material_index 0 red\n"
+            "comment epsnet group_index 0 a\n") in head, head
+    # a format without a place for the names says so
+    rc, _, err = run("convert", obj, "-o", path("extras_obj.smz"))
+    assert rc == 0, err
+    assert err.splitlines() == [f"warning: {obj}: dropped: material names (usemtl, mtllib), group names (g) "
+                                f"({path('extras_obj.smz')} cannot hold them)"], err
     # a mesh that carries nothing more says nothing
     plain = write("plain.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
     rc, _, err = run("simplify", plain, "-o", path("plain_s.ply"), "-q", "--stats", path("plain.json"))

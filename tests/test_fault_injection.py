@@ -206,12 +206,14 @@ def main():
     walk("simplify_attributes_locked", lambda o: ["simplify", coloured, "-o", o + ".ply", "--slab", "200", "-j", "3",
                                                   "--lock", "lock", "-q"], max_points=600, stride=7)
     # A PLY whose faces carry material_index: the vertex block is held and
-    # a record pushed per (vertex, material) (src/io/fmt_ply.c).
+    # a record pushed per (vertex, material) (src/io/fmt_ply.c); the
+    # materials' names in the header's comments, read and written again.
     labelled = os.path.join(TMP, "labelled.ply")
     n = 12
     with open(labelled, "w") as f:
-        f.write("ply\nformat ascii 1.0\nelement vertex %d\nproperty float x\nproperty float y\n"
-                "property float z\nelement face %d\nproperty uchar material_index\n"
+        f.write("ply\nformat ascii 1.0\ncomment epsnet mtllib m.mtl\ncomment epsnet material_index 0 left\n"
+                "comment epsnet material_index 1 right side\nelement vertex %d\nproperty float x\n"
+                "property float y\nproperty float z\nelement face %d\nproperty ushort material_index\n"
                 "property list uchar int vertex_indices\nend_header\n" % ((n + 1) ** 2, 2 * n * n))
         for j in range(n + 1):
             for i in range(n + 1):
@@ -223,6 +225,8 @@ def main():
                                                             a + n + 1))
     walk("simplify_ply_face_labels", lambda o: ["simplify", labelled, "-o", o + ".ply", "--ratio", "0.3", "-q"],
          max_points=300, stride=3)
+    walk("full_disk_simplify_ply_face_labels", lambda o: ["simplify", labelled, "-o", o + ".ply", "--ratio", "0.3",
+                                                          "-q"], what="EPSNET_FAIL_WRITE")
     hausdorff_without_threads(smz, sma)
     # sort with a budget small enough to spill sorted runs to temporary
     # files (src/sort/extsort.c), then merge them.

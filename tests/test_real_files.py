@@ -474,10 +474,25 @@ def materials_and_groups_travel_with_their_faces():
     assert [f[0] for f in faces] == ["matA" if (i // 2) % 40 < 20 else "matB" for i in range(nf)]
     assert [f[2] for f in faces] == ["low" if i < nf // 2 else "high" for i in range(nf)]
     # PLY keeps the indices as face properties, one vertex at each position,
-    # and names the names as dropped
-    rc, _, err = run("simplify", p, "-o", path("mat_out.ply"), "--ascii", "--ratio", "0.25")
-    assert rc == 0 and "material names (usemtl, mtllib), group names (g)" in err, err
-    vprops, fprops, verts, _, _ = read_ascii_ply_faced(path("mat_out.ply"))
+    # and the names as header comments, which its reader takes back: the
+    # PLY converts to the OBJ that simplify writes directly (ascii, binary)
+    rc, _, err = run("simplify", p, "-o", path("mat_direct.obj"), "-q", "--ratio", "0.25")
+    assert rc == 0 and err == "", err
+    direct, libs = obj_faces_by_material(path("mat_direct.obj"))
+    for ascii in (["--ascii"], []):
+        rc, _, err = run("simplify", p, "-o", path("mat_out.ply"), "-q", "--ratio", "0.25", *ascii)
+        assert rc == 0 and err == "", err
+        with open(path("mat_out.ply"), "rb") as f:
+            head = f.read().split(b"end_header")[0].decode()
+        assert ("comment epsnet mtllib mat.mtl\ncomment epsnet material_index 0 matA\n"
+                "comment epsnet material_index 1 matB\n") in head, head
+        rc, _, err = run("convert", path("mat_out.ply"), "-o", path("mat_back.obj"), "-q")
+        assert rc == 0 and err == "", err
+        back, back_libs = obj_faces_by_material(path("mat_back.obj"))
+        assert back == direct and back_libs == libs == ["mat.mtl"], (ascii, len(back), len(direct))
+    rc, _, err = run("convert", path("mat_out.ply"), "-o", path("mat_out_a.ply"), "--ascii", "-q")
+    assert rc == 0 and err == "", err
+    vprops, fprops, verts, _, _ = read_ascii_ply_faced(path("mat_out_a.ply"))
     assert ("material_index", "ushort") in fprops and ("group_index", "ushort") in fprops, fprops
     assert "material_index" not in dict(vprops), vprops
     xyz = [(v["x"], v["y"], v["z"]) for v in verts]
@@ -593,6 +608,70 @@ def a_ply_face_material_index_travels_with_its_faces():
     rc, _, err = run("convert", bad, "-o", path("fl_bad_out.ply"), "-q")
     assert rc != 0 and "vertex index 9999 is out of range" in err, err
     assert not os.path.exists(path("fl_bad_out.ply"))
+
+
+def named_ply(name, comments, label_type="ushort", labels=(0, 1)):
+    """Two triangles of an ASCII PLY whose faces carry material_index (the
+    given values) and whose header has the given comment lines."""
+    with open(path(name), "w") as f:
+        f.write("ply\nformat ascii 1.0\n" + "".join("comment %s\n" % c for c in comments) +
+                "element vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 2\n"
+                "property list uchar int vertex_indices\nproperty %s material_index\nend_header\n"
+                "0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2 %d\n3 0 2 3 %d\n" % (label_type, labels[0], labels[1]))
+    return path(name)
+
+
+@case
+def material_names_ride_in_a_ply_header():
+    """Issue 25: a PLY keeps the names of its faces' materials and groups in
+    header comments (src/io/fmt_ply.c, ply_names), so OBJ -> PLY -> OBJ
+    keeps usemtl, g and mtllib, whatever the names (spaces, the unnamed
+    faces before the first usemtl), and PLY -> PLY keeps the comments;
+    comments that do not fit the faces are named or refused."""
+    obj = path("names.obj")
+    with open(obj, "w") as f:
+        f.write("mtllib my lib.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nv 2 1 0\nusemtl\ng part one\n"
+                "f 1 2 3\nusemtl oak  wood\nf 1 3 4\nusemtl steel\nf 2 5 6\ng\nf 2 6 3\n")
+    want, libs = obj_faces_by_material(obj)
+    want = [(m, g) for m, _, g, _ in want]
+    for ascii in (["--ascii"], []):
+        for out in ("names.ply", "names.ply.zst"):
+            rc, _, err = run("convert", obj, "-o", path(out), "-q", *ascii)
+            assert rc == 0 and err == "", err
+            rc, _, err = run("convert", path(out), "-o", path("names_back.obj"), "-q")
+            assert rc == 0 and err == "", (out, err)
+            back, back_libs = obj_faces_by_material(path("names_back.obj"))
+            assert [(m, g) for m, _, g, _ in back] == want and back_libs == libs == ["my lib.mtl"], (out, back)
+    with open(path("names.ply"), "rb") as f:
+        head = f.read().split(b"end_header")[0].decode()
+    assert ("comment epsnet mtllib my lib.mtl\ncomment epsnet material_index 0\n"
+            "comment epsnet material_index 1 oak  wood\ncomment epsnet material_index 2 steel\n"
+            "comment epsnet group_index 0 part one\ncomment epsnet group_index 1\n") in head, head
+    rc, _, err = run("convert", path("names.ply"), "-o", path("names_again.ply"), "-q")
+    assert rc == 0 and err == "", err
+    assert open(path("names_again.ply"), "rb").read() == open(path("names.ply"), "rb").read()
+    # comments out of order, or for a property that is not a face's ushort,
+    # are named as dropped; the values still travel
+    good = ["epsnet material_index 0 a", "epsnet material_index 1 b"]
+    for comments, ty, why in ((good[::-1], "ushort", "not numbered 0, 1, 2, ... in order"),
+                              (["epsnet material_index 0 a", "epsnet material_index 2 b"], "ushort",
+                               "not numbered 0, 1, 2, ... in order"),
+                              (good, "int", "no face property ushort of that name")):
+        p = named_ply("names_odd.ply", comments, ty)
+        rc, _, err = run("convert", p, "-o", path("names_odd.obj"), "-q")
+        assert rc == 0 and "header comments naming material_index (%s)" % why in err, err
+        assert "usemtl" not in open(path("names_odd.obj")).read()
+    # free-text comments are no names
+    p = named_ply("names_free.ply", ["written by someone", "epsnet says hello"])
+    rc, _, err = run("convert", p, "-o", path("names_free_out.obj"), "-q")
+    assert rc == 0 and "header comments" not in err, err
+    # a face's value beyond the names is an error at that face, and nothing is written
+    p = named_ply("names_short.ply", good[:1])
+    for cmd in ("convert", "simplify"):
+        rc, _, err = run(cmd, p, "-o", path("names_short_out.obj"), "-q")
+        assert rc != 0 and "names_short.ply:17: face 2: material_index 1 has no name (the header's comments name 1)" \
+            in err, err
+        assert not os.path.exists(path("names_short_out.obj"))
 
 
 finish()

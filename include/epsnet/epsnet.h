@@ -270,8 +270,10 @@ typedef struct epsnet_mesh_info {
      * none; owned by the reader (valid until it is closed). A writer given
      * them reads the tables while records are put (so they must outlive
      * the writer's puts): OBJ writes `mtllib`, and `g` and `usemtl` where
-     * a face's group or material changes; other formats keep the indices
-     * as vertex properties and name the names as dropped. */
+     * a face's group or material changes; PLY writes them in its header's
+     * comments ("comment epsnet material_index 0 NAME"), which its reader
+     * takes back, when the indices are a face's uint16; other formats keep
+     * the indices as vertex properties and name the names as dropped. */
     const epsnet_face_names *materials, *groups;
 } epsnet_mesh_info;
 

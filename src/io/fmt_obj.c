@@ -1079,6 +1079,13 @@ static int obj_holds_attr(const epsnet_attr_layout *l, uint32_t i)
            l->attr[i].type == EPSNET_ATTR_UINT16;
 }
 
+/* usemtl (with mtllib) and g, for a material_index or group_index held
+ * (obj_holds_attr: uint16). */
+static int obj_holds_names(const epsnet_attr_layout *l, int k)
+{
+    return epsnet_attr_layout_find(l, label_attr[k]) >= 0;
+}
+
 /* Copy the 4-byte values of attributes at[0..n) of rec into key. */
 static void attr_bits(const epsnet_writer *w, const epsnet_record *rec, const int *at, int n, uint8_t *key)
 {
@@ -1288,4 +1295,5 @@ const en_format en_format_obj = {
     .finish = obj_finish,
     .close_writer = obj_close_writer,
     .holds_attr = obj_holds_attr,
+    .holds_names = obj_holds_names,
 };

@@ -23,9 +23,12 @@
  * reader took from a face element, an OBJ material) go back on the face
  * element, and the records of one position that differ only in them are
  * welded into one vertex, so that a material boundary is not written as a
- * cut (put_faced_vertex()).
+ * cut (put_faced_vertex()). The names such labels stand for (OBJ materials
+ * and groups) ride in header comments (ply_names), which makes the header
+ * the last thing written.
  */
 #include <inttypes.h>
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -216,6 +219,26 @@ typedef struct ply_strip {
     int in_line;            /* ascii: the record's line has begun */
 } ply_strip;
 
+/*
+ * The names a face label stands for (epsnet.h epsnet_face_names): [0] the
+ * materials of material_index with their `mtllib` text, [1] the groups of
+ * group_index. PLY has no place for them, so the writer puts them in
+ * header comments, one a value in order, which this reader takes back:
+ *     comment epsnet mtllib LIBRARY
+ *     comment epsnet material_index 0 NAME
+ * A list out of order, or names whose property is not a face's ushort,
+ * are named as dropped (header_names).
+ */
+static const char *const label_prop[2] = { "material_index", "group_index" };
+typedef struct ply_names {
+    epsnet_face_names tab;
+    char **names;
+    size_t cap;
+    char *library;
+    int out_of_order;
+    int64_t at;                  /* its value's offset in ply_reader.attr once taken, else -1 */
+} ply_names;
+
 typedef struct ply_reader ply_reader;
 
 /* Reads up to n records of element e: ascii or binary, chosen once. */
@@ -255,6 +278,8 @@ struct ply_reader {
     size_t ncorners, corners_cap;
     size_t held_bytes;           /* of the tables above, held to settings.mem_limit */
     uint8_t out[EPSNET_ATTR_MAX * 8]; /* a record's packed bytes */
+    ply_names names[2];          /* [0] material_index, [1] group_index (header_comment) */
+    int started;                 /* the first fill() has looked at the attributes kept */
 };
 
 /* ------------------------------------------------------------------------
@@ -668,6 +693,109 @@ static int skip_header_line(epsnet_reader *r, const char *kw)
     en_reader_drop(r, name, 1, 1);
     return 0;
 }
+/* The text after a comment's words, without the blanks around it. */
+static char *comment_text(char *rest)
+{
+    while (*rest == ' ' || *rest == '\t')
+        rest++;
+    size_t n = strlen(rest);
+    while (n && (rest[n - 1] == ' ' || rest[n - 1] == '\t' || rest[n - 1] == '\r'))
+        rest[--n] = '\0';
+    return rest;
+}
+
+static int copy_text(epsnet_reader *r, char **to, const char *text)
+{
+    size_t n = strlen(text);
+    char *c = en_malloc(n + 1);
+    if (!c)
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    memcpy(c, text, n + 1);
+    *to = c;
+    return 0;
+}
+
+/* A header comment: the names of a face label (ply_names), or free text. */
+static int header_comment(epsnet_reader *r, ply_reader *p, char *rest)
+{
+    char *tag = next_token(&rest), *what = tag ? next_token(&rest) : NULL;
+    if (!what || strcmp(tag, "epsnet") != 0)
+        return 0;
+    if (strcmp(what, "mtllib") == 0) {
+        en_free(p->names[0].library);
+        p->names[0].library = NULL;
+        return copy_text(r, &p->names[0].library, comment_text(rest));
+    }
+    for (int k = 0; k < 2; k++) {
+        if (strcmp(what, label_prop[k]) != 0)
+            continue;
+        ply_names *l = &p->names[k];
+        char *num = next_token(&rest), *end = NULL;
+        unsigned long i = num && *num >= '0' && *num <= '9' ? strtoul(num, &end, 10) : ULONG_MAX;
+        if (l->out_of_order || !end || *end || i != l->tab.count || i >= EPSNET_FACE_NAMES_MAX) {
+            l->out_of_order = 1;
+            return 0;
+        }
+        if (en_grow((void **)&l->names, &l->cap, (size_t)l->tab.count + 1, sizeof *l->names))
+            return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+        int rc = copy_text(r, &l->names[l->tab.count], comment_text(rest));
+        if (rc)
+            return rc;
+        l->tab.names = (const char *const *)l->names;
+        l->tab.count++;
+    }
+    return 0;
+}
+
+/* The names the comments gave, as info.materials and info.groups when
+ * their property is a face's ushort label (the writer's own, and the
+ * OBJ writer's: usemtl and g), else named as dropped. */
+static void header_names(epsnet_reader *r, ply_reader *p)
+{
+    const ply_element *face = NULL;
+    for (size_t i = 0; i < p->nelems; i++)
+        if (p->elems[i].kind == ELEM_FACE)
+            face = &p->elems[i];
+    for (int k = 0; k < 2; k++) {
+        ply_names *l = &p->names[k];
+        l->at = -1;
+        if (!l->tab.count && !l->library && !l->out_of_order)
+            continue;
+        for (size_t j = 0; face && j < face->nprops; j++) {
+            const ply_property *pr = &face->props[j];
+            if (strcmp(pr->name, label_prop[k]) == 0 && pr->role == ROLE_LABEL && pr->type == PLY_UINT16)
+                l->at = pr->attr_offset;
+        }
+        char name[EN_DROP_NAME];
+        if (l->at < 0 || l->out_of_order) {
+            snprintf(name, sizeof name, "header comments naming %s (%s)", label_prop[k],
+                     l->out_of_order ? "not numbered 0, 1, 2, ... in order" : "no face property ushort of that name");
+            en_reader_drop(r, name, 0, 0);
+            l->at = -1;
+            continue;
+        }
+        l->tab.library = k == 0 ? l->library : NULL;
+        *(k ? &r->info.groups : &r->info.materials) = &l->tab;
+    }
+}
+
+/* A face's labels name a name the comments gave (epsnet.h: names[i]
+ * exists before any record with index i). */
+static int check_label_names(epsnet_reader *r, const ply_reader *p, uint64_t record)
+{
+    for (int k = 0; k < 2; k++) {
+        if (p->names[k].at < 0)
+            continue;
+        uint16_t m;
+        memcpy(&m, p->attr + p->names[k].at, sizeof m);
+        if (m >= p->names[k].tab.count)
+            return en_reader_fail(r, EPSNET_EFORMAT,
+                                  "face %" PRIu64 ": %s %u has no name (the header's comments name %u)", record + 1,
+                                  label_prop[k], m, p->names[k].tab.count);
+    }
+    return 0;
+}
+
 static int read_header(epsnet_reader *r, ply_reader *p)
 {
     char *line;
@@ -689,8 +817,13 @@ static int read_header(epsnet_reader *r, ply_reader *p)
         }
         if (!kw)
             continue;
-        if (strcmp(kw, "comment") == 0 || strcmp(kw, "obj_info") == 0)
+        if (strcmp(kw, "obj_info") == 0)
             continue;
+        if (strcmp(kw, "comment") == 0) {
+            if ((rc = header_comment(r, p, rest)))
+                return rc;
+            continue;
+        }
         if (strcmp(kw, "end_header") == 0)
             break;
         if (strcmp(kw, "format") == 0)
@@ -709,8 +842,10 @@ static int read_header(epsnet_reader *r, ply_reader *p)
     if (!seen_format)
         return en_reader_fail(r, EPSNET_EFORMAT, "header has no 'format' line");
     int rc = header_finish(r, p);
-    if (rc == 0)
+    if (rc == 0) {
         note_dropped(r, p);
+        header_names(r, p);
+    }
     return rc;
 }
 
@@ -826,6 +961,8 @@ static int labelled_face(epsnet_reader *r, ply_reader *p, uint64_t record)
     p->ncorners = 0;
     if (n < 3)
         return 0;
+    if (check_label_names(r, p, record))
+        return r->err.code;
     ply_fan fan = { 0, 0, 0, NULL };
     for (size_t i = 0; i < n; i++) {
         uint64_t v = p->corners[i], id = 0;
@@ -1560,6 +1697,12 @@ static void ply_reader_free(ply_reader *p)
     en_free(p->next);
     en_free(p->rec_label);
     en_free(p->corners);
+    for (int k = 0; k < 2; k++) {
+        for (uint32_t i = 0; i < p->names[k].tab.count; i++)
+            en_free(p->names[k].names[i]);
+        en_free(p->names[k].names);
+        en_free(p->names[k].library);
+    }
     en_free(p);
 }
 
@@ -1588,6 +1731,16 @@ static int ply_open_reader(epsnet_reader *r)
 static int ply_fill(epsnet_reader *r)
 {
     ply_reader *p = r->state;
+    if (!p->started) {
+        /* names whose label the output does not keep go with it (named
+         * there: en_reader_keep_attrs) */
+        p->started = 1;
+        for (int k = 0; k < 2; k++)
+            if (p->names[k].at >= 0 && epsnet_attr_layout_find(&r->info.vertex_attrs, label_prop[k]) < 0) {
+                p->names[k].at = -1;
+                *(k ? &r->info.groups : &r->info.materials) = NULL;
+            }
+    }
     const uint64_t pushed = r->nverts + r->ntris;
     while (p->elem < p->nelems) {
         ply_element *e = &p->elems[p->elem];
@@ -1673,6 +1826,12 @@ typedef struct ply_writer {
      * face bytes), which is a distinct vertex at the same place. Per
      * record: its vertex, and its face bytes for the faces naming it. */
     int faced;
+    /* The names of label_prop[k] to write (ply_names): where a record's
+     * value is, and a copy of the names taken while records are put, the
+     * only time the table is sure to live (epsnet.h epsnet_mesh_info). */
+    int names[2];
+    uint32_t name_at[2];
+    en_face_names_copy name_copy[2];
     uint32_t nown, nface, face_size;
     uint32_t own[EPSNET_ATTR_MAX], face[EPSNET_ATTR_MAX];
     en_key_table weld, used;
@@ -1715,17 +1874,22 @@ static size_t put_properties(char *buf, size_t cap, size_t len, const ply_writer
  * header to exactly pad_to bytes. @return the length, or 0 if it does not
  * fit. */
 static size_t build_header(char *buf, size_t cap, const ply_writer *p, uint64_t nv, uint64_t nf,
-                           int uint_index, size_t pad_to)
+                           int uint_index, size_t pad_to, size_t *names_at)
 {
     const char *coord = p->coord64 ? "double" : "float";
-    int n = snprintf(buf, cap,
-                     "ply\nformat %s 1.0\ncomment written by epsnet %s\n"
-                     "element vertex %" PRIu64 "\nproperty %s x\nproperty %s y\nproperty %s z\n",
-                     p->ascii ? "ascii" : "binary_little_endian", EPSNET_VERSION_STRING, nv, coord,
-                     coord, coord);
+    int n = snprintf(buf, cap, "ply\nformat %s 1.0\ncomment written by epsnet %s\n",
+                     p->ascii ? "ascii" : "binary_little_endian", EPSNET_VERSION_STRING);
     if (n < 0 || (size_t)n >= cap)
         return 0;
     size_t len = (size_t)n;
+    if (names_at)
+        *names_at = len;
+    n = snprintf(buf + len, cap - len,
+                 "element vertex %" PRIu64 "\nproperty %s x\nproperty %s y\nproperty %s z\n", nv, coord, coord,
+                 coord);
+    if (n < 0 || (size_t)n >= cap - len)
+        return 0;
+    len += (size_t)n;
     /* every attribute with its own name and type (epsnet.h §2), a face's
      * values on the face element */
     if (!(len = put_properties(buf, cap, len, p, p->own, p->nown)))
@@ -1860,6 +2024,14 @@ static int emit_face(epsnet_writer *w, const ply_writer *p, const uint32_t v[3],
     return en_writer_bytes(w, rec, len);
 }
 
+/* Are label k's names written (put_names)? When its property is a face's
+ * ushort, which is what the reader takes names for (header_names). */
+static int ply_holds_names(const epsnet_attr_layout *l, int k)
+{
+    int i = epsnet_attr_layout_find(l, label_prop[k]);
+    return i >= 0 && l->attr[i].of_face && l->attr[i].type == EPSNET_ATTR_UINT16;
+}
+
 static int ply_open_writer(epsnet_writer *w)
 {
     ply_writer *p = en_calloc(1, sizeof *p);
@@ -1889,13 +2061,25 @@ static int ply_open_writer(epsnet_writer *w)
             return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                                 "out of memory");
     }
+    /* note: a reader fills its names as it reads (epsnet.h), so they are
+     * known at the end only, and their lines have no bound: the header is
+     * written last, after the vertices are spilled too. */
+    for (int k = 0; k < 2; k++) {
+        p->names[k] = ply_holds_names(p->attrs, k) && (k ? w->info.groups : w->info.materials) != NULL;
+        if (p->names[k])
+            p->name_at[k] = p->attrs->attr[epsnet_attr_layout_find(p->attrs, label_prop[k])].offset;
+    }
     char hdr[PLY_WRITE_HEADER_MAX];
+    if (p->names[0] || p->names[1]) {
+        p->mode = WRITE_SPILL_ALL;
+        return 0;
+    }
     if (en_sink_can_patch(w->sink)) {
         p->mode = WRITE_PATCH;
         /* note: room for the widest counts and "uint", so the final header
          * always fits the reserved bytes. */
-        p->header_size = build_header(hdr, sizeof hdr, p, UINT64_MAX, UINT64_MAX, 1, 0) + 16;
-        size_t n = build_header(hdr, sizeof hdr, p, 0, 0, 0, p->header_size);
+        p->header_size = build_header(hdr, sizeof hdr, p, UINT64_MAX, UINT64_MAX, 1, 0, NULL) + 16;
+        size_t n = build_header(hdr, sizeof hdr, p, 0, 0, 0, p->header_size, NULL);
         return en_writer_bytes(w, hdr, n);
     }
     /* (welded, the vertices are fewer than announced) */
@@ -1906,7 +2090,7 @@ static int ply_open_writer(epsnet_writer *w)
                                 "PLY output cannot index %" PRIu64 " vertices (at most 2^32)",
                                 w->info.nverts);
         p->uint_index = w->info.nverts > PLY_INT_INDEX_MAX + 1;
-        size_t n = build_header(hdr, sizeof hdr, p, w->info.nverts, w->info.nfaces, p->uint_index, 0);
+        size_t n = build_header(hdr, sizeof hdr, p, w->info.nverts, w->info.nfaces, p->uint_index, 0, NULL);
         return en_writer_bytes(w, hdr, n);
     }
     p->mode = WRITE_SPILL_ALL;
@@ -1986,8 +2170,36 @@ static int put_faced_vertex(epsnet_writer *w, ply_writer *p, const double xyz[3]
     return out_vertex(w, p, xyz, attr);
 }
 
+/* A vertex's labels: their names copied (ply_writer.name_copy) once the
+ * copy lacks them. */
+static int copy_names(epsnet_writer *w, ply_writer *p, const uint8_t *attr)
+{
+    for (int k = 0; k < 2; k++) {
+        if (!p->names[k])
+            continue;
+        uint16_t m;
+        memcpy(&m, attr + p->name_at[k], sizeof m);
+        en_face_names_copy *c = &p->name_copy[k];
+        if (c->of && m < c->names.count)
+            continue;
+        const epsnet_face_names *t = k ? w->info.groups : w->info.materials;
+        if (m >= t->count)
+            return en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "%s %u of vertex %" PRIu64 " names nothing (%u names known)", label_prop[k], m,
+                                w->nverts, t->count);
+        en_face_names_copy_free(c);
+        if (en_face_names_copy_of(c, t))
+            return en_error_set(&w->err, EPSNET_ENOMEM, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                "out of memory");
+    }
+    return 0;
+}
+
 static int put_vertex(epsnet_writer *w, ply_writer *p, const double xyz[3], const uint8_t *attr)
 {
+    int rc = copy_names(w, p, attr);
+    if (rc)
+        return rc;
     if (p->faces_direct)
         return en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "vertex %" PRIu64 " arrives after the %" PRIu64 " vertices announced",
@@ -2085,6 +2297,30 @@ static int replay(epsnet_writer *w, ply_writer *p, en_spill *sp, int vertices)
     }
 }
 
+/* The names of the face labels, as header comments (ply_names). */
+static int put_names(epsnet_writer *w, const ply_writer *p)
+{
+    static const char head[] = "comment epsnet ";
+    for (int k = 0; k < 2; k++) {
+        const epsnet_face_names *t = p->name_copy[k].of;
+        if (!t)
+            continue;
+        int rc;
+        if (k == 0 && t->library &&
+            ((rc = en_writer_bytes(w, head, sizeof head - 1)) || (rc = en_writer_bytes(w, "mtllib ", 7)) ||
+             (rc = en_writer_bytes(w, t->library, strlen(t->library))) || (rc = en_writer_bytes(w, "\n", 1))))
+            return rc;
+        for (uint32_t i = 0; i < t->count; i++) {
+            char num[48];
+            int n = snprintf(num, sizeof num, "%s %u%s", label_prop[k], i, *t->names[i] ? " " : "");
+            if ((rc = en_writer_bytes(w, head, sizeof head - 1)) || (rc = en_writer_bytes(w, num, (size_t)n)) ||
+                (rc = en_writer_bytes(w, t->names[i], strlen(t->names[i]))) || (rc = en_writer_bytes(w, "\n", 1)))
+                return rc;
+        }
+    }
+    return 0;
+}
+
 static int ply_finish(epsnet_writer *w)
 {
     ply_writer *p = w->state;
@@ -2096,7 +2332,7 @@ static int ply_finish(epsnet_writer *w)
     case WRITE_PATCH: {
         if ((rc = replay(w, p, p->faces, 0)))
             return rc;
-        size_t n = build_header(hdr, sizeof hdr, p, nverts, w->ntris, uint_index, p->header_size);
+        size_t n = build_header(hdr, sizeof hdr, p, nverts, w->ntris, uint_index, p->header_size, NULL);
         if (n != p->header_size)
             return en_error_set(&w->err, EPSNET_EINTERNAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                                 "PLY header does not fit its reserved space");
@@ -2110,8 +2346,9 @@ static int ply_finish(epsnet_writer *w)
                                 w->info.nverts, w->info.nfaces, w->nverts, w->ntris);
         return replay(w, p, p->faces, 0);
     case WRITE_SPILL_ALL: {
-        size_t n = build_header(hdr, sizeof hdr, p, nverts, w->ntris, uint_index, 0);
-        if ((rc = en_writer_bytes(w, hdr, n)) || (rc = replay(w, p, p->verts, 1)))
+        size_t at = 0, n = build_header(hdr, sizeof hdr, p, nverts, w->ntris, uint_index, 0, &at);
+        if ((rc = en_writer_bytes(w, hdr, at)) || (rc = put_names(w, p)) ||
+            (rc = en_writer_bytes(w, hdr + at, n - at)) || (rc = replay(w, p, p->verts, 1)))
             return rc;
         return replay(w, p, p->faces, 0);
     }
@@ -2131,6 +2368,8 @@ static void ply_close_writer(epsnet_writer *w)
     en_free(p->rec_vertex);
     en_free(p->rec_face);
     en_free(p->key);
+    en_face_names_copy_free(&p->name_copy[0]);
+    en_face_names_copy_free(&p->name_copy[1]);
     en_free(p);
     w->state = NULL;
 }
@@ -2147,4 +2386,5 @@ const en_format en_format_ply = {
     .finish = ply_finish,
     .close_writer = ply_close_writer,
     .holds_attr = en_format_holds_every_attr,
+    .holds_names = ply_holds_names,
 };

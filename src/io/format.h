@@ -148,6 +148,10 @@ struct en_format {
     /* Whether the writer holds attribute i of layout l (it then gets it in
      * w->attrs); NULL: it holds none. */
     int (*holds_attr)(const epsnet_attr_layout *l, uint32_t i);
+    /* Whether the writer writes the names of face label k (0: materials,
+     * 1: groups; epsnet.h epsnet_face_names) when it holds layout l (its
+     * w->attrs); NULL: it writes none, and they are named as dropped. */
+    int (*holds_names)(const epsnet_attr_layout *l, int k);
 };
 
 /* holds_attr of formats that keep every attribute (PLY, .smz). */

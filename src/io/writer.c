@@ -84,11 +84,13 @@ static int choose_attrs(epsnet_writer *w)
             return -1;
     }
     w->attrs_subset = w->attrs.count != in->count;
-    /* only OBJ writes the names a material_index or group_index stands for */
-    int obj = strcmp(w->fmt->name, "obj") == 0;
-    if ((w->info.materials && !obj && en_writer_drop(w, "material names (usemtl, mtllib)")) ||
-        (w->info.groups && !obj && en_writer_drop(w, "group names (g)")))
-        return -1;
+    /* the names a material_index or group_index stands for: OBJ's usemtl
+     * and g, PLY's header comments */
+    static const char *const names[2] = { "material names (usemtl, mtllib)", "group names (g)" };
+    for (int k = 0; k < 2; k++)
+        if ((k ? w->info.groups : w->info.materials) &&
+            !(w->fmt->holds_names && w->fmt->holds_names(&w->attrs, k)) && en_writer_drop(w, names[k]))
+            return -1;
     return 0;
 }
 
