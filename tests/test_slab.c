@@ -119,6 +119,26 @@ TEST(edge_with_three_faces_makes_its_ends_nonmanifold)
     en_slab_free(&s);
 }
 
+/* Two pillows on the edge 0-1 (four faces, two each way): every face of
+ * 0 and of 1 has a neighbour across each edge, and their faces even link
+ * up into one cycle, but the edge is used twice in each direction. */
+TEST(an_edge_used_twice_each_way_makes_its_ends_nonmanifold)
+{
+    en_slab s;
+    en_slab_init(&s);
+    add_vertices(&s, 4);
+    en_slab_add_face(&s, 0, 1, 2);
+    en_slab_add_face(&s, 0, 2, 1);
+    en_slab_add_face(&s, 0, 1, 3);
+    en_slab_add_face(&s, 0, 3, 1);
+    CHECK_EQ_INT(en_slab_build_stars(&s), 0);
+    CHECK(s.vflags[0] & EN_V_NONMANIFOLD);
+    CHECK(s.vflags[1] & EN_V_NONMANIFOLD);
+    CHECK_EQ_INT(s.vflags[2] & (EN_V_BOUNDARY | EN_V_NONMANIFOLD), 0);
+    CHECK_EQ_INT(s.vflags[3] & (EN_V_BOUNDARY | EN_V_NONMANIFOLD), 0);
+    en_slab_free(&s);
+}
+
 /* A closed tetrahedron: every vertex interior, degree 3; an unused vertex
  * is isolated. */
 TEST(tetrahedron_is_closed_and_unused_vertex_isolated)
@@ -264,6 +284,7 @@ int main(void)
     RUN(boundary_vertex_star_starts_at_the_boundary_edge);
     RUN(bowtie_vertex_is_nonmanifold);
     RUN(edge_with_three_faces_makes_its_ends_nonmanifold);
+    RUN(an_edge_used_twice_each_way_makes_its_ends_nonmanifold);
     RUN(tetrahedron_is_closed_and_unused_vertex_isolated);
     RUN(face_repeating_a_corner_is_handled);
     RUN(seam_copies_pair_and_a_cut_end_stays_a_boundary);

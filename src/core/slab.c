@@ -157,30 +157,51 @@ static uint8_t order_star(const en_slab *s, uint32_t v, uint32_t *faces, uint32_
         sort_packed(w->by_nxt, nxt, deg);
         sort_packed(w->by_prv, prv, deg);
     }
-    /* An edge (v, x) may be used at most once as "next" and once as "prev". */
+    /* An edge (v, x) may be used at most once as "next" and once as "prev";
+     * then face i's successor, the face whose corner after v is i's corner
+     * before v, is one face or none. */
+    uint32_t start = 0, open = 0, succ[16];
     if (sorted) {
         for (uint32_t i = 1; i < deg; i++)
             if ((w->by_nxt[i] >> 32) == (w->by_nxt[i - 1] >> 32) ||
                 (w->by_prv[i] >> 32) == (w->by_prv[i - 1] >> 32))
                 return EN_V_NONMANIFOLD;
-    } else {
         for (uint32_t i = 0; i < deg; i++)
-            for (uint32_t j = i + 1; j < deg; j++)
-                if (nxt[i] == nxt[j] || prv[i] == prv[j])
-                    return EN_V_NONMANIFOLD;
+            if (find_corner(sorted, prv, w->by_prv, deg, nxt[i]) == UINT32_MAX) {
+                open++;
+                start = i;
+            }
+    } else {
+        /* note: each pair once, for both checks and both successors, with
+         * no branch on the data: a scan for each face's successor and for
+         * its predecessor had been three passes over the pairs
+         * (bench/RESULTS.md, session 22) */
+        uint32_t dup = 0, has_pred = 0;
+        for (uint32_t i = 0; i < deg; i++)
+            succ[i] = nxt[i] == prv[i] ? i : UINT32_MAX;
+        for (uint32_t i = 0; i < deg; i++)
+            for (uint32_t j = i + 1; j < deg; j++) {
+                dup |= (uint32_t)(nxt[i] == nxt[j]) | (uint32_t)(prv[i] == prv[j]);
+                succ[i] = nxt[j] == prv[i] ? j : succ[i];
+                succ[j] = nxt[i] == prv[j] ? i : succ[j];
+            }
+        if (dup)
+            return EN_V_NONMANIFOLD;
+        for (uint32_t i = 0; i < deg; i++)
+            if (succ[i] != UINT32_MAX)
+                has_pred |= 1u << succ[i];
+        for (uint32_t i = 0; i < deg; i++)
+            if (!(has_pred >> i & 1)) {
+                open++;
+                start = i;
+            }
     }
-    uint32_t start = 0, open = 0;
-    for (uint32_t i = 0; i < deg; i++)
-        if (find_corner(sorted, prv, w->by_prv, deg, nxt[i]) == UINT32_MAX) {
-            open++;
-            start = i;
-        }
     if (open > 1)
         return EN_V_NONMANIFOLD | EN_V_BOUNDARY;
     uint32_t cur = start;
     for (uint32_t n = 0; n < deg; n++) {
         w->ordered[n] = faces[cur];
-        uint32_t j = find_corner(sorted, nxt, w->by_nxt, deg, prv[cur]);
+        uint32_t j = sorted ? find_corner(sorted, nxt, w->by_nxt, deg, prv[cur]) : succ[cur];
         if (j == UINT32_MAX) {
             if (n + 1 != deg)
                 return EN_V_NONMANIFOLD | (open ? EN_V_BOUNDARY : 0);
