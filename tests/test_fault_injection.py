@@ -225,6 +225,21 @@ def main():
                                                             a + n + 1))
     walk("simplify_ply_face_labels", lambda o: ["simplify", labelled, "-o", o + ".ply", "--ratio", "0.3", "-q"],
          max_points=300, stride=3)
+    # ... and per-corner texture coordinates in a face list (MeshLab's texcoord)
+    tc = os.path.join(TMP, "texcoord.ply")
+    with open(labelled) as f, open(tc, "w") as g:
+        text = f.read()
+        g.write(text.replace("property list uchar int vertex_indices\n",
+                             "property list uchar int vertex_indices\nproperty list uchar float texcoord\n"))
+    with open(tc) as f:
+        lines = f.read().split("\n")
+    at = lines.index("end_header") + 1 + (n + 1) ** 2
+    for k in range(at, at + 2 * n * n):
+        w = lines[k].split()
+        lines[k] = " ".join(w + ["6"] + ["%d" % (int(c) % 2) for c in w[2:5] for _ in (0, 1)])
+    open(tc, "w").write("\n".join(lines))
+    walk("simplify_ply_texcoord", lambda o: ["simplify", tc, "-o", o + ".obj", "--ratio", "0.3", "-q"],
+         max_points=300, stride=3)
     walk("full_disk_simplify_ply_face_labels", lambda o: ["simplify", labelled, "-o", o + ".ply", "--ratio", "0.3",
                                                           "-q"], what="EPSNET_FAIL_WRITE")
     hausdorff_without_threads(smz, sma)

@@ -674,4 +674,106 @@ def material_names_ride_in_a_ply_header():
         assert not os.path.exists(path("names_short_out.obj"))
 
 
+def texcoord_ply(name, n=20, binary=False, vertex_uv=False):
+    """A bumpy grid as MeshLab and Metashape write a textured PLY: a face list
+    `texcoord` (u, v of each corner), two UV charts meeting at x = 0.5 (a
+    seam), and the texture's name in a comment. Returns the path, the face
+    count and the set of (position, uv) corners as float32 bits."""
+    verts = [(i / n, j / n, 0.01 * ((i * 7 + j * 3) % 5)) for j in range(n + 1) for i in range(n + 1)]
+    faces, corners = [], set()
+    for j in range(n):
+        for i in range(n):
+            a = j * (n + 1) + i
+            left = i < n // 2
+            for t in ((a, a + 1, a + n + 2), (a, a + n + 2, a + n + 1)):
+                uv = []
+                for v in t:
+                    x, y = (v % (n + 1)) / n, (v // (n + 1)) / n
+                    uv.append((0.5 * x if left else 0.1 + 0.5 * x, y))
+                    corners.add((tuple(f32(repr(c)) for c in verts[v]), tuple(f32(repr(c)) for c in uv[-1])))
+                faces.append((t, uv))
+    head = ("ply\nformat %s 1.0\ncomment TextureFile tex.png\nelement vertex %d\nproperty float x\n"
+            "property float y\nproperty float z\n%selement face %d\nproperty list uchar int vertex_indices\n"
+            "property list uchar float texcoord\nend_header\n" %
+            ("binary_little_endian" if binary else "ascii", len(verts),
+             "property float texture_u\nproperty float texture_v\n" if vertex_uv else "", len(faces)))
+    with open(path(name), "wb") as f:
+        f.write(head.encode())
+        for v in verts:
+            extra = (0.0, 0.0) if vertex_uv else ()
+            f.write(struct.pack("<%df" % (3 + len(extra)), *v, *extra) if binary else
+                    (" ".join(repr(c) for c in v + extra) + "\n").encode())
+        for t, uv in faces:
+            flat = [c for p in uv for c in p]
+            f.write(struct.pack("<B3iB6f", 3, *t, 6, *flat) if binary else
+                    ("3 %d %d %d 6 %s\n" % (*t, " ".join(repr(c) for c in flat))).encode())
+    return path(name), len(faces), corners
+
+
+def obj_corners(p):
+    """The (position, uv) of every face corner of an OBJ, as float32 bits."""
+    v, vt, out = [], [], []
+    for line in open(p):
+        w = line.split()
+        if w and w[0] == "v":
+            v.append(tuple(f32(c) for c in w[1:4]))
+        elif w and w[0] == "vt":
+            vt.append(tuple(f32(c) for c in w[1:3]))
+        elif w and w[0] == "f":
+            for c in w[1:]:
+                i, t = c.split("/")[:2]
+                out.append((v[int(i) - 1], vt[int(t) - 1]))
+    return out
+
+
+@case
+def a_ply_with_per_face_texcoord_simplifies_across_its_seams():
+    """Issue 25: a textured PLY from MeshLab or Metashape keeps its texture
+    coordinates in a face list, one u, v per corner. They travel as
+    texture_u and texture_v of the corners, as an OBJ's vt do: the UV seam
+    is a seam, collapsed along, and every output corner is an input corner;
+    the texture's file name, which no output can take, is named."""
+    for binary in (False, True):
+        p, nf, corners = texcoord_ply("tc_%d.ply" % binary, binary=binary)
+        rc, out, err = run("info", p)
+        assert rc == 0 and "attributes:  float texture_u, float texture_v" in out, out
+        assert "texture file tex.png (comment TextureFile)" in out, out
+        for args in (["--ratio", "0.25"], ["--ratio", "0.3", "--slab", "120", "-j", "2"]):
+            o = path("tc_out.obj")
+            rc, _, err = run("simplify", p, "-o", o, *args)
+            assert rc == 0 and "texture file tex.png (comment TextureFile)" in err, err
+            got = obj_corners(o)
+            want = round(float(args[1]) * nf)
+            assert abs(len(got) // 3 - want) <= max(1, want // 200), (binary, args, len(got) // 3, want)
+            assert got and all(c in corners for c in got), (binary, args, "a corner that is not an input corner")
+        # the seam moved: the copies at x = 0.5 are fewer than the input's 21 pairs
+        seam = {c[0] for c in got if c[0][0] == f32("0.5")}
+        assert len(seam) < 21, len(seam)
+        # a PLY output carries them as vertex properties, a copy of the position on each side of the seam
+        rc, _, err = run("simplify", p, "-o", path("tc_out.ply"), "--ascii", "-q", "--ratio", "0.25")
+        assert rc == 0, err
+        vprops, _, verts, faces, _ = read_ascii_ply_faced(path("tc_out.ply"))
+        assert [n for n, _ in vprops] == ["x", "y", "z", "texture_u", "texture_v"], vprops
+        for t in faces:
+            for i in t:
+                c = verts[i]
+                key = (tuple(f32(c[a]) for a in "xyz"), (f32(c["texture_u"]), f32(c["texture_v"])))
+                assert key in corners, key
+    # a list that does not give u and v for each corner is an error at its face
+    p = path("tc_short.ply")
+    with open(path("tc_0.ply")) as f, open(p, "w") as g:
+        text = f.read()
+        at = text.index("end_header\n") + len("end_header\n")
+        lines = text[at:].split("\n")
+        lines[441 + 2] = " ".join(lines[441 + 2].split()[:-2]).replace(" 6 ", " 4 ")
+        g.write(text[:at] + "\n".join(lines))
+    rc, _, err = run("simplify", p, "-o", path("tc_short.obj"), "-q")
+    assert rc != 0 and "tc_short.ply:%d: face 3: texcoord has 4 values for 3 corners" % (11 + 441 + 3) in err, err
+    assert not os.path.exists(path("tc_short.obj"))
+    # texture coordinates of the vertices win; the list is named as dropped
+    p, _, _ = texcoord_ply("tc_vertex.ply", vertex_uv=True)
+    rc, out, err = run("info", p)
+    assert rc == 0 and "face property texcoord" in out, out
+
+
 finish()

@@ -181,6 +181,7 @@ typedef enum ply_role {
     ROLE_INDICES = 3,
     ROLE_ATTR = 4,          /* a vertex attribute the records carry (epsnet.h §2) */
     ROLE_LABEL = 5,         /* a face's integer property its corners carry (see face_labels) */
+    ROLE_TEXCOORD = 6,      /* a face's list of u, v per corner (see face_texcoords) */
 } ply_role;
 
 typedef struct ply_property {
@@ -276,6 +277,12 @@ struct ply_reader {
     size_t xyz_cap, attr_cap, first_cap, next_cap, label_cap;
     uint64_t *corners;           /* the face being read: its vertex indices */
     size_t ncorners, corners_cap;
+    /* A face's texture coordinates (face_texcoords): where texture_u and
+     * texture_v go in the label bytes (-1: none), and the face being read's
+     * u, v values, in its corners' order. */
+    int64_t uv_at;
+    float *fuv;
+    size_t nfuv, fuv_cap;
     size_t held_bytes;           /* of the tables above, held to settings.mem_limit */
     uint8_t out[EPSNET_ATTR_MAX * 8]; /* a record's packed bytes */
     ply_names names[2];          /* [0] material_index, [1] group_index (header_comment) */
@@ -577,6 +584,40 @@ static int face_labels(epsnet_reader *r, ply_reader *p, ply_element *face)
     return 0;
 }
 
+/* A face list of texture coordinates, u and v for each corner in turn
+ * (`property list uchar float texcoord`: MeshLab's and Agisoft Metashape's
+ * textured PLY). They travel as texture_u and texture_v of the face's
+ * corners, as an OBJ's vt do: one record per distinct (vertex, labels,
+ * u, v), so a UV seam is a seam (docs/architecture.md §13). A vertex
+ * element with coordinates of its own keeps those, and the list is named
+ * as dropped. */
+static int face_texcoords(epsnet_reader *r, ply_reader *p, ply_element *face)
+{
+    static const char *const uv[2] = { "texture_u", "texture_v" };
+    p->uv_at = -1;
+    ply_property *tc = NULL;
+    for (size_t k = 0; k < face->nprops; k++) {
+        ply_property *pr = &face->props[k];
+        if (pr->role == ROLE_SKIP && pr->count_type != PLY_NONE && strcmp(pr->name, "texcoord") == 0 &&
+            (pr->type == PLY_FLOAT32 || pr->type == PLY_FLOAT64))
+            tc = pr;
+    }
+    if (!tc || epsnet_attr_layout_find(&r->file_attrs, uv[0]) >= 0 ||
+        epsnet_attr_layout_find(&r->file_attrs, uv[1]) >= 0 || r->file_attrs.count + 2 > EPSNET_ATTR_MAX)
+        return 0; /* the list stays dropped (named) */
+    for (int k = 0; k < 2; k++) {
+        int rc = en_reader_add_attr(r, uv[k], EPSNET_ATTR_FLOAT32);
+        if (rc < 0)
+            return rc;
+        if (rc != 1)
+            return en_reader_fail(r, EPSNET_EINTERNAL, "cannot carry '%s'", uv[k]);
+    }
+    tc->role = ROLE_TEXCOORD;
+    p->uv_at = r->file_attrs.attr[r->file_attrs.count - 2].offset;
+    p->labels = 1;
+    return 0;
+}
+
 /* Checks that need the whole header, then what the body walk precomputes. */
 static int header_finish(epsnet_reader *r, ply_reader *p)
 {
@@ -633,10 +674,14 @@ static int header_finish(epsnet_reader *r, ply_reader *p)
             }
         }
     }
+    p->uv_at = -1;
     if (vertex && faces[0]) {
         int rc = face_labels(r, p, faces[0]);
+        if (rc == 0)
+            rc = face_texcoords(r, p, faces[0]);
         if (rc)
             return rc;
+        p->lsize = r->file_attrs.size - p->vsize;
     }
     r->info.nfaces = 0;
     for (int f = 0; f < 2; f++) {
@@ -719,6 +764,14 @@ static int copy_text(epsnet_reader *r, char **to, const char *text)
 static int header_comment(epsnet_reader *r, ply_reader *p, char *rest)
 {
     char *tag = next_token(&rest), *what = tag ? next_token(&rest) : NULL;
+    if (tag && strcmp(tag, "TextureFile") == 0) {
+        /* MeshLab's and Metashape's texture image: its texcoord are read
+         * (face_texcoords), the image's name has no place to go */
+        char name[EN_DROP_NAME];
+        snprintf(name, sizeof name, "texture file %.200s (comment TextureFile)", what ? what : "");
+        en_reader_drop(r, name, 0, 0);
+        return 0;
+    }
     if (!what || strcmp(tag, "epsnet") != 0)
         return 0;
     if (strcmp(what, "mtllib") == 0) {
@@ -957,18 +1010,23 @@ static int labelled_record(epsnet_reader *r, ply_reader *p, uint64_t v, uint64_t
  * come after the index list): its corners become records, then triangles. */
 static int labelled_face(epsnet_reader *r, ply_reader *p, uint64_t record)
 {
-    size_t n = p->ncorners;
-    p->ncorners = 0;
+    size_t n = p->ncorners, nuv = p->nfuv;
+    p->ncorners = p->nfuv = 0;
     if (n < 3)
         return 0;
     if (check_label_names(r, p, record))
         return r->err.code;
+    if (p->uv_at >= 0 && nuv != 2 * n)
+        return en_reader_fail(r, EPSNET_EFORMAT, "face %" PRIu64 ": texcoord has %zu values for %zu corners "
+                              "(u and v for each)", record + 1, nuv, n);
     ply_fan fan = { 0, 0, 0, NULL };
     for (size_t i = 0; i < n; i++) {
         uint64_t v = p->corners[i], id = 0;
         if (v >= p->nheld)
             return en_reader_fail(r, EPSNET_EFORMAT, "face %" PRIu64 ": vertex index %" PRIu64 " is out of range",
                                   record + 1, v);
+        if (p->uv_at >= 0)
+            memcpy(p->attr + p->uv_at, p->fuv + 2 * i, 2 * sizeof *p->fuv);
         int rc = labelled_record(r, p, v, &id);
         if (rc == 0)
             rc = fan_corner(r, &fan, id);
@@ -1077,6 +1135,15 @@ static int ascii_bad_value(epsnet_reader *r, const ply_element *e, uint64_t reco
                           e->name, record + 1, tok, ply_type_names[pr->type].name, pr->name);
 }
 
+/* One value of the face's texcoord list (face_texcoords). */
+static int face_uv(epsnet_reader *r, ply_reader *p, double v)
+{
+    if (en_grow((void **)&p->fuv, &p->fuv_cap, p->nfuv + 1, sizeof *p->fuv))
+        return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
+    p->fuv[p->nfuv++] = (float)v;
+    return 0;
+}
+
 static int ascii_list(epsnet_reader *r, ply_reader *p, const ply_element *e, uint64_t record,
                       const ply_property *pr, char **cursor)
 {
@@ -1095,9 +1162,11 @@ static int ascii_list(epsnet_reader *r, ply_reader *p, const ply_element *e, uin
     for (int64_t i = 0; i < count; i++) {
         tok = next_token(cursor);
         if (pr->role != ROLE_INDICES) {
-            double ignored;
-            if (!tok || parse_real_as(tok, pr->type, &ignored))
+            double value;
+            if (!tok || parse_real_as(tok, pr->type, &value))
                 return ascii_bad_value(r, e, record, pr, tok);
+            if (pr->role == ROLE_TEXCOORD && face_uv(r, p, value))
+                return r->err.code;
             continue;
         }
         int64_t v;
@@ -1424,6 +1493,9 @@ static int binary_list_items(epsnet_reader *r, ply_reader *p, const ply_element 
         const uint8_t *q = need(s, k * isize);
         if (!q)
             return truncated_binary(r, e, p->record);
+        for (size_t i = 0; i < k && pr->role == ROLE_TEXCOORD; i++)
+            if (face_uv(r, p, p->codec->get_real[pr->type](q + i * isize)))
+                return r->err.code;
         if (pr->role == ROLE_INDICES) {
             for (size_t i = 0; i < k; i++) {
                 int64_t v = get(q + i * isize);
@@ -1697,6 +1769,7 @@ static void ply_reader_free(ply_reader *p)
     en_free(p->next);
     en_free(p->rec_label);
     en_free(p->corners);
+    en_free(p->fuv);
     for (int k = 0; k < 2; k++) {
         for (uint32_t i = 0; i < p->names[k].tab.count; i++)
             en_free(p->names[k].names[i]);
