@@ -589,8 +589,8 @@ static int face_labels(epsnet_reader *r, ply_reader *p, ply_element *face)
  * textured PLY). They travel as texture_u and texture_v of the face's
  * corners, as an OBJ's vt do: one record per distinct (vertex, labels,
  * u, v), so a UV seam is a seam (docs/architecture.md §13). A vertex
- * element with coordinates of its own keeps those, and the list is named
- * as dropped. */
+ * element with texture coordinates of its own keeps those, and the list
+ * is named as dropped. */
 static int face_texcoords(epsnet_reader *r, ply_reader *p, ply_element *face)
 {
     static const char *const uv[2] = { "texture_u", "texture_v" };
@@ -738,6 +738,7 @@ static int skip_header_line(epsnet_reader *r, const char *kw)
     en_reader_drop(r, name, 1, 1);
     return 0;
 }
+
 /* The text after a comment's words, without the blanks around it. */
 static char *comment_text(char *rest)
 {
@@ -768,7 +769,8 @@ static int header_comment(epsnet_reader *r, ply_reader *p, char *rest)
         /* MeshLab's and Metashape's texture image: its texcoord are read
          * (face_texcoords), the image's name has no place to go */
         char name[EN_DROP_NAME];
-        snprintf(name, sizeof name, "texture file %.200s (comment TextureFile)", what ? what : "");
+        snprintf(name, sizeof name, "texture file %.64s%s%.64s (comment TextureFile)", what ? what : "",
+                 what && *comment_text(rest) ? " " : "", comment_text(rest));
         en_reader_drop(r, name, 0, 0);
         return 0;
     }
