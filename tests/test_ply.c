@@ -130,7 +130,7 @@ static bytes make_ply(int enc, const layout *l)
     snprintf(line, sizeof line, "property list %s %s vertex_indices\n", l->count_type, l->index_type);
     b_str(&b, line);
     if (l->with_extras)
-        b_str(&b, "property list uchar float texcoord\nelement material 1\nproperty uchar ambient_red\n");
+        b_str(&b, "property list uchar float weights\nelement material 1\nproperty uchar ambient_red\n");
     b_str(&b, "end_header\n");
 
     if (l->with_extras) {
@@ -401,7 +401,7 @@ TEST(unused_elements_and_properties_are_named_as_dropped)
 {
     /* vertex scalars are carried as attributes (epsnet.h §2), not dropped */
     static const char *want =
-        "element camera (1), element edge (2), face property flags, face property texcoord, "
+        "element camera (1), element edge (2), face property flags, face property weights, "
         "element material (1)";
     for (int enc = ASCII; enc <= BE; enc++) {
         layout l = { 1, "uchar", "int" };
