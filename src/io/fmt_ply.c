@@ -769,7 +769,7 @@ static int header_comment(epsnet_reader *r, ply_reader *p, char *rest)
         /* MeshLab's and Metashape's texture image: its texcoord are read
          * (face_texcoords), the image's name has no place to go */
         char name[EN_DROP_NAME];
-        snprintf(name, sizeof name, "texture file %.64s%s%.64s (comment TextureFile)", what ? what : "",
+        snprintf(name, sizeof name, "texture file %.48s%s%.48s (comment TextureFile)", what ? what : "",
                  what && *comment_text(rest) ? " " : "", comment_text(rest));
         en_reader_drop(r, name, 0, 0);
         return 0;
