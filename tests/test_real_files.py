@@ -647,6 +647,10 @@ def material_names_ride_in_a_ply_header():
     assert ("comment epsnet mtllib my lib.mtl\ncomment epsnet material_index 0\n"
             "comment epsnet material_index 1 oak  wood\ncomment epsnet material_index 2 steel\n"
             "comment epsnet group_index 0 part one\ncomment epsnet group_index 1\n") in head, head
+    for p in (obj, path("names.ply")):
+        rc, out, err = run("info", p)
+        assert rc == 0 and "materials:   3 (mtllib my lib.mtl): '', 'oak  wood', 'steel'\n" in out, out
+        assert "groups:      2: 'part one', ''\n" in out, out
     rc, _, err = run("convert", path("names.ply"), "-o", path("names_again.ply"), "-q")
     assert rc == 0 and err == "", err
     assert open(path("names_again.ply"), "rb").read() == open(path("names.ply"), "rb").read()

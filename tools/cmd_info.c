@@ -127,6 +127,19 @@ done:
                    al->attr[i].of_face ? " (a face's)" : "", i + 1 < al->count ? "," : "");
         printf(" (%u bytes per vertex)\n", al->size);
     }
+    /* the names a material_index and a group_index stand for (OBJ's usemtl and g, a PLY's header
+     * comments: epsnet.h epsnet_face_names), the first few of them */
+    const epsnet_face_names *names[2] = { hi->materials, hi->groups };
+    for (int k = 0; k < 2; k++) {
+        if (!names[k])
+            continue;
+        printf("%s %u", k ? "groups:     " : "materials:  ", names[k]->count);
+        if (names[k]->library)
+            printf(" (mtllib %s)", names[k]->library);
+        for (uint32_t i = 0; i < names[k]->count && i < 8; i++)
+            printf("%s'%s'", i ? ", " : ": ", names[k]->names[i]);
+        printf("%s\n", names[k]->count > 8 ? ", ..." : "");
+    }
     /* docs/architecture.md §5: what the records do not carry, which every other command drops */
     const char *dropped = epsnet_reader_dropped(r, NULL);
     if (dropped)
