@@ -127,6 +127,8 @@ int en_format_holds_every_attr(const epsnet_attr_layout *l, uint32_t i)
     return 1;
 }
 
+const char *const en_face_label_attr[2] = { "material_index", "group_index" };
+
 int en_face_names_copy_of(en_face_names_copy *to, const epsnet_face_names *from)
 {
     memset(to, 0, sizeof *to);

@@ -87,10 +87,9 @@ typedef struct obj_position {
 } obj_position;
 
 /* The face labels (epsnet.h epsnet_face_names), [0] materials and [1]
- * groups, for the reader and the writer alike: the statement and the
- * vertex attribute each travels as. */
+ * groups, for the reader and the writer alike: the statement each is (its
+ * attribute: en_face_label_attr). */
 static const char *const label_keyword[2] = { "usemtl", "g" };
-static const char *const label_attr[2] = { "material_index", "group_index" };
 
 /* A face label of the reader (label_keyword[k]).
  * file_on when its statement comes before the first face, on while its
@@ -484,17 +483,6 @@ static int use_label(epsnet_reader *r, obj_reader *st, int k, const char *name, 
     return 0;
 }
 
-/* The rest of a statement after its keyword, without the blanks around it. */
-static const char *statement_text(const char *p, size_t *n)
-{
-    p = en_text_skip_blanks((char *)p);
-    size_t k = strlen(p);
-    while (k && (en_text_is_blank(p[k - 1]) || p[k - 1] == '\r'))
-        k--;
-    *n = k;
-    return p;
-}
-
 /* The record a corner names: in a plain file the position itself; in a file
  * whose records are corners, the record of (position, vt, vn). */
 static int corner_vertex(epsnet_reader *r, obj_reader *st, const int64_t idx[3], const int has[3], uint64_t *v)
@@ -600,14 +588,14 @@ static int parse_statement(epsnet_reader *r, char *stmt)
         obj_label *l = &st->label[k];
         size_t kw = strlen(label_keyword[k]), n;
         if (l->on && strncmp(p, label_keyword[k], kw) == 0 && en_text_ends_token(p[kw])) {
-            const char *name = statement_text(p + kw, &n);
+            const char *name = en_text_trim(p + kw, &n);
             return use_label(r, st, k, name, n);
         }
     }
     obj_label *mat = &st->label[0];
     if (mat->on && strncmp(p, "mtllib", 6) == 0 && en_text_ends_token(p[6]) && !mat->library) {
         size_t n;
-        const char *lib = statement_text(p + 6, &n);
+        const char *lib = en_text_trim(p + 6, &n);
         if (!(mat->library = en_malloc(n + 1)))
             return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
         memcpy(mat->library, lib, n);
@@ -781,7 +769,7 @@ static int obj_open_reader(epsnet_reader *r)
             continue;
         if (en_u64map_init(&l->by_name))
             return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
-        if (en_reader_add_attr_of(r, label_attr[k], EPSNET_ATTR_UINT16, 1) < 0)
+        if (en_reader_add_attr_of(r, en_face_label_attr[k], EPSNET_ATTR_UINT16, 1) < 0)
             return r->err.code;
         *(k ? &r->info.groups : &r->info.materials) = &l->tab;
     }
@@ -814,7 +802,7 @@ static void follow_kept_attrs(epsnet_reader *r, obj_reader *st)
         st->mute_vn = 1;
     }
     for (int k = 0; k < 2; k++)
-        if (st->label[k].on && epsnet_attr_layout_find(kept, label_attr[k]) < 0) {
+        if (st->label[k].on && epsnet_attr_layout_find(kept, en_face_label_attr[k]) < 0) {
             st->label[k].on = 0;
             *(k ? &r->info.groups : &r->info.materials) = NULL;
         }
@@ -1022,9 +1010,9 @@ static int obj_open_writer(epsnet_writer *w)
     for (int k = 0; k < 2; k++) {
         st->label[k].at = -1;
         st->label[k].current = UINT32_MAX;
-        int m = epsnet_attr_layout_find(&w->attrs, label_attr[k]);
+        int m = epsnet_attr_layout_find(&w->attrs, en_face_label_attr[k]);
         char what[80];
-        snprintf(what, sizeof what, "vertex property %s (no names to write)", label_attr[k]);
+        snprintf(what, sizeof what, "vertex property %s (no names to write)", en_face_label_attr[k]);
         if (m >= 0 && label_names(w, k))
             st->label[k].at = m;
         else if (m >= 0 && en_writer_drop(w, what))
@@ -1075,7 +1063,8 @@ static int obj_holds_attr(const epsnet_attr_layout *l, uint32_t i)
     if ((which & 2) && ((uint32_t)n[0] == i || (uint32_t)n[1] == i || (uint32_t)n[2] == i))
         return 1;
     /* a face's material and group, as usemtl and g (epsnet.h epsnet_face_names) */
-    return (strcmp(l->attr[i].name, label_attr[0]) == 0 || strcmp(l->attr[i].name, label_attr[1]) == 0) &&
+    const char *name = l->attr[i].name;
+    return (strcmp(name, en_face_label_attr[0]) == 0 || strcmp(name, en_face_label_attr[1]) == 0) &&
            l->attr[i].type == EPSNET_ATTR_UINT16;
 }
 
@@ -1083,7 +1072,7 @@ static int obj_holds_attr(const epsnet_attr_layout *l, uint32_t i)
  * (obj_holds_attr: uint16). */
 static int obj_holds_names(const epsnet_attr_layout *l, int k)
 {
-    return epsnet_attr_layout_find(l, label_attr[k]) >= 0;
+    return epsnet_attr_layout_find(l, en_face_label_attr[k]) >= 0;
 }
 
 /* Copy the 4-byte values of attributes at[0..n) of rec into key. */
@@ -1204,7 +1193,7 @@ static int put_labels(epsnet_writer *w, obj_writer *st, uint64_t corner)
         const epsnet_face_names *names = label_names(w, k);
         if (m >= names->count)
             return en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                                "%s %u of vertex %llu names nothing (%u names known)", label_attr[k], m,
+                                "%s %u of vertex %llu names nothing (%u names known)", en_face_label_attr[k], m,
                                 (unsigned long long)corner, names->count);
         st->label[k].current = m;
         int rc = 0;

@@ -37,6 +37,7 @@
 #include "common/alloc.h"
 #include "common/key_table.h"
 #include "io/format.h"
+#include "io/text_scan.h"
 
 #define PLY_NAME_MAX 64
 #define PLY_HEADER_LINE_MAX 65536
@@ -223,14 +224,14 @@ typedef struct ply_strip {
 /*
  * The names a face label stands for (epsnet.h epsnet_face_names): [0] the
  * materials of material_index with their `mtllib` text, [1] the groups of
- * group_index. PLY has no place for them, so the writer puts them in
- * header comments, one a value in order, which this reader takes back:
+ * group_index (en_face_label_attr). PLY has no place for them, so the
+ * writer puts them in header comments, one a value in order, which this
+ * reader takes back:
  *     comment epsnet mtllib LIBRARY
  *     comment epsnet material_index 0 NAME
  * A list out of order, or names whose property is not a face's ushort,
  * are named as dropped (header_names).
  */
-static const char *const label_prop[2] = { "material_index", "group_index" };
 typedef struct ply_names {
     epsnet_face_names tab;
     char **names;
@@ -739,24 +740,14 @@ static int skip_header_line(epsnet_reader *r, const char *kw)
     return 0;
 }
 
-/* The text after a comment's words, without the blanks around it. */
-static char *comment_text(char *rest)
+/* A copy of the n bytes of text at *to. */
+static int copy_text(epsnet_reader *r, char **to, const char *text, size_t n)
 {
-    while (*rest == ' ' || *rest == '\t')
-        rest++;
-    size_t n = strlen(rest);
-    while (n && (rest[n - 1] == ' ' || rest[n - 1] == '\t' || rest[n - 1] == '\r'))
-        rest[--n] = '\0';
-    return rest;
-}
-
-static int copy_text(epsnet_reader *r, char **to, const char *text)
-{
-    size_t n = strlen(text);
     char *c = en_malloc(n + 1);
     if (!c)
         return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
-    memcpy(c, text, n + 1);
+    memcpy(c, text, n);
+    c[n] = '\0';
     *to = c;
     return 0;
 }
@@ -764,25 +755,28 @@ static int copy_text(epsnet_reader *r, char **to, const char *text)
 /* A header comment: the names of a face label (ply_names), or free text. */
 static int header_comment(epsnet_reader *r, ply_reader *p, char *rest)
 {
-    char *tag = next_token(&rest), *what = tag ? next_token(&rest) : NULL;
+    char *tag = next_token(&rest);
+    size_t n;
     if (tag && strcmp(tag, "TextureFile") == 0) {
         /* MeshLab's and Metashape's texture image: its texcoord are read
          * (face_texcoords), the image's name has no place to go */
+        const char *file = en_text_trim(rest, &n);
         char name[EN_DROP_NAME];
-        snprintf(name, sizeof name, "texture file %.48s%s%.48s (comment TextureFile)", what ? what : "",
-                 what && *comment_text(rest) ? " " : "", comment_text(rest));
+        snprintf(name, sizeof name, "texture file %.*s (comment TextureFile)", n > 96 ? 96 : (int)n, file);
         en_reader_drop(r, name, 0, 0);
         return 0;
     }
+    char *what = tag ? next_token(&rest) : NULL;
     if (!what || strcmp(tag, "epsnet") != 0)
         return 0;
     if (strcmp(what, "mtllib") == 0) {
         en_free(p->names[0].library);
         p->names[0].library = NULL;
-        return copy_text(r, &p->names[0].library, comment_text(rest));
+        const char *lib = en_text_trim(rest, &n);
+        return copy_text(r, &p->names[0].library, lib, n);
     }
     for (int k = 0; k < 2; k++) {
-        if (strcmp(what, label_prop[k]) != 0)
+        if (strcmp(what, en_face_label_attr[k]) != 0)
             continue;
         ply_names *l = &p->names[k];
         char *num = next_token(&rest), *end = NULL;
@@ -793,7 +787,8 @@ static int header_comment(epsnet_reader *r, ply_reader *p, char *rest)
         }
         if (en_grow((void **)&l->names, &l->cap, (size_t)l->tab.count + 1, sizeof *l->names))
             return en_reader_fail(r, EPSNET_ENOMEM, "out of memory");
-        int rc = copy_text(r, &l->names[l->tab.count], comment_text(rest));
+        const char *text = en_text_trim(rest, &n);
+        int rc = copy_text(r, &l->names[l->tab.count], text, n);
         if (rc)
             return rc;
         l->tab.names = (const char *const *)l->names;
@@ -818,12 +813,12 @@ static void header_names(epsnet_reader *r, ply_reader *p)
             continue;
         for (size_t j = 0; face && j < face->nprops; j++) {
             const ply_property *pr = &face->props[j];
-            if (strcmp(pr->name, label_prop[k]) == 0 && pr->role == ROLE_LABEL && pr->type == PLY_UINT16)
+            if (strcmp(pr->name, en_face_label_attr[k]) == 0 && pr->role == ROLE_LABEL && pr->type == PLY_UINT16)
                 l->at = pr->attr_offset;
         }
         char name[EN_DROP_NAME];
         if (l->at < 0 || l->out_of_order) {
-            snprintf(name, sizeof name, "header comments naming %s (%s)", label_prop[k],
+            snprintf(name, sizeof name, "header comments naming %s (%s)", en_face_label_attr[k],
                      l->out_of_order ? "not numbered 0, 1, 2, ... in order" : "no face property ushort of that name");
             en_reader_drop(r, name, 0, 0);
             l->at = -1;
@@ -846,7 +841,7 @@ static int check_label_names(epsnet_reader *r, const ply_reader *p, uint64_t rec
         if (m >= p->names[k].tab.count)
             return en_reader_fail(r, EPSNET_EFORMAT,
                                   "face %" PRIu64 ": %s %u has no name (the header's comments name %u)", record + 1,
-                                  label_prop[k], m, p->names[k].tab.count);
+                                  en_face_label_attr[k], m, p->names[k].tab.count);
     }
     return 0;
 }
@@ -1811,7 +1806,7 @@ static int ply_fill(epsnet_reader *r)
          * there: en_reader_keep_attrs) */
         p->started = 1;
         for (int k = 0; k < 2; k++)
-            if (p->names[k].at >= 0 && epsnet_attr_layout_find(&r->info.vertex_attrs, label_prop[k]) < 0) {
+            if (p->names[k].at >= 0 && epsnet_attr_layout_find(&r->info.vertex_attrs, en_face_label_attr[k]) < 0) {
                 p->names[k].at = -1;
                 *(k ? &r->info.groups : &r->info.materials) = NULL;
             }
@@ -1901,7 +1896,7 @@ typedef struct ply_writer {
      * face bytes), which is a distinct vertex at the same place. Per
      * record: its vertex, and its face bytes for the faces naming it. */
     int faced;
-    /* The names of label_prop[k] to write (ply_names): where a record's
+    /* The names of en_face_label_attr[k] to write (ply_names): where a record's
      * value is, and a copy of the names taken while records are put, the
      * only time the table is sure to live (epsnet.h epsnet_mesh_info). */
     int names[2];
@@ -2103,7 +2098,7 @@ static int emit_face(epsnet_writer *w, const ply_writer *p, const uint32_t v[3],
  * ushort, which is what the reader takes names for (header_names). */
 static int ply_holds_names(const epsnet_attr_layout *l, int k)
 {
-    int i = epsnet_attr_layout_find(l, label_prop[k]);
+    int i = epsnet_attr_layout_find(l, en_face_label_attr[k]);
     return i >= 0 && l->attr[i].of_face && l->attr[i].type == EPSNET_ATTR_UINT16;
 }
 
@@ -2142,7 +2137,7 @@ static int ply_open_writer(epsnet_writer *w)
     for (int k = 0; k < 2; k++) {
         p->names[k] = ply_holds_names(p->attrs, k) && (k ? w->info.groups : w->info.materials) != NULL;
         if (p->names[k])
-            p->name_at[k] = p->attrs->attr[epsnet_attr_layout_find(p->attrs, label_prop[k])].offset;
+            p->name_at[k] = p->attrs->attr[epsnet_attr_layout_find(p->attrs, en_face_label_attr[k])].offset;
     }
     char hdr[PLY_WRITE_HEADER_MAX];
     if (p->names[0] || p->names[1]) {
@@ -2260,7 +2255,7 @@ static int copy_names(epsnet_writer *w, ply_writer *p, const uint8_t *attr)
         const epsnet_face_names *t = k ? w->info.groups : w->info.materials;
         if (m >= t->count)
             return en_error_set(&w->err, EPSNET_EINVAL, w->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                                "%s %u of vertex %" PRIu64 " names nothing (%u names known)", label_prop[k], m,
+                                "%s %u of vertex %" PRIu64 " names nothing (%u names known)", en_face_label_attr[k], m,
                                 w->nverts, t->count);
         en_face_names_copy_free(c);
         if (en_face_names_copy_of(c, t))
@@ -2387,7 +2382,7 @@ static int put_names(epsnet_writer *w, const ply_writer *p)
             return rc;
         for (uint32_t i = 0; i < t->count; i++) {
             char num[48];
-            int n = snprintf(num, sizeof num, "%s %u%s", label_prop[k], i, *t->names[i] ? " " : "");
+            int n = snprintf(num, sizeof num, "%s %u%s", en_face_label_attr[k], i, *t->names[i] ? " " : "");
             if ((rc = en_writer_bytes(w, head, sizeof head - 1)) || (rc = en_writer_bytes(w, num, (size_t)n)) ||
                 (rc = en_writer_bytes(w, t->names[i], strlen(t->names[i]))) || (rc = en_writer_bytes(w, "\n", 1)))
                 return rc;

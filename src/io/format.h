@@ -164,6 +164,10 @@ int en_attr_layout_check(const epsnet_attr_layout *l, char *why, size_t why_len)
  * layout's attribute keeps its mark). */
 int en_attr_layout_add_as(epsnet_attr_layout *l, const char *name, epsnet_attr_type type, int of_face);
 
+/* The attributes a face's labels travel as (epsnet.h epsnet_face_names):
+ * [0] the material's index, [1] the group's; uint16, a face's. */
+extern const char *const en_face_label_attr[2];
+
 /* A copy of a stream's face labels (epsnet.h epsnet_face_names) that
  * outlives its reader, in one allocation: a sort closes the reader before
  * the writer reads the names. from NULL: an empty copy whose `of` is NULL.

@@ -23,6 +23,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "epsnet/epsnet.h"
 #include "io/source.h"
@@ -40,6 +41,18 @@ static inline char *en_text_skip_blanks(char *p)
 {
     while (en_text_is_blank(*p))
         p++;
+    return p;
+}
+
+/* p without the blanks around it (a statement's or a comment's text): its
+ * start, and its length into *n. */
+static inline const char *en_text_trim(const char *p, size_t *n)
+{
+    p = en_text_skip_blanks((char *)p);
+    size_t k = strlen(p);
+    while (k && en_text_is_blank(p[k - 1]))
+        k--;
+    *n = k;
     return p;
 }
 
