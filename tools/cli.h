@@ -40,6 +40,10 @@ int cmd_check(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 
 extern int cli_quiet;        /* -q: no progress, no summaries */
+/* The ranks of a shared run (epsnet-mpi, tools/epsnet_mpi.c), or NULL.
+ * Only rank 0 prints: the others' errors, usage errors and warnings are
+ * rank 0's too, and they exit with the same status. */
+extern const epsnet_peers *cli_peers;
 
 /* Print "epsnet: MESSAGE" for err and return the exit code for its class. */
 int cli_fail(const epsnet_error *err);

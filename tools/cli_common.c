@@ -25,14 +25,26 @@ int cli_exit_code(int code)
     }
 }
 
+const epsnet_peers *cli_peers;
+
+/* Another rank of a shared run says nothing: rank 0 speaks for the run,
+ * which gives every rank the same status (epsnet.h section 8a). */
+static int silent(void)
+{
+    return cli_peers && cli_peers->rank != 0;
+}
+
 int cli_fail(const epsnet_error *err)
 {
-    fprintf(stderr, "epsnet: %s\n", epsnet_error_message(err));
+    if (!silent())
+        fprintf(stderr, "epsnet: %s\n", epsnet_error_message(err));
     return cli_exit_code(err->code);
 }
 
 int cli_usage_error(const char *cmd, const char *fmt, ...)
 {
+    if (silent())
+        return EXIT_USAGE;
     va_list ap;
     fprintf(stderr, "epsnet %s: ", cmd);
     va_start(ap, fmt);
@@ -134,6 +146,8 @@ int cli_run_progress_cb(void *opaque, uint64_t done, uint64_t total)
 
 void cli_warning(void *opaque, const char *message)
 {
+    if (silent())
+        return;
     const cli_progress *p = opaque;
     if (p && p->enabled)
         fprintf(stderr, "\r%*s\r", 100, "");

@@ -162,6 +162,9 @@ int cmd_simplify(int argc, char **argv)
 
     epsnet_error err;
     epsnet_context *ctx = NULL;
+    m.settings.peers = cli_peers;
+    if (cli_peers && cli_peers->rank != 0)
+        cli_quiet = 1; /* rank 0 reports for the run */
     cli_run_progress prog = { 0 };
     cli_progress_begin(&prog.bar, "simplify faces");
     m.settings.progress = cli_run_progress_cb;
@@ -173,7 +176,7 @@ int cmd_simplify(int argc, char **argv)
     if (rc == 0)
         rc = epsnet_simplify_file(ctx, argv[optind], out, &err);
     cli_progress_end(&prog.bar);
-    if (rc == 0 && m.stats_path)
+    if (rc == 0 && m.stats_path && !(cli_peers && cli_peers->rank != 0))
         rc = epsnet_stats_write_json(ctx, "simplify", m.stats_path, &err);
     if (rc == 0 && !cli_quiet) {
         const epsnet_stats *s = epsnet_context_stats(ctx);

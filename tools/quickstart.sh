@@ -10,6 +10,8 @@ mode=${1:-demo}
 # (python3-*: the Python package, built and tested by `test` in a venv)
 packages="gcc libc6-dev meson ninja-build pkg-config libzstd-dev libpng-dev zstd python3
           python3-dev python3-venv python3-numpy python3-mesonpy python3-pytest"
+# (test only: Open MPI, for epsnet-mpi and its test; the plain build needs none of it)
+if [ "$mode" = test ]; then packages="$packages openmpi-bin libopenmpi-dev"; fi
 missing=""
 for p in $packages; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
@@ -41,7 +43,8 @@ test)
     status=0
     # Warnings are errors here (house rule); both suites at the optimisation
     # users get (-O3, where compiler bugs show up) with asserts still on.
-    [ -d build-ci ] || meson setup build-ci -Dwerror=true --buildtype=release -Db_ndebug=false >/dev/null
+    # (-Dmpi=auto: epsnet-mpi and its test `mpi` where Open MPI is installed)
+    [ -d build-ci ] || meson setup build-ci -Dwerror=true --buildtype=release -Db_ndebug=false -Dmpi=auto >/dev/null
     ninja -C build-ci >/dev/null
     # The Python package (pyproject.toml, python/) into a venv that sees
     # Debian's numpy and meson-python; its pytest suite is build-ci's test
@@ -68,12 +71,14 @@ test)
     # Thread sanitizer over the tests that run threads.
     [ -d build-tsan ] || meson setup build-tsan -Dwerror=true -Db_sanitize=thread -Db_lundef=false \
         --buildtype=debug -Dslow_tests=false >/dev/null
-    ninja -C build-tsan tests/test_pool tests/test_hausdorff tests/test_pipeline tests/test_arrays tools/epsnet >/dev/null
+    ninja -C build-tsan tests/test_pool tests/test_hausdorff tests/test_pipeline tests/test_arrays tests/test_peers \
+        tools/epsnet >/dev/null
     # (of `target`, only its cases through the target stage's rounds and its pricing windows, where
     # its threads meet: CI time)
     TSAN_OPTIONS=halt_on_error=1 \
     EPSNET_TEST_ONLY=a_target_whose_finish_is_over_the_budget_goes_through_rounds_on_slabs,a_long_stream_is_thinned_under_a_ceiling_priced_from_windows \
-        meson test -C build-tsan --no-rebuild pool hausdorff pipeline arrays target \
+    EPSNET_PEERS_ONLY=three_ranks_of_two_workers_give_one_process_bytes,a_rank_that_fails_alone_stops_every_rank_and_is_named \
+        meson test -C build-tsan --no-rebuild pool hausdorff pipeline arrays target peers \
         --num-processes "$jobs" --print-errorlogs || status=1
     exit $status
     ;;

@@ -721,7 +721,10 @@ typedef struct epsnet_settings {
      * or an input the run sorts): else EPSNET_EINVAL, as for a property the
      * input does not have. NULL: none. Default: NULL. */
     const char *attribute_weights;
-    uint8_t reserved[32]; /* (after drop_normals' padding: the structure keeps its size) */
+    /* epsnet_simplify_file() only: the processes that share this run's
+     * slabs (section 8a). NULL: one process. Default: NULL. */
+    const struct epsnet_peers *peers;
+    uint8_t reserved[24]; /* (after drop_normals' padding: the structure keeps its size) */
 } epsnet_settings;
 
 EPSNET_API void epsnet_default_settings(epsnet_settings *s);
@@ -897,6 +900,42 @@ EPSNET_API int epsnet_stats_write_json(const epsnet_context *ctx, const char *co
  */
 EPSNET_API int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *out_path,
                                     epsnet_error *err);
+
+/* ------------------------------------------------------------------------
+ * 8a. One run shared among processes (docs/distributed.md)
+ *
+ * settings.peers makes epsnet_simplify_file() one of `size` processes
+ * (MPI ranks, or anything that can carry bytes between them) that run it
+ * together, each with its own threads. Every process calls it with the same
+ * input, output path and settings, peers.rank aside. Each reads the input
+ * and cuts the same slabs, from the input and the settings alone; each
+ * slab's classification and collapses run in one process only; rank 0
+ * receives every slab's result, stitches the seams, runs a size target's
+ * rounds and writes the output. The other ranks write nothing. The output
+ * bytes are those of the one-process run, for every size and thread count.
+ *
+ * Every process returns the same status: 0 when every one succeeded, else
+ * the first failure's code, with rank 0's own error or, when the failure
+ * was elsewhere, that rank's, its reason prefixed with "rank R: " (rank 0
+ * names the others' failures before its own only when they came first).
+ * Rank 0 commits the output only when every rank succeeded.
+ *
+ * The transport. Each send is matched by exactly one recv of the same size
+ * on the other side, in the order sent between that pair of ranks. Messages
+ * from rank 0 are small, and rank 0 sends one only to a rank that is
+ * waiting for it, so a send may block until the receiver takes it (MPI_Send
+ * semantics). A non-zero return from either function fails the run with
+ * EPSNET_EIO. Both are called from the thread that called
+ * epsnet_simplify_file() only (MPI_THREAD_FUNNELED suffices).
+ * ------------------------------------------------------------------------ */
+
+typedef struct epsnet_peers {
+    int rank;                     /* this process: 0 ... size - 1 */
+    int size;                     /* processes in the run, at least 1 */
+    void *opaque;
+    int (*send)(void *opaque, int to, const void *buf, size_t n);
+    int (*recv)(void *opaque, int from, void *buf, size_t n);
+} epsnet_peers;
 
 /* ------------------------------------------------------------------------
  * 8b. Streaming: push records in, pull records out (docs/architecture.md §7)

@@ -216,6 +216,9 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
                 en_pool *pool, en_stage out, en_sample_fn on_sample, void *sample_opaque, epsnet_error *err)
 {
     memset(run, 0, sizeof *run);
+    if (ctx->settings.peers && !ctx->peers)
+        return en_error_set(err, EPSNET_EINVAL, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "settings.peers: only epsnet_simplify_file() shares its run among processes");
     if (budget)
         run->budget = *budget;
     else
@@ -300,7 +303,9 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
             if (rc)
                 return rc;
         }
-        out = en_target_stage_input(run->stage);
+        /* another rank's thinning stitches nothing: rank 0 runs the rounds */
+        if (!ctx->peers || en_peer_rank(ctx->peers) == 0)
+            out = en_target_stage_input(run->stage);
     }
     en_chain_config cfg = {
         .mode = mode,
@@ -326,6 +331,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         .on_sample = on_sample,
         .sample_opaque = sample_opaque,
         .spares = &run->spares,
+        .peers = mode == EN_SLAB_SIMPLIFY ? ctx->peers : NULL,
     };
     rc = en_chain_new(&run->chain, &cfg, run->pool, err);
     if (rc == 0)

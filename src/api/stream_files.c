@@ -358,6 +358,25 @@ static int open_writer(void *opaque, const epsnet_mesh_info *in, en_pool *pool, 
     return rc;
 }
 
+static int discard_put(void *self, const epsnet_record *rec, epsnet_error *err)
+{
+    (void)self;
+    (void)rec;
+    (void)err;
+    return 0;
+}
+
+/* Another rank's output: none (epsnet.h section 8a). */
+static int open_nothing(void *opaque, const epsnet_mesh_info *in, en_pool *pool, en_stage *out, epsnet_error *err)
+{
+    (void)opaque;
+    (void)in;
+    (void)pool;
+    (void)err;
+    *out = (en_stage){ discard_put, NULL, NULL };
+    return 0;
+}
+
 static void release_writer(void *opaque)
 {
     file_out *f = opaque;
@@ -371,8 +390,16 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
                             "epsnet_simplify_file: NULL argument");
     snprintf(ctx->command, sizeof ctx->command, "simplify");
     file_out f = { ctx, out_path, NULL };
-    int rc = en_simplify_streamed(ctx, in_path, NULL, out_path, en_format_by_path(out_path), open_writer,
-                                  release_writer, &f, err);
+    /* shared among processes (epsnet.h section 8a): rank 0 writes, the
+     * others run their slabs into nothing */
+    int rc = 0, writes = 1;
+    if (ctx->settings.peers) {
+        rc = en_peer_link_new(&ctx->peers, ctx->settings.peers, in_path, err);
+        writes = rc == 0 && en_peer_rank(ctx->peers) == 0;
+    }
+    if (rc == 0)
+        rc = en_simplify_streamed(ctx, in_path, NULL, out_path, en_format_by_path(out_path),
+                                  writes ? open_writer : open_nothing, writes ? release_writer : NULL, &f, err);
     /* what the writer leaves out (only the lock property can get this far
      * unfiltered: the reader kept every attribute for it) */
     uint64_t left_out = 0;
@@ -383,7 +410,15 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
         ctx->settings.warning(ctx->settings.warning_opaque, msg);
     }
     ctx->stats.dropped += left_out;
-    if (rc == 0)
+    if (ctx->peers) {
+        /* the output whole in its temporary file, then every rank's end
+         * and one verdict, before it is moved into place */
+        if (rc == 0 && f.w)
+            rc = en_writer_settle(f.w, err);
+        rc = en_peer_agree(ctx->peers, rc, err);
+        en_peer_link_free(&ctx->peers);
+    }
+    if (rc == 0 && f.w)
         rc = epsnet_writer_commit(&f.w, err);
     else
         epsnet_writer_abort(&f.w);

@@ -270,6 +270,11 @@ int en_reader_use_pool(epsnet_reader *r, struct en_pool *pool);
  * on the caller's thread). */
 int en_writer_use_pool(epsnet_writer *w, struct en_pool *pool);
 
+/* The output complete in its temporary file (the driver's finish, then
+ * en_sink_settle): what can fail fails here, and epsnet_writer_commit then
+ * only moves it into place. @return 0 or a negative code with err. */
+int en_writer_settle(epsnet_writer *w, epsnet_error *err);
+
 /* Pass r's note (epsnet_reader_note()) as one line, then what r dropped
  * (epsnet_reader_dropped()) as one line "PATH: dropped: ...", to a warning
  * callback: nothing when there is neither or warning is NULL. Call it once the mesh has been read to its end.

@@ -125,6 +125,7 @@ struct en_sink {
     uint8_t *zout;
     size_t zout_cap;
     int failed;
+    int settled;             /* en_sink_settle flushed everything: commit only moves it */
     epsnet_error err;
 };
 
@@ -381,6 +382,18 @@ void en_sink_abort(en_sink **ps)
     *ps = NULL;
 }
 
+int en_sink_settle(en_sink *s, epsnet_error *err)
+{
+    if (s->failed) {
+        if (err)
+            *err = s->err;
+        return s->err.code;
+    }
+    int rc = s->settled ? 0 : flush_buf(s, s->zc ? ZSTD_e_end : ZSTD_e_continue, err);
+    s->settled = rc == 0;
+    return rc;
+}
+
 int en_sink_commit(en_sink **ps, epsnet_error *err)
 {
     en_sink *s = *ps;
@@ -391,7 +404,7 @@ int en_sink_commit(en_sink **ps, epsnet_error *err)
             *err = s->err;
         goto fail;
     }
-    if ((rc = flush_buf(s, s->zc ? ZSTD_e_end : ZSTD_e_continue, err)))
+    if (!s->settled && (rc = flush_buf(s, s->zc ? ZSTD_e_end : ZSTD_e_continue, err)))
         goto fail;
     if (s->is_stdout) {
         sink_free(s);

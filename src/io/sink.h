@@ -42,6 +42,12 @@ int en_sink_can_patch(const en_sink *s);
  * nothing is left at the path. */
 int en_sink_commit(en_sink **s, epsnet_error *err);
 
+/* Everything written so far into the temporary file (a compressed sink's
+ * frame ended), so that what can fail for lack of room fails here; then
+ * only en_sink_commit (the move into place) or en_sink_abort. For an output
+ * that other processes must agree to first (epsnet.h section 8a). */
+int en_sink_settle(en_sink *s, epsnet_error *err);
+
 /* Discard; frees s and sets *s to NULL. Accepts NULL. */
 void en_sink_abort(en_sink **s);
 

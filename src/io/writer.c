@@ -253,22 +253,40 @@ int en_writer_use_pool(epsnet_writer *w, struct en_pool *pool)
     return w->fmt->writer_use_pool(w, pool);
 }
 
+/* The driver's end of the file (once: fmt is NULL after it). */
+static int finish(epsnet_writer *w, epsnet_error *err)
+{
+    if (!w->fmt)
+        return 0;
+    int rc = w->failed ? (w->err.code ? w->err.code : EPSNET_EIO) : w->fmt->finish(w);
+    if (rc) {
+        if (err)
+            *err = w->err;
+        return rc;
+    }
+    if (w->fmt->close_writer)
+        w->fmt->close_writer(w);
+    w->fmt = NULL;
+    return 0;
+}
+
+int en_writer_settle(epsnet_writer *w, epsnet_error *err)
+{
+    int rc = finish(w, err);
+    return rc ? rc : en_sink_settle(w->sink, err);
+}
+
 int epsnet_writer_commit(epsnet_writer **pw, epsnet_error *err)
 {
     epsnet_writer *w = pw ? *pw : NULL;
     if (!w)
         return en_error_set(err, EPSNET_EINVAL, NULL, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "epsnet_writer_commit: NULL writer");
-    int rc = w->failed ? (w->err.code ? w->err.code : EPSNET_EIO) : w->fmt->finish(w);
+    int rc = finish(w, err);
     if (rc) {
-        if (err)
-            *err = w->err;
         epsnet_writer_abort(pw);
         return rc;
     }
-    if (w->fmt->close_writer)
-        w->fmt->close_writer(w);
-    w->fmt = NULL;
     rc = en_sink_commit(&w->sink, err);
     epsnet_writer_abort(pw);
     return rc;

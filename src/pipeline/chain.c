@@ -301,6 +301,30 @@ static void pass_recycle(en_pass *p, en_slab_work *w)
     p->returned[p->nreturned++] = w;
 }
 
+/* Is pass p's slab work shared among processes (pipeline/peers.h)? Pass 1
+ * of a simplification only: the passes after it take rank 0's stitched
+ * stream, which only rank 0 has. */
+static en_peer_link *shared(const en_pass *p)
+{
+    const en_chain_config *cfg = &p->chain->cfg;
+    return p->index == 0 && cfg->mode == EN_SLAB_SIMPLIFY ? cfg->peers : NULL;
+}
+
+/* Does another process work slab k of pass p? */
+static int remote(const en_pass *p, uint64_t k)
+{
+    en_peer_link *l = shared(p);
+    return l && en_peer_of_slab(k, en_peer_count(l)) != en_peer_rank(l);
+}
+
+/* A slab of rank 0's that another rank works keeps its place in the ring
+ * with this job; its results come at its retire. */
+static int worked_elsewhere(void *job)
+{
+    (void)job;
+    return 0;
+}
+
 /* The stitcher's output stage while a take runs (worker's thread): the
  * take's records wait in the job's buffer, or go straight on when the
  * chain's output stage may be called here (en_chain_config.out_on_workers;
@@ -396,6 +420,20 @@ static int retire_one(en_pass *p, epsnet_error *err)
     if (!en_jobring_retire(p->ring, &job, &result))
         return 0;
     en_slab_work *w = job;
+    en_peer_link *peers = shared(p);
+    if (peers && en_peer_rank(peers) != 0) {
+        /* another rank's: its results go to rank 0, which stitches */
+        p->in_flight_elements -= (uint64_t)w->s.nv + w->s.nt + w->membrane_faces;
+        int rc = result;
+        if (rc)
+            *err = w->err;
+        else
+            rc = en_peer_send_slab(peers, w, err);
+        pass_recycle(p, w);
+        return rc;
+    }
+    if (result == 0 && remote(p, w->index))
+        result = en_peer_recv_slab(peers, w, &w->err);
     /* the worker may have dropped membrane faces (slab_work.c) */
     p->in_flight_elements -= (uint64_t)w->s.nv + w->s.nt + w->membrane_faces;
     int rc = result;
@@ -523,16 +561,53 @@ static uint32_t chosen_frequency(const en_pass *p)
     return 1u << en_skeleton_level(p->level_total, en_level_of(p->g.n), budget);
 }
 
+/*
+ * Shared slabs (pipeline/peers.h): the ranks meet before slab k, the first
+ * one and each where the candidate may fall (checkpoint): rank 0 lowers it
+ * from every earlier slab's counts, its own and the others', and tells the
+ * others; another rank sends what it has worked first.
+ */
+static int meet(en_pass *p, uint64_t k, int checkpoint, epsnet_error *err)
+{
+    en_peer_link *l = shared(p);
+    int rc = 0;
+    if (en_peer_rank(l) == 0) {
+        if (checkpoint)
+            rc = lower_candidate(p, err);
+    } else {
+        while (rc == 0 && en_jobring_in_flight(p->ring))
+            rc = retire_one(p, err);
+    }
+    uint32_t n = p->g.n;
+    if (rc == 0)
+        rc = en_peer_meet(l, k, &n, err);
+    if (rc == 0 && n != p->g.n) {
+        gauss_rotation rot = p->g.rot;
+        if (gauss_init(&p->g, n, &rot))
+            rc = en_error_set(err, EPSNET_ENOMEM, p->chain->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                              "out of memory");
+    }
+    return rc;
+}
+
 static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
 {
     en_chain *c = p->chain;
-    if (p->plan && p->plan->skeleton == EN_SKELETON_CHOSEN && !p->plan->one_slab && c->cfg.mode == EN_SLAB_SIMPLIFY &&
-        w->index > 0 && (!(w->index & (w->index - 1)) || w->index % CANDIDATE_EVERY == 0)) {
-        int rc = lower_candidate(p, err);
+    int checkpoint = p->plan && p->plan->skeleton == EN_SKELETON_CHOSEN && !p->plan->one_slab &&
+                     c->cfg.mode == EN_SLAB_SIMPLIFY && w->index > 0 &&
+                     (!(w->index & (w->index - 1)) || w->index % CANDIDATE_EVERY == 0);
+    en_peer_link *peers = shared(p);
+    if (checkpoint || (peers && w->index == 0)) {
+        int rc = peers ? meet(p, w->index, checkpoint, err) : lower_candidate(p, err);
         if (rc) {
             free_work(w);
             return rc;
         }
+    }
+    int elsewhere = remote(p, w->index);
+    if (elsewhere && en_peer_rank(peers) != 0) {
+        pass_recycle(p, w); /* rank 0 has it, and the rank that works it */
+        return 0;
     }
     w->g = &p->g;
     w->mode = c->cfg.mode;
@@ -551,7 +626,12 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     if (rc == 0) {
         p->in_flight_elements += (uint64_t)w->s.nv + w->s.nt;
         note_active(c);
-        rc = en_jobring_submit(p->ring, en_slab_work_run, w);
+        rc = en_jobring_submit(p->ring, elsewhere ? worked_elsewhere : en_slab_work_run, w);
+        /* another rank sends what is done at once: rank 0 may be waiting */
+        while (rc == 0 && peers && en_peer_rank(peers) != 0 && en_jobring_in_flight(p->ring) &&
+               en_jobring_ready(p->ring))
+            if ((rc = retire_one(p, err)) != 0)
+                return rc;
         if (rc) {
             p->in_flight_elements -= (uint64_t)w->s.nv + w->s.nt;
             en_error_set(err, rc, c->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE, "worker pool refused a slab");
@@ -750,11 +830,14 @@ static int pass_end(void *self, epsnet_error *err)
         rc = tick(p, 1, err); /* with one thread, the only report */
     if (rc || p->chain->cfg.mode != EN_SLAB_SIMPLIFY)
         return rc;
-    rc = stitch_retire(p, err);
-    if (rc == 0)
-        rc = en_stitcher_finish(&p->st, err);
-    if (rc == 0)
-        rc = flush(p, err);
+    en_peer_link *peers = shared(p);
+    if (!peers || en_peer_rank(peers) == 0) { /* another rank stitches nothing */
+        rc = stitch_retire(p, err);
+        if (rc == 0)
+            rc = en_stitcher_finish(&p->st, err);
+        if (rc == 0)
+            rc = flush(p, err);
+    }
     if (rc == 0) {
         /* the pass is over: what it holds goes before the next stage's end,
          * which may run long (a target's rounds, pipeline/target_stage.h) */

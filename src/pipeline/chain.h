@@ -18,6 +18,7 @@
 #include "common/stage.h"
 #include "core/collapse.h"
 #include "core/gauss.h"
+#include "pipeline/peers.h"
 #include "pipeline/slab_work.h"
 
 /* A sample found by a SAMPLE-mode chain, in slab order (ids increase
@@ -98,6 +99,11 @@ typedef struct en_chain_config {
     int out_on_workers;
     en_sample_fn on_sample;       /* SAMPLE: where samples go */
     void *sample_opaque;
+    /* SIMPLIFY: pass 1's slabs shared among processes (pipeline/peers.h):
+     * this rank works its slabs; rank 0 takes the others' results and
+     * stitches, another rank sends its results and stitches nothing, and
+     * its later passes and out see no record. NULL: one process. */
+    en_peer_link *peers;
 } en_chain_config;
 
 /* What a run of the chain did (the api turns it into epsnet_stats). */
