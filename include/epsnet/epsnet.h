@@ -13,7 +13,9 @@
  *   5. Generating   - synthetic meshes of any size, written as a stream.
  *   6. Settings     - the job context and its settings, statistics.
  *   7. Sampling     - classify every vertex as sample or not (paper §4).
- *   8. Simplifying  - keep only the samples: the shape approximation.
+ *   8. Simplifying  - keep only the samples: the shape approximation;
+ *                     8a: one run shared among processes (MPI ranks);
+ *                     8b: the push/pull stream.
  *   9. Measuring    - Metro-style distance and normal deviation between two
  *                     meshes (epsnet hausdorff).
  *  10. Sorting      - any mesh, of any size, into a spatially sorted,

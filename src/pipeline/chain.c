@@ -425,10 +425,12 @@ static int retire_one(en_pass *p, epsnet_error *err)
         /* another rank's: its results go to rank 0, which stitches */
         p->in_flight_elements -= (uint64_t)w->s.nv + w->s.nt + w->membrane_faces;
         int rc = result;
-        if (rc)
+        if (rc) {
             *err = w->err;
-        else
+            snprintf(err->file, sizeof err->file, "%s", p->chain->cfg.path ? p->chain->cfg.path : "");
+        } else {
             rc = en_peer_send_slab(peers, w, err);
+        }
         pass_recycle(p, w);
         return rc;
     }
