@@ -147,7 +147,10 @@ int cmd_simplify(int argc, char **argv)
         }
         case 'a': m.settings.ascii = 1; break;
         case 'q': cli_quiet = 1; break;
-        case 'h': simplify_help(); return EXIT_OK;
+        case 'h':
+            if (!(cli_peers && cli_peers->rank != 0)) /* once for all ranks */
+                simplify_help();
+            return EXIT_OK;
         default: return cli_usage_error("simplify", "bad option");
         }
     }
@@ -201,6 +204,9 @@ int cmd_simplify(int argc, char **argv)
                 secs > 0 ? (double)s->faces / secs / 1e6 : 0.0, (double)s->peak_rss / (1 << 20), s->cpu_main,
                 s->cpu_workers,
                 s->cpu_main + s->cpu_workers > 0 ? 100.0 * s->cpu_main / (s->cpu_main + s->cpu_workers) : 0.0);
+        if (cli_peers)
+            fprintf(stderr, "  shared among %d ranks: the CPU above is rank 0's, which stitched and wrote\n",
+                    cli_peers->size);
         if (s->attribute_channels)
             fprintf(stderr, "  attributes weighed: %s (%u values a vertex)\n", m.settings.attribute_weights,
                     (unsigned)s->attribute_channels);
