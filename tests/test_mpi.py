@@ -37,13 +37,13 @@ def mpirun(n, *args, each=None, limit_kb=None, own_exits=True, timeout=600):
         if r:
             cmd.append(":")
         cmd += ["-n", "1", "sh", "-c", wrap, status, EPSNET_MPI, "simplify", *(each[r] if each else args)]
-    p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    p = subprocess.run(cmd, capture_output=True, timeout=timeout)
     codes = {}
     if os.path.exists(status):
         for line in open(status):
             r, c = line.split()
             codes[int(r)] = int(c)
-    return p.returncode, p.stderr, [codes.get(r) for r in range(n)]
+    return p.returncode, p.stderr.decode(errors="replace"), [codes.get(r) for r in range(n)]
 
 
 def same_file(a, b):
@@ -144,6 +144,58 @@ def a_budget_exceeded_stops_every_rank():
         assert code == 4, err
         code, err, codes = mpirun(3, MESH, "-o", out, "-j", "1", "--mem", mem)
         all_failed(3, code, err, codes, 4, "budget", out)
+
+
+CORPUS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "fuzz", "corpus")
+
+
+def corpus_sample(every):
+    """Every `every`-th file of the fuzz corpus's readers (tests/fuzz/corpus),
+    named with its format's extension (OBJ and OFF are told by it)."""
+    picked = []
+    for fmt in ("ply", "obj", "off", "stl", "sma", "smb", "smz"):
+        folder = os.path.join(CORPUS, fmt)
+        if not os.path.isdir(folder):
+            continue
+        for i, name in enumerate(sorted(os.listdir(folder))):
+            if i % every == 0:
+                picked.append((os.path.join(folder, name), fmt))
+    return picked
+
+
+def error_line(err):
+    """The one error line a run printed (its "epsnet: " line), or ""."""
+    lines = [l for l in err.splitlines() if l.startswith("epsnet: ")]
+    return lines[0] if lines else ""
+
+
+@case
+def the_bad_input_corpus_gives_one_process_errors():
+    # EPSNET_MPI_CORPUS_EVERY=1 walks the whole corpus (some 630 files;
+    # CI takes every 12th)
+    every = int(os.environ.get("EPSNET_MPI_CORPUS_EVERY", "12"))
+    seen = 0
+    for src, fmt in corpus_sample(every):
+        mesh = path("corpus." + fmt)
+        with open(src, "rb") as f, open(mesh, "wb") as g:
+            g.write(f.read())
+        one_out, out = path("c_one.ply"), path("c_shared.ply")
+        # (a damaged file's bytes may be quoted in its error: not text)
+        p = subprocess.run([sys.argv[1], "simplify", mesh, "-o", one_out, "-j", "1", "-q"], capture_output=True,
+                           timeout=300)
+        code, err = p.returncode, p.stderr.decode(errors="replace")
+        _, merr, codes = mpirun(2, mesh, "-o", out, "-j", "1", "-q")
+        want = error_line(err).replace(one_out, "OUT")
+        got = error_line(merr).replace(out, "OUT")
+        assert codes == [code, code], f"{src}: one process exits {code}, the ranks {codes}: {merr}"
+        assert got == want, f"{src}: one process says\n  {want}\nthe ranks say\n  {got}"
+        assert os.path.exists(out) == (code == 0), f"{src}: output {'missing' if code == 0 else 'left'}"
+        if code == 0:
+            assert same_file(out, one_out), f"{src}: bytes differ"
+            os.remove(out)
+            os.remove(one_out)
+        seen += 1
+    assert seen >= 40, f"only {seen} corpus files"
 
 
 @case
