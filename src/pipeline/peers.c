@@ -1,6 +1,6 @@
 /*
  * One run's slabs shared among processes: the ranks' messages and a slab
- * work's results as bytes (pipeline/peers.h, docs/distributed.md).
+ * work's results, array by array (pipeline/peers.h, docs/distributed.md).
  */
 #include "pipeline/peers.h"
 
@@ -20,7 +20,7 @@ typedef struct en_peer_msg {
     uint32_t magic, type;
     uint64_t slab;                /* SLAB, WAIT, GO */
     uint64_t value;               /* GO: the frequency */
-    uint64_t bytes;               /* SLAB: the results' bytes that follow */
+    uint64_t bytes;               /* SLAB: its head's bytes (HEAD_BYTES); the arrays follow */
     int32_t status;               /* END, VERDICT: 0 or a negative code */
     int32_t rank;                 /* the sender; VERDICT: the rank that failed */
     epsnet_error err;             /* END, VERDICT with a failure */
@@ -489,5 +489,5 @@ int en_peer_agree(en_peer_link *l, int rc, epsnet_error *err)
     }
     if (rc)
         *err = mine;
-    return trc ? trc : verdict;
+    return verdict;
 }

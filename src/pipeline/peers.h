@@ -1,7 +1,7 @@
 /*
  * One run's slabs shared among processes (docs/distributed.md,
  * epsnet.h section 8a): which rank works each slab, the messages between
- * the ranks, and a slab work's results as bytes.
+ * the ranks, and a slab work's results sent array by array.
  *
  * Every rank reads the whole input and cuts the same slabs: the cuts
  * depend on the input and the settings only. Slab k's classification and
@@ -12,7 +12,8 @@
  * and the pass's settings only (the same property that makes them the same
  * for every -j).
  *
- * Messages, always a header (en_peer_msg), then, for a slab, its bytes:
+ * Messages, always a header (en_peer_msg), then, for a slab, its head and
+ * its arrays:
  *
  *   rank r -> 0:  SLAB k (results)   WAIT k   END (status)
  *   rank 0 -> r:  GO k (frequency), in reply to WAIT k
