@@ -391,6 +391,9 @@ TEST(peers_only_for_a_simplified_file_and_with_sane_ranks)
     CHECK_EQ_INT(epsnet_context_new(&ctx, &set, &err), 0);
     CHECK_EQ_INT(epsnet_simplify_file(ctx, tl_path("any.smz"), tl_path("any_out.smz"), &err), EPSNET_EINVAL);
     CHECK_STR_CONTAINS(err.reason, "rank 2 of 2");
+    p.rank = 1;
+    CHECK_EQ_INT(epsnet_simplify_file(ctx, "-", tl_path("any_out.smz"), &err), EPSNET_EINVAL);
+    CHECK_STR_CONTAINS(err.reason, "standard input");
     epsnet_context_free(&ctx);
 }
 

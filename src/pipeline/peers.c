@@ -41,6 +41,9 @@ int en_peer_link_new(en_peer_link **out, const epsnet_peers *peers, const char *
     if (!peers->send || !peers->recv || peers->size < 1 || peers->rank < 0 || peers->rank >= peers->size)
         return en_error_set(err, EPSNET_EINVAL, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "settings.peers: rank %d of %d, or no send/recv function", peers->rank, peers->size);
+    if (path && strcmp(path, "-") == 0) /* mpirun hands standard input to rank 0 alone */
+        return en_error_set(err, EPSNET_EINVAL, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "settings.peers: every rank reads the input, which must be a file, not standard input");
     en_peer_link *l = en_calloc(1, sizeof *l);
     if (!l || !(l->ended = en_calloc((size_t)peers->size, 1)) || !(l->waiting = en_calloc((size_t)peers->size, 1))) {
         if (l)
