@@ -85,7 +85,7 @@ def damaged_copy():
     return bad
 
 
-def all_failed(n, code, err, codes, exit_code, words, out):
+def all_failed(n, err, codes, exit_code, words, out):
     assert codes == [exit_code] * n, f"each rank's exit: {codes} (all {exit_code} wanted); {err}"
     assert words in err, f"no '{words}' in: {err}"
     assert err.count("epsnet: ") == 1, f"one message, from rank 0: {err}"
@@ -103,11 +103,11 @@ def one_rank_given_a_corrupt_block_stops_every_rank():
     # rank 1 alone reads the damaged copy
     good = [MESH, "-o", out, "-j", "1"]
     code, err, codes = mpirun(3, each=[good, [bad, "-o", out, "-j", "1"], good])
-    all_failed(3, code, err, codes, 2, "rank 1: ", out)
+    all_failed(3, err, codes, 2, "rank 1: ", out)
     assert "corrupt" in err, err
     # every rank reads it: the error one process gives
     code, err, codes = mpirun(2, bad, "-o", out, "-j", "1")
-    all_failed(2, code, err, codes, 2, "corrupt", out)
+    all_failed(2, err, codes, 2, "corrupt", out)
     # as users run it: mpirun's own exit says the failure, nothing is left
     code, err, codes = mpirun(3, each=[good, [bad, "-o", out, "-j", "1"], good], own_exits=False)
     assert code == 2, f"mpirun's exit {code}: {err}"
@@ -129,7 +129,7 @@ def a_full_disk_on_rank_0_stops_every_rank():
             # limit on every rank, which only rank 0 meets (it alone writes)
             print("note: no tmpfs mount here; a file size limit stands for the full disk")
             code, err, codes = mpirun(2, MESH, "-o", out, "-j", "1", limit_kb=64)
-        all_failed(2, code, err, codes, 3, "out.smz", out)
+        all_failed(2, err, codes, 3, "out.smz", out)
     finally:
         if mounted:
             subprocess.run(["umount", folder], capture_output=True)
@@ -143,7 +143,7 @@ def a_budget_exceeded_stops_every_rank():
         code, _, err = run("simplify", MESH, "-o", out, "-j", "1", "--mem", mem)
         assert code == 4, err
         code, err, codes = mpirun(3, MESH, "-o", out, "-j", "1", "--mem", mem)
-        all_failed(3, code, err, codes, 4, "budget", out)
+        all_failed(3, err, codes, 4, "budget", out)
 
 
 CORPUS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "fuzz", "corpus")

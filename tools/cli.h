@@ -44,6 +44,15 @@ extern int cli_quiet;        /* -q: no progress, no summaries */
  * Only rank 0 prints: the others' errors, usage errors and warnings are
  * rank 0's too, and they exit with the same status. */
 extern const epsnet_peers *cli_peers;
+/* 1 on a rank other than 0 of a shared run: it says nothing, rank 0
+ * speaks for the run, which gives every rank the same status (epsnet.h
+ * section 8a). */
+int cli_follower(void);
+
+/* What both programs set up first: signals that remove the temporary
+ * files and exit 130, SIGPIPE and SIGXFSZ as errors, glibc's mmap
+ * threshold. */
+void cli_process_setup(void);
 
 /* Print "epsnet: MESSAGE" for err and return the exit code for its class. */
 int cli_fail(const epsnet_error *err);

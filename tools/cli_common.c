@@ -1,7 +1,9 @@
 #include "cli.h"
 
 #include <errno.h>
+#include <malloc.h>
 #include <math.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
@@ -27,23 +29,44 @@ int cli_exit_code(int code)
 
 const epsnet_peers *cli_peers;
 
-/* Another rank of a shared run says nothing: rank 0 speaks for the run,
- * which gives every rank the same status (epsnet.h section 8a). */
-static int silent(void)
+static void on_signal(int sig)
+{
+    epsnet_remove_temporaries();
+    signal(sig, SIG_DFL);
+    _exit(EXIT_INTERRUPTED);
+}
+
+void cli_process_setup(void)
+{
+    signal(SIGINT, on_signal);
+    signal(SIGTERM, on_signal);
+    signal(SIGHUP, on_signal);
+    signal(SIGPIPE, SIG_IGN); /* a closed pipe becomes an ordinary EIO/EPIPE error */
+    signal(SIGXFSZ, SIG_IGN); /* over `ulimit -f`: a clear EFBIG error, not a core dump */
+    /* Slabs are allocated on one thread and freed on another; with glibc's
+     * default sliding mmap threshold, their freed arrays stay in the heap
+     * arenas and peak RSS creeps up with the slab count (measured: 357 MB
+     * instead of 279 MB on 20M faces at -j2 --mem 1G). The library maps its
+     * own large blocks (src/common/alloc.c); this fixes the threshold for
+     * the rest of the process (zstd's buffers, the C library's). */
+    mallopt(M_MMAP_THRESHOLD, 1 << 20);
+}
+
+int cli_follower(void)
 {
     return cli_peers && cli_peers->rank != 0;
 }
 
 int cli_fail(const epsnet_error *err)
 {
-    if (!silent())
+    if (!cli_follower())
         fprintf(stderr, "epsnet: %s\n", epsnet_error_message(err));
     return cli_exit_code(err->code);
 }
 
 int cli_usage_error(const char *cmd, const char *fmt, ...)
 {
-    if (silent())
+    if (cli_follower())
         return EXIT_USAGE;
     va_list ap;
     fprintf(stderr, "epsnet %s: ", cmd);
@@ -146,7 +169,7 @@ int cli_run_progress_cb(void *opaque, uint64_t done, uint64_t total)
 
 void cli_warning(void *opaque, const char *message)
 {
-    if (silent())
+    if (cli_follower())
         return;
     const cli_progress *p = opaque;
     if (p && p->enabled)

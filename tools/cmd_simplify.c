@@ -148,7 +148,7 @@ int cmd_simplify(int argc, char **argv)
         case 'a': m.settings.ascii = 1; break;
         case 'q': cli_quiet = 1; break;
         case 'h':
-            if (!(cli_peers && cli_peers->rank != 0)) /* once for all ranks */
+            if (!cli_follower()) /* once for all ranks */
                 simplify_help();
             return EXIT_OK;
         default: return cli_usage_error("simplify", "bad option");
@@ -166,7 +166,7 @@ int cmd_simplify(int argc, char **argv)
     epsnet_error err;
     epsnet_context *ctx = NULL;
     m.settings.peers = cli_peers;
-    if (cli_peers && cli_peers->rank != 0)
+    if (cli_follower())
         cli_quiet = 1; /* rank 0 reports for the run */
     cli_run_progress prog = { 0 };
     cli_progress_begin(&prog.bar, "simplify faces");
@@ -179,7 +179,7 @@ int cmd_simplify(int argc, char **argv)
     if (rc == 0)
         rc = epsnet_simplify_file(ctx, argv[optind], out, &err);
     cli_progress_end(&prog.bar);
-    if (rc == 0 && m.stats_path && !(cli_peers && cli_peers->rank != 0))
+    if (rc == 0 && m.stats_path && !cli_follower())
         rc = epsnet_stats_write_json(ctx, "simplify", m.stats_path, &err);
     if (rc == 0 && !cli_quiet) {
         const epsnet_stats *s = epsnet_context_stats(ctx);

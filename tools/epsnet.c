@@ -1,11 +1,8 @@
 /*
  * epsnet command line: `epsnet <command> [options]`.
  */
-#include <malloc.h>
-#include <signal.h>
 #include <stdio.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "cli.h"
 
@@ -49,27 +46,9 @@ static void usage(FILE *f)
             epsnet_formats_readable(), epsnet_formats_writable());
 }
 
-static void on_signal(int sig)
-{
-    epsnet_remove_temporaries();
-    signal(sig, SIG_DFL);
-    _exit(EXIT_INTERRUPTED);
-}
-
 int main(int argc, char **argv)
 {
-    signal(SIGINT, on_signal);
-    signal(SIGTERM, on_signal);
-    signal(SIGHUP, on_signal);
-    signal(SIGPIPE, SIG_IGN); /* a closed pipe becomes an ordinary EIO/EPIPE error */
-    signal(SIGXFSZ, SIG_IGN); /* over `ulimit -f`: a clear EFBIG error, not a core dump */
-    /* Slabs are allocated on one thread and freed on another; with glibc's
-     * default sliding mmap threshold, their freed arrays stay in the heap
-     * arenas and peak RSS creeps up with the slab count (measured: 357 MB
-     * instead of 279 MB on 20M faces at -j2 --mem 1G). The library maps its
-     * own large blocks (src/common/alloc.c); this fixes the threshold for
-     * the rest of the process (zstd's buffers, the C library's). */
-    mallopt(M_MMAP_THRESHOLD, 1 << 20);
+    cli_process_setup();
 
     if (argc < 2) {
         usage(stderr);

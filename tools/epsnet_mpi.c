@@ -11,14 +11,11 @@
  * rank 0 is busy, up to PENDING_BYTES in flight; past that it waits for the
  * oldest: the back-pressure that bounds a rank's memory.
  */
-#include <malloc.h>
 #include <mpi.h>
-#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-#include <unistd.h>
 
 #include "cli.h"
 
@@ -131,13 +128,6 @@ static int mpi_recv(void *opaque, int from, void *buf, size_t n)
     return 0;
 }
 
-static void on_signal(int sig)
-{
-    epsnet_remove_temporaries();
-    signal(sig, SIG_DFL);
-    _exit(EXIT_INTERRUPTED);
-}
-
 static void usage(FILE *f)
 {
     fprintf(f, "usage: mpirun -n R epsnet-mpi simplify IN -o OUT [options]\n"
@@ -150,11 +140,7 @@ static void usage(FILE *f)
 
 int main(int argc, char **argv)
 {
-    signal(SIGINT, on_signal);
-    signal(SIGTERM, on_signal);
-    signal(SIGPIPE, SIG_IGN);
-    signal(SIGXFSZ, SIG_IGN);
-    mallopt(M_MMAP_THRESHOLD, 1 << 20); /* as the epsnet program does (tools/epsnet.c) */
+    cli_process_setup();
     int provided = 0, rank = 0, size = 1;
     if (MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {
         fprintf(stderr, "epsnet-mpi: MPI_Init_thread failed\n");

@@ -31,4 +31,15 @@ static inline int en_stage_end(const en_stage *s, epsnet_error *err)
     return s->end ? s->end(s->self, err) : 0;
 }
 
+/* A stage that takes every record and keeps none (a pricing pass's
+ * output, another rank's share of a run). */
+static inline int en_stage_discard_put(void *self, const epsnet_record *rec, epsnet_error *err)
+{
+    (void)self;
+    (void)rec;
+    (void)err;
+    return 0;
+}
+#define EN_STAGE_DISCARD ((en_stage){ en_stage_discard_put, NULL, NULL })
+
 #endif

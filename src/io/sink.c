@@ -404,7 +404,7 @@ int en_sink_commit(en_sink **ps, epsnet_error *err)
             *err = s->err;
         goto fail;
     }
-    if (!s->settled && (rc = flush_buf(s, s->zc ? ZSTD_e_end : ZSTD_e_continue, err)))
+    if ((rc = en_sink_settle(s, err)))
         goto fail;
     if (s->is_stdout) {
         sink_free(s);

@@ -190,7 +190,15 @@ typedef struct section {
 #define SCALAR_BYTES(f) +sizeof(((en_slab_work *)0)->f)
 /* The head: shape (3 words), which arrays (4 bytes), the scalars, the
  * count of arrays and each one's bytes. */
-#define HEAD_BYTES (3 * sizeof(uint32_t) + 4 SCALARS(SCALAR_BYTES) + (1 + MAX_SECTIONS) * sizeof(uint64_t))
+#define ARRAYS_AT (3 * sizeof(uint32_t) + 4 SCALARS(SCALAR_BYTES))
+#define HEAD_BYTES (ARRAYS_AT + (1 + MAX_SECTIONS) * sizeof(uint64_t))
+
+/* The count of arrays after a head, and each one's bytes. */
+static void head_arrays(const uint8_t *head, uint64_t *count, uint64_t bytes[MAX_SECTIONS])
+{
+    memcpy(count, head + ARRAYS_AT, sizeof *count);
+    memcpy(bytes, head + ARRAYS_AT + sizeof *count, MAX_SECTIONS * sizeof *bytes);
+}
 
 static size_t weighed_doubles(const en_slab_work *w)
 {
@@ -340,8 +348,7 @@ int en_peer_recv_slab(en_peer_link *l, en_slab_work *w, epsnet_error *err)
     SCALARS(GET_SCALAR)
 #undef GET_SCALAR
     uint64_t count, bytes[MAX_SECTIONS];
-    get(&at, &count, sizeof count);
-    get(&at, bytes, sizeof bytes);
+    head_arrays(buf, &count, bytes);
     w->s.nt = h.shape[2]; /* after the glued membranes the worker dropped */
     section sec[MAX_SECTIONS];
     int n = sections(w, &h, 1, sec);
@@ -391,8 +398,7 @@ static int pass_over_slab(en_peer_link *l, int r, const en_peer_msg *m, epsnet_e
         return unexpected(l, m, "a slab's head", err);
     int rc = recv_bytes(l, r, buf, sizeof buf, err);
     uint64_t count, bytes[MAX_SECTIONS];
-    memcpy(&count, buf + HEAD_BYTES - (1 + MAX_SECTIONS) * sizeof(uint64_t), sizeof count);
-    memcpy(bytes, buf + HEAD_BYTES - MAX_SECTIONS * sizeof(uint64_t), sizeof bytes);
+    head_arrays(buf, &count, bytes);
     if (rc == 0 && count > MAX_SECTIONS)
         return unexpected(l, m, "a slab's head", err);
     for (uint64_t i = 0; i < count && rc == 0; i++) {

@@ -491,21 +491,13 @@ double en_target_price_margin_widths(double share)
     return w > 3 ? w : 3;
 }
 
-static int discard_put(void *self, const epsnet_record *rec, epsnet_error *err)
-{
-    (void)self;
-    (void)rec;
-    (void)err;
-    return 0;
-}
-
 /* One chain of the pricing pass over the windows of src, under plan p:
  * its counts, and what it took (en_chain_taken_hist) in hist_before. */
 static int price_chain(en_target_stage *ts, const en_window_source *src, int inside, const en_pass_plan *p,
                        en_chain_stats *st, epsnet_error *err)
 {
     en_chain_config cc = stage_chain(ts, p);
-    cc.out = (en_stage){ discard_put, NULL, NULL };
+    cc.out = EN_STAGE_DISCARD;
     en_chain *c = NULL;
     int rc = en_chain_new(&c, &cc, ts->pool, err);
     en_stage in = rc == 0 ? en_chain_input(c) : (en_stage){ 0 };
