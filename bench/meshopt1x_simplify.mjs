@@ -1,7 +1,7 @@
 // meshoptimizer 1.x (npm package `meshoptimizer`, its WASM simplifier) on a
 // mesh, to a target face count: the second peer of bench/quality_by_ratio.py.
 //
-//   node bench/meshopt1x_simplify.mjs IN OUT.obj TARGET_FACES
+//   node bench/meshopt1x_simplify.mjs IN OUT.obj TARGET_FACES [--update]
 //
 // IN is a binary little-endian PLY (as `epsnet convert IN -o X.ply --float32`
 // writes it) or an OBJ (v and f lines; polygons are fanned). The call mirrors
@@ -13,6 +13,11 @@
 // vertices. No other flag (no Prune, no Regularize, no Permissive).
 // The output keeps the referenced vertices in their input order (as
 // peer_meshopt compacts), written as OBJ.
+//
+// --update calls simplifyWithUpdate instead (same flags, no attributes): the
+// same collapses, but each kept vertex moves to its quadric's best position,
+// as Open3D and MeshLab place theirs. epsnet keeps input vertices (SPEC), so
+// this shows what placement alone is worth (bench/RESULTS.md, session 24).
 //
 // Prints one line: faces_in faces_out seconds peak_rss_bytes result_error
 // version, where seconds is the simplify call alone and peak_rss_bytes the
@@ -140,7 +145,9 @@ function readObj(text) {
 }
 
 const args = process.argv.slice(2);
-if (args.length !== 3) die('usage: node meshopt1x_simplify.mjs IN OUT.obj TARGET_FACES');
+const update = args[3] === '--update';
+if (args.length !== 3 && !(args.length === 4 && update))
+	die('usage: node meshopt1x_simplify.mjs IN OUT.obj TARGET_FACES [--update]');
 const [input, output, targetText] = args;
 const targetFaces = Number(targetText);
 if (!Number.isInteger(targetFaces) || targetFaces < 0) die(`bad TARGET_FACES '${targetText}'`);
@@ -154,7 +161,16 @@ const facesIn = mesh.indices.length / 3;
 await MeshoptSimplifier.ready;
 const t0 = process.hrtime.bigint();
 const target = Math.min(3 * targetFaces, mesh.indices.length);
-const [out, error] = MeshoptSimplifier.simplify(mesh.indices, mesh.positions, 3, target, 1.0, ['LockBorder']);
+let out, error;
+if (update) {
+	const indices = Uint32Array.from(mesh.indices); // the call writes its result in place
+	const [count, err] = MeshoptSimplifier.simplifyWithUpdate(indices, mesh.positions, 3, new Float32Array(0), 0, [],
+		null, target, 1.0, ['LockBorder']);
+	out = indices.subarray(0, count);
+	error = err;
+} else {
+	[out, error] = MeshoptSimplifier.simplify(mesh.indices, mesh.positions, 3, target, 1.0, ['LockBorder']);
+}
 const seconds = Number(process.hrtime.bigint() - t0) * 1e-9;
 
 // compact: referenced vertices in their old order
