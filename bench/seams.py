@@ -20,13 +20,20 @@ For every mesh, grid size and ratio R, at round(R * faces):
   uv slab      the same, forced through --slab 4096 (seams between slabs),
                compared with the plain mesh through the same slabs
   meshopt w    node bench/meshopt1x_attributes.mjs, UV weight w (1 and 0.01)
+  meshopt plain  node bench/meshopt1x_simplify.mjs of the mesh without UVs:
+               with the meshopt w rows, what the seams cost meshoptimizer
 Each output is measured against the mesh without UVs (`epsnet hausdorff`):
-Hausdorff and mean distance relative to the diagonal. The uv rows also check
+Hausdorff and mean distance relative to the diagonal. A Hausdorff distance is
+one point's, and at 5% of a 35K-vertex scan which vertices the skeleton holds
+moves it by up to 1.6x (bench/RESULTS.md, session 24): --seeds N repeats
+the epsnet rows (plain and uv, one slab and --slab 4096) under N more
+orientations of the Gaussian sphere (--seed 1..N) and prints, per case, the
+uv/plain Hausdorff ratio under each and their median. The uv rows also check
 that every output corner (position, vt, as float32) is an input corner, and
 that no face has corners of two charts (a seam smeared).
 
   python3 bench/seams.py [--epsnet BIN] [--data DIR] [--gen bumpy:200K] [--cells 4,8]
-                         [--gen-atlas bumpy:200K:1000] [--ratios 0.05,0.25] [--out DIR]
+                         [--gen-atlas bumpy:200K:1000] [--ratios 0.05,0.25] [--out DIR] [--seeds N]
 
 Python 3 standard library, node with bench/node_modules (npm install in
 bench/). See bench/README.md.
@@ -36,6 +43,7 @@ import json
 import math
 import os
 import shutil
+import statistics
 import struct
 import subprocess
 import sys
@@ -174,6 +182,7 @@ def main():
     ap.add_argument("--gen-atlas", default="", help="generated meshes with gen --charts, SHAPE:FACES:CHARTS,...")
     ap.add_argument("--scans", default="1", help="0: leave out the shared scans")
     ap.add_argument("--out", default=None)
+    ap.add_argument("--seeds", type=int, default=0, help="N more sphere orientations for the epsnet rows")
     a = ap.parse_args()
     tmp = a.out or tempfile.mkdtemp(prefix="epsnet_seams_")
     os.makedirs(tmp, exist_ok=True)
@@ -183,6 +192,7 @@ def main():
         print("no meshoptimizer rows: node or bench/node_modules/meshoptimizer is missing (npm install in bench/)",
               file=sys.stderr)
     rows, ratios = [], [float(x) for x in a.ratios.split(",")]
+    rotations = []  # (mesh, charts, ratio, slab, [uv/plain Hausdorff under each orientation])
     print("| mesh | charts | ratio | target | tool | faces | Hausdorff | mean | vs plain (H, mean) |")
     print("|---|---|---|---|---|---|---|---|---|")
     meshes = [(name, os.path.join(a.data, file)) for name, file in SCANS] if a.scans != "0" else []
@@ -237,6 +247,22 @@ def main():
                   flush=True)
             rows.append(dict(mesh=name, charts=0, ratio=r, target=goal, tool="plain slab 4096", faces=base_slab[0],
                              hausdorff=base_slab[1], mean=base_slab[2], note=""))
+            if have_peer:
+                sh("node", os.path.join(HERE, "meshopt1x_simplify.mjs"), plain, out, str(goal))
+                faces, h, mean = measure(a.epsnet, plain, out)
+                print("| %s | 0 | %g | %d | meshopt plain | %d | %.4g | %.4g | |" % (name, r, goal, faces, h, mean),
+                      flush=True)
+                rows.append(dict(mesh=name, charts=0, ratio=r, target=goal, tool="meshopt plain", faces=faces,
+                                 hausdorff=h, mean=mean, note=""))
+            for slab in (["--slab", "4096"], []) if a.seeds else ():
+                def hausdorff_of(src, seed):
+                    sh(a.epsnet, "simplify", src, "-o", out, "--ratio", str(r), "-q", *slab,
+                       *(["--seed", str(seed)] if seed else []))
+                    return measure(a.epsnet, plain, out)[1]
+                plains = [hausdorff_of(plain, seed) for seed in range(a.seeds + 1)]
+                for uv, charts, _ in atlases:
+                    ratios_by_seed = [hausdorff_of(uv, seed) / plains[seed] for seed in range(a.seeds + 1)]
+                    rotations.append((name, charts, r, "--slab 4096" if slab else "one slab", ratios_by_seed))
             for uv, charts, chart in atlases:
                 for tool, cmd in (("uv", [a.epsnet, "simplify", uv, "-o", out, "--ratio", str(r), "-q"]),
                                   ("uv slab 4096", [a.epsnet, "simplify", uv, "-o", out, "--ratio", str(r), "-q",
@@ -282,6 +308,29 @@ def main():
             vs_mo_mean.append(row["mean"] / best_mean)
         print("%s: Hausdorff vs the mesh without UVs %.3f (geometric mean, worst %.3f); vs meshoptimizer's "
               "better weight: Hausdorff %.3f, mean %.3f" % (tool, gm(vs_plain_h), worst, gm(vs_mo_h), gm(vs_mo_mean)))
+    # what the seams cost meshoptimizer: its better weight against its own run without UVs
+    seam_price = []
+    for row in rows:
+        if row["tool"] != "meshopt plain":
+            continue
+        for charts in sorted({x["charts"] for x in rows if x["mesh"] == row["mesh"] and x["charts"]}):
+            mo = [x["hausdorff"] for x in rows if (x["mesh"], x["charts"], x["ratio"]) == (row["mesh"], charts, row["ratio"])
+                  and x["tool"].startswith("meshopt w")]
+            if mo:
+                seam_price.append("%s %d charts %g: %.3f" % (row["mesh"], charts, row["ratio"], min(mo) / row["hausdorff"]))
+    if seam_price:
+        print("meshoptimizer's own uv/plain Hausdorff (better weight): " + "; ".join(seam_price))
+    if rotations:
+        print("\n| mesh | charts | ratio | slabs | uv/plain Hausdorff: default orientation, --seed 1..%d | median |"
+              % a.seeds)
+        print("|---|---|---|---|---|---|")
+        for name, charts, r, slabs, xs in rotations:
+            print("| %s | %d | %g | %s | %s | %.3f |" % (name, charts, r, slabs, ", ".join("%.3f" % x for x in xs),
+                                                          statistics.median(xs)))
+        for slabs in ("one slab", "--slab 4096"):
+            meds = [statistics.median(xs) for _, _, _, sl, xs in rotations if sl == slabs]
+            print("%s: median over orientations, geometric mean %.3f, worst %.3f, cases above 1.2: %d of %d"
+                  % (slabs, gm(meds), max(meds), sum(m > 1.2 for m in meds), len(meds)))
 
 
 if __name__ == "__main__":
