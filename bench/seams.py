@@ -327,6 +327,7 @@ def main():
         for name, charts, r, slabs, xs in rotations:
             print("| %s | %d | %g | %s | %s | %.3f |" % (name, charts, r, slabs, ", ".join("%.3f" % x for x in xs),
                                                           statistics.median(xs)))
+        print()
         for slabs in ("one slab", "--slab 4096"):
             meds = [statistics.median(xs) for _, _, _, sl, xs in rotations if sl == slabs]
             print("%s: median over orientations, geometric mean %.3f, worst %.3f, cases above 1.2: %d of %d"
