@@ -15,8 +15,8 @@
 // peer_meshopt compacts), written as OBJ.
 //
 // --update calls simplifyWithUpdate instead (same flags, no attributes): the
-// same collapses, but each kept vertex moves to its quadric's best position,
-// as Open3D and MeshLab place theirs. epsnet keeps input vertices (SPEC), so
+// same simplifier, but each kept vertex moves to its quadric's best position,
+// as Open3D and MeshLab place theirs (so later costs follow the moved ones). epsnet keeps input vertices (SPEC), so
 // this shows what placement alone is worth (bench/RESULTS.md, session 24).
 //
 // Prints one line: faces_in faces_out seconds peak_rss_bytes result_error

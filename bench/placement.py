@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""What vertex placement is worth: the same collapses with input vertices and with moved ones (issue 27).
+"""What vertex placement is worth: one simplifier with input vertices and with moved ones (issue 27).
 
     python3 bench/placement.py [--epsnet build-release/tools/epsnet] [--scans ../shared/data] [--faces 2M]
                                [--ratios 0.05,0.25]
@@ -9,7 +9,8 @@ Open3D's and MeshLab's quadric decimation move every kept vertex to its
 quadric's best position. To see what that placement alone is worth, one
 simplifier is run both ways at the same face count: meshoptimizer 1.x (npm,
 under node: bench/meshopt1x_simplify.mjs) with simplify (input vertices) and
-with simplifyWithUpdate (the same collapses, positions moved). Beside them,
+with simplifyWithUpdate (the same simplifier and flags, each kept vertex
+moved to its quadric's best position, so that later costs follow it). Beside them,
 epsnet (the CLI, at the ratio; the others get its face count) and Open3D
 (Debian's python3-open3d under /usr/bin/python3, skipped when missing).
 
