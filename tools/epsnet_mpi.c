@@ -22,9 +22,12 @@
 /* A message larger than an int's count goes in pieces of this size, on
  * both sides alike. */
 #define PIECE ((size_t)1 << 30)
-/* Sends in flight at most: about four slabs' results at the default slab
- * size (some 12 MB each at 65,536 vertices). */
-#define PENDING_BYTES ((size_t)64 << 20)
+/* Sends in flight at most: about two slabs' results at the default slab
+ * size (some 12 MB each at 65,536 vertices). Measured on `gen bumpy` 20M
+ * at two ranks, -j 1 (bench/RESULTS.md, session 24): at 64 MB the other
+ * rank ran far enough ahead to peak 32 MB higher, at no gain in time; at
+ * 16 MB it waited for rank 0 and the run took 10% longer. */
+#define PENDING_BYTES ((size_t)32 << 20)
 
 typedef struct pending {
     MPI_Request req;
