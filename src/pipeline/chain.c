@@ -421,20 +421,8 @@ static int retire_one(en_pass *p, epsnet_error *err)
         return 0;
     en_slab_work *w = job;
     en_peer_link *peers = shared(p);
-    if (peers && en_peer_rank(peers) != 0) {
-        /* another rank's: its results go to rank 0, which stitches */
-        p->in_flight_elements -= (uint64_t)w->s.nv + w->s.nt + w->membrane_faces;
-        int rc = result;
-        if (rc) {
-            *err = w->err;
-            snprintf(err->file, sizeof err->file, "%s", p->chain->cfg.path ? p->chain->cfg.path : "");
-        } else {
-            rc = en_peer_send_slab(peers, w, err);
-        }
-        pass_recycle(p, w);
-        return rc;
-    }
-    if (result == 0 && remote(p, w->index))
+    int stitches = !peers || en_peer_rank(peers) == 0;
+    if (result == 0 && stitches && remote(p, w->index))
         result = en_peer_recv_slab(peers, w, &w->err);
     /* the worker may have dropped membrane faces (slab_work.c) */
     p->in_flight_elements -= (uint64_t)w->s.nv + w->s.nt + w->membrane_faces;
@@ -442,6 +430,12 @@ static int retire_one(en_pass *p, epsnet_error *err)
     if (rc) {
         *err = w->err;
         snprintf(err->file, sizeof err->file, "%s", c->cfg.path ? c->cfg.path : "");
+    }
+    if (!stitches) { /* another rank's: its results go to rank 0, which stitches */
+        if (rc == 0)
+            rc = en_peer_send_slab(peers, w, err);
+        pass_recycle(p, w);
+        return rc;
     }
     if (rc == 0) {
         if (p->index == 0)
@@ -523,6 +517,17 @@ static double budget_so_far(const en_pass *p)
     return budget;
 }
 
+/* The candidate frequency n from here on: the pass's sphere at n, its
+ * rotation kept. */
+static int set_candidate(en_pass *p, uint32_t n, epsnet_error *err)
+{
+    gauss_rotation rot = p->g.rot;
+    if (gauss_init(&p->g, n, &rot))
+        return en_error_set(err, EPSNET_ENOMEM, p->chain->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "out of memory");
+    return 0;
+}
+
 /*
  * EN_SKELETON_CHOSEN on slabs (slab_work.c: nested_density), before slab
  * k = 1, 2, 4, 8, ..., and every CANDIDATE_EVERY slabs from there: with
@@ -545,13 +550,7 @@ static int lower_candidate(en_pass *p, epsnet_error *err)
         rc = retire_one(p, err);
     int top = en_level_of(p->g.n);
     int k = en_skeleton_level(p->level_total, top, budget_so_far(p));
-    if (rc == 0 && k < top) {
-        gauss_rotation rot = p->g.rot;
-        if (gauss_init(&p->g, 1u << k, &rot))
-            rc = en_error_set(err, EPSNET_ENOMEM, p->chain->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                              "out of memory");
-    }
-    return rc;
+    return rc == 0 && k < top ? set_candidate(p, 1u << k, err) : rc;
 }
 
 /* The frequency a chosen skeleton ends at (after the pass's end). A
@@ -583,13 +582,7 @@ static int meet(en_pass *p, uint64_t k, int checkpoint, epsnet_error *err)
     uint32_t n = p->g.n;
     if (rc == 0)
         rc = en_peer_meet(l, k, &n, err);
-    if (rc == 0 && n != p->g.n) {
-        gauss_rotation rot = p->g.rot;
-        if (gauss_init(&p->g, n, &rot))
-            rc = en_error_set(err, EPSNET_ENOMEM, p->chain->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                              "out of memory");
-    }
-    return rc;
+    return rc == 0 && n != p->g.n ? set_candidate(p, n, err) : rc;
 }
 
 static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
