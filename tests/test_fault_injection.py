@@ -242,6 +242,16 @@ def main():
          max_points=300, stride=3)
     walk("full_disk_simplify_ply_face_labels", lambda o: ["simplify", labelled, "-o", o + ".ply", "--ratio", "0.3",
                                                           "-q"], what="EPSNET_FAIL_WRITE")
+    # The same materials in an OBJ: the reader's mtllib/usemtl/g (a record
+    # per (vertex, material), src/io/fmt_obj.c) and the writer's runs of
+    # usemtl, a name with a space among them.
+    mtl_obj = os.path.join(TMP, "materials.obj")
+    p = run(["convert", labelled, "-o", mtl_obj, "-q"])
+    assert p.returncode == 0 and "usemtl right side" in open(mtl_obj).read(), p.stderr
+    walk("simplify_obj_materials", lambda o: ["simplify", mtl_obj, "-o", o + ".obj", "--ratio", "0.3", "-q"],
+         max_points=300, stride=3)
+    walk("full_disk_simplify_obj_materials", lambda o: ["simplify", mtl_obj, "-o", o + ".obj", "--ratio", "0.3",
+                                                        "-q"], what="EPSNET_FAIL_WRITE")
     hausdorff_without_threads(smz, sma)
     # sort with a budget small enough to spill sorted runs to temporary
     # files (src/sort/extsort.c), then merge them.
