@@ -135,6 +135,18 @@ def a_file_with_no_mesh_statement_is_an_error():
     rc, _, err = run("simplify", p, "-o", out)
     assert rc == 2 and "not an OBJ file" in err and "'these'" in err and len(err.strip().splitlines()) == 1, (rc, err)
     assert not os.path.exists(out)
+    # OBJ statements that give no vertex (texture coordinates alone, groups
+    # and materials alone) are an OBJ without its geometry: an error that
+    # names the first of them, not "none of OBJ's", not an empty mesh
+    for name, text, first in (("vt_only.obj", "# uv\nvt 0 0\nvt 1 0\n", "'vt' first, on line 2"),
+                              ("groups_only.obj", "mtllib m.mtl\ng left\nusemtl red\n", "'mtllib' first, on line 1")):
+        p = path(name)
+        with open(p, "w") as f:
+            f.write(text)
+        rc, _, err = run("simplify", p, "-o", out)
+        assert rc == 2 and "no vertex: the file has OBJ statements" in err and first in err, (name, rc, err)
+        assert "none of OBJ's" not in err and len(err.strip().splitlines()) == 1, (name, err)
+        assert not os.path.exists(out)
     # comments alone are an empty mesh, which is valid
     p = path("comments.obj")
     with open(p, "w") as f:

@@ -144,6 +144,8 @@ typedef struct obj_reader {
     size_t tail;                     /* next position to check for a record at the end */
     uint64_t unknown_line;           /* line of the first statement that is not OBJ's (0: none) */
     char unknown[33];                /* ... its keyword */
+    uint64_t first_line;             /* line of the first statement of any kind (0: none yet) */
+    char first[33];                  /* ... its keyword */
 } obj_reader;
 
 /* ---- reader ---- */
@@ -550,21 +552,43 @@ static int parse_face(epsnet_reader *r, obj_reader *st, char *p)
     return 0;
 }
 
-/* docs/architecture.md §5: a statement kind the records do not carry is named, by its
- * keyword, with how many there were. Keywords are printed, so bytes that
- * are not printable ASCII are shown as '?'. */
-static void drop_statement(epsnet_reader *r, const char *p)
+/* A statement's keyword, printable: bytes that are not printable ASCII
+ * are shown as '?'. */
+static void statement_keyword(const char *p, char kw[33])
 {
-    char kw[33];
     size_t n = 0;
-    while (n < sizeof kw - 1 && !en_text_ends_token(p[n])) {
+    while (n < 32 && !en_text_ends_token(p[n])) {
         unsigned char c = (unsigned char)p[n];
         kw[n++] = c > 0x20 && c < 0x7f ? (char)c : '?';
     }
     kw[n] = '\0';
+}
+
+/* Is kw one of the statements of the OBJ format (its geometry, grouping,
+ * display and free-form keywords), whether the records carry it or not? */
+static int is_obj_keyword(const char *kw)
+{
+    static const char *const keywords[] = {
+        "v", "vt", "vn", "vp", "f", "l", "p", "g", "o", "s", "mg", "mtllib", "usemtl", "usemap", "maplib",
+        "cstype", "deg", "bmat", "step", "curv", "curv2", "surf", "parm", "trim", "hole", "scrv", "sp", "end",
+        "con", "lod", "shadow_obj", "trace_obj", "ctech", "stech", "bevel", "c_interp", "d_interp", "call", "csh",
+    };
+    for (size_t i = 0; i < sizeof keywords / sizeof *keywords; i++)
+        if (strcmp(kw, keywords[i]) == 0)
+            return 1;
+    return 0;
+}
+
+/* docs/architecture.md §5: a statement kind the records do not carry is
+ * named, by its keyword, with how many there were. The first that is no
+ * OBJ statement at all is kept, to say what the file is not. */
+static void drop_statement(epsnet_reader *r, const char *p)
+{
+    char kw[33];
+    statement_keyword(p, kw);
     en_reader_drop(r, kw, 1, 1);
     obj_reader *st = r->state;
-    if (!st->unknown_line) {
+    if (!st->unknown_line && !is_obj_keyword(kw)) {
         st->unknown_line = r->src->lineno;
         memcpy(st->unknown, kw, sizeof kw);
     }
@@ -574,6 +598,10 @@ static int parse_statement(epsnet_reader *r, char *stmt)
 {
     obj_reader *st = r->state;
     char *p = en_text_skip_blanks(stmt);
+    if (!st->first_line && p[0] != '\0' && p[0] != '#') {
+        st->first_line = r->src->lineno;
+        statement_keyword(p, st->first);
+    }
     if (p[0] == 'v' && en_text_ends_token(p[1]))
         return parse_vertex(r, st, p + 1);
     if (p[0] == 'f' && en_text_ends_token(p[1]))
@@ -823,13 +851,20 @@ static int obj_fill(epsnet_reader *r)
         if (st->at_end) {
             /* positions that no face names are vertices all the same, as
              * in a plain file; they come last, with zero vt and vn */
-            /* a file of statements none of which is a mesh's is not an
-             * OBJ, not an empty mesh (comments alone are one) */
-            if (st->npos == 0 && r->ntris == 0 && st->unknown_line)
+            /* statements that give no vertex are no mesh, not an empty
+             * one (comments alone are one): a file with a statement that
+             * is none of OBJ's is not an OBJ; one of OBJ's statements
+             * alone (vt, g, usemtl) is an OBJ without its geometry */
+            if (r->nverts == 0 && st->npos == 0 && r->ntris == 0 && st->unknown_line)
                 return en_reader_fail(r, EPSNET_EFORMAT,
                                       "no vertex: not an OBJ file (its first statement '%s', on line %llu, "
                                       "is none of OBJ's)",
                                       st->unknown, (unsigned long long)st->unknown_line);
+            if (r->nverts == 0 && st->npos == 0 && r->ntris == 0 && st->first_line)
+                return en_reader_fail(r, EPSNET_EFORMAT,
+                                      "no vertex: the file has OBJ statements ('%s' first, on line %llu) but "
+                                      "no 'v'",
+                                      st->first, (unsigned long long)st->first_line);
             if (st->tail == st->npos)
                 return r->qlen > 0;
             uint64_t ignored;
