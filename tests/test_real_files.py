@@ -2,7 +2,8 @@
 """Files as users bring them (docs/architecture.md §13): STL and OFF are
 written as well as read, bit for bit where the format allows; content that
 names its format wins over a wrong extension, with a note; a file that holds
-no mesh statement, or UTF-16 text, is a clear error; a PLY header's free-text
+no mesh statement, or UTF-16 text, is a clear error; a UTF-8 byte-order mark is
+skipped; a PLY header's free-text
 line is skipped and named."""
 import math
 import os
@@ -153,6 +154,24 @@ def a_file_with_no_mesh_statement_is_an_error():
         f.write("# exported by hand\n\n# nothing yet\n")
     rc, _, err = run("convert", p, "-o", path("comments.ply"), "-q")
     assert rc == 0, err
+
+
+@case
+def a_utf8_byte_order_mark_is_skipped():
+    # Windows editors start a UTF-8 text with EF BB BF: it is no part of the
+    # first line. Before, an OBJ lost its first vertex (every face then named
+    # the wrong one, with exit 0), and OFF, ASCII STL and ASCII PLY were refused.
+    src = gen("bom.smz", faces=200)
+    for ext, fmt in (("obj", ()), ("off", ()), ("stl", ("--ascii",)), ("ply", ("--ascii",))):
+        plain = path("bom_plain." + ext)
+        rc, _, err = run("convert", src, "-o", plain, "-q", *fmt)
+        assert rc == 0, err
+        marked = path("bom_marked." + ext)
+        with open(plain, "rb") as f, open(marked, "wb") as g:
+            g.write(b"\xef\xbb\xbf" + f.read())
+        rc, _, err = run("convert", marked, "-o", path("bom_out.ply"))
+        assert rc == 0 and "warning" not in err, (ext, rc, err)
+        assert triangles(marked) == triangles(plain), ext + ": not the same mesh"
 
 
 @case

@@ -380,7 +380,8 @@ static int ascii_fill(epsnet_reader *r, stl_reader *st)
 
 static int starts_with_solid(const uint8_t *p, size_t n)
 {
-    size_t i = 0;
+    /* (after a UTF-8 byte-order mark, which the text reader skips) */
+    size_t i = n >= 3 && memcmp(p, "\xef\xbb\xbf", 3) == 0 ? 3 : 0;
     while (i < n && (p[i] == ' ' || p[i] == '\t'))
         i++;
     return n - i >= 5 && memcmp(p + i, "solid", 5) == 0;

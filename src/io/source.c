@@ -235,6 +235,18 @@ static int looks_utf16(const uint8_t *p, size_t n)
     return even || odd;
 }
 
+/* A UTF-8 byte-order mark before a text file's first line (Windows
+ * editors write one) is no part of it: kept, it made an OBJ's first
+ * statement an unknown '???v', dropped, and every face index after it
+ * named the wrong vertex. */
+static void skip_utf8_bom(const en_source *s, char **p, size_t *n)
+{
+    if (s->lineno == 0 && *n >= 3 && memcmp(*p, "\xef\xbb\xbf", 3) == 0) {
+        *p += 3;
+        *n -= 3;
+    }
+}
+
 int en_source_line(en_source *s, char **line, size_t *len, size_t max_len,
                    epsnet_error *err)
 {
@@ -255,6 +267,7 @@ int en_source_line(en_source *s, char **line, size_t *len, size_t max_len,
             if (n && p[n - 1] == '\r')
                 p[--n] = '\0';
             s->cur = nl + 1;
+            skip_utf8_bom(s, &p, &n);
             s->lineno++;
             *line = p;
             *len = n;
@@ -278,6 +291,7 @@ int en_source_line(en_source *s, char **line, size_t *len, size_t max_len,
             if (n && p[n - 1] == '\r')
                 p[--n] = '\0';
             s->cur = s->end;
+            skip_utf8_bom(s, &p, &n);
             s->lineno++;
             *line = p;
             *len = n;
