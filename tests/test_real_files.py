@@ -2,9 +2,8 @@
 """Files as users bring them (docs/architecture.md §13): STL and OFF are
 written as well as read, bit for bit where the format allows; content that
 names its format wins over a wrong extension, with a note; a file that holds
-no mesh statement, or UTF-16 text, is a clear error; a UTF-8 byte-order mark is
-skipped; a PLY header's free-text
-line is skipped and named."""
+no mesh statement, or UTF-16 text, is a clear error; a UTF-8 byte-order mark
+is skipped; a PLY header's free-text line is skipped and named."""
 import math
 import os
 import shutil

@@ -855,16 +855,16 @@ static int obj_fill(epsnet_reader *r)
              * one (comments alone are one): a file with a statement that
              * is none of OBJ's is not an OBJ; one of OBJ's statements
              * alone (vt, g, usemtl) is an OBJ without its geometry */
-            if (r->nverts == 0 && st->npos == 0 && r->ntris == 0 && st->unknown_line)
-                return en_reader_fail(r, EPSNET_EFORMAT,
-                                      "no vertex: not an OBJ file (its first statement '%s', on line %llu, "
-                                      "is none of OBJ's)",
-                                      st->unknown, (unsigned long long)st->unknown_line);
             if (r->nverts == 0 && st->npos == 0 && r->ntris == 0 && st->first_line)
-                return en_reader_fail(r, EPSNET_EFORMAT,
-                                      "no vertex: the file has OBJ statements ('%s' first, on line %llu) but "
-                                      "no 'v'",
-                                      st->first, (unsigned long long)st->first_line);
+                return st->unknown_line
+                           ? en_reader_fail(r, EPSNET_EFORMAT,
+                                            "no vertex: not an OBJ file (its first statement '%s', on line %llu, "
+                                            "is none of OBJ's)",
+                                            st->unknown, (unsigned long long)st->unknown_line)
+                           : en_reader_fail(r, EPSNET_EFORMAT,
+                                            "no vertex: the file has OBJ statements ('%s' first, on line %llu) "
+                                            "but no 'v'",
+                                            st->first, (unsigned long long)st->first_line);
             if (st->tail == st->npos)
                 return r->qlen > 0;
             uint64_t ignored;

@@ -380,8 +380,7 @@ static int ascii_fill(epsnet_reader *r, stl_reader *st)
 
 static int starts_with_solid(const uint8_t *p, size_t n)
 {
-    /* (after a UTF-8 byte-order mark, which the text reader skips) */
-    size_t i = n >= 3 && memcmp(p, "\xef\xbb\xbf", 3) == 0 ? 3 : 0;
+    size_t i = en_source_utf8_bom(p, n);
     while (i < n && (p[i] == ' ' || p[i] == '\t'))
         i++;
     return n - i >= 5 && memcmp(p + i, "solid", 5) == 0;

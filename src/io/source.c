@@ -235,16 +235,14 @@ static int looks_utf16(const uint8_t *p, size_t n)
     return even || odd;
 }
 
-/* A UTF-8 byte-order mark before a text file's first line (Windows
- * editors write one) is no part of it: kept, it made an OBJ's first
- * statement an unknown '???v', dropped, and every face index after it
- * named the wrong vertex. */
+/* The first line without a UTF-8 byte-order mark: kept, it made an OBJ's
+ * first statement an unknown '???v', dropped, and every face index after
+ * it named the wrong vertex. */
 static void skip_utf8_bom(const en_source *s, char **p, size_t *n)
 {
-    if (s->lineno == 0 && *n >= 3 && memcmp(*p, "\xef\xbb\xbf", 3) == 0) {
-        *p += 3;
-        *n -= 3;
-    }
+    size_t k = s->lineno == 0 ? en_source_utf8_bom((const uint8_t *)*p, *n) : 0;
+    *p += k;
+    *n -= k;
 }
 
 int en_source_line(en_source *s, char **line, size_t *len, size_t max_len,

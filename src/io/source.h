@@ -56,8 +56,18 @@ static inline uint64_t en_source_offset(const en_source *s)
     return s->base + (uint64_t)(s->cur - s->buf);
 }
 
+/* The bytes of a UTF-8 byte-order mark at p (3), or 0. Windows editors
+ * start a text with one; it is no part of the first line, which
+ * en_source_line() returns without it, and a reader that sniffs the first
+ * bytes for a word looks past it. */
+static inline size_t en_source_utf8_bom(const uint8_t *p, size_t n)
+{
+    return n >= 3 && p[0] == 0xef && p[1] == 0xbb && p[2] == 0xbf ? 3 : 0;
+}
+
 /*
- * Next text line, without its '\n' or "\r\n", NUL-terminated in place.
+ * Next text line, without its '\n' or "\r\n" (nor the first line its
+ * UTF-8 byte-order mark), NUL-terminated in place.
  * @return 1 with line and len set, 0 at end of input, or a negative code with
  * err filled (a line longer than max_len, a read error, a NUL byte).
  */
