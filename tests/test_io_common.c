@@ -6,6 +6,7 @@
 #include <dirent.h>
 #include <zstd.h>
 
+#include "common/pool.h"
 #include "common/u64set.h"
 #include "io/sink.h"
 #include "io/format.h"
@@ -108,6 +109,91 @@ TEST(source_reports_corrupt_zstd)
     CHECK_EQ_INT(rc, EPSNET_EFORMAT);
     CHECK_STR_CONTAINS(epsnet_error_message(&err), "bad.zst");
     en_source_close(&s);
+}
+
+/* Every line of path, each with its number and the offset after it, into
+ * a text log; read ahead on pool's workers from the `start`-th line on,
+ * stopped again at the `stop`-th (0: never); the error, if any, at the end. */
+static char *read_log(const char *path, en_pool *pool, int start, int stop, size_t *n)
+{
+    size_t cap = 1 << 16, len = 0;
+    char *log = malloc(cap);
+    en_source *s = NULL;
+    epsnet_error err;
+    int rc = en_source_open(&s, path, &err);
+    for (int i = 0; rc == 0; i++) {
+        if (pool && i == start)
+            CHECK_EQ_INT(en_source_use_pool(s, pool), 0);
+        if (pool && i == stop && stop)
+            CHECK_EQ_INT(en_source_use_pool(s, NULL), 0);
+        char *line;
+        size_t ll;
+        rc = en_source_line(s, &line, &ll, 1 << 19, &err);
+        if (rc != 1)
+            break;
+        rc = 0;
+        while (len + ll + 64 > cap)
+            log = realloc(log, cap *= 2);
+        len += (size_t)sprintf(log + len, "%llu %llu ", (unsigned long long)s->lineno,
+                               (unsigned long long)en_source_offset(s));
+        memcpy(log + len, line, ll);
+        len += ll;
+        log[len++] = '\n';
+    }
+    const char *msg = rc < 0 ? epsnet_error_message(&err) : "end";
+    log = realloc(log, len + strlen(msg) + 64);
+    len += (size_t)sprintf(log + len, "%s; %llu bytes read\n", msg,
+                           (unsigned long long)(s ? s->raw_read : 0));
+    en_source_close(&s);
+    *n = len;
+    return log;
+}
+
+TEST(source_read_ahead_gives_the_same_lines_offsets_and_errors)
+{
+    /* about 7 MiB of lines of 0 to 4,000 bytes: chunks of 1 MiB end inside lines */
+    size_t cap = 8u << 20, n = 0;
+    char *text = malloc(cap);
+    uint64_t x = 88172645463325252ull;
+    while (n + 4100 < (size_t)7 << 20) {
+        x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+        size_t ll = (size_t)(x % 4001);
+        for (size_t i = 0; i < ll; i++)
+            text[n++] = (char)('a' + (x >> (i % 40)) % 26);
+        text[n++] = '\n';
+    }
+    const char *plain = tl_write("ahead.txt", text, n);
+    size_t zcap = ZSTD_compressBound(n);
+    void *z = malloc(zcap);
+    size_t zn = ZSTD_compress(z, zcap, text, n, 1);
+    CHECK(!ZSTD_isError(zn));
+    char *whole = strdup(tl_write("ahead.zst", z, zn));
+    char *cut = strdup(tl_write("ahead_cut.zst", z, zn * 2 / 3)); /* a truncated frame */
+    free(z);
+    free(text);
+    en_pool *pool = NULL;
+    CHECK_EQ_INT(en_pool_new(&pool, 2), 0);
+    en_pool *inline_pool = NULL;
+    CHECK_EQ_INT(en_pool_new(&inline_pool, 0), 0);
+    const char *paths[3] = { plain, whole, cut };
+    for (int k = 0; k < 3; k++) {
+        size_t n0, n1;
+        char *alone = read_log(paths[k], NULL, 0, 0, &n0);
+        CHECK(strstr(alone, k == 2 ? "truncated zstd stream" : "end; ") != NULL);
+        /* from the start, after the first lines, stopped half way, with no workers */
+        int shapes[4][2] = { { 0, 0 }, { 3, 0 }, { 1, 900 }, { 0, 0 } };
+        for (int h = 0; h < 4; h++) {
+            char *ahead = read_log(paths[k], h == 3 ? inline_pool : pool, shapes[h][0], shapes[h][1], &n1);
+            CHECK_EQ_U64(n1, n0);
+            CHECK(n1 == n0 && memcmp(alone, ahead, n0) == 0);
+            free(ahead);
+        }
+        free(alone);
+    }
+    en_pool_free(&inline_pool);
+    en_pool_free(&pool);
+    free(whole);
+    free(cut);
 }
 
 TEST(sink_commit_renames_and_abort_leaves_nothing)
@@ -453,6 +539,7 @@ int main(void)
     RUN(source_rejects_overlong_line_with_its_number);
     RUN(source_reads_zstd_transparently_whatever_the_name);
     RUN(source_reports_corrupt_zstd);
+    RUN(source_read_ahead_gives_the_same_lines_offsets_and_errors);
     RUN(sink_commit_renames_and_abort_leaves_nothing);
     RUN(sink_zstd_output_reads_back);
     RUN(sink_onto_a_device_writes_in_place);

@@ -257,10 +257,11 @@ void en_reader_drop(epsnet_reader *r, const char *name, uint64_t n, int counted)
  * come first, as with epsnet_reader_next()). */
 int en_reader_next_batch(epsnet_reader *r, const epsnet_record **recs, size_t *n, epsnet_error *err);
 
-/* Let r's driver decode on pool's workers, if it can (en_format.use_pool);
- * the caller's thread stays the ring's owner and the records come in the
- * same order. Call with NULL before the pool is freed. @return 0 or
- * EPSNET_ENOMEM (r still reads, on the caller's thread). */
+/* Let r's driver decode on pool's workers, if it can (en_format.use_pool),
+ * or else read its bytes ahead there (en_source_use_pool); the caller's
+ * thread stays the ring's owner and the records come in the same order.
+ * Call with NULL before the pool is freed. @return 0 or EPSNET_ENOMEM (r
+ * still reads, on the caller's thread). */
 int en_reader_use_pool(epsnet_reader *r, struct en_pool *pool);
 
 /* Let w's driver encode on pool's workers, if it can (en_format.

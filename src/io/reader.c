@@ -579,7 +579,10 @@ void epsnet_reader_close(epsnet_reader **pr)
 
 int en_reader_use_pool(epsnet_reader *r, struct en_pool *pool)
 {
-    if (!r || !r->fmt->use_pool || !r->state)
+    if (!r || !r->state)
         return 0;
-    return r->fmt->use_pool(r, pool);
+    if (r->fmt->use_pool)
+        return r->fmt->use_pool(r, pool);
+    /* a driver that parses on the caller's thread: its bytes are read ahead */
+    return r->src ? en_source_use_pool(r->src, pool) : 0;
 }

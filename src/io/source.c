@@ -10,6 +10,7 @@
 
 #include "common/alloc.h"
 #include "common/error.h"
+#include "common/pool.h"
 
 /* The read window; fill() never asks for more than half. Fuzz builds shrink it
  * (meson.build): under ASan a 2 MiB buffer per input is mapped and unmapped
@@ -36,36 +37,57 @@ static int src_fail(en_source *s, int code, const char *fmt, const char *detail)
     return code;
 }
 
-/* Read raw bytes from the fd; returns bytes read, 0 at EOF, -1 on error. */
-static ssize_t raw_read(en_source *s, uint8_t *dst, size_t n)
+/* A failure met while reading, held until the caller's thread reaches it
+ * (a chunk read ahead fails on a worker, but the window reports it where
+ * the bytes run out, as the caller's own read would have). */
+typedef struct read_failure {
+    int code;              /* 0: none */
+    const char *fmt;       /* one %s, for detail */
+    const char *detail;    /* a static string, or NULL for strerror(errnum) */
+    int errnum;
+} read_failure;
+
+static void note_failure(read_failure *f, int code, const char *fmt, const char *detail, int errnum)
+{
+    *f = (read_failure){ code, fmt, detail, errnum };
+}
+
+static int take_failure(en_source *s, const read_failure *f)
+{
+    return src_fail(s, f->code, f->fmt, f->detail ? f->detail : strerror(f->errnum));
+}
+
+/* Read raw bytes from the fd, counted in *raw; returns bytes read, 0 at
+ * EOF, -1 on error (noted in f). */
+static ssize_t raw_read(en_source *s, uint8_t *dst, size_t n, uint64_t *raw, read_failure *f)
 {
     for (;;) {
         ssize_t k = read(s->fd, dst, n);
         if (k >= 0) {
-            s->raw_read += (uint64_t)k;
+            *raw += (uint64_t)k;
             return k;
         }
         if (errno != EINTR) {
-            src_fail(s, EPSNET_EIO, "read failed: %s", strerror(errno));
+            note_failure(f, EPSNET_EIO, "read failed: %s", NULL, errno);
             return -1;
         }
     }
 }
 
 /* Append up to room bytes of decompressed data at dst. */
-static ssize_t produce(en_source *s, uint8_t *dst, size_t room)
+static ssize_t produce(en_source *s, uint8_t *dst, size_t room, uint64_t *raw, read_failure *f)
 {
     if (!s->zstd)
-        return raw_read(s, dst, room);
+        return raw_read(s, dst, room, raw, f);
     ZSTD_outBuffer out = { dst, room, 0 };
     while (out.pos == 0) {
         if (s->zin_pos == s->zin_len) {
-            ssize_t k = raw_read(s, s->zin, s->zin_cap);
+            ssize_t k = raw_read(s, s->zin, s->zin_cap, raw, f);
             if (k < 0)
                 return -1;
             if (k == 0) {
                 if (s->zframe_open) {
-                    src_fail(s, EPSNET_EFORMAT, "%s", "truncated zstd stream");
+                    note_failure(f, EPSNET_EFORMAT, "%s", "truncated zstd stream", 0);
                     return -1;
                 }
                 return 0;
@@ -77,12 +99,165 @@ static ssize_t produce(en_source *s, uint8_t *dst, size_t room)
         size_t r = ZSTD_decompressStream(s->zstd, &out, &in);
         s->zin_pos = in.pos;
         if (ZSTD_isError(r)) {
-            src_fail(s, EPSNET_EFORMAT, "corrupt zstd data: %s", ZSTD_getErrorName(r));
+            note_failure(f, EPSNET_EFORMAT, "corrupt zstd data: %s", ZSTD_getErrorName(r), 0);
             return -1;
         }
         s->zframe_open = r != 0;
     }
     return (ssize_t)out.pos;
+}
+
+/* ---- reading ahead on a worker (en_source_use_pool) ----
+ * note: two chunks, the one the window is taking bytes from and the one a
+ * job fills meanwhile; the ring holds one job. A chunk's bytes are copied
+ * into the window (a memcpy beside the read's own copy out of the kernel,
+ * which is what moves off the caller's thread), so the window, its
+ * offsets and its errors are those of reading on the caller's thread. */
+#define AHEAD_CHUNK (EN_SOURCE_CAP / 2)
+
+typedef struct ahead_chunk {
+    en_source *s;
+    uint8_t *data;
+    /* The job's until retired: */
+    size_t len;            /* bytes read into data */
+    uint64_t raw;          /* bytes read from the fd for them */
+    int end;               /* the input ended after them */
+    read_failure failed;   /* or failed after them */
+    /* The caller's: */
+    size_t pos;            /* bytes handed to the window */
+    int state;             /* CHUNK_* */
+} ahead_chunk;
+
+enum { CHUNK_FREE, CHUNK_FILLING, CHUNK_READY, CHUNK_TAKING };
+
+struct en_source_ahead {
+    en_jobring *ring;      /* NULL once stopped: what was read is still handed out */
+    ahead_chunk c[2];
+};
+
+static int fill_chunk(void *job)
+{
+    ahead_chunk *c = job;
+    c->len = 0;
+    c->raw = 0;
+    c->end = 0;
+    c->failed.code = 0;
+    while (c->len < AHEAD_CHUNK) {
+        ssize_t k = produce(c->s, c->data + c->len, AHEAD_CHUNK - c->len, &c->raw, &c->failed);
+        if (k < 0)
+            break;
+        if (k == 0) {
+            c->end = 1;
+            break;
+        }
+        c->len += (size_t)k;
+    }
+    return 0;
+}
+
+static int chunk_submit(struct en_source_ahead *a, ahead_chunk *c)
+{
+    c->state = CHUNK_FILLING;
+    if (en_jobring_submit(a->ring, fill_chunk, c) == 0)
+        return 0;
+    c->state = CHUNK_FREE; /* cannot happen with one slot, retired before */
+    return -1;
+}
+
+/* The in-flight chunk, once read (the caller's thread waits for it). */
+static void chunk_retire(en_source *s, struct en_source_ahead *a)
+{
+    void *job;
+    int result;
+    if (!a->ring || en_jobring_retire(a->ring, &job, &result) != 1)
+        return;
+    ahead_chunk *c = job;
+    c->state = CHUNK_READY;
+    c->pos = 0;
+    s->raw_read += c->raw;
+}
+
+/* The chunk to take bytes from next, or NULL: the input has ended or
+ * failed (s->eof or s->failed is then set), or, with reading ahead
+ * stopped and nothing read ahead left, it goes on on the caller's thread
+ * (*sync set). */
+static ahead_chunk *ahead_take(en_source *s, int *sync)
+{
+    struct en_source_ahead *a = s->ahead;
+    *sync = 0;
+    for (int i = 0; i < 2; i++) {
+        ahead_chunk *c = &a->c[i];
+        if (c->state != CHUNK_TAKING)
+            continue;
+        if (c->pos < c->len)
+            return c;
+        if (c->end || c->failed.code) {
+            if (c->failed.code)
+                take_failure(s, &c->failed);
+            else
+                s->eof = 1;
+            return NULL;
+        }
+        c->state = CHUNK_FREE;
+    }
+    chunk_retire(s, a);
+    for (int i = 0; i < 2; i++) {
+        ahead_chunk *c = &a->c[i], *other = &a->c[1 - i];
+        if (c->state != CHUNK_READY)
+            continue;
+        c->state = CHUNK_TAKING;
+        if (a->ring && !c->end && !c->failed.code && other->state == CHUNK_FREE)
+            chunk_submit(a, other);
+        return ahead_take(s, sync);
+    }
+    *sync = 1;
+    return NULL;
+}
+
+static void ahead_stop(en_source *s)
+{
+    struct en_source_ahead *a = s->ahead;
+    if (!a || !a->ring)
+        return;
+    chunk_retire(s, a);
+    en_jobring_free(&a->ring, NULL);
+}
+
+static void ahead_free(en_source *s)
+{
+    struct en_source_ahead *a = s->ahead;
+    if (!a)
+        return;
+    ahead_stop(s);
+    en_free(a->c[0].data);
+    en_free(a->c[1].data);
+    en_free(a);
+    s->ahead = NULL;
+}
+
+int en_source_use_pool(en_source *s, en_pool *pool)
+{
+    if (!pool || en_pool_threads(pool) == 0) {
+        ahead_stop(s); /* its chunks' bytes still come first */
+        return 0;
+    }
+    if (s->ahead || s->eof || s->failed)
+        return 0; /* reading ahead already, or nothing left to read */
+    struct en_source_ahead *a = en_calloc(1, sizeof *a);
+    if (!a)
+        return EPSNET_ENOMEM;
+    a->c[0].data = en_malloc(AHEAD_CHUNK);
+    a->c[1].data = en_malloc(AHEAD_CHUNK);
+    if (!a->c[0].data || !a->c[1].data || en_jobring_new(&a->ring, pool, 1)) {
+        en_free(a->c[0].data);
+        en_free(a->c[1].data);
+        en_free(a);
+        return EPSNET_ENOMEM;
+    }
+    a->c[0].s = a->c[1].s = s;
+    s->ahead = a;
+    chunk_submit(a, &a->c[0]);
+    return 0;
 }
 
 size_t en_source_fill(en_source *s, size_t want)
@@ -101,9 +276,27 @@ size_t en_source_fill(en_source *s, size_t want)
     while (avail < want) {
         /* note: one byte stays spare so en_source_line() can always NUL-terminate
          * a last line that has no newline. */
-        ssize_t k = produce(s, s->buf + avail, s->cap - 1 - avail);
-        if (k < 0)
+        int sync = 1;
+        if (s->ahead) {
+            ahead_chunk *c = ahead_take(s, &sync);
+            if (c) {
+                size_t k = c->len - c->pos, room = s->cap - 1 - avail;
+                k = k < room ? k : room;
+                memcpy(s->buf + avail, c->data + c->pos, k);
+                c->pos += k;
+                avail += k;
+                s->end = s->buf + avail;
+                continue;
+            }
+            if (!sync)
+                break; /* the end, or a failure, reached where the caller's read would */
+        }
+        read_failure f;
+        ssize_t k = produce(s, s->buf + avail, s->cap - 1 - avail, &s->raw_read, &f);
+        if (k < 0) {
+            take_failure(s, &f);
             break;
+        }
         if (k == 0) {
             s->eof = 1;
             break;
@@ -155,14 +348,18 @@ int en_source_open(en_source **out, const char *path, epsnet_error *err)
 #endif
     }
     /* Sniff the zstd magic on the raw bytes before any decoding. */
-    ssize_t k = raw_read(s, s->buf, 4);
+    read_failure f;
+    ssize_t k = raw_read(s, s->buf, 4, &s->raw_read, &f);
     while (k > 0 && k < 4) {
-        ssize_t more = raw_read(s, s->buf + k, (size_t)(4 - k));
+        ssize_t more = raw_read(s, s->buf + k, (size_t)(4 - k), &s->raw_read, &f);
+        if (more < 0)
+            take_failure(s, &f); /* the reader reports it at its first fill */
         if (more <= 0)
             break;
         k += more;
     }
     if (k < 0) {
+        take_failure(s, &f);
         int rc = en_source_error(s, err);
         en_source_close(&s);
         return rc;
@@ -200,6 +397,7 @@ void en_source_close(en_source **ps)
     en_source *s = ps ? *ps : NULL;
     if (!s)
         return;
+    ahead_free(s); /* first: a chunk in flight reads the fd */
     if (s->own_fd && s->fd >= 0)
         close(s->fd);
     if (s->zstd)

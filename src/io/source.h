@@ -36,6 +36,10 @@ typedef struct en_source {
 
     char *path;            /* for messages */
     epsnet_error err;      /* first failure */
+
+    /* Reading ahead on a pool's worker (en_source_use_pool), NULL when not:
+     * then the fd and the zstd fields above are the job's while one runs. */
+    struct en_source_ahead *ahead;
 } en_source;
 
 /* Open path ("-" = stdin). @return 0 or a negative code with err filled;
@@ -49,6 +53,20 @@ void en_source_close(en_source **s);
  * or on error; check s->failed). want must be <= 1 MiB.
  */
 size_t en_source_fill(en_source *s, size_t want);
+
+struct en_pool;
+
+/*
+ * Read (and decompress) the next chunk on one of pool's workers while the
+ * caller parses the window, from the bytes after those read so far; the
+ * window's contents and every offset and error are the same as without.
+ * pool NULL, or one that runs jobs inline: stop, waiting for the chunk in
+ * flight, whose bytes are still handed out, before reading goes on on the
+ * caller's thread. Call with NULL before the pool is freed (closing the
+ * source stops it too). @return 0 or EPSNET_ENOMEM (it reads on the
+ * caller's thread, as before).
+ */
+int en_source_use_pool(en_source *s, struct en_pool *pool);
 
 /* Offset of cur in the decompressed stream. */
 static inline uint64_t en_source_offset(const en_source *s)

@@ -971,36 +971,108 @@ static int add_face(sort_job *j, const uint64_t r[3], epsnet_error *err)
     return rc;
 }
 
+/* Pass 5 in core, one batch of faces: read from the input order and
+ * relabelled through rank_of, on a worker while the calling thread adds
+ * the batch before (pass_faces_in_core). The job touches only j->fraw
+ * and its own buffer, and reads rank_of, which nothing writes then. */
+typedef struct relabel_job {
+    sort_job *j;
+    uint64_t *fb;                /* 3 n corners: written by the worker while in flight */
+    size_t n;
+    epsnet_error err;            /* the worker's, read after retire */
+} relabel_job;
+
+static int relabel_run(void *arg)
+{
+    relabel_job *b = arg;
+    sort_job *j = b->j;
+    int64_t got = en_spill_read(j->fraw, b->fb, b->n * 3 * sizeof *b->fb, &b->err);
+    if (got < 0)
+        return (int)got;
+    if ((size_t)got != b->n * 3 * sizeof *b->fb)
+        return internal(j, "temporary face file is short", &b->err);
+    /* note: on a shuffled input rank_of is read at random, one cache miss
+     * per corner; asking for it PREFETCH faces ahead lets the misses
+     * overlap instead of following one another. */
+    uint64_t *fb = b->fb;
+    for (size_t i = 0; i < 3 * b->n; i++) {
+        if (i + 3 * PREFETCH < 3 * b->n)
+            __builtin_prefetch(&j->rank_of[fb[i + 3 * PREFETCH]]);
+        fb[i] = j->rank_of[fb[i]];
+    }
+    return 0;
+}
+
+/* Start the next batch of faces into b: on ring's worker, or here when
+ * there is none (then it is done on return). @return 0, or what the
+ * batch met (in b->err). */
+static int relabel_start(en_jobring *ring, relabel_job *b, uint64_t *next, uint64_t nf, int *busy)
+{
+    b->n = nf - *next < BATCH ? (size_t)(nf - *next) : BATCH;
+    *next += b->n;
+    if (ring && en_jobring_submit(ring, relabel_run, b) == 0) {
+        *busy = 1;
+        return 0;
+    }
+    return relabel_run(b);
+}
+
 /* In core: the faces straight from the input order, relabelled through
- * rank_of; last uses go to last_of. */
+ * rank_of; last uses go to last_of. note: the read and the relabelling
+ * of batch k + 1 (the random reads of rank_of: on a shuffled 20M-face PLY
+ * they were most of this pass on the calling thread) run on a worker while
+ * this thread adds batch k to sorter F and last_of; the batches are added
+ * in order, so the sorters see the same items in the same order for any
+ * thread count. */
 static int pass_faces_in_core(sort_job *j, epsnet_error *err)
 {
-    int rc;
     for (uint64_t v = 0; v < j->st.vertices; v++)
         j->last_of[v] = UINT32_MAX;
-    for (uint64_t f = 0; f < j->st.faces;) {
-        size_t n = j->st.faces - f < BATCH ? (size_t)(j->st.faces - f) : BATCH;
-        if ((rc = read_faces(j, n, err)))
-            return rc;
-        /* note: on a shuffled input rank_of and last_of are read at random,
-         * one cache miss each per corner; asking for them PREFETCH faces
-         * ahead lets the misses overlap instead of following one another. */
-        uint64_t *fb = j->fbuf;
-        for (size_t i = 0; i < 3 * n; i++) {
-            if (i + 3 * PREFETCH < 3 * n)
-                __builtin_prefetch(&j->rank_of[fb[i + 3 * PREFETCH]]);
-            fb[i] = j->rank_of[fb[i]];
+    relabel_job jobs[2] = { { .j = j, .fb = j->fbuf }, { .j = j } };
+    en_jobring *ring = NULL;
+    en_pool *pool = j->shared ? j->shared : j->pool;
+    if (!(jobs[1].fb = en_malloc(BATCH * 3 * sizeof *jobs[1].fb)) || (pool && en_jobring_new(&ring, pool, 1))) {
+        en_free(jobs[1].fb);
+        return nomem(j, err);
+    }
+    uint64_t nf = j->st.faces, next = 0, f = 0;
+    int busy = 0, cur = 0, rc = nf ? relabel_start(ring, &jobs[0], &next, nf, &busy) : 0;
+    const relabel_job *failed = rc ? &jobs[0] : NULL;
+    for (; f < nf && rc == 0; cur = 1 - cur) {
+        relabel_job *b = &jobs[cur];
+        void *job;
+        if (busy) {
+            busy = 0;
+            if (en_jobring_retire(ring, &job, &rc) == 1 && rc) {
+                failed = b;
+                break;
+            }
         }
-        for (size_t i = 0; i < n; i++, f++) {
-            if (i + PREFETCH < n)
+        if (next < nf && (rc = relabel_start(ring, &jobs[1 - cur], &next, nf, &busy)) != 0) {
+            failed = &jobs[1 - cur];
+            break;
+        }
+        const uint64_t *fb = b->fb;
+        for (size_t i = 0; i < b->n && rc == 0; i++, f++) {
+            if (i + PREFETCH < b->n)
                 for (int s = 0; s < 3; s++)
                     __builtin_prefetch(&j->last_of[fb[3 * (i + PREFETCH) + (size_t)s]], 1);
-            if ((rc = add_face(j, fb + 3 * i, err)))
-                return rc;
+            rc = add_face(j, fb + 3 * i, err);
         }
-        if ((rc = progress(j, f, j->st.faces, err)))
-            return rc;
+        if (rc == 0)
+            rc = progress(j, f, nf, err);
     }
+    if (busy) {
+        void *job;
+        int ignored;
+        en_jobring_retire(ring, &job, &ignored);
+    }
+    en_jobring_free(&ring, NULL);
+    en_free(jobs[1].fb);
+    if (failed && err)
+        *err = failed->err;
+    if (rc)
+        return rc;
     close_spill(j, &j->fraw);
     en_free(j->rank_of);
     j->rank_of = NULL;
@@ -1545,6 +1617,8 @@ static int choose_relabel(sort_job *j, epsnet_error *err)
  * one: the output does not depend on it. */
 static int start_pool(sort_job *j, epsnet_error *err)
 {
+    if (j->ring)
+        return 0; /* started for the read (run_passes) */
     long n = sort_workers(j);
     j->chunks = 1;
     if (n <= 1)
@@ -1566,7 +1640,12 @@ static int run_passes(sort_job *j, epsnet_error *err)
 {
     int rc;
     j->phase = 1;
-    if ((rc = open_job(j, err)) || (rc = pass_read(j, err)))
+    if ((rc = open_job(j, err)) || (rc = start_pool(j, err)))
+        return rc;
+    /* the file's bytes are read ahead on a worker while this thread parses
+     * them (ENOMEM: it reads them itself) */
+    (void)en_reader_use_pool(j->r, j->shared ? j->shared : j->pool);
+    if ((rc = pass_read(j, err)))
         return rc;
     j->st.dropped = en_reader_warn_dropped(j->r, j->set.warning, j->set.warning_opaque);
     const epsnet_mesh_info *ri = epsnet_reader_info(j->r);
