@@ -155,13 +155,11 @@ static int fill_chunk(void *job)
     return 0;
 }
 
-static int chunk_submit(struct en_source_ahead *a, ahead_chunk *c)
+/* (A refused submit, which one slot retired before cannot meet, leaves c
+ * free: the window then reads on the caller's thread.) */
+static void chunk_submit(struct en_source_ahead *a, ahead_chunk *c)
 {
-    c->state = CHUNK_FILLING;
-    if (en_jobring_submit(a->ring, fill_chunk, c) == 0)
-        return 0;
-    c->state = CHUNK_FREE; /* cannot happen with one slot, retired before */
-    return -1;
+    c->state = en_jobring_submit(a->ring, fill_chunk, c) == 0 ? CHUNK_FILLING : CHUNK_FREE;
 }
 
 /* The in-flight chunk, once read (the caller's thread waits for it). */

@@ -149,7 +149,7 @@ typedef struct face_fill {
 
 /* Calling thread only. */
 typedef struct face_feed {
-    en_pool *pool;               /* ours (1 worker, or 0: inline) when the sort was given none */
+    en_pool *pool;               /* ours (0 workers: inline) when the sort has none (sort_pool) */
     en_jobring *ring;            /* one slot */
     face_fill fill[2];
     int cur;                     /* the block being walked: fill[cur] */
@@ -189,9 +189,9 @@ struct en_sort {
     uint64_t *fitems;            /* whole: faces by (last corner, input order): see whole_faces */
     uint32_t *out_id, *fin;      /* whole, and pass 6 in core: see whole_emit, emit_arrays */
     uint64_t whole_bytes;        /* accounted */
-    en_pool *pool;               /* whole: workers for the chunks; NULL = this thread */
+    en_pool *pool;               /* ours when not shared (start_pool); NULL = this thread */
     en_pool *shared;             /* the run's pool when given (not ours to free) */
-    en_jobring *ring;            /* ... the chunks' jobs, retired in order */
+    en_jobring *ring;            /* the whole path's pieces, retired in order */
     size_t chunks;               /* pieces the whole path's loops are cut into */
     uint32_t *rank_of;           /* in core: old id -> rank */
     uint32_t *last_of;           /* in core: rank -> last use, UINT32_MAX none */
@@ -243,6 +243,13 @@ static long sort_workers(const sort_job *j)
         return en_pool_threads(j->shared) > 1 ? en_pool_threads(j->shared) : 1;
     long n = j->set.threads > 0 ? j->set.threads : sysconf(_SC_NPROCESSORS_ONLN);
     return n > 64 ? 64 : n;
+}
+
+/* The workers the sort's jobs run on: the run's, else its own (start_pool),
+ * else none (NULL). */
+static en_pool *sort_pool(const sort_job *j)
+{
+    return j->shared ? j->shared : j->pool;
 }
 
 /* note: every sorter keys on its first word only. The sort is stable and
@@ -784,13 +791,13 @@ static int pass_read(sort_job *j, epsnet_error *err)
     return en_spill_rewind(j->vraw, err);
 }
 
-/* Read exactly want faces (3 old ids each) from j->fraw into j->fbuf. */
-static int read_faces(sort_job *j, size_t want, epsnet_error *err)
+/* Read exactly want faces (3 old ids each) from j->fraw into buf. */
+static int read_faces(const sort_job *j, uint64_t *buf, size_t want, epsnet_error *err)
 {
-    int64_t got = en_spill_read(j->fraw, j->fbuf, want * 3 * sizeof *j->fbuf, err);
+    int64_t got = en_spill_read(j->fraw, buf, want * 3 * sizeof *buf, err);
     if (got < 0)
         return (int)got;
-    if ((size_t)got != want * 3 * sizeof *j->fbuf)
+    if ((size_t)got != want * 3 * sizeof *buf)
         return en_error_set(err, EPSNET_EINTERNAL, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "temporary face file is short");
     return 0;
@@ -902,7 +909,7 @@ static int pass_relabel(sort_job *j, epsnet_error *err)
     uint64_t nfaces = j->st.faces;
     for (uint64_t f = 0; f < nfaces;) {
         size_t n = nfaces - f < BATCH ? (size_t)(nfaces - f) : BATCH;
-        if ((rc = read_faces(j, n, err)))
+        if ((rc = read_faces(j, j->fbuf, n, err)))
             return rc;
         for (size_t i = 0; i < n; i++, f++)
             for (uint64_t s = 0; s < 3; s++) {
@@ -986,11 +993,9 @@ static int relabel_run(void *arg)
 {
     relabel_job *b = arg;
     sort_job *j = b->j;
-    int64_t got = en_spill_read(j->fraw, b->fb, b->n * 3 * sizeof *b->fb, &b->err);
-    if (got < 0)
-        return (int)got;
-    if ((size_t)got != b->n * 3 * sizeof *b->fb)
-        return internal(j, "temporary face file is short", &b->err);
+    int rc = read_faces(j, b->fb, b->n, &b->err);
+    if (rc)
+        return rc;
     /* note: on a shuffled input rank_of is read at random, one cache miss
      * per corner; asking for it PREFETCH faces ahead lets the misses
      * overlap instead of following one another. */
@@ -1030,7 +1035,7 @@ static int pass_faces_in_core(sort_job *j, epsnet_error *err)
         j->last_of[v] = UINT32_MAX;
     relabel_job jobs[2] = { { .j = j, .fb = j->fbuf }, { .j = j } };
     en_jobring *ring = NULL;
-    en_pool *pool = j->shared ? j->shared : j->pool;
+    en_pool *pool = sort_pool(j);
     if (!(jobs[1].fb = en_malloc(BATCH * 3 * sizeof *jobs[1].fb)) || (pool && en_jobring_new(&ring, pool, 1))) {
         en_free(jobs[1].fb);
         return nomem(j, err);
@@ -1337,7 +1342,7 @@ static int feed_submit(sort_job *j, face_feed *fd, int which, epsnet_error *err)
 static int feed_open(sort_job *j, face_feed *fd, epsnet_error *err)
 {
     size_t words = j->narrow ? 2 : 4;
-    en_pool *pool = j->shared;
+    en_pool *pool = sort_pool(j);
     if (!pool) {
         int rc = en_pool_new(&fd->pool, sort_workers(j) > 1 ? 1 : 0);
         if (rc && rc != EPSNET_ENOMEM)
@@ -1497,6 +1502,30 @@ static char *dir_of(const char *path)
     return d;
 }
 
+/* The sort's own workers when it was given none (sort_pool: the read
+ * ahead, the whole path's pieces, passes 5 and 6; an external sorter
+ * given no pool forms its runs on a thread of its own), and the whole
+ * path's ring: as epsnet_settings.threads (0 = all
+ * cores, 1 = this thread). A thread that cannot start leaves the work to
+ * this one: the output does not depend on it. */
+static int start_pool(sort_job *j, epsnet_error *err)
+{
+    long n = sort_workers(j);
+    j->chunks = 1;
+    if (n <= 1)
+        return 0;
+    int rc = j->shared ? 0 : en_pool_new(&j->pool, (int)n);
+    if (rc == 0 && en_jobring_new(&j->ring, sort_pool(j), (size_t)n)) {
+        en_pool_free(&j->pool);
+        rc = EPSNET_ENOMEM;
+    }
+    if (rc == EPSNET_ENOMEM)
+        return nomem(j, err);
+    if (rc == 0)
+        j->chunks = (size_t)n;
+    return 0;
+}
+
 static int open_job(sort_job *j, epsnet_error *err)
 {
     j->tmpdir = j->set.tmpdir ? en_strdup(j->set.tmpdir) : dir_of(j->owner);
@@ -1544,6 +1573,9 @@ static int open_job(sort_job *j, epsnet_error *err)
         j->whole_bytes = (24 + j->asz) * in->nverts + 12 * in->nfaces;
         en_mem_take(&j->mem, j->whole_bytes);
     }
+    /* the pool of the read ahead, the whole path and passes 5 and 6 */
+    if ((rc = start_pool(j, err)))
+        return rc;
     if ((rc = en_spill_open_plain(&j->vraw, j->tmpdir, j->owner, err)) ||
         (rc = en_spill_open_plain(&j->fraw, j->tmpdir, j->owner, err)) ||
         (rc = en_spill_open_plain(&j->vsorted, j->tmpdir, j->owner, err)) ||
@@ -1612,39 +1644,16 @@ static int choose_relabel(sort_job *j, epsnet_error *err)
     return 0;
 }
 
-/* Workers for the whole path: as epsnet_settings.threads (0 = all cores,
- * 1 = this thread). A thread that cannot start leaves the work to this
- * one: the output does not depend on it. */
-static int start_pool(sort_job *j, epsnet_error *err)
-{
-    if (j->ring)
-        return 0; /* started for the read (run_passes) */
-    long n = sort_workers(j);
-    j->chunks = 1;
-    if (n <= 1)
-        return 0;
-    int rc = j->shared ? 0 : en_pool_new(&j->pool, (int)n);
-    if (rc == 0 && en_jobring_new(&j->ring, j->shared ? j->shared : j->pool, (size_t)n)) {
-        en_pool_free(&j->pool);
-        rc = EPSNET_ENOMEM;
-    }
-    if (rc == EPSNET_ENOMEM)
-        return nomem(j, err);
-    if (rc == 0)
-        j->chunks = (size_t)n;
-    return 0;
-}
-
 /* Passes 1 to 5: everything but the output walk. */
 static int run_passes(sort_job *j, epsnet_error *err)
 {
     int rc;
     j->phase = 1;
-    if ((rc = open_job(j, err)) || (rc = start_pool(j, err)))
+    if ((rc = open_job(j, err)))
         return rc;
     /* the file's bytes are read ahead on a worker while this thread parses
      * them (ENOMEM: it reads them itself) */
-    (void)en_reader_use_pool(j->r, j->shared ? j->shared : j->pool);
+    (void)en_reader_use_pool(j->r, sort_pool(j));
     if ((rc = pass_read(j, err)))
         return rc;
     j->st.dropped = en_reader_warn_dropped(j->r, j->set.warning, j->set.warning_opaque);
@@ -1659,7 +1668,7 @@ static int run_passes(sort_job *j, epsnet_error *err)
     if (j->whole) {
         j->in_core = 1; /* ranks and last uses are arrays */
         j->phase = 2;
-        if ((rc = start_pool(j, err)) || (rc = whole_order(j, err)))
+        if ((rc = whole_order(j, err)))
             return rc;
         j->phase = 5;
         return whole_faces(j, err);
