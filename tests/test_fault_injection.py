@@ -7,6 +7,7 @@ must exit with a clear error (never crash: no signal, no sanitizer report),
 leave nothing at the output path and no temporary files beside it. Under the
 address sanitizer build this also proves every failure path frees what it
 allocated (LeakSanitizer fails the run otherwise)."""
+import json
 import os
 import subprocess
 import sys
@@ -168,17 +169,29 @@ def main():
                                                         "--slab", "300", "--mem", "600K", "-j", "3", "-q"],
          what="EPSNET_FAIL_WRITE")
     # ... and a stream long enough for a size's pricing windows: they are
-    # read through the block index, thinned twice over, and the thinning
-    # held to the ceiling they price (docs/architecture.md §7).
+    # read through the block index (.smz), the sort's arrays (a shuffled
+    # PLY) or the stretches an external sort kept (the same under --mem),
+    # thinned twice over, and the thinning held to the ceiling they price
+    # (docs/architecture.md §7). Each is checked to be priced first.
+    long_tube = tube_ply(TMP, "long_tube_shuffled.ply", 24, 5000, shuffle=True)
     tube = os.path.join(TMP, "tube.smz")
-    p = run(["sort", tube_ply(TMP, "tube.ply", 12, 2000), "-o", tube, "-q"])
+    p = run(["sort", long_tube, "-o", tube, "-q"])
     assert p.returncode == 0, p.stderr
-    walk("simplify_target_priced", lambda o: ["simplify", tube, "-o", o + ".smz", "--ratio", "0.2", "--slab", "64",
-                                              "-j", "3", "-q"], max_points=300, stride=89)
-    # ... the same, shuffled: the windows from the sort's arrays
-    shuffled = tube_ply(TMP, "tube_shuffled.ply", 12, 2000, shuffle=True)
-    walk("simplify_target_priced_sorted", lambda o: ["simplify", shuffled, "-o", o + ".smz", "--ratio", "0.2",
-                                                     "--slab", "64", "-j", "3", "-q"], max_points=300, stride=89)
+    priced = ["--ratio", "0.1", "--slab", "256", "--tmpdir", TMP, "-q"]
+    for name, src, extra in (("simplify_target_priced", tube, []), ("simplify_target_priced_sorted", long_tube, []),
+                             ("simplify_target_priced_sort_spilling", long_tube, ["--mem", "1M"])):
+        stats = os.path.join(TMP, "priced.json")
+        p = run(["simplify", src, "-o", os.path.join(TMP, "priced.smz"), *priced, *extra, "--stats", stats])
+        assert p.returncode == 0, p.stderr
+        with open(stats) as f:
+            assert json.load(f)["target"]["price_ceiling"] > 0, name
+        os.remove(stats)
+        os.remove(os.path.join(TMP, "priced.smz"))
+        walk(name, lambda o, src=src, extra=extra: ["simplify", src, "-o", o + ".smz", "-j", "3", *priced, *extra],
+             max_points=300, stride=331)
+    walk("full_disk_simplify_target_priced_sort_spilling",
+         lambda o: ["simplify", long_tube, "-o", o + ".smz", *priced, "--mem", "1M"], stride=211,
+         what="EPSNET_FAIL_WRITE")
     walk("simplify_error_bound_on_slabs", lambda o: ["simplify", smz, "-o", o + ".smz", "--error", "0.001", "--slab",
                                                      "300", "-j", "3", "-q"], max_points=600, stride=7)
     # A glued double sheet (a fin on edge 0-1 of a tetrahedron), which a

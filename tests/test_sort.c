@@ -439,7 +439,7 @@ TEST(emitted_records_are_those_of_the_sorted_file)
     CHECK_EQ_INT(sort_with(obj, smz, (uint64_t)64 << 20, -1, NULL, &err), 0);
     record_list got = { 0 };
     en_sort *s = NULL;
-    CHECK_EQ_INT(en_sort_open(&s, obj, smz, NULL, 1, NULL, &err), 0);
+    CHECK_EQ_INT(en_sort_open(&s, obj, smz, NULL, 1, NULL, NULL, &err), 0);
     CHECK_EQ_INT(en_sort_emit(s, collect_record, &got, &err), 0);
     en_sort_close(&s, NULL);
     epsnet_reader *r = NULL;
@@ -459,6 +459,130 @@ TEST(emitted_records_are_those_of_the_sorted_file)
     CHECK_EQ_U64(differ, 0);
     epsnet_reader_close(&r);
     free(got.r);
+}
+
+/* ---- windows of the sorted stream (en_sort_window) ---- */
+
+static uint32_t test_stretches(uint64_t total, uint64_t *lo, uint64_t *hi)
+{
+    lo[0] = total / 10, hi[0] = total / 10 + total / 8;
+    lo[1] = total / 2 - 1000, hi[1] = total / 2 + 1000;
+    lo[2] = total / 2 + 900, hi[2] = total / 2 + 1500; /* overlaps the one before: merged */
+    lo[3] = total - 3000, hi[3] = total + 50;        /* past the end: clamped */
+    return 4;
+}
+
+static int window_records(en_sort *s, uint64_t lo, uint64_t hi, record_list *l, uint64_t *pushed, uint64_t *cut,
+                          epsnet_error *err)
+{
+    en_stage into = { collect_record, NULL, l };
+    return en_sort_window(s, lo, hi, 7, &into, pushed, cut, err);
+}
+
+/* A window is a stream of its own: its vertices numbered from base in
+ * order, each face after its corners, each vertex finalized once, after
+ * its last face. */
+static int window_is_a_stream(const record_list *l, uint64_t pushed)
+{
+    uint8_t *state = calloc(pushed + 1, 1); /* 1 seen, 2 finalized */
+    uint64_t next = 7;
+    int ok = state != NULL;
+    for (size_t i = 0; ok && i < l->n; i++) {
+        const epsnet_record *r = &l->r[i];
+        if (r->kind == EPSNET_REC_VERTEX) {
+            ok = next < 7 + pushed;
+            if (ok)
+                state[next++ - 7] = 1;
+        } else {
+            for (int k = 0; ok && k < (r->kind == EPSNET_REC_TRIANGLE ? 3 : 1); k++)
+                ok = r->v[k] >= 7 && r->v[k] < next && state[r->v[k] - 7] == 1;
+            if (ok && r->kind == EPSNET_REC_FINALIZE)
+                state[r->v[0] - 7] = 2;
+        }
+    }
+    for (uint64_t v = 0; ok && v < pushed; v++)
+        ok = state[v] == 2;
+    free(state);
+    return ok && next == 7 + pushed;
+}
+
+/* A size's pricing windows (docs/architecture.md §7) from an external
+ * sort: the stretches it was asked to keep give, window for window, the
+ * records of the whole path's arrays (stream order, the same numbering,
+ * the same cut counts), with or without the in-core ranks; a window
+ * outside them is refused, not guessed; and pass 6 afterwards still gives
+ * the sorted stream. */
+TEST(windows_from_kept_stretches_are_those_of_the_arrays)
+{
+    epsnet_error err;
+    const char *in = tl_path("win.ply");
+    CHECK_EQ_INT(tl_gen_file(in, "bumpy", 40000, NAN, 4, 1, &err), 0);
+    static const uint64_t mems[3] = { (uint64_t)256 << 20, 4 << 20, 256 << 10 }; /* whole, in-core ranks, external */
+    en_sort *s[3] = { NULL };
+    record_list emitted[3] = { { 0 } };
+    uint64_t total = 0;
+    for (int i = 0; i < 3; i++) {
+        epsnet_sort_settings set;
+        epsnet_sort_default_settings(&set);
+        set.mem = mems[i];
+        set.tmpdir = tl_tmpdir();
+        CHECK_EQ_INT(en_sort_open(&s[i], in, tl_path("win.smz"), &set, 0, test_stretches, NULL, &err), 0);
+        uint64_t ranks = 0;
+        CHECK(en_sort_windowed(s[i], &ranks));
+        CHECK(ranks > 10000);
+        total = ranks;
+    }
+    const uint64_t win[][2] = {
+        { total / 10, total / 10 + 500 }, { total / 10 + 100, total / 10 + total / 8 },
+        { total / 2 - 1000, total / 2 + 1500 }, { total - 3000, total },
+    };
+    for (size_t w = 0; w < sizeof win / sizeof *win; w++) {
+        record_list got[3] = { { 0 } };
+        uint64_t pushed[3] = { 0 }, cut[3] = { 0 };
+        for (int i = 0; i < 3; i++) {
+            CHECK_EQ_INT(window_records(s[i], win[w][0], win[w][1], &got[i], &pushed[i], &cut[i], &err), 0);
+            uint64_t counted = 0, counted_cut = 0;
+            CHECK_EQ_INT(en_sort_window(s[i], win[w][0], win[w][1], 0, NULL, &counted, &counted_cut, &err), 0);
+            CHECK_EQ_U64(counted, pushed[i]);
+            CHECK_EQ_U64(counted_cut, cut[i]);
+        }
+        CHECK(pushed[0] > 0 && cut[0] > 0 && got[0].n > pushed[0]);
+        CHECK(window_is_a_stream(&got[0], pushed[0]));
+        for (int i = 1; i < 3; i++) {
+            CHECK_EQ_U64(pushed[i], pushed[0]);
+            CHECK_EQ_U64(cut[i], cut[0]);
+            CHECK_EQ_U64(got[i].n, got[0].n);
+            size_t differ = 0;
+            for (size_t k = 0; k < got[0].n && k < got[i].n; k++) {
+                const epsnet_record *a = &got[0].r[k], *b = &got[i].r[k];
+                differ += a->kind != b->kind || memcmp(a->v, b->v, sizeof a->v) ||
+                          (a->kind == EPSNET_REC_VERTEX && memcmp(a->xyz, b->xyz, sizeof a->xyz));
+            }
+            CHECK_EQ_U64(differ, 0);
+        }
+        for (int i = 0; i < 3; i++)
+            free(got[i].r);
+    }
+    /* outside every stretch: the arrays have it, the external sorts refuse it */
+    uint64_t pushed = 0;
+    CHECK_EQ_INT(en_sort_window(s[0], 0, 100, 0, NULL, &pushed, NULL, &err), 0);
+    CHECK(pushed > 0);
+    for (int i = 1; i < 3; i++)
+        CHECK_EQ_INT(en_sort_window(s[i], 0, 100, 0, NULL, &pushed, NULL, &err), EPSNET_EFORMAT);
+    for (int i = 0; i < 3; i++) {
+        CHECK_EQ_INT(en_sort_emit(s[i], collect_record, &emitted[i], &err), 0);
+        en_sort_close(&s[i], NULL);
+    }
+    for (int i = 1; i < 3; i++) {
+        CHECK_EQ_U64(emitted[i].n, emitted[0].n);
+        size_t differ = 0;
+        for (size_t k = 0; k < emitted[0].n && k < emitted[i].n; k++)
+            differ += emitted[0].r[k].kind != emitted[i].r[k].kind ||
+                      memcmp(emitted[0].r[k].v, emitted[i].r[k].v, sizeof emitted[0].r[k].v);
+        CHECK_EQ_U64(differ, 0);
+    }
+    for (int i = 0; i < 3; i++)
+        free(emitted[i].r);
 }
 
 /* docs/architecture.md §12: a stream that never finalizes hits the memory budget with a
@@ -599,6 +723,7 @@ int main(void)
     RUN(output_bytes_do_not_depend_on_the_budget);
     RUN(in_memory_sort_gives_the_same_bytes_for_any_thread_count);
     RUN(emitted_records_are_those_of_the_sorted_file);
+    RUN(windows_from_kept_stretches_are_those_of_the_arrays);
     RUN(never_finalizing_stream_hits_the_budget);
     RUN(an_output_wider_than_the_budget_is_a_clear_error);
     RUN(empty_mesh_sorts_to_an_empty_stream);

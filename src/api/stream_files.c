@@ -11,6 +11,7 @@
 
 #include "api/run.h"
 #include "api/smz_windows.h"
+#include "api/windows.h"
 #include "api/stream_files.h"
 #include "common/alloc.h"
 #include "common/error.h"
@@ -205,8 +206,10 @@ static int open_input(epsnet_context *ctx, const char *in_path, const epsnet_arr
     int keep_attrs = all ? EN_SORT_KEEP_ALL : keep ? EN_SORT_KEEP_FORMAT : 0;
     if (ctx->settings.drop_normals)
         keep_attrs |= EN_SORT_DROP_NORMALS;
-    rc = unread ? en_sort_open_reader(&in->sort, unread, in_path, in_path, &ss, keep_attrs, pool, err)
-                : en_sort_open(&in->sort, in_path, out_path, &ss, keep_attrs, pool, err);
+    /* a size prices its thinning on windows of the sorted stream (api/windows.h) */
+    en_sort_stretches_fn stretches = en_run_has_target(&ctx->settings) ? en_windows_stretches : NULL;
+    rc = unread ? en_sort_open_reader(&in->sort, unread, in_path, in_path, &ss, keep_attrs, stretches, pool, err)
+                : en_sort_open(&in->sort, in_path, out_path, &ss, keep_attrs, stretches, pool, err);
     *sort_seconds = en_now() - t0;
     if (rc == 0) {
         en_sort_info(in->sort, &in->info);

@@ -101,6 +101,28 @@ int en_windows_open(en_windows **out, const en_window_backend *b, uint64_t slab_
     return 0;
 }
 
+/* The stretch of n ids around mid as place() puts them, with a margin of
+ * two ids for the roundings. */
+static void around(uint64_t total, uint64_t mid, uint64_t n, uint64_t *lo, uint64_t *hi)
+{
+    place(total, mid, n + 4, lo, hi);
+}
+
+uint32_t en_windows_stretches(uint64_t total, uint64_t *lo, uint64_t *hi)
+{
+    /* en_windows_open() measures the width only where windows of three
+     * slabs fit EN_PRICE_MAX_SHARE, so on at most 4 slabs (or 4,096 ids)
+     * of a stream of at least 30 times that; a window is at most
+     * EN_PRICE_MAX_SHARE / EN_PRICE_WINDOWS of the stream */
+    double max_mid = 4.0 * EN_PRICE_MAX_SHARE * (double)total / (3.0 * EN_PRICE_WINDOWS);
+    uint64_t mid_len = (uint64_t)max_mid > 4096 ? (uint64_t)max_mid : 4096;
+    uint64_t win_len = (uint64_t)(EN_PRICE_MAX_SHARE * (double)total / EN_PRICE_WINDOWS);
+    around(total, total / 2, mid_len < total / 2 ? mid_len : total / 2, &lo[0], &hi[0]);
+    for (uint32_t w = 0; w < EN_PRICE_WINDOWS; w++)
+        around(total, (2 * (uint64_t)w + 1) * total / (2 * EN_PRICE_WINDOWS), win_len, &lo[w + 1], &hi[w + 1]);
+    return EN_PRICE_WINDOWS + 1;
+}
+
 void en_windows_close(en_windows **w)
 {
     en_free(*w);

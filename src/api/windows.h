@@ -45,6 +45,11 @@ typedef struct en_windows en_windows;
  */
 int en_windows_open(en_windows **w, const en_window_backend *b, uint64_t slab_vertices, double margin_widths,
                     en_window_source *src, epsnet_error *err);
+/* Every stretch of ids en_windows_open() may walk on a stream of total ids,
+ * whatever the slabs and margins (en_sort_stretches_fn: what an external
+ * sort keeps for them): the middle one the width is measured on and each
+ * window, at their longest. @return how many (at most EN_PRICE_WINDOWS + 1). */
+uint32_t en_windows_stretches(uint64_t total, uint64_t *lo, uint64_t *hi);
 void en_windows_close(en_windows **w);
 
 #endif

@@ -116,7 +116,7 @@ void en_target_stage_plan_thin(const en_target_size *size, uint64_t nv, uint64_t
 #define EN_PRICE_WINDOWS 4
 #define EN_PRICE_SLAB_WIDTHS 4
 double en_target_price_margin_widths(double share);
-#define EN_PRICE_MAX_SHARE 0.1
+#define EN_PRICE_MAX_SHARE 0.15
 
 typedef struct en_window_source {
     uint32_t windows;

@@ -158,6 +158,22 @@ typedef struct face_feed {
     uint64_t bytes;              /* accounted */
 } face_feed;
 
+/* ---- stretches kept for windows ----
+ * note: a size's pricing pass walks a few windows of the sorted stream
+ * before pass 6 starts it (docs/architecture.md §7). In memory they are the
+ * whole path's arrays; an external sort keeps, in temporary files, the
+ * stretches of ranks the consumer names at open: pass 3 writes their
+ * vertices, pass 5 every face with a corner among them (input order), so
+ * a window inside one is pushed with the same records as the arrays would
+ * give, without a seekable copy of the whole stream. The stretches are at
+ * most a few tenths of the stream (api/windows.h) and are on disk, so the
+ * sort's memory does not grow with them. */
+typedef struct stretch {
+    uint64_t lo, hi;             /* ranks [lo, hi) */
+    en_spill *verts;             /* vertex records (vrec bytes) of ranks lo..hi-1, pass 3 */
+    en_spill *faces;             /* faces with a corner in [lo, hi): 3 ranks, input order, pass 5 */
+} stretch;
+
 /* ---- the job ---- */
 
 struct en_sort {
@@ -215,6 +231,11 @@ struct en_sort {
     size_t group_cap;
     live_map live;
     face_feed feed;              /* pass 6: sorter F's items, a block ahead */
+    en_sort_stretches_fn stretches; /* what to keep for en_sort_window (NULL: nothing) */
+    stretch keep[EN_SORT_MAX_STRETCHES];
+    uint32_t nkeep;
+    uint64_t keep_lo, keep_hi;   /* the span of every kept stretch */
+    int kept;                    /* after pass 5: the stretches read back (stretch_window) */
     double t0;
 };
 
@@ -720,6 +741,382 @@ static int whole_faces(sort_job *j, epsnet_error *err)
     return progress(j, 2, 2, err);
 }
 
+/* ---- stretches kept for windows (see stretch) ---- */
+
+/* The consumer's stretches for the stream's ranks, clamped, sorted and
+ * merged where they overlap or touch, each with its two files. */
+static int open_stretches(sort_job *j, epsnet_error *err)
+{
+    if (!j->stretches)
+        return 0;
+    uint64_t lo[EN_SORT_MAX_STRETCHES], hi[EN_SORT_MAX_STRETCHES], nv = j->st.vertices;
+    uint32_t n = j->stretches(nv, lo, hi);
+    n = n < EN_SORT_MAX_STRETCHES ? n : EN_SORT_MAX_STRETCHES;
+    for (uint32_t a = 0; a < n; a++) {
+        hi[a] = hi[a] < nv ? hi[a] : nv;
+        lo[a] = lo[a] < hi[a] ? lo[a] : hi[a];
+        for (uint32_t b = a; b > 0 && lo[b - 1] > lo[b]; b--) { /* a handful: by insertion */
+            uint64_t tl = lo[b], th = hi[b];
+            lo[b] = lo[b - 1], hi[b] = hi[b - 1];
+            lo[b - 1] = tl, hi[b - 1] = th;
+        }
+    }
+    for (uint32_t a = 0; a < n; a++) {
+        if (lo[a] == hi[a])
+            continue;
+        stretch *last = j->nkeep ? &j->keep[j->nkeep - 1] : NULL;
+        if (last && lo[a] <= last->hi)
+            last->hi = hi[a] > last->hi ? hi[a] : last->hi;
+        else
+            j->keep[j->nkeep++] = (stretch){ .lo = lo[a], .hi = hi[a] };
+    }
+    int rc = 0;
+    for (uint32_t k = 0; k < j->nkeep && rc == 0; k++)
+        if ((rc = en_spill_open_plain(&j->keep[k].verts, j->tmpdir, j->owner, err)) == 0)
+            rc = en_spill_open_plain(&j->keep[k].faces, j->tmpdir, j->owner, err);
+    if (j->nkeep) {
+        j->keep_lo = j->keep[0].lo;
+        j->keep_hi = j->keep[j->nkeep - 1].hi;
+    }
+    return rc;
+}
+
+static void close_stretches(sort_job *j)
+{
+    for (uint32_t k = 0; k < j->nkeep; k++) {
+        close_spill(j, &j->keep[k].verts);
+        close_spill(j, &j->keep[k].faces);
+    }
+    j->nkeep = 0;
+    j->kept = 0;
+}
+
+/* Pass 3: the vertex records of ranks [first, first + n), in j->vbuf, that
+ * a stretch holds. */
+static int keep_vertices(sort_job *j, uint64_t first, size_t n, epsnet_error *err)
+{
+    uint64_t end = first + n;
+    if (!j->nkeep || end <= j->keep_lo || first >= j->keep_hi)
+        return 0;
+    int rc = 0;
+    for (uint32_t k = 0; k < j->nkeep && rc == 0; k++) {
+        uint64_t a = first > j->keep[k].lo ? first : j->keep[k].lo;
+        uint64_t b = end < j->keep[k].hi ? end : j->keep[k].hi;
+        if (a < b)
+            rc = en_spill_write(j->keep[k].verts, vrec_at(j, (size_t)(a - first)), (size_t)(b - a) * j->vrec, err);
+    }
+    return rc;
+}
+
+/* Pass 5: a face (its corners' ranks), to every stretch it has a corner in. */
+static int keep_face(sort_job *j, const uint64_t r[3], epsnet_error *err)
+{
+    uint64_t lo = r[0] < r[1] ? r[0] : r[1], hi = r[0] < r[1] ? r[1] : r[0];
+    lo = r[2] < lo ? r[2] : lo;
+    hi = r[2] > hi ? r[2] : hi;
+    if (hi < j->keep_lo || lo >= j->keep_hi)
+        return 0;
+    int rc = 0;
+    for (uint32_t k = 0; k < j->nkeep && rc == 0; k++) {
+        const stretch *s = &j->keep[k];
+        int in = 0;
+        for (int c = 0; c < 3; c++)
+            in |= r[c] >= s->lo && r[c] < s->hi;
+        if (in)
+            rc = en_spill_write(s->faces, r, 3 * sizeof *r, err);
+    }
+    return rc;
+}
+
+/* After pass 5: the stretches' files to be read (stretch_window). */
+static int stretches_read_back(sort_job *j, epsnet_error *err)
+{
+    int rc = 0;
+    for (uint32_t k = 0; k < j->nkeep && rc == 0; k++)
+        if ((rc = en_spill_rewind(j->keep[k].verts, err)) == 0)
+            rc = en_spill_rewind(j->keep[k].faces, err);
+    j->kept = rc == 0 && j->nkeep > 0;
+    return rc;
+}
+
+/* ---- windows of the sorted stream (en_sort_window) ----
+ * note: a window is pushed as pass 6 would stream it: each used vertex in
+ * rank order, after it the faces whose last corner it is, and each vertex's
+ * finalization after the last of the window's faces that uses it. A
+ * consumer that cuts slabs as vertices are finalized (the pricing chain)
+ * then holds a few slabs of the window, not all of it: with every vertex
+ * first and every finalization last it held the whole window, and the
+ * pricing of a sorted 20M-face PLY peaked 50 MB over its thinning
+ * (bench/RESULTS.md, session 27). The same records come from the whole
+ * path's arrays and from a kept stretch. */
+#define W_USED 1                 /* a face uses it: the stream has it */
+#define W_CUT 2                  /* a face with a corner outside the window uses it */
+#define W_DONE 4                 /* finalized */
+
+typedef struct window_walk {
+    uint64_t lo, hi, base;
+    en_stage *into;              /* NULL: counts only */
+    uint8_t *flags;              /* W_* by rank - lo */
+    uint32_t *loc;               /* rank - lo -> its number in the window, UINT32_MAX not in it */
+    uint32_t *last;              /* rank - lo -> the last corner - lo of its last window face; UINT32_MAX none */
+    uint64_t used;
+    /* a kept stretch's window faces, by last corner, 3 corners - lo each */
+    uint32_t *start;             /* by last corner - lo: counts, then where each group ends */
+    uint32_t *faces;
+    size_t nfaces;
+} window_walk;
+
+static int window_open(sort_job *j, window_walk *w, uint64_t lo, uint64_t hi, uint64_t base, en_stage *into,
+                       epsnet_error *err)
+{
+    size_t n = (size_t)(hi - lo);
+    *w = (window_walk){ .lo = lo, .hi = hi, .base = base, .into = into };
+    w->flags = en_calloc(n ? n : 1, 1);
+    w->loc = en_malloc((n ? n : 1) * sizeof *w->loc);
+    w->last = en_malloc((n ? n : 1) * sizeof *w->last);
+    if (!w->flags || !w->loc || !w->last)
+        return nomem(j, err);
+    for (size_t r = 0; r < n; r++)
+        w->last[r] = UINT32_MAX;
+    return 0;
+}
+
+static void window_close(window_walk *w)
+{
+    en_free(w->flags);
+    en_free(w->loc);
+    en_free(w->last);
+    en_free(w->start);
+    en_free(w->faces);
+}
+
+/* A face of the stream (its corners' ranks) with a corner in the window:
+ * what it says of its corners. */
+static void window_saw(window_walk *w, const uint64_t c[3])
+{
+    int in = 0;
+    for (int k = 0; k < 3; k++)
+        in += c[k] >= w->lo && c[k] < w->hi;
+    uint64_t last = c[0] > c[1] ? c[0] : c[1];
+    last = last > c[2] ? last : c[2];
+    for (int k = 0; k < 3; k++) {
+        if (c[k] < w->lo || c[k] >= w->hi)
+            continue;
+        w->flags[c[k] - w->lo] |= in == 3 ? W_USED : W_USED | W_CUT;
+        uint32_t *l = &w->last[c[k] - w->lo];
+        if (in == 3 && (*l == UINT32_MAX || *l < last - w->lo))
+            *l = (uint32_t)(last - w->lo);
+    }
+}
+
+/* Vertex rank lo + r; xyz and attr its record. */
+static int window_vertex(window_walk *w, size_t r, const double xyz[3], const uint8_t *attr, epsnet_error *err)
+{
+    w->loc[r] = UINT32_MAX;
+    if (!(w->flags[r] & W_USED))
+        return 0; /* no face uses it: the stream drops it */
+    w->loc[r] = (uint32_t)w->used++;
+    if (!w->into)
+        return 0;
+    epsnet_record v = { .kind = EPSNET_REC_VERTEX, .attr = attr };
+    memcpy(v.xyz, xyz, sizeof v.xyz);
+    int rc = en_stage_put(w->into, &v, err);
+    if (rc || w->last[r] != UINT32_MAX)
+        return rc;
+    w->flags[r] |= W_DONE; /* none of the window's faces uses it */
+    return en_stage_put(w->into, &(epsnet_record){ .kind = EPSNET_REC_FINALIZE, .v = { w->base + w->loc[r] } }, err);
+}
+
+static int window_face(window_walk *w, const uint32_t c[3], epsnet_error *err)
+{
+    epsnet_record f = { .kind = EPSNET_REC_TRIANGLE };
+    for (int k = 0; k < 3; k++)
+        f.v[k] = w->base + w->loc[c[k]];
+    return w->into ? en_stage_put(w->into, &f, err) : 0;
+}
+
+/* After the faces of last corner lo + r: the finalizations of a face's
+ * corners whose last window face that was. */
+static int window_face_done(window_walk *w, size_t r, const uint32_t c[3], epsnet_error *err)
+{
+    int rc = 0;
+    for (int k = 0; k < 3 && rc == 0; k++) {
+        if (w->last[c[k]] != r || (w->flags[c[k]] & W_DONE))
+            continue;
+        w->flags[c[k]] |= W_DONE;
+        if (w->into)
+            rc = en_stage_put(w->into, &(epsnet_record){ .kind = EPSNET_REC_FINALIZE, .v = { w->base + w->loc[c[k]] } },
+                              err);
+    }
+    return rc;
+}
+
+static void window_end(const window_walk *w, uint64_t *pushed, uint64_t *cut)
+{
+    for (uint64_t r = 0; cut && r < w->hi - w->lo; r++)
+        *cut += (w->flags[r] & W_CUT) != 0;
+    *pushed += w->used;
+}
+
+/* Read a kept stretch's faces from the start, calling fn on each; @return
+ * 0 or a negative code. */
+static int stretch_faces(sort_job *j, const stretch *s, void (*fn)(window_walk *, const uint64_t *), window_walk *w,
+                         epsnet_error *err)
+{
+    int rc = en_spill_rewind(s->faces, err);
+    while (rc == 0) {
+        int64_t got = en_spill_read(s->faces, j->fbuf, BATCH * 3 * sizeof *j->fbuf, err);
+        if (got <= 0)
+            return (int)got;
+        if (got % (int64_t)(3 * sizeof *j->fbuf))
+            return internal(j, "a kept stretch's faces are cut short", err);
+        for (size_t i = 0; i < (size_t)got / (3 * sizeof *j->fbuf); i++)
+            fn(w, j->fbuf + 3 * i);
+    }
+    return rc;
+}
+
+static size_t window_last(const window_walk *w, const uint64_t *c)
+{
+    uint64_t m = c[0] > c[1] ? c[0] : c[1];
+    return (size_t)((m > c[2] ? m : c[2]) - w->lo);
+}
+
+static int window_has(const window_walk *w, const uint64_t *c)
+{
+    return c[0] >= w->lo && c[0] < w->hi && c[1] >= w->lo && c[1] < w->hi && c[2] >= w->lo && c[2] < w->hi;
+}
+
+/* First read: the corners' flags and last faces, and how many window
+ * faces each last corner has. */
+static void stretch_count(window_walk *w, const uint64_t *c)
+{
+    window_saw(w, c);
+    if (window_has(w, c)) {
+        w->start[window_last(w, c) + 1]++;
+        w->nfaces++;
+    }
+}
+
+/* Second read: each window face to its place, in file order (input
+ * order: sorter F's order among equal last corners) within its group. */
+static void stretch_place(window_walk *w, const uint64_t *c)
+{
+    if (!window_has(w, c))
+        return;
+    uint32_t *f = w->faces + 3 * (size_t)w->start[window_last(w, c)]++;
+    for (int k = 0; k < 3; k++)
+        f[k] = (uint32_t)(c[k] - w->lo);
+}
+
+/* en_sort_window() from a kept stretch. A face with a corner in the
+ * window is in the stretch's file, so "used" and "on a face left out" are
+ * known from it alone; the window's faces are placed by last corner in a
+ * second read of the file (12 bytes a face beside the pricing chain). */
+static int stretch_window(sort_job *j, uint64_t lo, uint64_t hi, uint64_t base, en_stage *into, uint64_t *pushed,
+                          uint64_t *cut, epsnet_error *err)
+{
+    const stretch *s = NULL;
+    for (uint32_t k = 0; k < j->nkeep; k++)
+        if (lo >= j->keep[k].lo && hi <= j->keep[k].hi)
+            s = &j->keep[k];
+    if (!s || hi - lo >= UINT32_MAX)
+        return en_error_set(err, EPSNET_EFORMAT, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "sort: ranks %llu to %llu were not kept for a window", (unsigned long long)lo,
+                            (unsigned long long)hi);
+    if (hi <= lo)
+        return 0;
+    size_t n = (size_t)(hi - lo);
+    window_walk w;
+    int rc = window_open(j, &w, lo, hi, base, into, err);
+    if (rc == 0 && !(w.start = en_calloc(n + 1, sizeof *w.start)))
+        rc = nomem(j, err);
+    if (rc == 0)
+        rc = stretch_faces(j, s, stretch_count, &w, err);
+    if (rc == 0 && into) {
+        for (size_t r = 0; r < n; r++)
+            w.start[r + 1] += w.start[r];
+        if (w.nfaces && !(w.faces = en_malloc(3 * w.nfaces * sizeof *w.faces)))
+            rc = nomem(j, err);
+        else
+            rc = stretch_faces(j, s, stretch_place, &w, err); /* start[r]: the end of r's group */
+    }
+    if (rc == 0 && into)
+        rc = en_spill_rewind(s->verts, err);
+    size_t f = 0;
+    for (uint64_t r = s->lo; r < hi && rc == 0;) {
+        size_t want = hi - r < BATCH ? (size_t)(hi - r) : BATCH;
+        if (!into) { /* counts: the flags say who is used */
+            for (size_t b = 0; b < want; b++, r++)
+                if (r >= lo)
+                    w.used += (w.flags[r - lo] & W_USED) != 0;
+            continue;
+        }
+        int64_t got = en_spill_read(s->verts, j->vbuf, want * j->vrec, err);
+        if (got < 0) {
+            rc = (int)got;
+            break;
+        }
+        if (got != (int64_t)(want * j->vrec)) {
+            rc = internal(j, "a kept stretch's vertices are cut short", err);
+            break;
+        }
+        for (size_t b = 0; b < want && rc == 0; b++, r++) {
+            if (r < lo)
+                continue;
+            double p[3];
+            vrec_get(j, b, p);
+            size_t l = (size_t)(r - lo), g = f;
+            rc = window_vertex(&w, l, p, j->asz ? vrec_at(j, b) + 3 * sizeof(double) : NULL, err);
+            for (; f < w.start[l] && rc == 0; f++)
+                rc = window_face(&w, w.faces + 3 * f, err);
+            for (; g < w.start[l] && rc == 0; g++)
+                rc = window_face_done(&w, l, w.faces + 3 * g, err);
+        }
+    }
+    if (rc == 0)
+        window_end(&w, pushed, cut);
+    window_close(&w);
+    return rc;
+}
+
+/* en_sort_window() from the whole path's arrays: the faces by last corner
+ * (fitems, fend), and last_of for the faces after hi. */
+static int whole_window(en_sort *j, uint64_t lo, uint64_t hi, uint64_t base, en_stage *into, uint64_t *pushed,
+                        uint64_t *cut, epsnet_error *err)
+{
+    if (hi <= lo)
+        return 0;
+    window_walk w;
+    int rc = window_open(j, &w, lo, hi, base, into, err);
+    for (uint64_t r = lo; r < hi && rc == 0; r++) {
+        if (j->last_of[r] >= hi && j->last_of[r] != UINT32_MAX)
+            w.flags[r - lo] |= W_USED | W_CUT; /* a face after hi uses it */
+        for (uint32_t i = r ? j->fend[r - 1] : 0; i < j->fend[r]; i++) {
+            const uint64_t *it = j->fitems + 2 * (size_t)i;
+            uint64_t c[3] = { (uint32_t)(it[0] >> 32), (uint32_t)it[1], (uint32_t)(it[1] >> 32) };
+            window_saw(&w, c);
+        }
+    }
+    for (uint64_t r = lo; r < hi && rc == 0; r++) {
+        size_t l = (size_t)(r - lo);
+        rc = window_vertex(&w, l, j->sxyz + 3 * r, j->asz ? j->sattr + r * j->asz : NULL, err);
+        for (int pass = 0; pass < 2; pass++)
+            for (uint32_t i = r ? j->fend[r - 1] : 0; i < j->fend[r] && rc == 0; i++) {
+                const uint64_t *it = j->fitems + 2 * (size_t)i;
+                uint64_t c[3] = { (uint32_t)(it[0] >> 32), (uint32_t)it[1], (uint32_t)(it[1] >> 32) };
+                if (c[0] < lo || c[1] < lo || c[2] < lo)
+                    continue; /* its last corner is r: the others are below hi */
+                uint32_t t[3] = { (uint32_t)(c[0] - lo), (uint32_t)(c[1] - lo), (uint32_t)(c[2] - lo) };
+                rc = pass == 0 ? window_face(&w, t, err) : window_face_done(&w, l, t, err);
+            }
+    }
+    if (rc == 0)
+        window_end(&w, pushed, cut);
+    window_close(&w);
+    return rc;
+}
+
 /* ---- pass 1: read ---- */
 
 static int pass_read(sort_job *j, epsnet_error *err)
@@ -878,6 +1275,7 @@ static int pass_rank(sort_job *j, epsnet_error *err)
             if (j->in_core)
                 rank_batch(j, ids, nb, rank - nb);
             if ((rc = en_spill_write(j->vsorted, j->vbuf, nb * j->vrec, err)) ||
+                (rc = keep_vertices(j, rank - nb, nb, err)) ||
                 (rc = progress(j, rank, j->st.vertices, err)))
                 return rc;
             nb = 0;
@@ -887,7 +1285,8 @@ static int pass_rank(sort_job *j, epsnet_error *err)
         return rc;
     if (nb && j->in_core)
         rank_batch(j, ids, nb, rank - nb);
-    if (nb && (rc = en_spill_write(j->vsorted, j->vbuf, nb * j->vrec, err)))
+    if (nb && ((rc = en_spill_write(j->vsorted, j->vbuf, nb * j->vrec, err)) ||
+               (rc = keep_vertices(j, rank - nb, nb, err))))
         return rc;
     close_sorter(j, &j->verts);
     if ((rc = en_spill_rewind(j->vsorted, err)))
@@ -950,6 +1349,9 @@ static int pass_relabel(sort_job *j, epsnet_error *err)
 
 static int add_face(sort_job *j, const uint64_t r[3], epsnet_error *err)
 {
+    int rc = j->nkeep ? keep_face(j, r, err) : 0;
+    if (rc)
+        return rc;
     uint64_t last = r[0];
     for (int s = 1; s < 3; s++)
         if (r[s] > last)
@@ -964,7 +1366,7 @@ static int add_face(sort_job *j, const uint64_t r[3], epsnet_error *err)
         face[0] = last | r[0] << 32;
         face[1] = r[1] | r[2] << 32;
     }
-    int rc = en_extsort_add(j->faces, face, err);
+    rc = en_extsort_add(j->faces, face, err);
     for (int s = 0; s < 3 && rc == 0; s++) {
         if (j->in_core) {
             uint32_t *l = &j->last_of[r[s]];
@@ -1595,6 +1997,7 @@ static void close_job(sort_job *j)
     close_spill(j, &j->vraw);
     close_spill(j, &j->vsorted);
     close_spill(j, &j->fraw);
+    close_stretches(j);
     close_sorter(j, &j->corners);
     close_sorter(j, &j->verts);
     close_sorter(j, &j->map);
@@ -1674,7 +2077,8 @@ static int run_passes(sort_job *j, epsnet_error *err)
         return whole_faces(j, err);
     }
     j->narrow = j->st.vertices < UINT32_MAX;
-    if ((rc = open_sorter(j, &j->faces, j->narrow ? 2 : 4, j->narrow ? UINT32_MAX : 0, err)) || (rc = choose_relabel(j, err)))
+    if ((rc = open_sorter(j, &j->faces, j->narrow ? 2 : 4, j->narrow ? UINT32_MAX : 0, err)) ||
+        (rc = choose_relabel(j, err)) || (rc = open_stretches(j, err)))
         return rc;
     j->phase = 2;
     if ((rc = pass_order(j, err)))
@@ -1686,7 +2090,8 @@ static int run_passes(sort_job *j, epsnet_error *err)
     if (!j->in_core && (rc = pass_relabel(j, err)))
         return rc;
     j->phase = 5;
-    return j->in_core ? pass_faces_in_core(j, err) : pass_faces(j, err);
+    rc = j->in_core ? pass_faces_in_core(j, err) : pass_faces(j, err);
+    return rc ? rc : stretches_read_back(j, err);
 }
 
 void en_sort_lean(en_sort *s)
@@ -1695,7 +2100,8 @@ void en_sort_lean(en_sort *s)
 }
 
 static int sort_open(en_sort **out, epsnet_reader *r, const char *in_path, const char *owner,
-                     const epsnet_sort_settings *settings, int keep_attrs, en_pool *pool, epsnet_error *err)
+                     const epsnet_sort_settings *settings, int keep_attrs, en_sort_stretches_fn stretches,
+                     en_pool *pool, epsnet_error *err)
 {
     *out = NULL;
     if (!in_path || !owner) {
@@ -1725,21 +2131,23 @@ static int sort_open(en_sort **out, epsnet_reader *r, const char *in_path, const
         j->set.mem = (uint64_t)512 << 20;
     j->axis = j->set.axis;
     j->keep_attrs = keep_attrs;
+    j->stretches = stretches;
     j->shared = pool;
     *out = j;
     return run_passes(j, err);
 }
 
 int en_sort_open(en_sort **out, const char *in_path, const char *owner, const epsnet_sort_settings *settings,
-                 int keep_attrs, en_pool *pool, epsnet_error *err)
+                 int keep_attrs, en_sort_stretches_fn stretches, en_pool *pool, epsnet_error *err)
 {
-    return sort_open(out, NULL, in_path, owner, settings, keep_attrs, pool, err);
+    return sort_open(out, NULL, in_path, owner, settings, keep_attrs, stretches, pool, err);
 }
 
 int en_sort_open_reader(en_sort **out, epsnet_reader *r, const char *name, const char *owner,
-                        const epsnet_sort_settings *settings, int keep_attrs, en_pool *pool, epsnet_error *err)
+                        const epsnet_sort_settings *settings, int keep_attrs, en_sort_stretches_fn stretches,
+                        en_pool *pool, epsnet_error *err)
 {
-    return sort_open(out, r, name, owner, settings, keep_attrs, pool, err);
+    return sort_open(out, r, name, owner, settings, keep_attrs, stretches, pool, err);
 }
 
 void en_sort_info(const en_sort *j, epsnet_mesh_info *info)
@@ -1764,62 +2172,19 @@ void en_sort_info(const en_sort *j, epsnet_mesh_info *info)
 int en_sort_windowed(const en_sort *j, uint64_t *ranks)
 {
     *ranks = j->st.vertices;
-    return j->whole && j->sxyz && j->fend && j->fitems && j->last_of;
+    return (j->whole && j->sxyz && j->fend && j->fitems && j->last_of) || j->kept;
 }
 
 int en_sort_window(en_sort *j, uint64_t lo, uint64_t hi, uint64_t base, en_stage *into, uint64_t *pushed,
                    uint64_t *cut, epsnet_error *err)
 {
-    uint32_t *loc = NULL;
-    if (hi > lo && !(loc = en_malloc((hi - lo) * sizeof *loc)))
-        return nomem(j, err);
-    uint64_t n = 0;
-    int rc = 0;
-    for (uint64_t r = lo; r < hi && rc == 0; r++) {
-        loc[r - lo] = UINT32_MAX;
-        if (j->last_of[r] == UINT32_MAX)
-            continue; /* no face uses it: the stream drops it */
-        loc[r - lo] = (uint32_t)n++;
-        epsnet_record v = { .kind = EPSNET_REC_VERTEX, .attr = j->asz ? j->sattr + r * j->asz : NULL };
-        memcpy(v.xyz, j->sxyz + 3 * r, sizeof v.xyz);
-        rc = into ? en_stage_put(into, &v, err) : 0;
-    }
-    uint8_t *on_cut = NULL;
-    if (rc == 0 && hi > lo && !(on_cut = en_calloc(hi - lo, 1)))
-        rc = nomem(j, err);
-    for (uint64_t r = lo; r < hi && rc == 0; r++) {
-        for (uint32_t i = r ? j->fend[r - 1] : 0; i < j->fend[r] && rc == 0; i++) {
-            const uint64_t *it = j->fitems + 2 * (size_t)i;
-            uint64_t c[3] = { (uint32_t)(it[0] >> 32), (uint32_t)it[1], (uint32_t)(it[1] >> 32) };
-            if (c[0] < lo || c[1] < lo || c[2] < lo) {
-                for (int k = 0; k < 3; k++) /* its last corner is r: the others are below hi */
-                    if (c[k] >= lo)
-                        on_cut[c[k] - lo] = 1;
-                continue;
-            }
-            epsnet_record f = { .kind = EPSNET_REC_TRIANGLE };
-            for (int k = 0; k < 3; k++)
-                f.v[k] = base + loc[c[k] - lo];
-            rc = into ? en_stage_put(into, &f, err) : 0;
-        }
-    }
-    /* faces after hi that use these ranks are left out: those corners are on the cut too */
-    for (uint64_t r = lo; r < hi && rc == 0; r++) {
-        if (loc[r - lo] == UINT32_MAX)
-            continue;
-        if (cut)
-            *cut += on_cut[r - lo] || j->last_of[r] >= hi;
-        if (into)
-            rc = en_stage_put(into, &(epsnet_record){ .kind = EPSNET_REC_FINALIZE, .v = { base + loc[r - lo] } }, err);
-    }
-    *pushed += n;
-    en_free(loc);
-    en_free(on_cut);
-    return rc;
+    return j->whole ? whole_window(j, lo, hi, base, into, pushed, cut, err)
+                    : stretch_window(j, lo, hi, base, into, pushed, cut, err);
 }
 
 int en_sort_emit(en_sort *j, en_sort_emit_fn emit, void *opaque, epsnet_error *err)
 {
+    close_stretches(j); /* the windows were walked before */
     j->phase = 6;
     j->emit = emit;
     j->emit_opaque = opaque;
@@ -1856,7 +2221,7 @@ int epsnet_sort_file(const char *in_path, const char *out_path, const epsnet_sor
                             "epsnet_sort_file: NULL path");
     en_sort *j = NULL;
     epsnet_writer *w = NULL;
-    int rc = en_sort_open(&j, in_path, out_path, settings, EN_SORT_KEEP_FORMAT, NULL, err);
+    int rc = en_sort_open(&j, in_path, out_path, settings, EN_SORT_KEEP_FORMAT, NULL, NULL, err);
     if (rc == 0) {
         epsnet_writer_settings ws;
         epsnet_writer_default_settings(&ws);

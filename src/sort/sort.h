@@ -74,13 +74,21 @@ typedef int (*en_sort_emit_fn)(void *opaque, const epsnet_record *rec, epsnet_er
 #define EN_SORT_KEEP_FORMAT 1
 #define EN_SORT_KEEP_ALL 2
 #define EN_SORT_DROP_NORMALS 4
+/* The stretches of ranks a consumer will ask en_sort_window() for, given
+ * how many ranks the stream has: fills up to EN_SORT_MAX_STRETCHES
+ * [lo[i], hi[i]) (in any order; they may overlap) and returns how many. */
+#define EN_SORT_MAX_STRETCHES 8
+typedef uint32_t (*en_sort_stretches_fn)(uint64_t ranks, uint64_t *lo, uint64_t *hi);
+/* stretches: NULL, or what an external sort keeps of the stream for
+ * en_sort_window() (a sort in memory keeps everything). */
 int en_sort_open(en_sort **s, const char *in_path, const char *owner, const epsnet_sort_settings *settings,
-                 int keep_attrs, en_pool *pool, epsnet_error *err);
+                 int keep_attrs, en_sort_stretches_fn stretches, en_pool *pool, epsnet_error *err);
 /* en_sort_open() on a reader the caller opened and has not read from (one
  * over arrays, epsnet_reader_open_arrays): the sort takes it and closes it,
  * also on failure; name stands for in_path in messages. */
 int en_sort_open_reader(en_sort **s, epsnet_reader *r, const char *name, const char *owner,
-                        const epsnet_sort_settings *settings, int keep_attrs, en_pool *pool, epsnet_error *err);
+                        const epsnet_sort_settings *settings, int keep_attrs, en_sort_stretches_fn stretches,
+                        en_pool *pool, epsnet_error *err);
 /* What the output stream will be: coord_type, streaming, sorted_axis, nfaces,
  * vertex_attrs. */
 void en_sort_info(const en_sort *s, epsnet_mesh_info *info);
@@ -91,7 +99,9 @@ void en_sort_info(const en_sort *s, epsnet_mesh_info *info);
 void en_sort_lean(en_sort *s);
 /*
  * Windows of the sorted stream before pass 6 (a size's pricing pass,
- * docs/architecture.md §7), when the sort ran in memory (sort.c: whole):
+ * docs/architecture.md §7), when the sort ran in memory (sort.c: whole) or
+ * kept the stretches asked for at en_sort_open() (sort.c: stretch; then a
+ * window must lie inside one of them, else EPSNET_EFORMAT with err set):
  * en_sort_windowed() says so. en_sort_window() pushes the vertices of
  * ranks [lo, hi) that faces use, numbered from base in rank order, then the
  * faces whose corners are all among them, then a finalization of each;
