@@ -165,9 +165,9 @@ typedef struct face_feed {
  * stretches of ranks the consumer names at open: pass 3 writes their
  * vertices, pass 5 every face with a corner among them (input order), so
  * a window inside one is pushed with the same records as the arrays would
- * give, without a seekable copy of the whole stream. The stretches are at
- * most a few tenths of the stream (api/windows.h) and are on disk, so the
- * sort's memory does not grow with them. */
+ * give, without a seekable copy of the whole stream. The stretches are
+ * under a fifth of the stream (api/windows.c: en_windows_stretches) and on
+ * disk, so the sort's memory does not grow with them. */
 typedef struct stretch {
     uint64_t lo, hi;             /* ranks [lo, hi) */
     en_spill *verts;             /* vertex records (vrec bytes) of ranks lo..hi-1, pass 3 */

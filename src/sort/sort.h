@@ -102,12 +102,15 @@ void en_sort_lean(en_sort *s);
  * docs/architecture.md §7), when the sort ran in memory (sort.c: whole) or
  * kept the stretches asked for at en_sort_open() (sort.c: stretch; then a
  * window must lie inside one of them, else EPSNET_EFORMAT with err set):
- * en_sort_windowed() says so. en_sort_window() pushes the vertices of
- * ranks [lo, hi) that faces use, numbered from base in rank order, then the
- * faces whose corners are all among them, then a finalization of each;
- * *pushed gets how many vertices it pushed, and *cut (unless NULL) adds
- * those on a face it left out. The ranks are en_sort_info()'s vertices, with the unused
- * ones among them. @return 0, or what into returned.
+ * en_sort_windowed() says so. en_sort_window() pushes, as a stream of its
+ * own in pass 6's order, the vertices of ranks [lo, hi) that faces use,
+ * numbered from base in rank order, each followed by the faces whose last
+ * corner it is among those whose corners are all in the window, and each
+ * vertex's finalization after the last such face that uses it (into NULL:
+ * counts only); *pushed gets how many vertices it pushed, and *cut (unless
+ * NULL) adds those on a face it left out. The ranks are en_sort_info()'s
+ * vertices, with the unused ones among them. @return 0, or what into
+ * returned, or a negative code with err filled.
  */
 int en_sort_windowed(const en_sort *s, uint64_t *ranks);
 int en_sort_window(en_sort *s, uint64_t lo, uint64_t hi, uint64_t base, en_stage *into, uint64_t *pushed,
