@@ -476,7 +476,9 @@ void en_target_stage_plan_thin(const en_target_size *size, uint64_t nv, uint64_t
  *   against the same runs unpriced: aimed at 1.25, 1.09 times the mean
  *   error and 1.38 times the Hausdorff distance on the sorted .smz, 1.075
  *   and 1.27 on the shuffled PLY; aimed at 1.5, 1.00 and 1.03, 1.034 and
- *   1.06, for 1.005 times the CPU (the round takes a little more).
+ *   1.06, for 1.005 times the CPU (the round takes a little more). A
+ *   20M torus keeps 1.18 and 1.63 at 1.5; 2.0 brings it to 1.01 and
+ *   1.14 but costs a round more on the bumpy mesh (1.1 times the time).
  * - PRICE_FLOOR and the pace: each slab keeps at least PRICE_FLOOR of the
  *   target's share, and W at least its pace to the target (floor_share),
  *   so that windows that missed a harder part of the stream do not take
