@@ -25,6 +25,19 @@ static int push(void *opaque, uint32_t w, int inside, uint64_t base, en_stage *i
     return x->b.walk(x->b.opaque, x->lo[w] + m, x->hi[w] - m, base, into, pushed, NULL, err);
 }
 
+/* The middle of window w on a stream of total ids: 1/8, 3/8, 5/8, 7/8. */
+static uint64_t window_mid(uint64_t total, uint32_t w)
+{
+    return (2 * (uint64_t)w + 1) * total / (2 * EN_PRICE_WINDOWS);
+}
+
+/* The stretch the width is measured on, for slabs of slab_vertices: long
+ * enough that its two cuts are two rings of it, not all. */
+static uint64_t width_stretch(uint64_t slab_vertices)
+{
+    return 4 * slab_vertices > 4096 ? 4 * slab_vertices : 4096;
+}
+
 /* The stretch of n ids around mid, within the stream. */
 static void place(uint64_t total, uint64_t mid, uint64_t n, uint64_t *lo, uint64_t *hi)
 {
@@ -44,7 +57,7 @@ int en_windows_open(en_windows **out, const en_window_backend *b, uint64_t slab_
         return 0;
     /* the stream's width at its middle: half the vertices on the two cuts
      * of a stretch long enough that they are two rings of it, not all */
-    uint64_t len = 4 * slab_vertices > 4096 ? 4 * slab_vertices : 4096, lo, hi, n = 0, width = 0;
+    uint64_t len = width_stretch(slab_vertices), lo, hi, n = 0, width = 0;
     place(total, total / 2, len < total / 2 ? len : total / 2, &lo, &hi);
     int rc = b->walk(b->opaque, lo, hi, 0, NULL, &n, &width, err);
     if (rc)
@@ -68,7 +81,7 @@ int en_windows_open(en_windows **out, const en_window_backend *b, uint64_t slab_
      * may push fewer than it spans: a sort drops the vertices no face uses) */
     uint64_t base = 0, base_alone = 0;
     for (uint32_t w = 0; w < EN_PRICE_WINDOWS && rc == 0; w++) {
-        place(total, (2 * (uint64_t)w + 1) * total / (2 * EN_PRICE_WINDOWS), len_w, &x->lo[w], &x->hi[w]);
+        place(total, window_mid(total, w), len_w, &x->lo[w], &x->hi[w]);
         uint64_t in_lo = x->lo[w] + margin, in_hi = x->hi[w] - margin;
         /* counts only: a .smz answers them from the ids, without reading */
         uint64_t before = 0, inside = 0, after = 0, ring_before = 0, ring_after = 0;
@@ -111,15 +124,14 @@ static void around(uint64_t total, uint64_t mid, uint64_t n, uint64_t *lo, uint6
 uint32_t en_windows_stretches(uint64_t total, uint64_t *lo, uint64_t *hi)
 {
     /* en_windows_open() measures the width only where windows of three
-     * slabs fit EN_PRICE_MAX_SHARE, so on at most 4 slabs (or 4,096 ids)
-     * of a stream of at least 30 times that; a window is at most
-     * EN_PRICE_MAX_SHARE / EN_PRICE_WINDOWS of the stream */
-    double max_mid = 4.0 * EN_PRICE_MAX_SHARE * (double)total / (3.0 * EN_PRICE_WINDOWS);
-    uint64_t mid_len = (uint64_t)max_mid > 4096 ? (uint64_t)max_mid : 4096;
+     * slabs fit EN_PRICE_MAX_SHARE, so with slabs of at most max_slab; a
+     * window is at most EN_PRICE_MAX_SHARE / EN_PRICE_WINDOWS of the stream */
+    uint64_t max_slab = (uint64_t)(EN_PRICE_MAX_SHARE * (double)total / (3.0 * EN_PRICE_WINDOWS));
+    uint64_t mid_len = width_stretch(max_slab);
     uint64_t win_len = (uint64_t)(EN_PRICE_MAX_SHARE * (double)total / EN_PRICE_WINDOWS);
     around(total, total / 2, mid_len < total / 2 ? mid_len : total / 2, &lo[0], &hi[0]);
     for (uint32_t w = 0; w < EN_PRICE_WINDOWS; w++)
-        around(total, (2 * (uint64_t)w + 1) * total / (2 * EN_PRICE_WINDOWS), win_len, &lo[w + 1], &hi[w + 1]);
+        around(total, window_mid(total, w), win_len, &lo[w + 1], &hi[w + 1]);
     return EN_PRICE_WINDOWS + 1;
 }
 

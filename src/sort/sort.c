@@ -743,6 +743,13 @@ static int whole_faces(sort_job *j, epsnet_error *err)
 
 /* ---- stretches kept for windows (see stretch) ---- */
 
+/* A face's last corner: the largest of its ranks. */
+static uint64_t max3(const uint64_t c[3])
+{
+    uint64_t m = c[0] > c[1] ? c[0] : c[1];
+    return m > c[2] ? m : c[2];
+}
+
 /* The consumer's stretches for the stream's ranks, clamped, sorted and
  * merged where they overlap or touch, each with its two files. */
 static int open_stretches(sort_job *j, epsnet_error *err)
@@ -808,13 +815,13 @@ static int keep_vertices(sort_job *j, uint64_t first, size_t n, epsnet_error *er
     return rc;
 }
 
-/* Pass 5: a face (its corners' ranks), to every stretch it has a corner in. */
-static int keep_face(sort_job *j, const uint64_t r[3], epsnet_error *err)
+/* Pass 5: a face (its corners' ranks, the largest last), to every
+ * stretch it has a corner in. */
+static int keep_face(sort_job *j, const uint64_t r[3], uint64_t last, epsnet_error *err)
 {
-    uint64_t lo = r[0] < r[1] ? r[0] : r[1], hi = r[0] < r[1] ? r[1] : r[0];
-    lo = r[2] < lo ? r[2] : lo;
-    hi = r[2] > hi ? r[2] : hi;
-    if (hi < j->keep_lo || lo >= j->keep_hi)
+    uint64_t first = r[0] < r[1] ? r[0] : r[1];
+    first = r[2] < first ? r[2] : first;
+    if (last < j->keep_lo || first >= j->keep_hi)
         return 0;
     int rc = 0;
     for (uint32_t k = 0; k < j->nkeep && rc == 0; k++) {
@@ -890,22 +897,31 @@ static void window_close(window_walk *w)
     en_free(w->faces);
 }
 
+/* Are all of a face's corners in the window? */
+static int window_has(const window_walk *w, const uint64_t *c)
+{
+    return c[0] >= w->lo && c[0] < w->hi && c[1] >= w->lo && c[1] < w->hi && c[2] >= w->lo && c[2] < w->hi;
+}
+
+/* A window face's last corner - lo. */
+static uint32_t window_last(const window_walk *w, const uint64_t *c)
+{
+    return (uint32_t)(max3(c) - w->lo);
+}
+
 /* A face of the stream (its corners' ranks) with a corner in the window:
  * what it says of its corners. */
 static void window_saw(window_walk *w, const uint64_t c[3])
 {
-    int in = 0;
-    for (int k = 0; k < 3; k++)
-        in += c[k] >= w->lo && c[k] < w->hi;
-    uint64_t last = c[0] > c[1] ? c[0] : c[1];
-    last = last > c[2] ? last : c[2];
+    int all = window_has(w, c);
+    uint32_t last = all ? window_last(w, c) : 0;
     for (int k = 0; k < 3; k++) {
         if (c[k] < w->lo || c[k] >= w->hi)
             continue;
-        w->flags[c[k] - w->lo] |= in == 3 ? W_USED : W_USED | W_CUT;
+        w->flags[c[k] - w->lo] |= all ? W_USED : W_USED | W_CUT;
         uint32_t *l = &w->last[c[k] - w->lo];
-        if (in == 3 && (*l == UINT32_MAX || *l < last - w->lo))
-            *l = (uint32_t)(last - w->lo);
+        if (all && (*l == UINT32_MAX || *l < last))
+            *l = last;
     }
 }
 
@@ -974,17 +990,6 @@ static int stretch_faces(sort_job *j, const stretch *s, void (*fn)(window_walk *
             fn(w, j->fbuf + 3 * i);
     }
     return rc;
-}
-
-static size_t window_last(const window_walk *w, const uint64_t *c)
-{
-    uint64_t m = c[0] > c[1] ? c[0] : c[1];
-    return (size_t)((m > c[2] ? m : c[2]) - w->lo);
-}
-
-static int window_has(const window_walk *w, const uint64_t *c)
-{
-    return c[0] >= w->lo && c[0] < w->hi && c[1] >= w->lo && c[1] < w->hi && c[2] >= w->lo && c[2] < w->hi;
 }
 
 /* First read: the corners' flags and last faces, and how many window
@@ -1080,6 +1085,13 @@ static int stretch_window(sort_job *j, uint64_t lo, uint64_t hi, uint64_t base, 
     return rc;
 }
 
+/* Item i of fitems (whole_faces: narrow, the first corner above the key). */
+static void fitem_corners(const sort_job *j, uint32_t i, uint64_t c[3])
+{
+    const uint64_t *it = j->fitems + 2 * (size_t)i;
+    c[0] = (uint32_t)(it[0] >> 32), c[1] = (uint32_t)it[1], c[2] = (uint32_t)(it[1] >> 32);
+}
+
 /* en_sort_window() from the whole path's arrays: the faces by last corner
  * (fitems, fend), and last_of for the faces after hi. */
 static int whole_window(en_sort *j, uint64_t lo, uint64_t hi, uint64_t base, en_stage *into, uint64_t *pushed,
@@ -1093,8 +1105,8 @@ static int whole_window(en_sort *j, uint64_t lo, uint64_t hi, uint64_t base, en_
         if (j->last_of[r] >= hi && j->last_of[r] != UINT32_MAX)
             w.flags[r - lo] |= W_USED | W_CUT; /* a face after hi uses it */
         for (uint32_t i = r ? j->fend[r - 1] : 0; i < j->fend[r]; i++) {
-            const uint64_t *it = j->fitems + 2 * (size_t)i;
-            uint64_t c[3] = { (uint32_t)(it[0] >> 32), (uint32_t)it[1], (uint32_t)(it[1] >> 32) };
+            uint64_t c[3];
+            fitem_corners(j, i, c);
             window_saw(&w, c);
         }
     }
@@ -1103,8 +1115,8 @@ static int whole_window(en_sort *j, uint64_t lo, uint64_t hi, uint64_t base, en_
         rc = window_vertex(&w, l, j->sxyz + 3 * r, j->asz ? j->sattr + r * j->asz : NULL, err);
         for (int pass = 0; pass < 2; pass++)
             for (uint32_t i = r ? j->fend[r - 1] : 0; i < j->fend[r] && rc == 0; i++) {
-                const uint64_t *it = j->fitems + 2 * (size_t)i;
-                uint64_t c[3] = { (uint32_t)(it[0] >> 32), (uint32_t)it[1], (uint32_t)(it[1] >> 32) };
+                uint64_t c[3];
+                fitem_corners(j, i, c);
                 if (c[0] < lo || c[1] < lo || c[2] < lo)
                     continue; /* its last corner is r: the others are below hi */
                 uint32_t t[3] = { (uint32_t)(c[0] - lo), (uint32_t)(c[1] - lo), (uint32_t)(c[2] - lo) };
@@ -1349,13 +1361,10 @@ static int pass_relabel(sort_job *j, epsnet_error *err)
 
 static int add_face(sort_job *j, const uint64_t r[3], epsnet_error *err)
 {
-    int rc = j->nkeep ? keep_face(j, r, err) : 0;
+    uint64_t last = max3(r);
+    int rc = j->nkeep ? keep_face(j, r, last, err) : 0;
     if (rc)
         return rc;
-    uint64_t last = r[0];
-    for (int s = 1; s < 3; s++)
-        if (r[s] > last)
-            last = r[s];
     /* note: a face's id is not kept: it only breaks ties on the last
      * corner, which the stable sort does by itself (faces are added in
      * input order); with ranks below 2^32 the corners share words, and
