@@ -7,6 +7,7 @@
  * in slab order; the push/pull API gives what the file API gives.
  */
 #include <dirent.h>
+#include <math.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -1210,10 +1211,122 @@ TEST(a_seam_pairs_copies_wait_for_one_slab)
     copies_wait_for_one_slab(1); /* every cut would otherwise find the copy alone */
 }
 
+/* A slab's share counted in vertices (pass_plan.h: share_of_vertices): a
+ * rippled tube streamed ring by ring through the chunker, each slab a few
+ * rings between two frozen ones. Kept to half of what it can reach, a slab
+ * takes exactly half of its inner vertices on faces, since each collapse
+ * takes one; the same share in faces on inner vertices stops it earlier,
+ * because a collapse beside a frozen ring also removes faces that count
+ * leaves out (what held the slabs of a priced thinning far below its
+ * ceiling while their seams went on to it, docs/architecture.md §7). */
+enum { TUBE_AROUND = 32, TUBE_ALONG = 40, TUBE_SLAB = 10 * TUBE_AROUND };
+
+static void tube_vertex(uint64_t g, double xyz[3])
+{
+    double x = (double)(g / TUBE_AROUND) * 0.2, t = 2 * 3.14159265358979 * (double)(g % TUBE_AROUND) / TUBE_AROUND;
+    double r = 1 + 0.1 * sin(1.3 * x) * sin(3 * t);
+    xyz[0] = x, xyz[1] = r * cos(t), xyz[2] = r * sin(t);
+}
+
+/* Run a slab the chunker cut from the tube under plan t, if both its ends
+ * are frozen: its collapses, and its owned vertices on faces whose
+ * neighbours are all owned here (what its own collapses can reach). */
+typedef struct tube_run {
+    const en_pass_plan *t;
+    const gauss_sphere *g;
+    uint64_t collapses, reach;
+} tube_run;
+
+static void tube_take(tube_run *tr, en_slab_work *w)
+{
+    if (w->index > 0 && !w->last) {
+        w->g = tr->g;
+        w->mode = EN_SLAB_SIMPLIFY;
+        w->max_normal_dev = 60;
+        w->plan = tr->t;
+        CHECK_EQ_INT(en_slab_work_run(w), 0);
+        tr->collapses += w->collapses;
+        uint8_t *frozen = calloc((size_t)w->s.nv + 1, 1);
+        for (uint32_t f = 0; f < w->s.nt; f++) {
+            const uint32_t *v = w->s.tri + 3 * (size_t)f;
+            if (v[0] >= w->nowned || v[1] >= w->nowned || v[2] >= w->nowned)
+                frozen[v[0]] = frozen[v[1]] = frozen[v[2]] = 1;
+        }
+        for (uint32_t v = 0; v < w->nowned; v++)
+            tr->reach += !frozen[v] && en_slab_degree(&w->s, v) > 0;
+        free(frozen);
+    }
+    en_slab_work_free(w);
+    en_free(w);
+}
+
+static void tube_put(en_chunker *c, tube_run *tr, const epsnet_record *r)
+{
+    en_slab_work *w = NULL;
+    epsnet_error err;
+    CHECK_EQ_INT(en_chunker_put(c, r, &w, &err), 0);
+    if (w)
+        tube_take(tr, w);
+}
+
+static void run_tube_slabs(tube_run *tr)
+{
+    en_chunker c;
+    CHECK_EQ_INT(en_chunker_init(&c, TUBE_SLAB, "tube"), 0);
+    tr->collapses = tr->reach = 0;
+    for (uint64_t k = 0; k <= TUBE_ALONG; k++) {
+        for (uint64_t a = 0; k < TUBE_ALONG && a < TUBE_AROUND; a++) {
+            epsnet_record r = { .kind = EPSNET_REC_VERTEX };
+            tube_vertex(k * TUBE_AROUND + a, r.xyz);
+            tube_put(&c, tr, &r);
+        }
+        for (uint64_t a = 0; k > 0 && k < TUBE_ALONG && a < TUBE_AROUND; a++) {
+            uint64_t p0 = (k - 1) * TUBE_AROUND + a, p1 = (k - 1) * TUBE_AROUND + (a + 1) % TUBE_AROUND;
+            epsnet_record f1 = { .kind = EPSNET_REC_TRIANGLE, .v = { p0, p1 + TUBE_AROUND, p0 + TUBE_AROUND } };
+            epsnet_record f2 = { .kind = EPSNET_REC_TRIANGLE, .v = { p0, p1, p1 + TUBE_AROUND } };
+            tube_put(&c, tr, &f1);
+            tube_put(&c, tr, &f2);
+        }
+        for (uint64_t a = 0; k > 0 && a < TUBE_AROUND; a++) {
+            epsnet_record f = { .kind = EPSNET_REC_FINALIZE, .v = { (k - 1) * TUBE_AROUND + a } };
+            tube_put(&c, tr, &f);
+        }
+    }
+    en_slab_work *w = NULL;
+    epsnet_error err;
+    for (;;) {
+        CHECK_EQ_INT(en_chunker_finish(&c, &w, &err), 0);
+        if (!w)
+            break;
+        tube_take(tr, w);
+        w = NULL;
+    }
+    en_chunker_free(&c);
+}
+
+TEST(a_slabs_share_of_vertices_is_what_its_collapses_take)
+{
+    gauss_sphere g;
+    gauss_rotation rot;
+    gauss_rotation_identity(&rot);
+    CHECK_EQ_INT(gauss_init(&g, 2, &rot), 0);
+    en_pass_plan t = { .skeleton = EN_SKELETON_SPHERE, .keep_share = 0.5, .max_error = -1, .seams = EN_SEAMS_LEVEL };
+    tube_run faces = { &t, &g, 0, 0 }, vertices = { &t, &g, 0, 0 };
+    run_tube_slabs(&faces);
+    t.share_of_vertices = 1;
+    run_tube_slabs(&vertices);
+    CHECK_EQ_INT((int)vertices.reach, (int)faces.reach);
+    CHECK(vertices.reach >= 2 * 8 * TUBE_AROUND); /* at least two slabs with both ends frozen */
+    /* half of each slab's reach, rounded down per slab */
+    CHECK(vertices.collapses <= vertices.reach / 2 && vertices.collapses + 8 >= vertices.reach / 2);
+    CHECK(faces.collapses < vertices.collapses);
+}
+
 int main(void)
 {
     RUN(samples_equal_one_slab_for_any_slab_size);
     RUN(a_seam_pairs_copies_wait_for_one_slab);
+    RUN(a_slabs_share_of_vertices_is_what_its_collapses_take);
     RUN(same_bytes_for_threads_1_2_3_8);
     RUN(seam_jobs_give_the_same_bytes_for_any_thread_count);
     RUN(damaged_smz_fails_alike_for_any_thread_count);

@@ -71,6 +71,14 @@ typedef struct en_pass_plan {
      * pass whose one slab is its whole input keeps `goal` units instead. */
     double keep_share;
     int by_vertices;
+    /* The shares (keep_share, floor_share) count the inner vertices a
+     * slab's collapses may take, whatever the target counts: each collapse
+     * takes exactly one, where the faces on inner vertices alone leave out
+     * those a collapse removes beside a frozen vertex. A share that is only
+     * a guard under a ceiling, counted in such faces, stopped the slabs of
+     * thin streams long before the ceiling while their seams went on to
+     * it (docs/architecture.md §7). */
+    int share_of_vertices;
     uint64_t goal, expected_in;   /* the pass keeps goal units of the expected_in it takes */
     /* The share of a slab's vertices on faces that the plan keeps, which
      * the skeleton and the membranes are sized from (0: the count's). */

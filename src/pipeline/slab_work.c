@@ -145,14 +145,14 @@ static int aims_at_goal(const en_slab_work *w)
 
 /* The units a slab keeps when it keeps `share` of what its own collapses
  * can reach (after mark_frozen): the faces on inner vertices only (or the
- * inner vertices); the faces of frozen vertices go to the seams, whose
- * share the stitcher takes. Measured: a share of all the slab's faces
- * over-thins the inside of small slabs, whose seams cannot give their
- * part. */
+ * inner vertices, with by_vertices or share_of_vertices); the faces of
+ * frozen vertices go to the seams, whose share the stitcher takes.
+ * Measured: a share of all the slab's faces over-thins the inside of small
+ * slabs, whose seams cannot give their part. */
 static void share_limits(const en_slab_work *w, double share, uint64_t *keep_faces, uint64_t *keep_vertices)
 {
     uint64_t reach = 0;
-    if (w->plan->by_vertices) {
+    if (w->plan->by_vertices || w->plan->share_of_vertices) {
         for (uint32_t v = 0; v < w->nowned; v++)
             reach += inner(w, v) && en_slab_degree(&w->s, v) > 0;
         uint64_t drop = (uint64_t)((1 - share) * (double)reach), on = vertices_on_faces(&w->s);
