@@ -497,11 +497,11 @@ void en_target_stage_plan_thin(const en_target_size *size, uint64_t nv, uint64_t
  *   are 6.4 stream widths long, the slabs stopped at it at a twentieth of
  *   the ceiling while their seams went on to it, and the thinning kept a
  *   quarter of the slabs' middles but 8% of the bands around the cuts,
- *   fewer than the target keeps, which no round gives back. Counted in
- *   vertices (the windows' deep slabs too, so that they go as deep as
- *   their seams), the whole share: at half of it the bumpy mesh's
- *   flattest slabs went to half the target's density (1.013 times the
- *   unpriced mean error at aim 1.5, against 1.002 at the whole share).
+ *   fewer than the target keeps, which no round gives back. It is now
+ *   counted in vertices (in the windows' deep slabs too, so that they go
+ *   as deep as their seams), at the whole share: at half of it the bumpy
+ *   mesh's flattest slabs went to half the target's density (1.013 times
+ *   the unpriced mean error at aim 1.5, against 1.002 at the whole).
  */
 #define PRICE_DEEP 0.5
 #define PRICE_AIM 1.25
