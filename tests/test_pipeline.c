@@ -1141,6 +1141,15 @@ static void tally(en_slab_work *w, uint32_t *slabs, int *empty, int64_t owner[2]
     en_free(w);
 }
 
+/* The next slab the chunker cuts at the stream's end, or NULL. */
+static en_slab_work *finish_next(en_chunker *c)
+{
+    en_slab_work *w = NULL;
+    epsnet_error err;
+    CHECK_EQ_INT(en_chunker_finish(c, &w, &err), 0);
+    return w;
+}
+
 static int chunk_put(en_chunker *c, const epsnet_record *r, uint32_t *slabs, int *empty, int64_t owner[2])
 {
     en_slab_work *w = NULL;
@@ -1189,14 +1198,9 @@ static void copies_wait_for_one_slab(uint32_t slab)
         f.v[0] = last[k];
         CHECK_EQ_INT(chunk_put(&c, &f, &slabs, &empty, owner), 0);
     }
-    en_slab_work *w = NULL;
-    epsnet_error err;
-    for (;;) {
-        CHECK_EQ_INT(en_chunker_finish(&c, &w, &err), 0);
-        if (!w)
-            break;
+    en_slab_work *w;
+    while ((w = finish_next(&c)) != NULL)
         tally(w, &slabs, &empty, owner); /* frees w */
-    }
     CHECK(owner[0] >= 0);
     CHECK_EQ_INT((int)owner[0], (int)owner[1]); /* one slab holds both copies */
     CHECK(!empty);
@@ -1292,15 +1296,9 @@ static void run_tube_slabs(tube_run *tr)
             tube_put(&c, tr, &f);
         }
     }
-    en_slab_work *w = NULL;
-    epsnet_error err;
-    for (;;) {
-        CHECK_EQ_INT(en_chunker_finish(&c, &w, &err), 0);
-        if (!w)
-            break;
+    en_slab_work *w;
+    while ((w = finish_next(&c)) != NULL)
         tube_take(tr, w);
-        w = NULL;
-    }
     en_chunker_free(&c);
 }
 
