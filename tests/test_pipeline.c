@@ -1232,15 +1232,16 @@ static void tube_vertex(uint64_t g, double xyz[3])
     xyz[0] = x, xyz[1] = r * cos(t), xyz[2] = r * sin(t);
 }
 
-/* Run a slab the chunker cut from the tube under plan t, if both its ends
- * are frozen: its collapses, and its owned vertices on faces whose
- * neighbours are all owned here (what its own collapses can reach). */
+/* The tube's slabs under one plan: what they did, summed. */
 typedef struct tube_run {
     const en_pass_plan *t;
     const gauss_sphere *g;
     uint64_t collapses, reach;
 } tube_run;
 
+/* Run a slab the chunker cut from the tube under plan t, if both its ends
+ * are frozen: its collapses, and its owned vertices on faces whose
+ * neighbours are all owned here (what its own collapses can reach). */
 static void tube_take(tube_run *tr, en_slab_work *w)
 {
     if (w->index > 0 && !w->last) {
