@@ -1227,7 +1227,7 @@ enum { TUBE_AROUND = 32, TUBE_ALONG = 40, TUBE_SLAB = 10 * TUBE_AROUND };
 
 static void tube_vertex(uint64_t g, double xyz[3])
 {
-    double x = (double)(g / TUBE_AROUND) * 0.2, t = 2 * 3.14159265358979 * (double)(g % TUBE_AROUND) / TUBE_AROUND;
+    double x = (double)(g / TUBE_AROUND) * 0.2, t = 2 * M_PI * (double)(g % TUBE_AROUND) / TUBE_AROUND;
     double r = 1 + 0.1 * sin(1.3 * x) * sin(3 * t);
     xyz[0] = x, xyz[1] = r * cos(t), xyz[2] = r * sin(t);
 }

@@ -743,11 +743,17 @@ static int whole_faces(sort_job *j, epsnet_error *err)
 
 /* ---- stretches kept for windows (see stretch) ---- */
 
-/* A face's last corner: the largest of its ranks. */
+/* A face's last corner: the largest of its ranks; and its first. */
 static uint64_t max3(const uint64_t c[3])
 {
     uint64_t m = c[0] > c[1] ? c[0] : c[1];
     return m > c[2] ? m : c[2];
+}
+
+static uint64_t min3(const uint64_t c[3])
+{
+    uint64_t m = c[0] < c[1] ? c[0] : c[1];
+    return m < c[2] ? m : c[2];
 }
 
 /* The consumer's stretches for the stream's ranks, clamped, sorted and
@@ -819,9 +825,7 @@ static int keep_vertices(sort_job *j, uint64_t first, size_t n, epsnet_error *er
  * stretch it has a corner in. */
 static int keep_face(sort_job *j, const uint64_t r[3], uint64_t last, epsnet_error *err)
 {
-    uint64_t first = r[0] < r[1] ? r[0] : r[1];
-    first = r[2] < first ? r[2] : first;
-    if (last < j->keep_lo || first >= j->keep_hi)
+    if (last < j->keep_lo || min3(r) >= j->keep_hi)
         return 0;
     int rc = 0;
     for (uint32_t k = 0; k < j->nkeep && rc == 0; k++) {
