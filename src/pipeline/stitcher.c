@@ -41,9 +41,29 @@ struct en_seam_face {
 
 struct en_out_face {
     uint32_t v[3];         /* pool indices */
-    uint32_t next;         /* the next slot in its vertex's list, or in the free chain */
+    uint32_t next;         /* the next slot in its vertex's list */
 };
 #define NO_SLOT UINT32_MAX
+
+/* note: W's vertices are pool slots scattered over the pool, and each loop
+ * over W (its rebuild for a run, the run's results, settling, the pace)
+ * visits all of them, so most visits missed the cache: 3% of a size's CPU at
+ * 20M faces, and W grows with the stream's width (bench/RESULTS.md, session
+ * 30). Each loop starts its misses W_AHEAD items early. They are written in
+ * the loops: a helper doing nothing but prefetches reads as free of effects
+ * to the compiler, which drops its calls. */
+#define W_AHEAD 16
+#define PREFETCH_WV(st, i, field)                                                                               \
+    do {                                                                                                        \
+        if ((i) + W_AHEAD < (st)->nwv)                                                                          \
+            __builtin_prefetch(&(st)->v[(st)->wv[(i) + W_AHEAD]].field);                                        \
+    } while (0)
+#define PREFETCH_WF(st, f, field)                                                                               \
+    do {                                                                                                        \
+        if ((f) + W_AHEAD < (st)->nwf)                                                                          \
+            for (int pj_ = 0; pj_ < 3; pj_++)                                                                   \
+                __builtin_prefetch(&(st)->v[(st)->wf[(f) + W_AHEAD].v[pj_]].field);                             \
+    } while (0)
 
 struct en_vheap_entry {
     uint64_t gid;
@@ -55,7 +75,6 @@ int en_stitcher_init(en_stitcher *st, double max_normal_dev, en_stage out)
     memset(st, 0, sizeof *st);
     st->out = out;
     st->max_normal_dev = max_normal_dev;
-    st->ffree = NO_SLOT;
     en_slab_init(&st->ws);
     return en_u64map_init(&st->map) ? EPSNET_ENOMEM : 0;
 }
@@ -82,6 +101,7 @@ void en_stitcher_release(en_stitcher *st)
     en_free(st->vrun);
     en_free(st->vheap);
     en_free(st->fpool);
+    en_free(st->ffree);
     en_free(st->local);
     en_slab_free(&st->ws);
     en_free(st->attr);
@@ -89,11 +109,11 @@ void en_stitcher_release(en_stitcher *st)
     st->aq = NULL;
     st->aq_cap = 0;
     st->v = NULL, st->free_list = NULL, st->wv = NULL, st->wf = NULL, st->vrun = NULL, st->vheap = NULL, st->fpool = NULL;
-    st->local = NULL, st->attr = NULL;
+    st->local = NULL, st->attr = NULL, st->ffree = NULL;
     st->v_len = st->v_cap = st->free_len = st->free_cap = 0;
     st->nwv = st->wv_cap = st->nwf = st->wf_cap = st->nvheap = st->vheap_cap = 0;
     st->vrun_head = st->nvrun = st->vrun_cap = st->fpool_len = st->fpool_cap = 0;
-    st->ffree = NO_SLOT;
+    st->nffree = st->ffree_cap = 0;
     st->nfwait = 0;
     st->local_cap = st->attr_cap = 0;
     en_slab_init(&st->ws);
@@ -212,15 +232,21 @@ static int decide(en_stitcher *st, uint32_t idx)
 }
 
 /* The face is final: it waits at its last corner, after those already
- * there, and leaves right after that corner is written (write_until). */
+ * there, and leaves right after that corner is written (write_until).
+ * note: the free slots are a stack of their own, not a chain through
+ * fpool: taking one reads the stack's top, not the slot (a miss the take
+ * waited on: 72% of this function's time in a target's rounds,
+ * bench/RESULTS.md, session 30). */
 static int final_face(en_stitcher *st, const uint32_t p[3])
 {
-    uint32_t slot = st->ffree;
-    if (slot != NO_SLOT) {
-        st->ffree = st->fpool[slot].next;
+    uint32_t slot;
+    if (st->nffree) {
+        slot = st->ffree[--st->nffree];
     } else {
-        if (st->fpool_len >= NO_SLOT || en_grow((void **)&st->fpool, &st->fpool_cap, st->fpool_len + 1, sizeof *st->fpool))
-            return -1;
+        if (st->fpool_len >= NO_SLOT ||
+            en_grow((void **)&st->fpool, &st->fpool_cap, st->fpool_len + 1, sizeof *st->fpool) ||
+            en_grow((void **)&st->ffree, &st->ffree_cap, st->fpool_len + 1, sizeof *st->ffree))
+            return -1; /* room to free every slot later, so freeing never fails */
         slot = (uint32_t)st->fpool_len++;
     }
     uint32_t last = p[0];
@@ -277,12 +303,14 @@ static uint64_t seam_keep(const en_stitcher *st, int last)
     uint64_t pending = 0, settled = 0;
     if (t->by_vertices) {
         for (size_t i = 0; i < st->nwv; i++) {
+            PREFETCH_WV(st, i, state);
             uint16_t state = st->v[st->wv[i]].state;
             pending += !(state & S_COMPLETE);
             settled += (state & S_SETTLED) != 0;
         }
     } else {
         for (size_t f = 0; f < st->nwf; f++) {
+            PREFETCH_WF(st, f, state);
             const uint32_t *p = st->wf[f].v;
             pending += !(st->v[p[0]].state & st->v[p[1]].state & st->v[p[2]].state & S_COMPLETE);
         }
@@ -307,6 +335,7 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
         return 0;
     int any = 0, tier2 = st->plan && st->plan->samples_may_go;
     for (size_t i = 0; i < st->nwv && !any; i++) {
+        PREFETCH_WV(st, i, state);
         en_vertex_kind k = kind_in_w(&st->v[st->wv[i]], 0);
         any = en_removable(k) || (tier2 && k == EN_VK_SAMPLE);
     }
@@ -315,6 +344,8 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
     en_slab *ws = &st->ws;
     en_slab_reset(ws);
     for (size_t i = 0; i < st->nwv; i++) {
+        PREFETCH_WV(st, i, gid);
+        PREFETCH_WV(st, i, state);
         en_stitch_vertex *x = &st->v[st->wv[i]];
         x->wlocal = (uint32_t)i;
         uint8_t flags = EN_V_OWNED | (en_receives(kind_in_w(x, 0)) ? EN_V_TARGET : 0);
@@ -322,6 +353,7 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
             return oom(err);
     }
     for (size_t f = 0; f < st->nwf; f++) {
+        PREFETCH_WF(st, f, wlocal);
         const uint32_t *p = st->wf[f].v;
         if (en_slab_add_face(ws, st->v[p[0]].wlocal, st->v[p[1]].wlocal, st->v[p[2]].wlocal))
             return oom(err);
@@ -350,6 +382,8 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
     uint8_t *removable = st->scratch + at[4], *valive = st->scratch + at[5], *falive = st->scratch + at[6];
     int rc = 0;
     for (size_t i = 0; i < st->nwv; i++) {
+        PREFETCH_WV(st, i, q);
+        PREFETCH_WV(st, i, state);
         const en_stitch_vertex *x = &st->v[st->wv[i]];
         en_vertex_kind k = kind_in_w(x, ws->vflags[i]);
         removable[i] = (uint8_t)en_removable(k);
@@ -410,6 +444,7 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
     /* Faces: every corner change moves a count of faces still to write. */
     size_t kept = 0;
     for (size_t f = 0; f < st->nwf; f++) {
+        PREFETCH_WF(st, f, remaining);
         en_seam_face sf = st->wf[f];
         for (int j = 0; j < 3; j++)
             st->v[sf.v[j]].remaining--;
@@ -424,6 +459,8 @@ static int collapse_seams(en_stitcher *st, int last, epsnet_error *err)
     st->nwf = kept;
     kept = 0;
     for (size_t i = 0; i < st->nwv; i++) {
+        PREFETCH_WV(st, i, q);
+        PREFETCH_WV(st, i, state);
         uint32_t idx = st->wv[i];
         if (!valive[i]) {
             if (st->v[idx].remaining != 0) {
@@ -453,9 +490,12 @@ out:
 static int settle(en_stitcher *st, int last)
 {
     int wait = st->plan && (st->plan->seams == EN_SEAMS_PACED || st->plan->seams == EN_SEAMS_CEILING) && !last;
-    for (size_t i = 0; i < st->nwv; i++)
+    for (size_t i = 0; i < st->nwv; i++) {
+        PREFETCH_WV(st, i, state);
         st->v[st->wv[i]].state &= (uint16_t)~(S_BLOCKED | S_IN_FACE);
+    }
     for (size_t f = 0; f < st->nwf; f++) {
+        PREFETCH_WF(st, f, state);
         const uint32_t *p = st->wf[f].v;
         int open = 0;
         for (int j = 0; j < 3; j++)
@@ -465,6 +505,7 @@ static int settle(en_stitcher *st, int last)
                 st->v[p[j]].state |= S_BLOCKED;
     }
     for (size_t i = 0; i < st->nwv; i++) {
+        PREFETCH_WV(st, i, state);
         en_stitch_vertex *x = &st->v[st->wv[i]];
         if ((x->state & (S_SETTLED | S_BLOCKED)) || !(x->state & S_COMPLETE) || (wait && x->take == st->takes))
             continue;
@@ -474,6 +515,7 @@ static int settle(en_stitcher *st, int last)
     }
     size_t kept = 0;
     for (size_t f = 0; f < st->nwf; f++) {
+        PREFETCH_WF(st, f, state);
         const uint32_t *p = st->wf[f].v;
         int final = 1;
         for (int j = 0; j < 3; j++)
@@ -489,6 +531,7 @@ static int settle(en_stitcher *st, int last)
     st->nwf = kept;
     kept = 0;
     for (size_t i = 0; i < st->nwv; i++) {
+        PREFETCH_WV(st, i, state);
         en_stitch_vertex *x = &st->v[st->wv[i]];
         if ((x->state & S_SETTLED) && !(x->state & S_IN_FACE)) {
             en_u64map_remove(&st->map, x->gid);
@@ -514,10 +557,30 @@ static int put(en_stitcher *st, epsnet_record_kind kind, uint64_t a, uint64_t b,
     return en_stage_put(&st->out, &rec, err);
 }
 
+/* note: the run is written in id order, but its vertices' pool slots, their
+ * attribute bytes and their faces' slots lie anywhere, and each was a miss
+ * the loop waited on (write_until was 9% of a target's rounds, most of it
+ * the first touch of the vertex and of its first face; bench/RESULTS.md,
+ * session 30). Started WRITE_AHEAD entries early, the misses overlap; the
+ * face slot, which needs the vertex, half as early. */
+#define WRITE_AHEAD 8
+
 /* Write every decided vertex below frontier, each with the faces it ends. */
 static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
 {
     for (;;) {
+        /* (in the loop itself, as W_AHEAD's) */
+        if (st->vrun_head + WRITE_AHEAD < st->nvrun) {
+            uint32_t ahead = st->vrun[st->vrun_head + WRITE_AHEAD].idx;
+            __builtin_prefetch((const char *)&st->v[ahead], 1);
+            __builtin_prefetch((const char *)&st->v[ahead] + 64, 1);
+            __builtin_prefetch((const char *)&st->v[ahead] + 128, 1);
+            if (st->attr_size)
+                __builtin_prefetch(st->attr + (size_t)ahead * st->attr_size, 1);
+            uint32_t slot = st->v[st->vrun[st->vrun_head + WRITE_AHEAD / 2].idx].first_face;
+            if (slot != NO_SLOT)
+                __builtin_prefetch(&st->fpool[slot], 1);
+        }
         const en_vheap_entry *r = st->vrun_head < st->nvrun ? &st->vrun[st->vrun_head] : NULL;
         const en_vheap_entry *h = st->nvheap ? &st->vheap[0] : NULL;
         const en_vheap_entry *next = r && (!h || r->gid < h->gid) ? r : h;
@@ -561,8 +624,7 @@ static int write_until(en_stitcher *st, uint64_t frontier, epsnet_error *err)
         x->first_face = x->last_face = NO_SLOT;
         while (slot != NO_SLOT) {
             en_out_face f = st->fpool[slot];
-            st->fpool[slot].next = st->ffree;
-            st->ffree = slot;
+            st->ffree[st->nffree++] = slot;
             st->nfwait--;
             slot = f.next;
             uint64_t o[3];
@@ -710,6 +772,7 @@ int en_stitcher_take(en_stitcher *st, const en_slab_work *w, epsnet_error *err)
         st->stats.max_active = active;
     uint64_t frontier = w->frontier;
     for (size_t i = 0; i < st->nwv; i++) {
+        PREFETCH_WV(st, i, state);
         const en_stitch_vertex *x = &st->v[st->wv[i]];
         if (!(x->state & S_SETTLED) && x->gid < frontier)
             frontier = x->gid;
@@ -727,8 +790,8 @@ uint64_t en_stitcher_bytes(const en_stitcher *st)
 {
     return (uint64_t)st->v_cap * sizeof *st->v + st->free_cap * sizeof *st->free_list + en_u64map_bytes(&st->map) +
            st->wv_cap * sizeof *st->wv + st->wf_cap * sizeof *st->wf + st->vheap_cap * sizeof *st->vheap +
-           st->vrun_cap * sizeof *st->vrun + st->fpool_cap * sizeof *st->fpool + st->local_cap * sizeof *st->local + st->attr_cap * st->attr_size +
-           st->aq_cap * sizeof *st->aq;
+           st->vrun_cap * sizeof *st->vrun + st->fpool_cap * sizeof *st->fpool + st->ffree_cap * sizeof *st->ffree +
+           st->local_cap * sizeof *st->local + st->attr_cap * st->attr_size + st->aq_cap * sizeof *st->aq;
 }
 
 int en_stitcher_finish(en_stitcher *st, epsnet_error *err)

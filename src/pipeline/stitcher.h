@@ -69,10 +69,11 @@ typedef struct en_stitcher {
     size_t nvheap, vheap_cap;
     /* Final faces waiting for their last vertex (the corner with the
      * highest id), listed at that vertex in arrival order (first_face):
-     * slots of fpool, free ones chained from ffree. */
+     * slots of fpool, the free ones stacked in ffree. */
     en_out_face *fpool;
     size_t fpool_len, fpool_cap;
-    uint32_t ffree;
+    uint32_t *ffree;
+    size_t nffree, ffree_cap;
     uint64_t nfwait;
     uint64_t next_out;
     uint64_t frontier;                /* output waits for this input id (UINT64_MAX: for nothing) */
