@@ -5,6 +5,7 @@
 
 #include "common/alloc.h"
 #include "common/error.h"
+#include "common/hash64.h"
 
 void en_slab_init(en_slab *s)
 {
@@ -245,6 +246,42 @@ static int cmp_position(const void *a, const void *b)
     return c ? c : (x->v > y->v) - (x->v < y->v);
 }
 
+/* Do two of b's n vertices share a position's bits? 1, 0, or -1 (out of
+ * memory).
+ * note: most slabs and seam meshes have none, and sorting every boundary
+ * vertex by position to find out (a comparison through qsort and memcmp
+ * each) was 4% of a target's rounds, whose seam meshes are mostly
+ * boundary, and 1.6% of the whole run (bench/RESULTS.md, session 30): a hash of the positions answers
+ * in one pass, and only a yes sorts. */
+static int any_shared_position(const by_position *b, uint32_t n)
+{
+    size_t mask = 15;
+    while (mask + 1 < 2 * (size_t)n)
+        mask = 2 * mask + 1;
+    uint32_t *slot = en_malloc((mask + 1) * sizeof *slot);
+    if (!slot)
+        return -1;
+    memset(slot, 0xff, (mask + 1) * sizeof *slot);
+    int shared = 0;
+    for (uint32_t i = 0; i < n && !shared; i++) {
+        uint64_t w[3];
+        memcpy(w, b[i].xyz, sizeof w);
+        uint64_t key = w[0] ^ (w[1] << 21 | w[1] >> 43) ^ (w[2] << 42 | w[2] >> 22);
+        for (size_t k = en_hash_slot(key, mask);; k = (k + 1) & mask) {
+            if (slot[k] == UINT32_MAX) {
+                slot[k] = i;
+                break;
+            }
+            if (memcmp(b[slot[k]].xyz, b[i].xyz, 3 * sizeof *b[i].xyz) == 0) {
+                shared = 1;
+                break;
+            }
+        }
+    }
+    en_free(slot);
+    return shared;
+}
+
 /* May boundary vertices a and b, alone at their position, be the two sides
  * of one seam? One open fan each, and their open edges lead to the same
  * positions the other way round (the sides of an orientable surface cut
@@ -276,14 +313,12 @@ static int find_seams(en_slab *s, uint32_t nboundary)
     for (uint32_t v = 0; v < s->nv; v++)
         if ((s->vflags[v] & (EN_V_BOUNDARY | EN_V_OWNED)) == (EN_V_BOUNDARY | EN_V_OWNED))
             b[n++] = (by_position){ s->pos + 3 * (size_t)v, v };
-    qsort(b, n, sizeof *b, cmp_position);
-    uint32_t shared = 0;
-    for (uint32_t i = 1; i < n; i++)
-        shared += memcmp(b[i].xyz, b[i - 1].xyz, 3 * sizeof *b[i].xyz) == 0;
-    if (shared == 0) {
+    int shared = any_shared_position(b, n);
+    if (shared <= 0) {
         en_free(b);
-        return 0;
+        return shared; /* none (0), or out of memory (-1) */
     }
+    qsort(b, n, sizeof *b, cmp_position);
     if (en_grow((void **)&s->wedge, &s->cap_wedge, (size_t)s->nv + 1, sizeof *s->wedge)) {
         en_free(b);
         return -1;
