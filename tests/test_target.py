@@ -288,6 +288,35 @@ def a_round_never_passes_the_target():
         assert outs[0] == outs[1], f"forced {forced}: -j1 and -j2 differ"
 
 @case
+def a_round_before_the_last_leaves_its_quadrics_out_for_the_same_bytes():
+    """A round whose output goes to the last round writes its kept stream
+    without the carried quadrics, which the last round does not read; one
+    that lands short of the last round runs again whole, since the round
+    after it starts from them (pipeline/target_stage.c: kept_lean_bytes).
+    EPSNET_FAIL_ROUND_LEAN makes every round lean first, so that every round
+    but the last runs again: the bytes are the unforced run's, with and
+    without weighed attributes, at any thread count. (Without the second
+    run, these cases' bytes differ.)"""
+    plain = gen("bumpy", 100000, "bumpy100k_shuf.ply", "--shuffle")
+    charts = gen("bumpy", 60000, "bumpy60k_charts.ply", "--charts", "200", "--shuffle")
+    for src, extra in ((plain, ()), (charts, ("--attribute-weight", "1"))):
+        want = None
+        for forced in (False, True):
+            for j in ("1", "2"):
+                out = path(f"lean_{os.path.basename(src)}_{forced}_{j}.ply")
+                env = dict(os.environ, EPSNET_FAIL_ROUND_LEAN="1") if forced else None
+                p = subprocess.run([EPSNET, "simplify", src, "-o", out, "-q", "--stats", out + ".json",
+                                    "--ratio", "0.2", "--slab", "256", "--mem", "10M", "-j", j, *extra],
+                                   capture_output=True, text=True, env=env, timeout=300)
+                assert p.returncode == 0, p.stderr
+                with open(out + ".json") as f:
+                    assert json.load(f)["target"]["rounds"] >= 2, "the case needs a round before a round"
+                got = open(out, "rb").read()
+                if want is None:
+                    want = got
+                assert got == want, f"{src} forced {forced} -j{j}: not the unforced -j1 bytes"
+
+@case
 def a_target_within_one_slab_does_not_depend_on_the_default_slab_size():
     """Without --slab, a mesh that fits the budget is one slab: --mem (which
     sets the ε-net pass's slabs) does not change the bytes."""

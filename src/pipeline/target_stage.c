@@ -46,6 +46,7 @@
 #define ROUND_RETRY_AIM 0.25
 static en_fault round_aim_fault = EN_FAULT_INIT("EPSNET_FAIL_ROUND_AIM");
 static en_fault price_high_fault = EN_FAULT_INIT("EPSNET_FAIL_PRICE_HIGH");
+static en_fault round_lean_fault = EN_FAULT_INIT("EPSNET_FAIL_ROUND_LEAN");
 static en_fault price_skip_fault = EN_FAULT_INIT("EPSNET_FAIL_PRICE_SKIP");
 /* For the progress bar's estimate of the rounds to come: the share of a
  * round's gap to the goal that is left after it (measured on `gen bumpy`
@@ -76,6 +77,7 @@ static en_fault price_skip_fault = EN_FAULT_INIT("EPSNET_FAIL_PRICE_SKIP");
 #define KEPT_BLOCK ((size_t)1 << 18)
 typedef struct kept {
     en_spill *sp;
+    int lean;                     /* the carried quadric left out (kept_lean_bytes) */
     uint64_t vertices, faces;
     uint8_t *buf;
     size_t len, pos;              /* writing: bytes in buf; reading: [pos, len) not yet parsed */
@@ -91,6 +93,7 @@ struct en_target_stage {
     uint32_t retries;             /* rounds run again (ROUND_RETRIES) */
     double priced;                /* the share of its non-samples hist holds (ceiling_for) */
     uint32_t kept_attr;           /* a kept vertex's bytes: its attributes, then its quadric */
+    uint8_t *lean_attr;           /* replay's scratch: a lean stream's vertex bytes made whole */
     en_chain_stats rounds;        /* the rounds' counts, summed */
     en_chain_stats last;          /* the last round's */
     /* Progress (cfg.tick), in records taken by the rounds: those of the
@@ -157,6 +160,19 @@ static const uint8_t *kept_read(kept *k, size_t n, size_t *got, int *rc, epsnet_
     return p;
 }
 
+/* What a lean kept stream leaves out of each vertex: the carried block's
+ * quadric and attribute part, before its marks (slab_work.h). The last
+ * round starts afresh from its faces (run_chain: quadrics_in) and reads
+ * only the marks, so a round whose output goes to the last round writes
+ * that part for nothing: 80 of a vertex's 113 bytes without attributes,
+ * written into the page cache in the take and read back (at 100M faces
+ * the kernel's copy was 8% of the rounds' CPU; bench/RESULTS.md, session
+ * 30). */
+static uint32_t kept_lean_bytes(const en_target_stage *ts)
+{
+    return en_carried_marks_at(ts->cfg.weights ? ts->cfg.weights->channels : 0);
+}
+
 /* A stage that appends records to a kept stream. */
 typedef struct kept_sink {
     en_target_stage *ts;
@@ -171,8 +187,15 @@ static int kept_put(void *self, const epsnet_record *rec, epsnet_error *err)
     r[0] = (uint8_t)rec->kind;
     memcpy(r + 1, rec->kind == EPSNET_REC_VERTEX ? (const void *)rec->xyz : (const void *)rec->v, n - 1);
     int rc = kept_write(to->k, r, n, err);
-    if (rc == 0 && rec->kind == EPSNET_REC_VERTEX)
+    if (rc == 0 && rec->kind == EPSNET_REC_VERTEX && to->k->lean) {
+        /* the attributes and the marks, without the quadric between them */
+        uint32_t a = to->ts->cfg.attr_size, skip = kept_lean_bytes(to->ts);
+        rc = kept_write(to->k, rec->attr, a, err);
+        if (rc == 0)
+            rc = kept_write(to->k, rec->attr + a + skip, to->ts->kept_attr - a - skip, err);
+    } else if (rc == 0 && rec->kind == EPSNET_REC_VERTEX) {
         rc = kept_write(to->k, rec->attr, to->ts->kept_attr, err);
+    }
     to->k->vertices += rec->kind == EPSNET_REC_VERTEX;
     to->k->faces += rec->kind == EPSNET_REC_TRIANGLE;
     return rc;
@@ -260,7 +283,15 @@ static int replay(en_target_stage *ts, kept *k, en_stage into, epsnet_error *err
         if (!(p = kept_read(k, n, &got, &rc, err)))
             break;
         memcpy(rec.kind == EPSNET_REC_VERTEX ? (void *)rec.xyz : (void *)rec.v, p, n);
-        if (rec.kind == EPSNET_REC_VERTEX) {
+        if (rec.kind == EPSNET_REC_VERTEX && k->lean) {
+            /* made whole, the quadric's bytes zero (no chain reads them) */
+            uint32_t a = ts->cfg.attr_size, skip = kept_lean_bytes(ts);
+            if (!(p = kept_read(k, ts->kept_attr - skip, &got, &rc, err)))
+                break;
+            memcpy(ts->lean_attr, p, a);
+            memcpy(ts->lean_attr + a + skip, p + a, ts->kept_attr - a - skip);
+            rec.attr = ts->lean_attr;
+        } else if (rec.kind == EPSNET_REC_VERTEX) {
             if (!(p = kept_read(k, ts->kept_attr, &got, &rc, err)))
                 break;
             rec.attr = p; /* valid until the next kept_read, after the put has copied it */
@@ -704,6 +735,10 @@ static int stage_end(void *self, epsnet_error *err)
         kept next;
         en_chain_stats got;
         double aim = (gap > ROUND_NEAR ? ROUND_AIM : ROUND_AIM_NEAR) * need, priced = ts->priced;
+        /* lean (kept_lean_bytes) when the round, taking its aim, lands
+         * within half the last round's reach */
+        int lean = ts->nrounds + 1 >= ROUND_MAX || en_fault_hit(&round_lean_fault) ||
+                   (double)left - aim * (by_vertices ? 1.0 : 2.0) <= (double)goal * (1 + ROUND_CLOSE / 2);
         memcpy(ts->hist_before, ts->hist, EN_COST_BUCKETS * sizeof *ts->hist);
         for (int attempt = 0;; attempt++) {
             /* (EPSNET_FAIL_ROUND_AIM: the N-th and later ceilings take
@@ -713,8 +748,10 @@ static int stage_end(void *self, epsnet_error *err)
             /* the last try holds its slabs and W to the target's share, so
              * that it cannot pass the target (pass_plan.h: floor_share) */
             round.floor_share = attempt == ROUND_RETRIES ? (double)goal / (double)left : 0;
-            if ((rc = kept_open(ts, &next, err)) == 0)
+            if ((rc = kept_open(ts, &next, err)) == 0) {
+                next.lean = lean;
                 rc = run_chain(ts, &round, &ts->in, &next, 0, &got, err);
+            }
             if (rc || round.floor_share > 0 || (by_vertices ? next.vertices : next.faces) >= goal)
                 break;
             /* it passed the target: the histogram misjudged what the
@@ -724,6 +761,17 @@ static int stage_end(void *self, epsnet_error *err)
             aim *= ROUND_RETRY_AIM;
             ts->retries++;
         }
+        uint64_t now = by_vertices ? next.vertices : next.faces;
+        int stalled = (double)(left - now) < ROUND_STALL * (double)(left - goal);
+        if (rc == 0 && next.lean && !stalled && ts->nrounds + 1 < ROUND_MAX &&
+            (double)now > (double)goal * (1 + ROUND_CLOSE) && !fits_one_slab_n(ts, (double)next.vertices)) {
+            /* it landed short of the last round: another round follows,
+             * which starts from the quadrics; the same round again, whole
+             * (the same bytes, as if it had been whole from the start) */
+            kept_close(&next);
+            if ((rc = kept_open(ts, &next, err)) == 0)
+                rc = run_chain(ts, &round, &ts->in, &next, 0, &got, err);
+        }
         if (rc) {
             kept_close(&next);
             break;
@@ -731,8 +779,7 @@ static int stage_end(void *self, epsnet_error *err)
         add_counts(&ts->rounds, &got);
         kept_close(&ts->in);
         ts->in = next;
-        uint64_t now = by_vertices ? ts->in.vertices : ts->in.faces;
-        if ((double)(left - now) < ROUND_STALL * (double)(left - goal)) {
+        if (stalled) {
             ts->nrounds++;
             break;
         }
@@ -783,6 +830,10 @@ int en_target_stage_new(en_target_stage **out, const en_target_stage_config *cfg
     ts->pool = pool;
     ts->priced = 1;
     ts->kept_attr = cfg->attr_size + en_carried_bytes(cfg->weights ? cfg->weights->channels : 0);
+    if (!(ts->lean_attr = en_calloc(1, ts->kept_attr))) {
+        en_target_stage_free(&ts);
+        return en_error_set(err, EPSNET_ENOMEM, cfg->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
+    }
     int rc = kept_open(ts, &ts->in, err);
     if (rc) {
         en_target_stage_free(&ts);
@@ -828,6 +879,7 @@ void en_target_stage_free(en_target_stage **pts)
     kept_close(&ts->in);
     en_free(ts->hist);
     en_free(ts->hist_before);
+    en_free(ts->lean_attr);
     en_free(ts);
     *pts = NULL;
 }
