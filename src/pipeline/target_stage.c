@@ -596,6 +596,12 @@ int en_target_stage_price(en_target_stage *ts, const en_window_source *src, en_p
          * the same level shares (bench/RESULTS.md, session 19). */
         en_pass_plan d = p;
         d.keep_share = 1;
+        /* and no collapses in W either: at the level of slabs that took
+         * nothing, W takes nothing (stitcher.c: collapse_seams). Under the
+         * windows' rule (no ceiling yet) W went as deep as it could, for
+         * an output no one reads: two thirds of this chain's 0.24 s at 20M
+         * faces (bench/RESULTS.md, session 30) */
+        d.seams = EN_SEAMS_LEVEL;
         d.skeleton_budget =
             (uint64_t)(EN_TARGET_SKELETON_SHARE * size->share * (double)src->inside_ring_vertices);
         d.skeleton_expected = src->inside_ring_vertices;
