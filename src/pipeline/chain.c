@@ -23,13 +23,6 @@
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
-#include <stdlib.h>
-#include "common/util.h"
-#include "pipeline/slab_work.h"
-static _Atomic double dbg_t[3];
-static void dbg_add(int k, double t){ double o=dbg_t[k]; while(!__atomic_compare_exchange(&dbg_t[k], &o, &(double){o+t}, 0, __ATOMIC_SEQ_CST, __ATOMIC_SEQ_CST)); }
-static int dbg_slab_run(void *w) { double t0 = en_now(); int rc = en_slab_work_run(w); dbg_add(2, en_now() - t0); return rc; }
-static void dbg_print(const char *w) { if (getenv("EN_DBG")) { fprintf(stderr, "DBG %s: take %.2f chunk %.2f slab %.2f s at %.2f\n", w, (double)dbg_t[0], (double)dbg_t[1], (double)dbg_t[2], en_now()); dbg_t[0]=dbg_t[1]=dbg_t[2]=0; } }
 
 #include "common/alloc.h"
 #include "common/error.h"
@@ -363,10 +356,7 @@ static int buffer_end(void *self, epsnet_error *err)
 static int stitch_run(void *job)
 {
     stitch_job *j = job;
-    double t0 = en_now();
-    int rc = en_stitcher_take(&j->p->st, j->w, &j->err);
-    dbg_add(0, en_now() - t0);
-    return rc;
+    return en_stitcher_take(&j->p->st, j->w, &j->err);
 }
 
 /* Caller's thread, nothing in flight: hand the buffered records on, in order. */
@@ -631,7 +621,7 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     if (rc == 0) {
         p->in_flight_elements += (uint64_t)w->s.nv + w->s.nt;
         note_active(c);
-        rc = en_jobring_submit(p->ring, elsewhere ? worked_elsewhere : dbg_slab_run, w);
+        rc = en_jobring_submit(p->ring, elsewhere ? worked_elsewhere : en_slab_work_run, w);
         /* another rank sends what is done at once: rank 0 may be waiting */
         while (rc == 0 && peers && en_peer_rank(peers) != 0 && en_jobring_in_flight(p->ring) &&
                en_jobring_ready(p->ring))
@@ -652,10 +642,7 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
 
 /* The chunker on a worker (see chunk_job): the batch's records, then, at
  * the end, what the stream left live; the slabs cut wait in the job. */
-static int chunk_run2(void *job);
 static int chunk_run(void *job)
-{ double t0 = en_now(); int rc = chunk_run2(job); dbg_add(1, en_now() - t0); return rc; }
-static int chunk_run2(void *job)
 {
     chunk_job *j = job;
     en_chunker *ch = &j->p->ch;
@@ -935,7 +922,6 @@ static size_t chunk_slots(uint32_t slab_vertices)
 
 int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsnet_error *err)
 {
-    dbg_print("new");
     *out = NULL;
     en_chain *c = en_calloc(1, sizeof *c);
     if (!c)
@@ -1102,7 +1088,6 @@ void en_chain_taken_hist(const en_chain *c, uint64_t *add)
 
 void en_chain_free(en_chain **pc)
 {
-    dbg_print("free");
     en_chain *c = pc ? *pc : NULL;
     if (!c)
         return;
