@@ -5,9 +5,24 @@
 #include "common/alloc.h"
 #include "common/hash64.h"
 
+/* note: a word at a time, the rest a byte at a time: the keys are mostly
+ * coordinates' bits (8 or 4 bytes each), and hashing them byte by byte was
+ * most of a lookup's time where seams are looked for in every slab and
+ * seam mesh (core/slab.c: any_shared_position; bench/RESULTS.md, session
+ * 30). Any spread will do: no one walks the slots in order. */
 static size_t key_hash(const uint8_t *k, size_t n)
 {
-    return en_hash_slot(en_hash_bytes(k, n), SIZE_MAX);
+    uint64_t h = n;
+    size_t i = 0;
+    for (; i + 8 <= n; i += 8) {
+        uint64_t w;
+        memcpy(&w, k + i, 8);
+        h = (h ^ w) * 0x9e3779b97f4a7c15ull;
+        h ^= h >> 29;
+    }
+    for (; i < n; i++)
+        h = (h ^ k[i]) * 0x100000001b3ull;
+    return en_hash_slot(h, SIZE_MAX);
 }
 
 static int key_grow(en_key_table *t)

@@ -5,7 +5,7 @@
 
 #include "common/alloc.h"
 #include "common/error.h"
-#include "common/hash64.h"
+#include "common/key_table.h"
 
 void en_slab_init(en_slab *s)
 {
@@ -251,34 +251,22 @@ static int cmp_position(const void *a, const void *b)
  * note: most slabs and seam meshes have none, and sorting every boundary
  * vertex by position to find out (a comparison through qsort and memcmp
  * each) was 4% of a target's rounds, whose seam meshes are mostly
- * boundary, and 1.6% of the whole run (bench/RESULTS.md, session 30): a hash of the positions answers
- * in one pass, and only a yes sorts. */
+ * boundary, and 1.6% of the whole run (bench/RESULTS.md, session 30): a
+ * table of the positions answers in one pass, and only a yes sorts. */
 static int any_shared_position(const by_position *b, uint32_t n)
 {
-    size_t mask = 15;
-    while (mask + 1 < 2 * (size_t)n)
-        mask = 2 * mask + 1;
-    uint32_t *slot = en_malloc((mask + 1) * sizeof *slot);
-    if (!slot)
-        return -1;
-    memset(slot, 0xff, (mask + 1) * sizeof *slot);
+    en_key_table t;
+    en_key_init(&t, 3 * sizeof *b->xyz);
     int shared = 0;
-    for (uint32_t i = 0; i < n && !shared; i++) {
-        uint64_t w[3];
-        memcpy(w, b[i].xyz, sizeof w);
-        uint64_t key = w[0] ^ (w[1] << 21 | w[1] >> 43) ^ (w[2] << 42 | w[2] >> 22);
-        for (size_t k = en_hash_slot(key, mask);; k = (k + 1) & mask) {
-            if (slot[k] == UINT32_MAX) {
-                slot[k] = i;
-                break;
-            }
-            if (memcmp(b[slot[k]].xyz, b[i].xyz, 3 * sizeof *b[i].xyz) == 0) {
-                shared = 1;
-                break;
-            }
-        }
+    for (uint32_t i = 0; i < n && shared == 0; i++) {
+        uint64_t first;
+        int added;
+        if (en_key_find(&t, (const uint8_t *)b[i].xyz, i, &first, &added))
+            shared = -1;
+        else
+            shared = !added;
     }
-    en_free(slot);
+    en_key_free(&t);
     return shared;
 }
 
