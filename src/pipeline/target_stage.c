@@ -187,14 +187,12 @@ static int kept_put(void *self, const epsnet_record *rec, epsnet_error *err)
     r[0] = (uint8_t)rec->kind;
     memcpy(r + 1, rec->kind == EPSNET_REC_VERTEX ? (const void *)rec->xyz : (const void *)rec->v, n - 1);
     int rc = kept_write(to->k, r, n, err);
-    if (rc == 0 && rec->kind == EPSNET_REC_VERTEX && to->k->lean) {
-        /* the attributes and the marks, without the quadric between them */
-        uint32_t a = to->ts->cfg.attr_size, skip = kept_lean_bytes(to->ts);
+    if (rc == 0 && rec->kind == EPSNET_REC_VERTEX) {
+        /* the attributes, then the carried block (lean: without its quadric) */
+        uint32_t a = to->ts->cfg.attr_size, skip = to->k->lean ? kept_lean_bytes(to->ts) : 0;
         rc = kept_write(to->k, rec->attr, a, err);
         if (rc == 0)
             rc = kept_write(to->k, rec->attr + a + skip, to->ts->kept_attr - a - skip, err);
-    } else if (rc == 0 && rec->kind == EPSNET_REC_VERTEX) {
-        rc = kept_write(to->k, rec->attr, to->ts->kept_attr, err);
     }
     to->k->vertices += rec->kind == EPSNET_REC_VERTEX;
     to->k->faces += rec->kind == EPSNET_REC_TRIANGLE;
@@ -283,18 +281,17 @@ static int replay(en_target_stage *ts, kept *k, en_stage into, epsnet_error *err
         if (!(p = kept_read(k, n, &got, &rc, err)))
             break;
         memcpy(rec.kind == EPSNET_REC_VERTEX ? (void *)rec.xyz : (void *)rec.v, p, n);
-        if (rec.kind == EPSNET_REC_VERTEX && k->lean) {
-            /* made whole, the quadric's bytes zero (no chain reads them) */
-            uint32_t a = ts->cfg.attr_size, skip = kept_lean_bytes(ts);
+        if (rec.kind == EPSNET_REC_VERTEX) {
+            uint32_t a = ts->cfg.attr_size, skip = k->lean ? kept_lean_bytes(ts) : 0;
             if (!(p = kept_read(k, ts->kept_attr - skip, &got, &rc, err)))
                 break;
-            memcpy(ts->lean_attr, p, a);
-            memcpy(ts->lean_attr + a + skip, p + a, ts->kept_attr - a - skip);
-            rec.attr = ts->lean_attr;
-        } else if (rec.kind == EPSNET_REC_VERTEX) {
-            if (!(p = kept_read(k, ts->kept_attr, &got, &rc, err)))
-                break;
             rec.attr = p; /* valid until the next kept_read, after the put has copied it */
+            if (skip) {
+                /* made whole, the quadric's bytes zero (no chain reads them) */
+                memcpy(ts->lean_attr, p, a);
+                memcpy(ts->lean_attr + a + skip, p + a, ts->kept_attr - a - skip);
+                rec.attr = ts->lean_attr;
+            }
         }
         rc = en_stage_put(&into, &rec, err);
         if (rc == 0 && (uint64_t)++ts->round_taken % TICK_RECORDS == 0)
@@ -682,6 +679,14 @@ static int stage_put(void *self, const epsnet_record *rec, epsnet_error *err)
     return rc ? stage_fail(ts, rc, err) : 0;
 }
 
+/* Is a kept stream k close enough to the goal for the last round: within
+ * ROUND_CLOSE of it, or small enough for its one slab? */
+static int close_enough(const en_target_stage *ts, const kept *k)
+{
+    uint64_t left = ts->cfg.size.by_vertices ? k->vertices : k->faces;
+    return (double)left <= (double)ts->cfg.size.goal * (1 + ROUND_CLOSE) || fits_one_slab_n(ts, (double)k->vertices);
+}
+
 /* Does what is kept fit the last round's one slab? */
 static int fits_one_slab(const en_target_stage *ts)
 {
@@ -722,7 +727,7 @@ static int stage_end(void *self, epsnet_error *err)
     }
     for (; ts->nrounds < ROUND_MAX && rc == 0; ts->nrounds++) {
         uint64_t left = by_vertices ? ts->in.vertices : ts->in.faces;
-        if ((double)left <= (double)goal * (1 + ROUND_CLOSE) || fits_one_slab(ts))
+        if (close_enough(ts, &ts->in))
             break;
         /* a collapse takes one vertex, and two faces inside a surface */
         double need = (double)(left - goal) / (by_vertices ? 1.0 : 2.0);
@@ -769,8 +774,7 @@ static int stage_end(void *self, epsnet_error *err)
         }
         uint64_t now = by_vertices ? next.vertices : next.faces;
         int stalled = (double)(left - now) < ROUND_STALL * (double)(left - goal);
-        if (rc == 0 && next.lean && !stalled && ts->nrounds + 1 < ROUND_MAX &&
-            (double)now > (double)goal * (1 + ROUND_CLOSE) && !fits_one_slab_n(ts, (double)next.vertices)) {
+        if (rc == 0 && next.lean && !stalled && ts->nrounds + 1 < ROUND_MAX && !close_enough(ts, &next)) {
             /* it landed short of the last round: another round follows,
              * which starts from the quadrics; the same round again, whole
              * (the same bytes, as if it had been whole from the start) */
