@@ -10,6 +10,7 @@
 void en_slab_init(en_slab *s)
 {
     memset(s, 0, sizeof *s);
+    en_key_init(&s->positions, 3 * sizeof(double));
 }
 
 void en_slab_free(en_slab *s)
@@ -22,6 +23,8 @@ void en_slab_free(en_slab *s)
     en_free(s->star);
     en_free(s->star_fill);
     en_free(s->wedge);
+    en_free(s->by_position);
+    en_key_free(&s->positions);
     en_slab_init(s);
 }
 
@@ -234,7 +237,7 @@ static int same_position(const en_slab *s, uint32_t a, uint32_t b)
 
 /* A vertex to sort by its coordinates' bits: they travel with it, since
  * C11's qsort passes the comparison no context. */
-typedef struct by_position {
+typedef struct en_by_position {
     const double *xyz;
     uint32_t v;
 } by_position;
@@ -253,20 +256,19 @@ static int cmp_position(const void *a, const void *b)
  * each) was 4% of a target's rounds, whose seam meshes are mostly
  * boundary, and 1.6% of the whole run (bench/RESULTS.md, session 30): a
  * table of the positions answers in one pass, and only a yes sorts. */
-static int any_shared_position(const by_position *b, uint32_t n)
+static int any_shared_position(en_key_table *t, const by_position *b, uint32_t n)
 {
-    en_key_table t;
-    en_key_init(&t, 3 * sizeof *b->xyz);
+    if (en_key_reset(t, n))
+        return -1;
     int shared = 0;
     for (uint32_t i = 0; i < n && shared == 0; i++) {
         uint64_t first;
         int added;
-        if (en_key_find(&t, (const uint8_t *)b[i].xyz, i, &first, &added))
+        if (en_key_find(t, (const uint8_t *)b[i].xyz, i, &first, &added))
             shared = -1;
         else
             shared = !added;
     }
-    en_key_free(&t);
     return shared;
 }
 
@@ -294,23 +296,19 @@ static int find_seams(en_slab *s, uint32_t nboundary)
     s->has_welds = 0;
     if (nboundary < 2)
         return 0;
-    by_position *b = en_malloc((size_t)nboundary * sizeof *b);
-    if (!b)
+    if (en_grow((void **)&s->by_position, &s->cap_by_position, nboundary, sizeof *s->by_position))
         return -1;
+    by_position *b = s->by_position;
     uint32_t n = 0;
     for (uint32_t v = 0; v < s->nv; v++)
         if ((s->vflags[v] & (EN_V_BOUNDARY | EN_V_OWNED)) == (EN_V_BOUNDARY | EN_V_OWNED))
             b[n++] = (by_position){ s->pos + 3 * (size_t)v, v };
-    int shared = any_shared_position(b, n);
-    if (shared <= 0) {
-        en_free(b);
+    int shared = any_shared_position(&s->positions, b, n);
+    if (shared <= 0)
         return shared; /* none (0), or out of memory (-1) */
-    }
     qsort(b, n, sizeof *b, cmp_position);
-    if (en_grow((void **)&s->wedge, &s->cap_wedge, (size_t)s->nv + 1, sizeof *s->wedge)) {
-        en_free(b);
+    if (en_grow((void **)&s->wedge, &s->cap_wedge, (size_t)s->nv + 1, sizeof *s->wedge))
         return -1;
-    }
     for (uint32_t v = 0; v < s->nv; v++)
         s->wedge[v] = v;
     for (uint32_t i = 0, j; i < n; i = j) {
@@ -323,7 +321,6 @@ static int find_seams(en_slab *s, uint32_t nboundary)
             s->vflags[y] = (uint8_t)((s->vflags[y] & ~EN_V_BOUNDARY) | EN_V_SEAM);
         }
     }
-    en_free(b);
     s->has_welds = 1;
     return 0;
 }

@@ -14,6 +14,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "common/key_table.h"
 #include "epsnet/epsnet.h"
 
 enum {
@@ -54,6 +55,11 @@ typedef struct en_slab {
     int has_welds;
     uint32_t *wedge;
     size_t cap_wedge;
+    /* scratch of the seams' search, kept across en_slab_reset: the owned
+     * boundary vertices and a table of their positions */
+    struct en_by_position *by_position;
+    size_t cap_by_position;
+    en_key_table positions;
 } en_slab;
 
 void en_slab_init(en_slab *s);
