@@ -680,11 +680,14 @@ TEST(no_temporary_files_are_left)
 
 /* Items (key | payload << 32, index): only the low 32 bits are key, so
  * items with equal keys leave in the order they were added, whatever their
- * payload, through many runs and their merges. */
+ * payload, through many runs and their merges; with runs formed on
+ * workers too, a full buffer cut in two or three runs sorted side by side
+ * (threads 2, 3), whose runs then outnumber the one-worker sort's. */
 TEST(extsort_key_mask_keeps_equal_keys_in_added_order)
 {
     epsnet_error err;
-    for (int threads = 0; threads < 2; threads++) {
+    uint64_t runs_one = 0;
+    for (int threads = 0; threads < 4; threads++) {
         en_extsort_config c = { .item_words = 2, .key_words = 1, .key_mask = UINT32_MAX, .mem = 64 << 10,
                                 .tmpdir = tl_tmpdir(), .owner = "mask", .threads = threads };
         en_extsort *es = NULL;
@@ -697,6 +700,10 @@ TEST(extsort_key_mask_keeps_equal_keys_in_added_order)
         }
         CHECK_EQ_INT(en_extsort_finish(es, &err), 0);
         CHECK(en_extsort_runs(es) > 1);
+        if (threads == 1)
+            runs_one = en_extsort_runs(es);
+        if (threads > 1)
+            CHECK(en_extsort_runs(es) > runs_one);
         uint64_t item[2], prev_key = 0, prev_i = 0, got = 0;
         int ok = 1;
         while (en_extsort_next(es, item, &err) > 0) {

@@ -49,8 +49,10 @@ typedef struct run {
  * the caller's thread only after en_jobring_retire() hands it back. */
 typedef struct run_job {
     en_extsort *es;
-    uint64_t *buf;             /* the items; the job owns it until retired */
+    uint64_t *buf;             /* the items; the job owns them until retired */
     size_t n;
+    uint64_t *tmp;             /* its part of the radix sort's copy */
+    size_t (*count)[256];      /* its radix histograms */
     en_spill *sp;              /* the run, rewound, or NULL on failure */
     epsnet_error err;
 } run_job;
@@ -85,13 +87,15 @@ struct en_extsort {
     size_t ncur;
     int failed;
     epsnet_error err;
-    /* runs formed on a worker (cfg.threads > 0): at most one in flight,
-     * sorted in scratch, while the caller fills buf; spare is the buffer
-     * the job gives back */
+    /* runs formed on workers (cfg.threads > 0): one full buffer at a time
+     * in flight, cut in `parts` runs sorted side by side, each in its part
+     * of scratch, while the caller fills buf; spare is the buffer the jobs
+     * give back */
     en_pool *pool;
     en_jobring *ring;
-    run_job job;
-    int job_busy;
+    run_job job[EN_EXTSORT_MAX_PARTS];
+    size_t parts, job_busy;    /* job_busy: jobs in flight, job[0..job_busy) */
+    uint64_t *job_buf;         /* the buffer in flight */
     uint64_t *spare;
 };
 
@@ -186,7 +190,8 @@ int en_extsort_open(en_extsort **out, const en_extsort_config *cfg, epsnet_error
         return en_error_set(err, EPSNET_ENOMEM, cfg->owner, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     es->cfg = *cfg;
     es->mask0 = cfg->key_mask ? cfg->key_mask : UINT64_MAX;
-    es->count = en_calloc(cfg->key_words * 8, sizeof *es->count);
+    es->parts = cfg->threads < 1 ? 1 : cfg->threads > EN_EXTSORT_MAX_PARTS ? EN_EXTSORT_MAX_PARTS : (size_t)cfg->threads;
+    es->count = en_calloc(es->parts * cfg->key_words * 8, sizeof *es->count);
     if (!es->count) {
         en_free(es);
         return en_error_set(err, EPSNET_ENOMEM, cfg->owner, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
@@ -457,7 +462,7 @@ static int run_job_fn(void *arg)
 {
     run_job *jb = arg;
     en_extsort *es = jb->es;
-    radix_sort(jb->buf, es->scratch, jb->n, es->cfg.item_words, es->cfg.key_words, es->mask0, es->count);
+    radix_sort(jb->buf, jb->tmp, jb->n, es->cfg.item_words, es->cfg.key_words, es->mask0, jb->count);
     int rc = en_spill_open_plain(&jb->sp, es->cfg.tmpdir, es->cfg.owner, &jb->err);
     if (rc == 0)
         rc = en_spill_write(jb->sp, jb->buf, jb->n * es->item_bytes, &jb->err);
@@ -468,29 +473,49 @@ static int run_job_fn(void *arg)
     return rc;
 }
 
-/* Wait for the run in flight, if any, and put it on the stack. */
+/* Wait for the runs in flight, if any, and put them on the stack in the
+ * order they were cut. */
 static int retire_run(en_extsort *es, epsnet_error *err)
 {
-    if (!es->job_busy)
+    size_t busy = es->job_busy, failed = busy;
+    int rc = 0;
+    for (size_t i = 0; i < busy; i++) {
+        void *job;
+        int result;
+        en_jobring_retire(es->ring, &job, &result);
+        if (result && failed == busy) {
+            failed = i;
+            rc = result;
+        }
+    }
+    if (!busy)
         return 0;
-    void *job;
-    int rc;
-    en_jobring_retire(es->ring, &job, &rc);
     es->job_busy = 0;
-    es->spare = es->job.buf;
+    es->spare = es->job_buf;
+    es->job_buf = NULL;
     if (rc) {
         if (err)
-            *err = es->job.err;
-        return fail(es, rc, err);
+            *err = es->job[failed].err;
+        rc = fail(es, rc, err);
     }
-    if ((rc = push_run(es, es->job.sp, 0, es->job.n, err)))
-        return rc;
-    return cascade(es, err);
+    for (size_t i = 0; i < busy; i++) {
+        if (rc == 0)
+            rc = push_run(es, es->job[i].sp, 0, es->job[i].n, err);
+        else
+            en_spill_close(&es->job[i].sp);
+        es->job[i].sp = NULL;
+    }
+    return rc ? rc : cascade(es, err);
 }
 
-/* note: a worker sorts and compresses the full buffer while the caller
- * fills the spare: the input's parsing and the runs' compression overlap.
- * Runs stay in the order they were cut, so ties still leave by run age. */
+/* note: workers sort and write the full buffer while the caller fills the
+ * spare: the input's parsing and the runs overlap. With several workers
+ * the buffer is cut in as many runs, sorted side by side (a worker alone
+ * sorting one left the caller waiting for it and the other cores idle: on
+ * a shuffled 20M-face PLY the sort's pass 2 ran on one core for a second;
+ * bench/RESULTS.md, session 31). Runs stay in the order they were cut, so
+ * ties still leave by run age and the items come out the same for any
+ * number of parts. */
 static int spill_buffer_async(en_extsort *es, epsnet_error *err)
 {
     int rc = retire_run(es, err);
@@ -503,12 +528,33 @@ static int spill_buffer_async(en_extsort *es, epsnet_error *err)
         es->buf_bytes += (uint64_t)es->cap * es->item_bytes;
         en_mem_take(es->cfg.account, (uint64_t)es->cap * es->item_bytes);
     }
-    es->job = (run_job){ .es = es, .buf = es->buf, .n = es->n };
-    if (en_jobring_submit(es->ring, run_job_fn, &es->job))
-        return fail(es, en_error_set(err, EPSNET_EINTERNAL, es->cfg.owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                                     "external sort: the worker refused a run"),
-                    err);
-    es->job_busy = 1;
+    /* a part of at least 256 items: fewer cost a run each for nothing */
+    size_t words = es->cfg.item_words, parts = es->n / 256 < es->parts ? es->n / 256 : es->parts;
+    if (parts < 1)
+        parts = 1;
+    es->job_buf = es->buf;
+    for (size_t i = 0; i < parts; i++) {
+        size_t lo = es->n * i / parts, hi = es->n * (i + 1) / parts;
+        es->job[i] = (run_job){ .es = es, .buf = es->buf + lo * words, .n = hi - lo,
+                                .tmp = es->scratch + lo * words,
+                                .count = es->count + i * es->cfg.key_words * 8 };
+        if (en_jobring_submit(es->ring, run_job_fn, &es->job[i]))
+            break;
+        es->job_busy = i + 1;
+    }
+    if (es->job_busy < parts) { /* a caller bug: the ring is sized for the parts */
+        for (size_t i = 0; i < es->job_busy; i++) {
+            void *job;
+            int result;
+            en_jobring_retire(es->ring, &job, &result);
+            en_spill_close(&es->job[i].sp);
+        }
+        es->job_busy = 0;
+        es->job_buf = NULL; /* the buffer stays buf */
+        en_error_set(err, EPSNET_EINTERNAL, es->cfg.owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                     "external sort: the worker refused a run");
+        return fail(es, EPSNET_EINTERNAL, err);
+    }
     es->buf = es->spare;
     es->spare = NULL;
     es->n = 0;
@@ -547,12 +593,12 @@ int en_extsort_add(en_extsort *es, const uint64_t *item, epsnet_error *err)
         /* note: a thread that cannot start leaves the runs to this one */
         if (es->cfg.threads > 0 && !es->pool && !es->ring && es->cfg.pool) {
             /* the run's pool: a ring of our own on it */
-            if (en_jobring_new(&es->ring, es->cfg.pool, 1))
+            if (en_jobring_new(&es->ring, es->cfg.pool, es->parts))
                 return nomem(es, err);
         }
         if (es->cfg.threads > 0 && !es->pool && !es->cfg.pool) {
-            int rc = en_pool_new(&es->pool, 1);
-            if (rc == 0 && en_jobring_new(&es->ring, es->pool, 1)) {
+            int rc = en_pool_new(&es->pool, (int)es->parts);
+            if (rc == 0 && en_jobring_new(&es->ring, es->pool, es->parts)) {
                 en_pool_free(&es->pool);
                 rc = EPSNET_ENOMEM;
             }
@@ -651,11 +697,13 @@ void en_extsort_close(en_extsort **pes)
     if (!es)
         return;
     if (es->job_busy) {
-        void *job;
-        int result;
-        en_jobring_retire(es->ring, &job, &result);
-        en_spill_close(&es->job.sp);
-        en_free(es->job.buf);
+        for (size_t i = 0; i < es->job_busy; i++) {
+            void *job;
+            int result;
+            en_jobring_retire(es->ring, &job, &result);
+            en_spill_close(&es->job[i].sp);
+        }
+        en_free(es->job_buf);
     }
     en_jobring_free(&es->ring, NULL);
     en_pool_free(&es->pool);

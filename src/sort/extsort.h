@@ -30,6 +30,9 @@ void en_mem_give(en_mem_account *m, uint64_t bytes);
  * EPSNET_ATTR_MAX * 8 bytes of attributes (sort.c pass_order). */
 #define EN_EXTSORT_MAX_WORDS (4 + EPSNET_ATTR_MAX)
 
+/* Runs a full buffer may be cut into, one a worker (en_extsort_config.threads). */
+#define EN_EXTSORT_MAX_PARTS 4
+
 typedef struct en_extsort_config {
     size_t item_words;        /* 1 .. EN_EXTSORT_MAX_WORDS */
     size_t key_words;         /* 1 .. item_words */
@@ -40,9 +43,11 @@ typedef struct en_extsort_config {
     const char *owner;        /* the output the runs serve, for messages */
     en_mem_account *account;  /* may be NULL */
     int threads;              /* > 0: full buffers are sorted and written as runs
-                                 on a worker while the next one fills (the
-                                 budget is then cut in thirds, not halves);
-                                 the items come out the same */
+                                 on workers while the next one fills (the
+                                 budget is then cut in thirds, not halves),
+                                 each cut in up to `threads` runs sorted side
+                                 by side (at most EN_EXTSORT_MAX_PARTS); the
+                                 items come out the same */
     en_pool *pool;            /* with threads: the workers to use (the run's
                                  one pool, docs/architecture.md §10); NULL:
                                  a thread of its own */

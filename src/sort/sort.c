@@ -281,7 +281,8 @@ static int open_sorter(sort_job *j, en_extsort **es, size_t words, uint64_t key_
 {
     en_extsort_config c = {
         .item_words = words, .key_words = 1, .key_mask = key_mask, .mem = j->set.mem / 4,
-        .tmpdir = j->tmpdir, .owner = j->owner, .account = &j->mem, .threads = sort_workers(j) > 1,
+        .tmpdir = j->tmpdir, .owner = j->owner, .account = &j->mem,
+        .threads = sort_workers(j) > 1 ? (int)sort_workers(j) : 0, /* runs cut side by side, one a worker */
         .pool = j->shared,
     };
     return en_extsort_open(es, &c, err);
