@@ -28,8 +28,9 @@ static size_t key_hash(const uint8_t *k, size_t n)
 /* Zeroed slots, written before they are read.
  * note: not calloc: a large calloc is fresh pages that the first probe
  * maps to the shared zero page, and the first insert then copies it, each
- * copy flushing the page from every core's TLB; in the stitcher's seam
- * meshes that was 2.5% of a size's samples (bench/RESULTS.md, session 31). */
+ * copy flushing the page from every core's TLB (a table of the seams'
+ * search did that in 2.5% of a size's samples; bench/RESULTS.md, session
+ * 31). */
 static uint8_t *zeroed_slots(size_t cap, size_t slot_size)
 {
     if (cap > SIZE_MAX / slot_size)
@@ -60,7 +61,6 @@ static int key_grow(en_key_table *t)
     en_free(t->slots);
     t->slots = slots;
     t->cap = cap;
-    t->bytes = cap * t->slot_size;
     return 0;
 }
 
@@ -117,29 +117,4 @@ void en_key_free(en_key_table *t)
 {
     en_free(t->slots);
     memset(t, 0, sizeof *t);
-}
-
-int en_key_reset(en_key_table *t, size_t n)
-{
-    size_t cap = 16;
-    while (cap < 2 * (n + 1)) {
-        if (cap > SIZE_MAX / 4)
-            return -1;
-        cap *= 2;
-    }
-    if (cap > SIZE_MAX / t->slot_size)
-        return -1;
-    if (cap * t->slot_size > t->bytes) {
-        uint8_t *slots = zeroed_slots(cap, t->slot_size);
-        if (!slots)
-            return -1;
-        en_free(t->slots);
-        t->slots = slots;
-        t->bytes = cap * t->slot_size;
-    } else {
-        memset(t->slots, 0, cap * t->slot_size);
-    }
-    t->cap = cap;
-    t->used = 0;
-    return 0;
 }

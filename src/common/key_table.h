@@ -13,16 +13,12 @@
 typedef struct en_key_table {
     uint8_t *slots;                  /* per slot: uint64 value + 1 (0: free), then the key */
     size_t cap, used, key_size, slot_size;
-    size_t bytes;                    /* slots' allocation, kept by en_key_reset */
 } en_key_table;
 
 /* An empty table of keys of key_size bytes (no memory until the first key). */
 void en_key_init(en_key_table *t, size_t key_size);
 void en_key_free(en_key_table *t);
-/* Empty t for up to n keys without growing, in the slots it already has
- * when they are large enough (a table reused call after call allocates
- * nothing once warm). @return 0 or -1 out of memory. */
-int en_key_reset(en_key_table *t, size_t n);
+
 /* The value of key, or its new value when absent (*added = 1); value
  * UINT64_MAX leaves an absent key out. @return 0 or -1 out of memory. */
 int en_key_find(en_key_table *t, const uint8_t *key, uint64_t value, uint64_t *found, int *added);

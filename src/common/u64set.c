@@ -9,6 +9,7 @@ struct en_u64set {
     uint64_t *keys;
     size_t mask;      /* capacity - 1, capacity a power of two */
     size_t count;
+    size_t allocated; /* slots in keys, kept by en_u64set_clear */
 };
 
 static int rehash(en_u64set *s, size_t cap)
@@ -32,6 +33,7 @@ static int rehash(en_u64set *s, size_t cap)
     en_free(s->keys);
     s->keys = keys;
     s->mask = cap - 1;
+    s->allocated = cap;
     return 0;
 }
 
@@ -67,6 +69,27 @@ int en_u64set_add(en_u64set *s, uint64_t key)
     s->keys[j] = key;
     s->count++;
     return 1;
+}
+
+int en_u64set_clear(en_u64set *s, size_t n)
+{
+    size_t cap = 64;
+    while ((n + 1) * 4 > cap * 3) {
+        if (cap > SIZE_MAX / 2 / sizeof *s->keys)
+            return -1;
+        cap *= 2;
+    }
+    s->count = 0;
+    if (cap > s->allocated) {
+        en_free(s->keys);
+        s->keys = NULL;
+        s->mask = s->allocated = 0;
+        return rehash(s, cap);
+    }
+    for (size_t i = 0; i < cap; i++)
+        s->keys[i] = EMPTY;
+    s->mask = cap - 1;
+    return 0;
 }
 
 int en_u64set_has(const en_u64set *s, uint64_t key)
@@ -115,5 +138,5 @@ size_t en_u64set_count(const en_u64set *s)
 
 size_t en_u64set_bytes(const en_u64set *s)
 {
-    return (s->mask + 1) * sizeof(uint64_t);
+    return s->allocated * sizeof(uint64_t);
 }

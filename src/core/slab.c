@@ -5,12 +5,10 @@
 
 #include "common/alloc.h"
 #include "common/error.h"
-#include "common/key_table.h"
 
 void en_slab_init(en_slab *s)
 {
     memset(s, 0, sizeof *s);
-    en_key_init(&s->positions, 3 * sizeof(double));
 }
 
 void en_slab_free(en_slab *s)
@@ -24,7 +22,7 @@ void en_slab_free(en_slab *s)
     en_free(s->star_fill);
     en_free(s->wedge);
     en_free(s->by_position);
-    en_key_free(&s->positions);
+    en_u64set_free(&s->positions);
     en_slab_init(s);
 }
 
@@ -249,27 +247,36 @@ static int cmp_position(const void *a, const void *b)
     return c ? c : (x->v > y->v) - (x->v < y->v);
 }
 
-/* Do two of b's n vertices share a position's bits? 1, 0, or -1 (out of
- * memory).
+/* May two of b's n vertices share a position's bits? 1 (perhaps: two
+ * positions whose hashes meet answer yes too, and the exact search after
+ * finds nothing), 0 (certainly not), or -1 (out of memory).
  * note: most slabs and seam meshes have none, and sorting every boundary
  * vertex by position to find out (a comparison through qsort and memcmp
  * each) was 4% of a target's rounds, whose seam meshes are mostly
  * boundary, and 1.6% of the whole run (bench/RESULTS.md, session 30): a
- * table of the positions answers in one pass, and only a yes sorts. */
-static int any_shared_position(en_key_table *t, const by_position *b, uint32_t n)
+ * set of the positions' hashes answers in one pass, and only a yes sorts.
+ * The set is the slab's, kept from job to job: one allocated per call was
+ * fresh pages each time, which the kernel mapped to its zero page on the
+ * first probe and copied on the first insert, each copy flushing every
+ * core's TLB (2.5% of a size's samples, in the stitcher's takes; and a
+ * table of whole keys, 32 bytes a slot, took the peak at 100M faces up
+ * 9 MB; bench/RESULTS.md, session 31). */
+static int any_shared_position(en_u64set **set, const by_position *b, uint32_t n)
 {
-    if (en_key_reset(t, n))
+    if (!*set && !(*set = en_u64set_new()))
         return -1;
-    int shared = 0;
-    for (uint32_t i = 0; i < n && shared == 0; i++) {
-        uint64_t first;
-        int added;
-        if (en_key_find(t, (const uint8_t *)b[i].xyz, i, &first, &added))
-            shared = -1;
-        else
-            shared = !added;
+    if (en_u64set_clear(*set, n))
+        return -1;
+    for (uint32_t i = 0; i < n; i++) {
+        uint64_t w[3];
+        memcpy(w, b[i].xyz, sizeof w);
+        uint64_t h = (w[0] ^ (w[1] * 0x9e3779b97f4a7c15ull) ^ (w[2] * 0xc2b2ae3d27d4eb4full)) * 0xff51afd7ed558ccdull;
+        h ^= h >> 32;
+        int added = en_u64set_add(*set, h == UINT64_MAX ? h - 1 : h); /* the set's reserved key */
+        if (added <= 0)
+            return added < 0 ? -1 : 1;
     }
-    return shared;
+    return 0;
 }
 
 /* May boundary vertices a and b, alone at their position, be the two sides

@@ -14,7 +14,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "common/key_table.h"
+#include "common/u64set.h"
 #include "epsnet/epsnet.h"
 
 enum {
@@ -56,10 +56,10 @@ typedef struct en_slab {
     uint32_t *wedge;
     size_t cap_wedge;
     /* scratch of the seams' search, kept across en_slab_reset: the owned
-     * boundary vertices and a table of their positions */
+     * boundary vertices and a set of their positions' hashes */
     struct en_by_position *by_position;
     size_t cap_by_position;
-    en_key_table positions;
+    en_u64set *positions;
 } en_slab;
 
 void en_slab_init(en_slab *s);
