@@ -18,7 +18,6 @@ typedef struct en_key_table {
 /* An empty table of keys of key_size bytes (no memory until the first key). */
 void en_key_init(en_key_table *t, size_t key_size);
 void en_key_free(en_key_table *t);
-
 /* The value of key, or its new value when absent (*added = 1); value
  * UINT64_MAX leaves an absent key out. @return 0 or -1 out of memory. */
 int en_key_find(en_key_table *t, const uint8_t *key, uint64_t value, uint64_t *found, int *added);
