@@ -680,19 +680,26 @@ TEST(no_temporary_files_are_left)
 
 /* Items (key | payload << 32, index): only the low 32 bits are key, so
  * items with equal keys leave in the order they were added, whatever their
- * payload, through many runs and their merges; with runs formed on
- * workers too, a full buffer cut in two or three runs sorted side by side
- * (threads 2, 3), whose runs then outnumber the one-worker sort's. */
+ * payload, through many runs and their merges (a small budget: merges
+ * in levels), with runs formed inline and on a worker; and under a budget
+ * whose buffers hold several parts of RUN_PART_MIN items, with a full
+ * buffer cut in two or three runs sorted side by side (threads 2, 3),
+ * whose runs then outnumber the one-worker sort's. */
 TEST(extsort_key_mask_keeps_equal_keys_in_added_order)
 {
     epsnet_error err;
+    static const struct { uint64_t mem, n; int threads; } runs[] = {
+        { 64 << 10, 50000, 0 }, { 64 << 10, 50000, 1 },
+        { 12 << 20, 600000, 1 }, { 12 << 20, 600000, 2 }, { 12 << 20, 600000, 3 },
+    };
     uint64_t runs_one = 0;
-    for (int threads = 0; threads < 4; threads++) {
-        en_extsort_config c = { .item_words = 2, .key_words = 1, .key_mask = UINT32_MAX, .mem = 64 << 10,
+    for (size_t r = 0; r < sizeof runs / sizeof *runs; r++) {
+        int threads = runs[r].threads;
+        en_extsort_config c = { .item_words = 2, .key_words = 1, .key_mask = UINT32_MAX, .mem = runs[r].mem,
                                 .tmpdir = tl_tmpdir(), .owner = "mask", .threads = threads };
         en_extsort *es = NULL;
         CHECK_EQ_INT(en_extsort_open(&es, &c, &err), 0);
-        const uint64_t n = 50000;
+        const uint64_t n = runs[r].n;
         for (uint64_t i = 0; i < n; i++) {
             uint64_t payload = (i * 2654435761u) & 0xffff; /* unordered high bits */
             uint64_t item[2] = { (i * 7919 % 97) | payload << 32, i };
@@ -701,7 +708,7 @@ TEST(extsort_key_mask_keeps_equal_keys_in_added_order)
         CHECK_EQ_INT(en_extsort_finish(es, &err), 0);
         CHECK(en_extsort_runs(es) > 1);
         if (threads == 1)
-            runs_one = en_extsort_runs(es);
+            runs_one = en_extsort_runs(es); /* the big budget's comes last */
         if (threads > 1)
             CHECK(en_extsort_runs(es) > runs_one);
         uint64_t item[2], prev_key = 0, prev_i = 0, got = 0;
