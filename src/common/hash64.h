@@ -8,6 +8,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 /* Slot of key k in a table of mask + 1 slots (a power of two). */
 static inline size_t en_hash_slot(uint64_t k, size_t mask)
@@ -16,6 +17,19 @@ static inline size_t en_hash_slot(uint64_t k, size_t mask)
     k *= 0xff51afd7ed558ccdull;
     k ^= k >> 33;
     return (size_t)k & mask;
+}
+
+/* A 64-bit key of a position's coordinate bits, never UINT64_MAX (the
+ * tables' reserved key): a cheap fold, spread over the slots by
+ * en_hash_slot; equal positions share it, and the rare two that are not
+ * equal and still share it are for the caller to tolerate (the chunker's
+ * live positions, the slabs' quick test for shared positions). */
+static inline uint64_t en_position_key(const double xyz[3])
+{
+    uint64_t b[3];
+    memcpy(b, xyz, sizeof b);
+    uint64_t h = b[0] ^ (b[1] << 21 | b[1] >> 43) ^ (b[2] << 42 | b[2] >> 22);
+    return h == UINT64_MAX ? h - 1 : h;
 }
 
 /* FNV-1a of n bytes: a key for byte strings (names, fixed-size records)

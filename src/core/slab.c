@@ -5,6 +5,7 @@
 
 #include "common/alloc.h"
 #include "common/error.h"
+#include "common/hash64.h"
 
 void en_slab_init(en_slab *s)
 {
@@ -268,11 +269,7 @@ static int any_shared_position(en_u64set **set, const by_position *b, uint32_t n
     if (en_u64set_clear(*set, n))
         return -1;
     for (uint32_t i = 0; i < n; i++) {
-        uint64_t w[3];
-        memcpy(w, b[i].xyz, sizeof w);
-        uint64_t h = (w[0] ^ (w[1] * 0x9e3779b97f4a7c15ull) ^ (w[2] * 0xc2b2ae3d27d4eb4full)) * 0xff51afd7ed558ccdull;
-        h ^= h >> 32;
-        int added = en_u64set_add(*set, h == UINT64_MAX ? h - 1 : h); /* the set's reserved key */
+        int added = en_u64set_add(*set, en_position_key(b[i].xyz));
         if (added <= 0)
             return added < 0 ? -1 : 1;
     }

@@ -5,6 +5,7 @@
 
 #include "common/alloc.h"
 #include "common/error.h"
+#include "common/hash64.h"
 
 int en_chunker_init(en_chunker *c, uint32_t slab_vertices, const char *path)
 {
@@ -29,22 +30,13 @@ int en_chunker_init(en_chunker *c, uint32_t slab_vertices, const char *path)
     return 0;
 }
 
-/* The key of a position in live_at: its coordinates' bits, as the slab
- * groups copies (en_slab.wedge). */
-static uint64_t position_key(const double xyz[3])
-{
-    uint64_t b[3];
-    memcpy(b, xyz, sizeof b);
-    /* note: a cheap fold (the map spreads keys over its slots); two
-     * positions that share a key only make a vertex wait one cut longer */
-    uint64_t h = b[0] ^ (b[1] << 21 | b[1] >> 43) ^ (b[2] << 42 | b[2] >> 22);
-    return h == UINT64_MAX ? h - 1 : h; /* the map's reserved key */
-}
-
 /* One more (delta +1) or one fewer (-1) live vertex at xyz. @return 0 or -1. */
+/* note: live_at is keyed by en_position_key, as the slab groups copies
+ * (en_slab.wedge); two positions that share a key only make a vertex wait
+ * one cut longer. */
 static int count_live_at(en_chunker *c, const double xyz[3], int delta)
 {
-    uint64_t key = position_key(xyz);
+    uint64_t key = en_position_key(xyz);
     uint32_t n = 0;
     en_u64map_get(&c->live_at, key, &n);
     n = (uint32_t)((int64_t)n + delta);
@@ -238,7 +230,7 @@ static int64_t hold_back_copies(en_chunker *c)
     size_t waiting = 0, taken = 0;
     for (size_t j = 0; j < c->nfin; j++) {
         uint32_t i = c->fin[j], n;
-        if (en_u64map_get(&c->live_at, position_key(c->v[i].xyz), &n))
+        if (en_u64map_get(&c->live_at, en_position_key(c->v[i].xyz), &n))
             c->waiting[waiting++] = i;
         else
             c->fin[taken++] = i;

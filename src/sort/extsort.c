@@ -474,6 +474,18 @@ static int run_job_fn(void *arg)
     return rc;
 }
 
+/* Wait for the runs in flight and throw them away (a failure, the end). */
+static void drop_runs(en_extsort *es)
+{
+    for (size_t i = 0; i < es->job_busy; i++) {
+        void *job;
+        int result;
+        en_jobring_retire(es->ring, &job, &result);
+        en_spill_close(&es->job[i].sp);
+    }
+    es->job_busy = 0;
+}
+
 /* Wait for the runs in flight, if any, and put them on the stack in the
  * order they were cut. */
 static int retire_run(en_extsort *es, epsnet_error *err)
@@ -546,13 +558,7 @@ static int spill_buffer_async(en_extsort *es, epsnet_error *err)
         es->job_busy = i + 1;
     }
     if (es->job_busy < parts) { /* a caller bug: the ring is sized for the parts */
-        for (size_t i = 0; i < es->job_busy; i++) {
-            void *job;
-            int result;
-            en_jobring_retire(es->ring, &job, &result);
-            en_spill_close(&es->job[i].sp);
-        }
-        es->job_busy = 0;
+        drop_runs(es);
         es->job_buf = NULL; /* the buffer stays buf */
         en_error_set(err, EPSNET_EINTERNAL, es->cfg.owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
                      "external sort: the worker refused a run");
@@ -700,12 +706,7 @@ void en_extsort_close(en_extsort **pes)
     if (!es)
         return;
     if (es->job_busy) {
-        for (size_t i = 0; i < es->job_busy; i++) {
-            void *job;
-            int result;
-            en_jobring_retire(es->ring, &job, &result);
-            en_spill_close(&es->job[i].sp);
-        }
+        drop_runs(es);
         en_free(es->job_buf);
     }
     en_jobring_free(&es->ring, NULL);
