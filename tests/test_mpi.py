@@ -95,23 +95,28 @@ def all_failed(n, err, codes, exit_code, words, out):
 
 
 @case
-def one_rank_given_a_corrupt_block_stops_every_rank():
+def a_corrupt_block_stops_every_rank():
     bad = damaged_copy()
     out = path("nothing.smz")
     code, _, err = run("simplify", bad, "-o", out, "-j", "1")
     assert code == 2 and "corrupt" in err, err
-    # rank 1 alone reads the damaged copy
-    good = [MESH, "-o", out, "-j", "1"]
-    code, err, codes = mpirun(3, each=[good, [bad, "-o", out, "-j", "1"], good])
-    all_failed(3, err, codes, 2, "rank 1: ", out)
-    assert "corrupt" in err, err
-    # every rank reads it: the error one process gives
-    code, err, codes = mpirun(2, bad, "-o", out, "-j", "1")
-    all_failed(2, err, codes, 2, "corrupt", out)
+    # rank 0 reads the input and meets it: the error one process gives, on every rank
+    code, err, codes = mpirun(3, bad, "-o", out, "-j", "1")
+    all_failed(3, err, codes, 2, "corrupt", out)
     # as users run it: mpirun's own exit says the failure, nothing is left
-    code, err, codes = mpirun(3, each=[good, [bad, "-o", out, "-j", "1"], good], own_exits=False)
+    code, err, codes = mpirun(3, bad, "-o", out, "-j", "1", own_exits=False)
     assert code == 2, f"mpirun's exit {code}: {err}"
     assert "corrupt" in err and not os.path.exists(out), err
+
+
+@case
+def one_rank_given_a_budget_it_exceeds_stops_every_rank():
+    out = path("nothing.smz")
+    good = [MESH, "-o", out, "-j", "1"]
+    # rank 1 alone may hold less than the slabs it is sent
+    code, err, codes = mpirun(3, each=[good, good + ["--mem", "1M"], good])
+    all_failed(3, err, codes, 4, "rank 1: ", out)
+    assert "budget" in err, err
 
 
 @case
@@ -138,7 +143,8 @@ def a_full_disk_on_rank_0_stops_every_rank():
 @case
 def a_budget_exceeded_stops_every_rank():
     out = path("budget.smz")
-    # 2M: rank 0's stitcher alone holds too much; 500K: every rank's chunker
+    # 2M: rank 0's stitcher holds too much; 500K: its chunker (and the
+    # slabs another rank holds)
     for mem in ("2M", "500K"):
         code, _, err = run("simplify", MESH, "-o", out, "-j", "1", "--mem", mem)
         assert code == 4, err

@@ -909,12 +909,15 @@ EPSNET_API int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, co
  * settings.peers makes epsnet_simplify_file() one of `size` processes
  * (MPI ranks, or anything that can carry bytes between them) that run it
  * together, each with its own threads. Every process calls it with the same
- * input, output path and settings, peers.rank aside. Each reads the input
- * and cuts the same slabs, from the input and the settings alone; each
- * slab's classification and collapses run in one process only; rank 0
- * receives every slab's result, stitches the seams, runs a size target's
- * rounds and writes the output. The other ranks write nothing. The output
- * bytes are those of the one-process run, for every size and thread count.
+ * input, output path and settings, peers.rank aside. Rank 0 reads the
+ * input, cuts the slabs, stitches the seams, runs a size target's rounds
+ * and writes the output; it sends each slab it does not work itself to a
+ * rank that has room for one, and takes the results back. The other ranks
+ * read and write nothing: they classify and simplify the slabs they are
+ * sent, on their threads (at least one, besides the calling thread, which
+ * carries the messages), and hold a few at most. The output bytes are
+ * those of the one-process run, for every size and thread count, whichever
+ * rank worked which slab.
  *
  * Every process returns the same status: 0 when every one succeeded, else
  * the first failure's code, with rank 0's own error or, when the failure
@@ -923,12 +926,13 @@ EPSNET_API int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, co
  * Rank 0 commits the output only when every rank succeeded.
  *
  * The transport. Each send is matched by exactly one recv of the same size
- * on the other side, in the order sent between that pair of ranks. Messages
- * from rank 0 are small, and rank 0 sends one only to a rank that is
- * waiting for it, so a send may block until the receiver takes it (MPI_Send
- * semantics). A non-zero return from either function fails the run with
- * EPSNET_EIO. Both are called from the thread that called
- * epsnet_simplify_file() only (MPI_THREAD_FUNNELED suffices).
+ * on the other side, in the order sent between that pair of ranks. Rank 0
+ * sends only to a rank that is waiting for it, so a send may block until
+ * the receiver takes it (MPI_Send semantics). poll tells, without waiting,
+ * whether a message from `from` is there to be received (1) or not (0).
+ * A non-zero return from send or recv, or a negative one from poll, fails
+ * the run with EPSNET_EIO. All three are called from the thread that
+ * called epsnet_simplify_file() only (MPI_THREAD_FUNNELED suffices).
  * ------------------------------------------------------------------------ */
 
 typedef struct epsnet_peers {
@@ -937,6 +941,7 @@ typedef struct epsnet_peers {
     void *opaque;
     int (*send)(void *opaque, int to, const void *buf, size_t n);
     int (*recv)(void *opaque, int from, void *buf, size_t n);
+    int (*poll)(void *opaque, int from);
 } epsnet_peers;
 
 /* ------------------------------------------------------------------------

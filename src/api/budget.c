@@ -60,6 +60,7 @@ void en_budget_split(en_budget *b, const epsnet_settings *set, en_budget_input i
             b->sort = SORT_DEFAULT_BYTES;
         break;
     case EN_BUDGET_PUSHED:
+    case EN_BUDGET_SERVED:
         break;
     case EN_BUDGET_IN_CORE:
         b->reader = t;

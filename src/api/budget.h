@@ -25,6 +25,7 @@ typedef enum en_budget_input {
     EN_BUDGET_STREAM,   /* a finalized stream (.smz, SMA, SMB): the reader's live set beside the chain */
     EN_BUDGET_SORTED,   /* an ordinary mesh sorted first: the sort beside the chain (the sort reads the file) */
     EN_BUDGET_PUSHED,   /* records pushed by the caller (epsnet_stream_*): the chain alone */
+    EN_BUDGET_SERVED,   /* slabs sent by rank 0 of a shared run (pipeline/slab_server.h): those held, alone */
     EN_BUDGET_IN_CORE,  /* a whole mesh loaded in memory (sample --mesh, render --samples): the reader alone */
 } en_budget_input;
 

@@ -265,6 +265,10 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     int workers = en_pool_threads(run->pool);
     size_t ring = workers ? 2 * (size_t)workers : 1;
+    /* rank 0 of a shared run: room for the slabs every other rank holds
+     * (pipeline/peers.h), so that it cuts on while they work */
+    if (ctx->peers)
+        ring += (size_t)(en_peer_count(ctx->peers) - 1) * en_peer_slabs_held(workers);
     if (run->staged) {
         /* the target stage after the thinning pass (pipeline/target_stage.h) */
         en_target_stage_config tc = {
@@ -303,9 +307,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
             if (rc)
                 return rc;
         }
-        /* another rank's thinning stitches nothing: rank 0 runs the rounds */
-        if (!ctx->peers || en_peer_rank(ctx->peers) == 0)
-            out = en_target_stage_input(run->stage);
+        out = en_target_stage_input(run->stage);
     }
     en_chain_config cfg = {
         .mode = mode,

@@ -19,6 +19,7 @@
 #include "io/format.h"
 #include "io/samples_ply.h"
 #include "pipeline/normals_stage.h"
+#include "pipeline/slab_server.h"
 #include "sort/sort.h"
 
 /* Records between two progress callbacks. */
@@ -361,15 +362,24 @@ static int open_writer(void *opaque, const epsnet_mesh_info *in, en_pool *pool, 
     return rc;
 }
 
-/* Another rank's output: none (epsnet.h section 8a). */
-static int open_nothing(void *opaque, const epsnet_mesh_info *in, en_pool *pool, en_stage *out, epsnet_error *err)
+/* Another rank's run (epsnet.h section 8a): slabs from rank 0, worked on
+ * this rank's threads (at least one: this thread carries the messages),
+ * within the budget's share for them (all of it: it reads, sorts and
+ * writes nothing). */
+static int serve_slabs(epsnet_context *ctx, const char *in_path, epsnet_error *err)
 {
-    (void)opaque;
-    (void)in;
-    (void)pool;
-    (void)err;
-    *out = EN_STAGE_DISCARD;
-    return 0;
+    en_pool *pool = NULL;
+    int workers = en_run_workers(&ctx->settings);
+    int rc = en_pool_new(&pool, workers ? workers : 1);
+    if (rc)
+        return en_error_set(err, rc, in_path, EPSNET_POS_NONE, EPSNET_POS_NONE, "cannot start %d worker threads",
+                            workers ? workers : 1);
+    memset(&ctx->stats, 0, sizeof ctx->stats);
+    en_budget b;
+    en_budget_split(&b, &ctx->settings, EN_BUDGET_SERVED);
+    rc = en_slab_serve(ctx->peers, pool, b.chain, in_path, err);
+    en_pool_free(&pool);
+    return rc;
 }
 
 static void release_writer(void *opaque)
@@ -385,16 +395,21 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
                             "epsnet_simplify_file: NULL argument");
     snprintf(ctx->command, sizeof ctx->command, "simplify");
     file_out f = { ctx, out_path, NULL };
-    /* shared among processes (epsnet.h section 8a): rank 0 writes, the
-     * others run their slabs into nothing */
-    int rc = 0, writes = 1;
+    /* shared among processes (epsnet.h section 8a): rank 0 runs the
+     * chain, the others serve it slabs */
+    int rc = 0;
     if (ctx->settings.peers) {
         rc = en_peer_link_new(&ctx->peers, ctx->settings.peers, in_path, err);
-        writes = rc == 0 && en_peer_rank(ctx->peers) == 0;
+        if (rc == 0 && en_peer_rank(ctx->peers) != 0) {
+            rc = serve_slabs(ctx, in_path, err);
+            rc = en_peer_agree(ctx->peers, rc, err);
+            en_peer_link_free(&ctx->peers);
+            return rc;
+        }
     }
     if (rc == 0)
-        rc = en_simplify_streamed(ctx, in_path, NULL, out_path, en_format_by_path(out_path),
-                                  writes ? open_writer : open_nothing, writes ? release_writer : NULL, &f, err);
+        rc = en_simplify_streamed(ctx, in_path, NULL, out_path, en_format_by_path(out_path), open_writer,
+                                  release_writer, &f, err);
     /* what the writer leaves out (only the lock property can get this far
      * unfiltered: the reader kept every attribute for it) */
     uint64_t left_out = 0;

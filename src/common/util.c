@@ -79,3 +79,11 @@ double en_thread_cpu_seconds(void)
         return 0;
     return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
 }
+
+double en_process_cpu_seconds(void)
+{
+    struct timespec ts;
+    if (clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts) != 0)
+        return 0;
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}

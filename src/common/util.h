@@ -12,5 +12,7 @@ double en_now(void);
 
 /* CPU seconds the calling thread has used (0 when unknown). */
 double en_thread_cpu_seconds(void);
+/* ... and the whole process, every thread (0 when unknown). */
+double en_process_cpu_seconds(void);
 
 #endif

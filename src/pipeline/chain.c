@@ -302,23 +302,17 @@ static void pass_recycle(en_pass *p, en_slab_work *w)
 }
 
 /* Is pass p's slab work shared among processes (pipeline/peers.h)? Pass 1
- * of a simplification only: the passes after it take rank 0's stitched
- * stream, which only rank 0 has. */
+ * of a simplification only (the chain is rank 0's: the other ranks serve
+ * slabs, pipeline/slab_server.h); the passes after it and a target's rounds
+ * stay here. */
 static en_peer_link *shared(const en_pass *p)
 {
     const en_chain_config *cfg = &p->chain->cfg;
     return p->index == 0 && cfg->mode == EN_SLAB_SIMPLIFY ? cfg->peers : NULL;
 }
 
-/* Does another process work slab k of pass p? */
-static int remote(const en_pass *p, uint64_t k)
-{
-    en_peer_link *l = shared(p);
-    return l && en_peer_of_slab(k, en_peer_count(l)) != en_peer_rank(l);
-}
-
-/* A slab of rank 0's that another rank works keeps its place in the ring
- * with this job; its results come at its retire. */
+/* A slab shipped to another rank keeps its place in the ring with this
+ * job; its results come at its retire. */
 static int worked_elsewhere(void *job)
 {
     (void)job;
@@ -420,22 +414,14 @@ static int retire_one(en_pass *p, epsnet_error *err)
     if (!en_jobring_retire(p->ring, &job, &result))
         return 0;
     en_slab_work *w = job;
-    en_peer_link *peers = shared(p);
-    int stitches = !peers || en_peer_rank(peers) == 0;
-    if (result == 0 && stitches && remote(p, w->index))
-        result = en_peer_recv_slab(peers, w, &w->err);
+    if (result == 0 && shared(p) && en_peer_shipped(shared(p), w))
+        result = en_peer_recv_slab(shared(p), w, &w->err);
     /* the worker may have dropped membrane faces (slab_work.c) */
     p->in_flight_elements -= (uint64_t)w->s.nv + w->s.nt + w->membrane_faces;
     int rc = result;
     if (rc) {
         *err = w->err;
         snprintf(err->file, sizeof err->file, "%s", c->cfg.path ? c->cfg.path : "");
-    }
-    if (!stitches) { /* another rank's: its results go to rank 0, which stitches */
-        if (rc == 0)
-            rc = en_peer_send_slab(peers, w, err);
-        pass_recycle(p, w);
-        return rc;
     }
     if (rc == 0) {
         if (p->index == 0)
@@ -562,47 +548,18 @@ static uint32_t chosen_frequency(const en_pass *p)
     return 1u << en_skeleton_level(p->level_total, en_level_of(p->g.n), budget);
 }
 
-/*
- * Shared slabs (pipeline/peers.h): the ranks meet before slab k, the first
- * one and each where the candidate may fall (checkpoint): rank 0 lowers it
- * from every earlier slab's counts, its own and the others', and tells the
- * others; another rank sends what it has worked first.
- */
-static int meet(en_pass *p, uint64_t k, int checkpoint, epsnet_error *err)
-{
-    en_peer_link *l = shared(p);
-    int rc = 0;
-    if (en_peer_rank(l) == 0) {
-        if (checkpoint)
-            rc = lower_candidate(p, err);
-    } else {
-        while (rc == 0 && en_jobring_in_flight(p->ring))
-            rc = retire_one(p, err);
-    }
-    uint32_t n = p->g.n;
-    if (rc == 0)
-        rc = en_peer_meet(l, k, &n, err);
-    return rc == 0 && n != p->g.n ? set_candidate(p, n, err) : rc;
-}
-
 static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
 {
     en_chain *c = p->chain;
     int checkpoint = p->plan && p->plan->skeleton == EN_SKELETON_CHOSEN && !p->plan->one_slab &&
                      c->cfg.mode == EN_SLAB_SIMPLIFY && w->index > 0 &&
                      (!(w->index & (w->index - 1)) || w->index % CANDIDATE_EVERY == 0);
-    en_peer_link *peers = shared(p);
-    if (checkpoint || (peers && w->index == 0)) {
-        int rc = peers ? meet(p, w->index, checkpoint, err) : lower_candidate(p, err);
+    if (checkpoint) {
+        int rc = lower_candidate(p, err);
         if (rc) {
             free_work(w);
             return rc;
         }
-    }
-    int elsewhere = remote(p, w->index);
-    if (elsewhere && en_peer_rank(peers) != 0) {
-        pass_recycle(p, w); /* rank 0 has it, and the rank that works it */
-        return 0;
     }
     w->g = &p->g;
     w->mode = c->cfg.mode;
@@ -615,18 +572,26 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     w->plan = c->cfg.mode == EN_SLAB_SIMPLIFY ? p->plan : NULL;
     if (watched(p))
         w->progress = &p->progress; /* its only slab: the counts start at zero */
-    int rc = 0;
+    int rc = 0, elsewhere = 0;
     while (rc == 0 && en_jobring_full(p->ring))
         rc = retire_one(p, err);
+    /* to another rank with room for it (pipeline/peers.h); the only slab
+     * of a pass stays */
+    en_peer_link *l = shared(p);
+    if (rc == 0 && l && !(w->index == 0 && w->last) && !(p->plan && p->plan->one_slab) && !watched(p)) {
+        int rank = 0;
+        if ((rc = en_peer_pick(l, &rank, err)) == 0 && rank)
+            rc = en_peer_ship(l, rank, w, err);
+        elsewhere = rank != 0;
+        if (rc) {
+            free_work(w);
+            return rc;
+        }
+    }
     if (rc == 0) {
         p->in_flight_elements += (uint64_t)w->s.nv + w->s.nt;
         note_active(c);
         rc = en_jobring_submit(p->ring, elsewhere ? worked_elsewhere : en_slab_work_run, w);
-        /* another rank sends what is done at once: rank 0 may be waiting */
-        while (rc == 0 && peers && en_peer_rank(peers) != 0 && en_jobring_in_flight(p->ring) &&
-               en_jobring_ready(p->ring))
-            if ((rc = retire_one(p, err)) != 0)
-                return rc;
         if (rc) {
             p->in_flight_elements -= (uint64_t)w->s.nv + w->s.nt;
             en_error_set(err, rc, c->cfg.path, EPSNET_POS_NONE, EPSNET_POS_NONE, "worker pool refused a slab");
@@ -825,14 +790,11 @@ static int pass_end(void *self, epsnet_error *err)
         rc = tick(p, 1, err); /* with one thread, the only report */
     if (rc || p->chain->cfg.mode != EN_SLAB_SIMPLIFY)
         return rc;
-    en_peer_link *peers = shared(p);
-    if (!peers || en_peer_rank(peers) == 0) { /* another rank stitches nothing */
-        rc = stitch_retire(p, err);
-        if (rc == 0)
-            rc = en_stitcher_finish(&p->st, err);
-        if (rc == 0)
-            rc = flush(p, err);
-    }
+    rc = stitch_retire(p, err);
+    if (rc == 0)
+        rc = en_stitcher_finish(&p->st, err);
+    if (rc == 0)
+        rc = flush(p, err);
     if (rc == 0) {
         /* the pass is over: what it holds goes before the next stage's end,
          * which may run long (a target's rounds, pipeline/target_stage.h) */

@@ -99,10 +99,10 @@ typedef struct en_chain_config {
     int out_on_workers;
     en_sample_fn on_sample;       /* SAMPLE: where samples go */
     void *sample_opaque;
-    /* SIMPLIFY: pass 1's slabs shared among processes (pipeline/peers.h):
-     * this rank works its slabs; rank 0 takes the others' results and
-     * stitches, another rank sends its results and stitches nothing, and
-     * its later passes and out see no record. NULL: one process. */
+    /* SIMPLIFY, on rank 0 of a run shared among processes
+     * (pipeline/peers.h): pass 1 ships the slabs en_peer_of_slab() deals
+     * to other ranks and takes their results back at retire; everything
+     * else runs here. NULL: one process. */
     en_peer_link *peers;
 } en_chain_config;
 

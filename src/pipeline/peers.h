@@ -1,31 +1,34 @@
 /*
  * One run's slabs shared among processes (docs/distributed.md,
- * epsnet.h section 8a): which rank works each slab, the messages between
- * the ranks, and a slab work's results sent array by array.
+ * epsnet.h section 8a): which rank works each slab, and the messages that
+ * carry a slab's input out to it and its results back.
  *
- * Every rank reads the whole input and cuts the same slabs: the cuts
- * depend on the input and the settings only. Slab k's classification and
- * collapses run on rank en_peer_of_slab(k) alone; rank 0 receives every
- * other rank's results, in slab order, into the slab work its own chunker
- * cut, and stitches them as if they were its own. The bytes are those of
- * one process because a slab work's results are a function of its input
- * and the pass's settings only (the same property that makes them the same
- * for every -j).
+ * Rank 0 alone reads the input, cuts the slabs, stitches and writes. Each
+ * slab it cuts goes to a rank that has room for one (its WANT is in), or,
+ * when none has, is worked on rank 0: the ranks take what they can, so no
+ * share is fixed in advance and none waits for a turn. Rank 0 sends that
+ * rank the slab's input (what its chunker cut, and the settings the slab
+ * is worked at), receives the results into the slab work it cut, and
+ * stitches them as if they were its own. The bytes are those of one
+ * process because a slab work's results are a function of its input and
+ * those settings only (the same property that makes them the same for
+ * every -j), wherever it was worked. The other ranks read nothing and hold
+ * a few slabs (pipeline/slab_server.h).
  *
  * Messages, always a header (en_peer_msg), then, for a slab, its head and
  * its arrays:
  *
- *   rank r -> 0:  SLAB k (results)   WAIT k   END (status)
- *   rank 0 -> r:  GO k (frequency), in reply to WAIT k
- *                 VERDICT (status), in reply to END, or to a WAIT once
- *                 rank 0 has failed
+ *   rank r -> 0:  WANT (room for a slab)   SLAB k (results)   END (status)
+ *   rank 0 -> r:  in reply to a WANT: INPUT k (a slab), NONE (nothing
+ *                 now: rank 0 waits for a slab the rank holds), DONE (the
+ *                 run is over), or VERDICT (status: rank 0 failed);
+ *                 in reply to END: VERDICT (status)
  *
- * Rank 0 sends only to a rank waiting for it, so a blocking send cannot
- * deadlock: every other wait is rank 0's, on messages each rank sends in
- * slab order. A WAIT comes before the first slab (so that a rank 0 that
- * could not open the output stops the others early) and before each slab
- * at which a chosen skeleton's candidate frequency may fall (chain.c:
- * lower_candidate, which needs every earlier slab's counts).
+ * Rank 0 sends only to a rank waiting for its reply, so a blocking send
+ * cannot deadlock: a rank waits for rank 0 only after a WANT, which rank 0
+ * answers before it waits for anything of that rank's; rank 0 waits only
+ * for a rank's WANT or results, which that rank sends without waiting for
+ * rank 0 (its slabs are worked on its own threads).
  *
  * Threads: the calling thread only (the transport's contract).
  */
@@ -46,27 +49,58 @@ void en_peer_link_free(en_peer_link **link);
 int en_peer_rank(const en_peer_link *link);
 int en_peer_count(const en_peer_link *link);
 
-/* The rank that classifies and collapses slab k of a pass shared among
- * `size` ranks. Slab 0 is rank 0's (a one-slab pass stays there). */
-int en_peer_of_slab(uint64_t k, int size);
+/* The slabs another rank holds at most: one on each of its workers and
+ * two waiting, so that it works on while rank 0 works a slab of its own
+ * (rank 0 keeps room for them in its ring). */
+size_t en_peer_slabs_held(int workers);
 
-/* Rank r != 0: send slab work w's results to rank 0. */
-int en_peer_send_slab(en_peer_link *link, const en_slab_work *w, epsnet_error *err);
+/* ---- rank 0 ---- */
 
-/* Rank 0: receive slab work w's results from the rank that worked it. A
- * rank that ended instead fails this with its error. */
+/* Where the slab rank 0 has just cut is to be worked: *rank, a rank that
+ * waits for one, or 0, rank 0 itself. Takes every message the other ranks
+ * have sent (results go into the slabs they are for), and waits for one to
+ * want a slab when rank 0 is busier than they are (peers.c:
+ * rank0_has_time). */
+int en_peer_pick(en_peer_link *link, int *rank, epsnet_error *err);
+
+/* Send slab work w's input, and the settings it is worked at (w->g,
+ * w->plan, w->weights, ...), to `rank`, which en_peer_pick() named. w stays
+ * rank 0's: en_peer_recv_slab() fills it. */
+int en_peer_ship(en_peer_link *link, int rank, en_slab_work *w, epsnet_error *err);
+
+/* 1 when slab work w was shipped and its results are not taken yet. */
+int en_peer_shipped(const en_peer_link *link, const en_slab_work *w);
+
+/* Receive the results of slab work w, shipped before, from the rank that
+ * worked it. A rank that ended instead fails this with its error. */
 int en_peer_recv_slab(en_peer_link *link, en_slab_work *w, epsnet_error *err);
 
-/* Before slab k. Rank r != 0: WAIT k, then *frequency from rank 0's GO (a
- * VERDICT instead fails with rank 0's error). Rank 0: every rank's WAIT k,
- * then GO k with *frequency. */
-int en_peer_meet(en_peer_link *link, uint64_t k, uint32_t *frequency, epsnet_error *err);
+/* ---- another rank ---- */
+
+/* What a WANT brought. */
+typedef enum en_peer_reply { EN_PEER_INPUT, EN_PEER_NONE, EN_PEER_DONE } en_peer_reply;
+
+/* Where a shipped slab's settings are kept on the rank that works it. */
+typedef struct en_peer_settings {
+    gauss_sphere g;
+    en_pass_plan plan;
+    en_attr_weights weights;
+} en_peer_settings;
+
+/* Send WANT and take rank 0's reply: with EN_PEER_INPUT, w holds the
+ * slab's input and points into *set for its settings. A VERDICT fails
+ * this with rank 0's error. */
+int en_peer_want(en_peer_link *link, en_slab_work *w, en_peer_settings *set, en_peer_reply *reply,
+                 epsnet_error *err);
+
+/* Send slab work w's results to rank 0. */
+int en_peer_send_slab(en_peer_link *link, const en_slab_work *w, epsnet_error *err);
 
 /*
  * The run's end on every rank, whatever happened before: rank r != 0 sends
  * END with (rc, err) and takes rank 0's VERDICT; rank 0 takes every rank's
- * END (passing over what else they sent, and answering a WAIT with its own
- * failure), then sends each the VERDICT: rc when it failed, else the first
+ * END (passing over what else they sent, and answering a WANT with DONE,
+ * or with its own failure), then sends each the VERDICT: rc when it failed, else the first
  * rank's failure, else 0. @return the verdict, err filled when non-zero.
  */
 int en_peer_agree(en_peer_link *link, int rc, epsnet_error *err);

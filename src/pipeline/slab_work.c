@@ -45,6 +45,32 @@ void en_slab_work_free(en_slab_work *w)
     en_slab_work_init(w);
 }
 
+void en_slab_work_shed(en_slab_work *w)
+{
+#define SHED(f) en_free(w->f), w->f = NULL, w->cap.f = 0
+    SHED(fnormal), SHED(ftri), SHED(removable), SHED(bucket_of), SHED(avalue), SHED(vgvertex);
+#undef SHED
+    en_slab *s = &w->s;
+    en_free(s->star_start), en_free(s->star), en_free(s->star_fill), en_free(s->wedge);
+    s->star_start = s->star = s->star_fill = s->wedge = NULL;
+    s->cap_star_start = s->cap_star = s->cap_star_fill = s->cap_wedge = 0;
+}
+
+uint64_t en_slab_work_bytes(const en_slab_work *w)
+{
+    const en_slab *s = &w->s;
+    uint64_t b = (uint64_t)s->cap_v * (sizeof *s->gid + 3 * sizeof *s->pos + sizeof *s->vflags) +
+                 (uint64_t)s->cap_t * 3 * sizeof *s->tri + s->cap_star_start * sizeof *s->star_start +
+                 s->cap_star * sizeof *s->star + s->cap_star_fill * sizeof *s->star_fill +
+                 s->cap_wedge * sizeof *s->wedge;
+#define ARR(f, n) b += (uint64_t)w->cap.f * (n) * sizeof *w->f
+    ARR(owner, 1), ARR(fflags, 1), ARR(vclass, 1), ARR(vgvertex, 1), ARR(q, 1), ARR(ref, 1), ARR(tri, 1);
+    ARR(falive, 1), ARR(valive, 1), ARR(border, 1), ARR(future, 1), ARR(degree, 1), ARR(band, 1), ARR(fnormal, 1);
+    ARR(ftri, 1), ARR(removable, 1), ARR(attr, 1), ARR(bucket_of, 1), ARR(vlevel, 1), ARR(aq, 1), ARR(avalue, 1);
+#undef ARR
+    return b;
+}
+
 void en_slab_work_reset(en_slab_work *w)
 {
     en_slab_work keep = *w;

@@ -174,6 +174,12 @@ void en_slab_work_init(en_slab_work *w);
 void en_slab_work_reset(en_slab_work *w);
 /* Free everything (w is then as after en_slab_work_init). */
 void en_slab_work_free(en_slab_work *w);
+/* Free what only the worker uses (its scratch and the slab's stars): a
+ * slab work whose slab is worked elsewhere (pipeline/peers.h) holds only
+ * its input and results. A later run grows them again. */
+void en_slab_work_shed(en_slab_work *w);
+/* The bytes w's arrays take, as allocated (its slab's included). */
+uint64_t en_slab_work_bytes(const en_slab_work *w);
 
 /* The level of a power-of-two frequency n: log2 n. */
 int en_level_of(uint32_t n);
