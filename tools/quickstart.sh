@@ -77,7 +77,7 @@ test)
     # its threads meet: CI time)
     TSAN_OPTIONS=halt_on_error=1 \
     EPSNET_TEST_ONLY=a_target_whose_finish_is_over_the_budget_goes_through_rounds_on_slabs,a_long_stream_is_thinned_under_a_ceiling_priced_from_windows \
-    EPSNET_PEERS_ONLY=three_ranks_of_two_workers_give_one_process_bytes,a_rank_that_fails_alone_stops_every_rank_and_is_named \
+    EPSNET_PEERS_ONLY=three_ranks_of_two_workers_give_one_process_bytes,a_rank_over_its_budget_stops_every_rank_and_is_named \
         meson test -C build-tsan --no-rebuild pool hausdorff pipeline arrays target peers \
         --num-processes "$jobs" --print-errorlogs || status=1
     exit $status

@@ -13,13 +13,16 @@
 typedef struct served {
     en_slab_work w;
     en_peer_settings set;         /* what w->g, w->plan and w->weights point to */
+    /* w's bytes as last seen where no worker held it: when its input came
+     * and when it was retired (a worker grows its arrays as it goes) */
+    uint64_t bytes;
 } served;
 
-static int over_budget(served *held, size_t n, uint64_t budget, const char *path, epsnet_error *err)
+static int over_budget(const served *held, size_t n, uint64_t budget, const char *path, epsnet_error *err)
 {
     uint64_t bytes = 0;
     for (size_t i = 0; i < n; i++)
-        bytes += en_slab_work_bytes(&held[i].w);
+        bytes += held[i].bytes;
     if (!budget || bytes <= budget)
         return 0;
     return en_error_set(err, EPSNET_ELIMIT, path, EPSNET_POS_NONE, EPSNET_POS_NONE,
@@ -57,6 +60,7 @@ int en_slab_serve(en_peer_link *l, en_pool *pool, uint64_t mem_budget, const cha
             } else {
                 nfree--;
                 x->w.collapse_arrays = arrays;
+                x->bytes = en_slab_work_bytes(&x->w);
                 if ((rc = over_budget(held, hold, mem_budget, path, err)) == 0 &&
                     (rc = en_jobring_submit(ring, en_slab_work_run, &x->w)) != 0)
                     en_error_set(err, rc, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "worker pool refused a slab");
@@ -76,8 +80,10 @@ int en_slab_serve(en_peer_link *l, en_pool *pool, uint64_t mem_budget, const cha
             rc = result;
             break;
         }
+        served *x = (served *)w;
+        x->bytes = en_slab_work_bytes(w);
         rc = en_peer_send_slab(l, w, err);
-        free_list[nfree++] = (size_t)((served *)w - held);
+        free_list[nfree++] = (size_t)(x - held);
         asked = 0;
     }
     en_jobring_free(&ring, NULL); /* waits for what is left */
