@@ -41,9 +41,9 @@ struct en_peer_link {
     uint8_t *ended;               /* rank 0: per rank, its END taken */
     uint8_t *waiting;             /* rank 0: per rank, its WANT taken and not yet answered */
     shipped *out;                 /* rank 0: per rank */
-    uint64_t dealt, kept;         /* rank 0: slabs en_peer_pick() dealt, and kept */
     /* rank 0, what it weighs where a slab goes (en_peer_pick): */
-    double cpu_start;             /* its own CPU seconds when the run began */
+    int dealing;                  /* it has dealt a slab */
+    double cpu_start;             /* its own CPU seconds then (a sort before the pass is not counted) */
     double *worked;               /* per rank: the seconds its workers took over the slabs returned */
     uint64_t *returned;           /* ... and their count */
     uint8_t *scratch;             /* a results array's entries alive, packed */
@@ -75,7 +75,6 @@ int en_peer_link_new(en_peer_link **out, const epsnet_peers *peers, const char *
         return en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     }
     l->p = *peers;
-    l->cpu_start = en_process_cpu_seconds();
     snprintf(l->path, sizeof l->path, "%s", path ? path : "");
     *out = l;
     return 0;
@@ -602,6 +601,10 @@ static int fewest_waiting(const en_peer_link *l)
 int en_peer_pick(en_peer_link *l, int *rank, epsnet_error *err)
 {
     *rank = 0;
+    if (!l->dealing) {
+        l->dealing = 1;
+        l->cpu_start = en_process_cpu_seconds();
+    }
     for (int r = 1; r < l->p.size; r++)
         for (;;) {
             int there = l->p.poll(l->p.opaque, r);
@@ -625,8 +628,6 @@ int en_peer_pick(en_peer_link *l, int *rank, epsnet_error *err)
                 if (rc)
                     return rc;
             }
-        l->kept++;
-        l->dealt++;
         return 0;
     }
     /* every other rank holds a slab (it wants one as soon as it holds
@@ -641,7 +642,6 @@ int en_peer_pick(en_peer_link *l, int *rank, epsnet_error *err)
             return rc;
         r = fewest_waiting(l);
     }
-    l->dealt++;
     *rank = r;
     return 0;
 }
@@ -684,11 +684,13 @@ int en_peer_ship(en_peer_link *l, int r, en_slab_work *w, epsnet_error *err)
                             "slab %u shipped to rank %d, which did not ask for one (a bug)", w->index, r);
     int rc = 0;
     input_head h;
-    memset(&h, 0, sizeof h);
-    h = (input_head){ .nv = w->s.nv, .nt = w->s.nt, .nowned = w->nowned, .attr_size = w->attr_size,
-                      .last = w->last, .lock_type = w->lock_type, .frequency = w->g->n,
-                      .quadric_at = w->quadric_at, .lock_offset = w->lock_offset, .has_plan = w->plan != NULL,
-                      .has_weights = w->weights != NULL, .max_normal_dev = w->max_normal_dev, .rot = w->g->rot };
+    memset(&h, 0, sizeof h); /* its padding too: every byte sent is set */
+    h.nv = w->s.nv, h.nt = w->s.nt, h.nowned = w->nowned, h.attr_size = w->attr_size;
+    h.last = w->last, h.lock_type = w->lock_type;
+    h.frequency = w->g->n, h.quadric_at = w->quadric_at, h.lock_offset = w->lock_offset;
+    h.has_plan = w->plan != NULL, h.has_weights = w->weights != NULL;
+    h.max_normal_dev = w->max_normal_dev;
+    h.rot = w->g->rot;
     if (w->plan)
         h.plan = *w->plan;
     h.plan.count_ranges = NULL;
