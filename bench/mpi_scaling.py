@@ -13,6 +13,7 @@ the one process's. Run it on an otherwise idle machine.
 """
 import argparse
 import os
+import re
 import statistics
 import subprocess
 import sys
@@ -28,12 +29,9 @@ def timed(cmd):
 
 
 def peaks(stderr):
-    """Each rank's peak (KB) from the lines 'rank R peak K' the wrapper prints."""
-    out = {}
-    for line in stderr.splitlines():
-        w = line.split()
-        if len(w) == 4 and w[0] == "rank" and w[2] == "peak":
-            out[int(w[1])] = int(w[3])
+    """Each rank's peak (KB) from the 'rank R peak K' the wrapper prints (the
+    ranks write at once: two may share a line)."""
+    out = {int(r): int(k) for r, k in re.findall(r"rank (\d+) peak (\d+)", stderr)}
     return [out[r] for r in sorted(out)]
 
 
@@ -70,9 +68,9 @@ def main():
     print("|---|---|---|")
     print(f"| one process | {one:.2f} s ({min(one_t):.2f}-{max(one_t):.2f}) | "
           f"{max(p[0] for p in one_p) / 1024:.1f} |")
-    ranks = len(mpi_p[0])
+    ranks = max(len(p) for p in mpi_p)
     print(f"| mpirun -n {a.ranks} | {shared:.2f} s ({min(mpi_t):.2f}-{max(mpi_t):.2f}) | "
-          + ", ".join(f"{max(p[r] for p in mpi_p) / 1024:.1f}" for r in range(ranks)) + " |")
+          + ", ".join(f"{max(p[r] for p in mpi_p if len(p) > r) / 1024:.1f}" for r in range(ranks)) + " |")
     print(f"| speedup | **{one / shared:.2f}x** (pairs: "
           + ", ".join(f"{o / m:.2f}" for o, m in zip(one_t, mpi_t)) + f") | same bytes: {same} |")
 
