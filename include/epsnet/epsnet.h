@@ -832,6 +832,9 @@ typedef struct epsnet_stats {
     /* The values a vertex's attribute error weighs (settings.attribute_weights:
      * 2 for texture coordinates, 3 for normals; 0: none). */
     uint32_t attribute_channels;
+    /* A run shared among processes (section 8a), on rank 0: the slabs it
+     * sent to the other ranks to work (of `slabs`; 0 in one process). */
+    uint64_t slabs_shipped;
 } epsnet_stats;
 
 typedef struct epsnet_context epsnet_context;

@@ -173,6 +173,7 @@ int epsnet_stats_write_json(const epsnet_context *c, const char *command, const 
         ", \"duplicate\": %" PRIu64 "},\n"
         "  \"max_active\": %" PRIu64 ",\n"
         "  \"slabs\": %" PRIu64 ",\n"
+        "  \"slabs_shipped\": %" PRIu64 ",\n"
         "  \"seams\": {\"faces\": %" PRIu64 ", \"collapses\": %" PRIu64 "},\n"
         "  \"nonsamples\": {\"band\": %" PRIu64 ", \"band_left\": %" PRIu64 ", \"inner\": %" PRIu64
         ", \"inner_left\": %" PRIu64 "},\n"
@@ -192,7 +193,7 @@ int epsnet_stats_write_json(const epsnet_context *c, const char *command, const 
         s->samples, s->locked, s->boundary_vertices, s->nonmanifold_vertices, s->seam_vertices, s->cut_end_vertices, s->needle_vertices,
         s->multi_cover_samples, s->output_vertices, s->output_faces, s->collapses, s->passes,
         s->remaining_nonsamples, s->refused_link, s->refused_normal, s->refused_zero_area, s->refused_duplicate,
-        s->max_active, s->slabs, s->seam_faces, s->seam_collapses, s->band_nonsamples,
+        s->max_active, s->slabs, s->slabs_shipped, s->seam_faces, s->seam_collapses, s->band_nonsamples,
         s->band_nonsamples_left, s->inner_nonsamples, s->inner_nonsamples_left, s->target_faces, s->skeleton_vertices, s->samples_given_up, s->membrane_faces, s->skeleton_finest_frequency, s->target_rounds, s->target_round_retries, s->target_price_ceiling, s->target_price_vertices, s->dropped, s->peak_rss, s->budget_total, s->budget_reader, s->budget_sort, s->budget_chain, s->budget_one_slab, s->seconds_read, s->seconds_normals, s->seconds_classify,
         s->seconds_simplify, s->seconds_write, s->seconds_sort, s->cpu_main, s->cpu_workers);
     if (n < 0 || (size_t)n >= sizeof buf)

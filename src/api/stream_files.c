@@ -421,6 +421,7 @@ int epsnet_simplify_file(epsnet_context *ctx, const char *in_path, const char *o
     }
     ctx->stats.dropped += left_out;
     if (ctx->peers) {
+        ctx->stats.slabs_shipped = en_peer_slabs_shipped(ctx->peers);
         /* the output whole in its temporary file, then every rank's end
          * and one verdict, before it is moved into place */
         if (rc == 0 && f.w)

@@ -43,6 +43,7 @@ struct en_peer_link {
     shipped *out;                 /* rank 0: per rank */
     /* rank 0, what it weighs where a slab goes (en_peer_pick): */
     int dealing;                  /* it has dealt a slab */
+    uint64_t shipped_total;       /* the slabs it sent */
     double cpu_start;             /* its own CPU seconds then (a sort before the pass is not counted) */
     double *worked;               /* per rank: the seconds its workers took over the slabs returned */
     uint64_t *returned;           /* ... and their count */
@@ -107,6 +108,11 @@ int en_peer_rank(const en_peer_link *link)
 int en_peer_count(const en_peer_link *link)
 {
     return link->p.size;
+}
+
+uint64_t en_peer_slabs_shipped(const en_peer_link *l)
+{
+    return l->shipped_total;
 }
 
 size_t en_peer_slabs_held(int workers)
@@ -707,6 +713,7 @@ int en_peer_ship(en_peer_link *l, int r, en_slab_work *w, epsnet_error *err)
             rc = send_bytes(l, r, sec[i].p, sec[i].n, err);
     if (rc == 0) {
         en_slab_work_shed(w); /* rank 0 holds its input and, later, its results */
+        l->shipped_total++;
         o->w[o->head + o->n] = w;
         o->got[o->head + o->n] = 0;
         o->n++;

@@ -20,8 +20,9 @@
  *
  *   rank r -> 0:  WANT (room for a slab)   SLAB k (results)   END (status)
  *   rank 0 -> r:  in reply to a WANT: INPUT k (a slab), NONE (nothing
- *                 now: rank 0 waits for a slab the rank holds), DONE (the
- *                 run is over), or VERDICT (status: rank 0 failed);
+ *                 now: go on with the slabs held, rank 0 waits for one or
+ *                 works the one it cut), DONE (the run is over), or
+ *                 VERDICT (status: rank 0 failed);
  *                 in reply to END: VERDICT (status)
  *
  * Rank 0 sends only to a rank waiting for its reply, so a blocking send
@@ -68,6 +69,9 @@ int en_peer_pick(en_peer_link *link, int *rank, epsnet_error *err);
  * rank 0's: en_peer_recv_slab() fills it. */
 int en_peer_ship(en_peer_link *link, int rank, en_slab_work *w, epsnet_error *err);
 
+/* The slabs shipped so far. */
+uint64_t en_peer_slabs_shipped(const en_peer_link *link);
+
 /* 1 when slab work w was shipped and its results are not taken yet. */
 int en_peer_shipped(const en_peer_link *link, const en_slab_work *w);
 
@@ -100,8 +104,9 @@ int en_peer_send_slab(en_peer_link *link, const en_slab_work *w, epsnet_error *e
  * The run's end on every rank, whatever happened before: rank r != 0 sends
  * END with (rc, err) and takes rank 0's VERDICT; rank 0 takes every rank's
  * END (passing over what else they sent, and answering a WANT with DONE,
- * or with its own failure), then sends each the VERDICT: rc when it failed, else the first
- * rank's failure, else 0. @return the verdict, err filled when non-zero.
+ * or with its own failure), then sends each the VERDICT: rc when it
+ * failed, else the first rank's failure, else 0. @return the verdict, err
+ * filled when non-zero.
  */
 int en_peer_agree(en_peer_link *link, int rc, epsnet_error *err);
 
