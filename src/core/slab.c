@@ -33,17 +33,18 @@ void en_slab_reset(en_slab *s)
     s->has_welds = 0;
 }
 
-static int grow_vertices(en_slab *s)
+/* Room for `need` vertices (gid, pos, vflags share cap_v). */
+static int grow_vertices(en_slab *s, size_t need)
 {
     size_t cap = s->cap_v, c;
     c = cap;
-    if (en_grow((void **)&s->gid, &c, s->nv + 1, sizeof *s->gid))
+    if (en_grow((void **)&s->gid, &c, need, sizeof *s->gid))
         return -1;
     c = cap;
-    if (en_grow((void **)&s->pos, &c, s->nv + 1, 3 * sizeof *s->pos))
+    if (en_grow((void **)&s->pos, &c, need, 3 * sizeof *s->pos))
         return -1;
     c = cap;
-    if (en_grow((void **)&s->vflags, &c, s->nv + 1, sizeof *s->vflags))
+    if (en_grow((void **)&s->vflags, &c, need, sizeof *s->vflags))
         return -1;
     if (c > UINT32_MAX - 1)
         c = UINT32_MAX - 1;
@@ -55,7 +56,7 @@ int64_t en_slab_add_vertex(en_slab *s, uint64_t gid, const double xyz[3], uint8_
 {
     if (s->nv >= UINT32_MAX - 2)
         return -1;
-    if (s->nv == s->cap_v && grow_vertices(s))
+    if (s->nv == s->cap_v && grow_vertices(s, (size_t)s->nv + 1))
         return -1;
     uint32_t v = s->nv++;
     s->gid[v] = gid;
@@ -64,16 +65,31 @@ int64_t en_slab_add_vertex(en_slab *s, uint64_t gid, const double xyz[3], uint8_
     return v;
 }
 
+/* Room for `need` faces. */
+static int grow_faces(en_slab *s, size_t need)
+{
+    size_t cap = s->cap_t;
+    if (en_grow((void **)&s->tri, &cap, need, 3 * sizeof *s->tri))
+        return -1;
+    s->cap_t = (uint32_t)(cap < UINT32_MAX / 3 ? cap : UINT32_MAX / 3);
+    return 0;
+}
+
+int en_slab_resize(en_slab *s, uint32_t nv, uint32_t nt)
+{
+    if (nv >= UINT32_MAX - 2 || nt >= UINT32_MAX / 3 - 1 || grow_vertices(s, nv) || grow_faces(s, nt))
+        return -1;
+    s->nv = nv;
+    s->nt = nt;
+    return 0;
+}
+
 int en_slab_add_face(en_slab *s, uint32_t a, uint32_t b, uint32_t c)
 {
     if (s->nt >= UINT32_MAX / 3 - 1)
         return -1;
-    if (s->nt == s->cap_t) {
-        size_t cap = s->cap_t;
-        if (en_grow((void **)&s->tri, &cap, s->nt + 1, 3 * sizeof *s->tri))
-            return -1;
-        s->cap_t = (uint32_t)(cap < UINT32_MAX / 3 ? cap : UINT32_MAX / 3);
-    }
+    if (s->nt == s->cap_t && grow_faces(s, (size_t)s->nt + 1))
+        return -1;
     uint32_t *t = s->tri + 3 * (size_t)s->nt++;
     t[0] = a, t[1] = b, t[2] = c;
     return 0;

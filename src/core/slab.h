@@ -71,6 +71,10 @@ void en_slab_reset(en_slab *s);
 int64_t en_slab_add_vertex(en_slab *s, uint64_t gid, const double xyz[3], uint8_t flags);
 /* @return 0, or -1 when out of memory. Local ids must exist. */
 int en_slab_add_face(en_slab *s, uint32_t a, uint32_t b, uint32_t c);
+/* nv vertices and nt faces, their contents to be filled by the caller (a
+ * slab's input received whole, pipeline/peers.c). @return 0, or -1 when
+ * out of memory / over the limits above. */
+int en_slab_resize(en_slab *s, uint32_t nv, uint32_t nt);
 
 /*
  * Build the stars of all vertices, order them rotationally and flag boundary,

@@ -414,7 +414,7 @@ static int retire_one(en_pass *p, epsnet_error *err)
     if (!en_jobring_retire(p->ring, &job, &result))
         return 0;
     en_slab_work *w = job;
-    if (result == 0 && shared(p) && en_peer_shipped(shared(p), w))
+    if (result == 0 && shared(p))
         result = en_peer_recv_slab(shared(p), w, &w->err);
     /* the worker may have dropped membrane faces (slab_work.c) */
     p->in_flight_elements -= (uint64_t)w->s.nv + w->s.nt + w->membrane_faces;

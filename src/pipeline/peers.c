@@ -307,25 +307,26 @@ static size_t sent_bytes(const section *x)
     return alive * x->unit;
 }
 
-/* A section's entries alive, packed into the link's scratch (pack), or
- * the scratch made room for them (unpack: scatter() puts them in place). */
-static int packed(en_peer_link *l, const section *x, int pack, const uint8_t **at, size_t *bytes)
+/* Where a section's bytes travel from, or arrive in: the section itself,
+ * or, when only its entries alive travel, the link's scratch (room for
+ * `bytes`), which pack() fills and scatter() empties. NULL: out of memory. */
+static void *wire(en_peer_link *l, const section *x, size_t bytes)
+{
+    if (!x->alive)
+        return x->p;
+    return en_grow((void **)&l->scratch, &l->scratch_cap, bytes + 1, 1) ? NULL : l->scratch;
+}
+
+static void pack(const en_peer_link *l, const section *x)
 {
     size_t entries = x->n / x->unit;
-    *bytes = sent_bytes(x);
-    if (en_grow((void **)&l->scratch, &l->scratch_cap, *bytes + 1, 1))
-        return -1;
-    if (pack) {
-        uint8_t *o = l->scratch;
-        const uint8_t *src = x->p;
-        for (size_t i = 0; i < entries; i++)
-            if (x->alive[i]) {
-                memcpy(o, src + i * x->unit, x->unit);
-                o += x->unit;
-            }
-    }
-    *at = l->scratch;
-    return 0;
+    const uint8_t *src = x->p;
+    uint8_t *o = l->scratch;
+    for (size_t i = 0; i < entries; i++)
+        if (x->alive[i]) {
+            memcpy(o, src + i * x->unit, x->unit);
+            o += x->unit;
+        }
 }
 
 static void scatter(const en_peer_link *l, const section *x)
@@ -380,12 +381,14 @@ int en_peer_send_slab(en_peer_link *l, const en_slab_work *cw, epsnet_error *err
     if (rc == 0)
         rc = send_bytes(l, 0, buf, sizeof buf, err);
     for (int i = 0; i < n && rc == 0; i++) {
-        const uint8_t *from = sec[i].p;
-        size_t len = sec[i].n;
-        if (sec[i].alive && packed(l, &sec[i], 1, &from, &len))
+        if (!sent[i]) /* an empty array is not sent: both sides know it is */
+            continue;
+        void *from = wire(l, &sec[i], sent[i]);
+        if (!from)
             return en_error_set(err, EPSNET_ENOMEM, l->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
-        if (len) /* an empty array is not sent: both sides know it is */
-            rc = send_bytes(l, 0, from, len, err);
+        if (sec[i].alive)
+            pack(l, &sec[i]);
+        rc = send_bytes(l, 0, from, sent[i], err);
     }
     return rc;
 }
@@ -428,19 +431,16 @@ static int take_results(en_peer_link *l, int from, const en_peer_msg *m, en_slab
         if (bytes[i] != sec[i].n)
             return not_this_slab(l, w, from, err);
     for (int i = 0; i < n && rc == 0; i++) {
-        if (!sec[i].alive) {
-            if (sec[i].n)
-                rc = recv_bytes(l, from, sec[i].p, sec[i].n, err);
+        /* a packed array's size follows from its mask, received before it */
+        if (sent[i] != sent_bytes(&sec[i]))
+            return not_this_slab(l, w, from, err);
+        if (!sent[i])
             continue;
-        }
-        const uint8_t *into;
-        size_t len;
-        if (packed(l, &sec[i], 0, &into, &len))
+        void *into = wire(l, &sec[i], sent[i]);
+        if (!into)
             return en_error_set(err, EPSNET_ENOMEM, l->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                                 "out of memory taking slab %u from rank %d", w->index, from);
-        if (len != sent[i])
-            return not_this_slab(l, w, from, err);
-        if (len && (rc = recv_bytes(l, from, l->scratch, len, err)) == 0)
+        if ((rc = recv_bytes(l, from, into, sent[i], err)) == 0 && sec[i].alive)
             scatter(l, &sec[i]);
     }
     return rc;
@@ -464,30 +464,15 @@ typedef struct input_head {
     en_attr_weights weights;
 } input_head;
 
-/* The input arrays of w, whose shape is set (after growing them, grow). */
+/* The input arrays of w, whose slab's shape is set (after growing the
+ * slab work's own to it, grow). */
 static int input_sections(en_slab_work *w, int grow, section *out)
 {
     size_t nv = w->s.nv, nt = w->s.nt;
-    if (grow) {
-        size_t cap;
-#define ROOM(ptr, capv, count, size)                                                                                  \
-    do {                                                                                                              \
-        cap = (capv);                                                                                                 \
-        if (en_grow((void **)&(ptr), &cap, (count) + 1, (size)))                                                      \
-            return -1;                                                                                                \
-    } while (0)
-        ROOM(w->s.gid, w->s.cap_v, nv, sizeof *w->s.gid);
-        ROOM(w->s.pos, w->s.cap_v, nv, 3 * sizeof *w->s.pos);
-        ROOM(w->s.vflags, w->s.cap_v, nv, 1);
-        w->s.cap_v = (uint32_t)(nv + 1);
-        ROOM(w->s.tri, w->s.cap_t, nt, 3 * sizeof *w->s.tri);
-        w->s.cap_t = (uint32_t)(nt + 1);
-#undef ROOM
-        if (en_grow((void **)&w->owner, &w->cap.owner, nv + 1, sizeof *w->owner) ||
-            en_grow((void **)&w->fflags, &w->cap.fflags, nt + 1, 1) ||
-            (w->attr_size && en_grow((void **)&w->attr, &w->cap.attr, nv * w->attr_size + 1, 1)))
-            return -1;
-    }
+    if (grow && (en_grow((void **)&w->owner, &w->cap.owner, nv + 1, sizeof *w->owner) ||
+                 en_grow((void **)&w->fflags, &w->cap.fflags, nt + 1, 1) ||
+                 (w->attr_size && en_grow((void **)&w->attr, &w->cap.attr, nv * w->attr_size + 1, 1))))
+        return -1;
     int n = 0;
     out[n++] = (section){ .p = w->s.gid, .n = nv * sizeof *w->s.gid };
     out[n++] = (section){ .p = w->s.pos, .n = nv * 3 * sizeof *w->s.pos };
@@ -662,11 +647,6 @@ static int holder(const en_peer_link *l, const en_slab_work *w)
     return 0;
 }
 
-int en_peer_shipped(const en_peer_link *l, const en_slab_work *w)
-{
-    return holder(l, w) != 0;
-}
-
 int en_peer_ship(en_peer_link *l, int r, en_slab_work *w, epsnet_error *err)
 {
     shipped *o = out_of(l, r);
@@ -724,8 +704,10 @@ int en_peer_ship(en_peer_link *l, int r, en_slab_work *w, epsnet_error *err)
 int en_peer_recv_slab(en_peer_link *l, en_slab_work *w, epsnet_error *err)
 {
     int r = holder(l, w);
+    if (!r)
+        return 0; /* rank 0's own */
     shipped *o = out_of(l, r);
-    if (!r || o->w[o->head] != w)
+    if (o->w[o->head] != w)
         return en_error_set(err, EPSNET_EINTERNAL, l->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "slab %u was not the oldest shipped to rank %d (a bug)", w->index, r);
     int rc = 0;
@@ -777,13 +759,11 @@ int en_peer_want(en_peer_link *l, en_slab_work *w, en_peer_settings *set, en_pee
         return rc;
     en_slab_work_reset(w);
     w->index = (uint32_t)m.slab;
-    w->s.nv = h.nv;
-    w->s.nt = h.nt;
     w->nowned = h.nowned;
     w->attr_size = h.attr_size;
     w->last = h.last;
     section sec[MAX_SECTIONS];
-    int n = input_sections(w, 1, sec);
+    int n = en_slab_resize(&w->s, h.nv, h.nt) ? -1 : input_sections(w, 1, sec);
     if (n < 0)
         return en_error_set(err, EPSNET_ENOMEM, l->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "out of memory taking slab %llu from rank 0", (unsigned long long)m.slab);

@@ -72,11 +72,9 @@ int en_peer_ship(en_peer_link *link, int rank, en_slab_work *w, epsnet_error *er
 /* The slabs shipped so far. */
 uint64_t en_peer_slabs_shipped(const en_peer_link *link);
 
-/* 1 when slab work w was shipped and its results are not taken yet. */
-int en_peer_shipped(const en_peer_link *link, const en_slab_work *w);
-
-/* Receive the results of slab work w, shipped before, from the rank that
- * worked it. A rank that ended instead fails this with its error. */
+/* Receive the results of slab work w from the rank it was shipped to (a
+ * slab rank 0 worked itself: nothing to do). A rank that ended instead
+ * fails this with its error. */
 int en_peer_recv_slab(en_peer_link *link, en_slab_work *w, epsnet_error *err);
 
 /* ---- another rank ---- */
