@@ -155,8 +155,8 @@ static void destroy_slab_work(void *item)
 
 int en_chain_spares_new(en_chain_spares *sp)
 {
-    if (en_ctxpool_new(&sp->slab_works, destroy_slab_work) ||
-        en_collapse_arrays_new(&sp->collapse_arrays)) {
+    if (en_ctxpool_new(&sp->slab_works, destroy_slab_work) || en_collapse_arrays_new(&sp->collapse_arrays) ||
+        en_slab_scratch_pool_new(&sp->scratch)) {
         en_chain_spares_free(sp);
         return EPSNET_ENOMEM;
     }
@@ -167,6 +167,7 @@ void en_chain_spares_free(en_chain_spares *sp)
 {
     en_ctxpool_free(&sp->slab_works);
     en_ctxpool_free(&sp->collapse_arrays);
+    en_ctxpool_free(&sp->scratch);
 }
 
 static int pass_put(void *self, const epsnet_record *rec, epsnet_error *err);
@@ -565,6 +566,7 @@ static int submit(en_pass *p, en_slab_work *w, epsnet_error *err)
     w->mode = c->cfg.mode;
     w->max_normal_dev = c->cfg.max_normal_dev;
     w->collapse_arrays = c->spares->collapse_arrays;
+    w->scratch = c->spares->scratch;
     w->quadric_at = c->cfg.quadrics_in ? c->cfg.attr_size : UINT32_MAX;
     w->lock_offset = c->cfg.lock_offset;
     w->lock_type = c->cfg.mode == EN_SLAB_SIMPLIFY ? c->cfg.lock_type : 0;

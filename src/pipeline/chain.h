@@ -37,7 +37,7 @@ typedef struct en_chain en_chain;
  * by page, which measured a tenth of a 20M-face run's time with a target
  * of 4 rounds (bench/RESULTS.md, session 10). Thread-safe. */
 typedef struct en_chain_spares {
-    en_ctxpool *slab_works, *collapse_arrays;
+    en_ctxpool *slab_works, *collapse_arrays, *scratch;
 } en_chain_spares;
 
 /* @return 0 or EPSNET_ENOMEM. */

@@ -37,9 +37,10 @@ int en_slab_serve(en_peer_link *l, en_pool *pool, uint64_t mem_budget, const cha
     served *held = en_calloc(hold, sizeof *held);
     size_t *free_list = en_malloc(hold * sizeof *free_list), nfree = hold;
     en_jobring *ring = NULL;
-    en_ctxpool *arrays = NULL;
+    en_ctxpool *arrays = NULL, *scratch = NULL;
     int rc = 0;
-    if (!held || !free_list || en_jobring_new(&ring, pool, hold) || en_collapse_arrays_new(&arrays))
+    if (!held || !free_list || en_jobring_new(&ring, pool, hold) || en_collapse_arrays_new(&arrays) ||
+        en_slab_scratch_pool_new(&scratch))
         rc = en_error_set(err, EPSNET_ENOMEM, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     for (size_t i = 0; rc == 0 && i < hold; i++) {
         en_slab_work_init(&held[i].w);
@@ -60,6 +61,7 @@ int en_slab_serve(en_peer_link *l, en_pool *pool, uint64_t mem_budget, const cha
             } else {
                 nfree--;
                 x->w.collapse_arrays = arrays;
+                x->w.scratch = scratch;
                 x->bytes = en_slab_work_bytes(&x->w);
                 if ((rc = over_budget(held, hold, mem_budget, path, err)) == 0 &&
                     (rc = en_jobring_submit(ring, en_slab_work_run, &x->w)) != 0)
@@ -88,6 +90,7 @@ int en_slab_serve(en_peer_link *l, en_pool *pool, uint64_t mem_budget, const cha
     }
     en_jobring_free(&ring, NULL); /* waits for what is left */
     en_ctxpool_free(&arrays);
+    en_ctxpool_free(&scratch);
     for (size_t i = 0; held && i < hold; i++)
         en_slab_work_free(&held[i].w);
     en_free(held);

@@ -732,9 +732,89 @@ static int drop_membranes(en_slab_work *w)
     return w->rc = en_slab_build_stars(s) ? oom(w) : 0;
 }
 
+/* What a slab work's run uses and nothing reads after it: the arrays
+ * en_slab_work_shed() frees but vgvertex (a sample run's retire reads it). */
+typedef struct en_slab_scratch {
+    double *fnormal, *avalue;
+    int32_t *ftri;
+    uint8_t *removable;
+    uint16_t *bucket_of;
+    uint32_t *star_start, *star, *star_fill, *wedge;
+    size_t cap_fnormal, cap_avalue, cap_ftri, cap_removable, cap_bucket_of;
+    size_t cap_star_start, cap_star, cap_star_fill, cap_wedge;
+} en_slab_scratch;
+
+static void destroy_scratch(void *item)
+{
+    en_slab_scratch *x = item;
+    en_free(x->fnormal), en_free(x->avalue), en_free(x->ftri), en_free(x->removable), en_free(x->bucket_of);
+    en_free(x->star_start), en_free(x->star), en_free(x->star_fill), en_free(x->wedge);
+    en_free(x);
+}
+
+int en_slab_scratch_pool_new(en_ctxpool **pool)
+{
+    return en_ctxpool_new(pool, destroy_scratch);
+}
+
+/* Trade w's scratch for x's (twice: back as it was). */
+static void swap_scratch(en_slab_work *w, en_slab_scratch *x)
+{
+#define SWAP(a, b)                                                                                                    \
+    do {                                                                                                              \
+        void *p_ = (void *)(a);                                                                                       \
+        (a) = (void *)(b);                                                                                            \
+        (b) = p_;                                                                                                     \
+    } while (0)
+#define SWAP_CAP(a, b)                                                                                                \
+    do {                                                                                                              \
+        size_t c_ = (a);                                                                                              \
+        (a) = (b);                                                                                                    \
+        (b) = c_;                                                                                                     \
+    } while (0)
+    SWAP(w->fnormal, x->fnormal);
+    SWAP_CAP(w->cap.fnormal, x->cap_fnormal);
+    SWAP(w->avalue, x->avalue);
+    SWAP_CAP(w->cap.avalue, x->cap_avalue);
+    SWAP(w->ftri, x->ftri);
+    SWAP_CAP(w->cap.ftri, x->cap_ftri);
+    SWAP(w->removable, x->removable);
+    SWAP_CAP(w->cap.removable, x->cap_removable);
+    SWAP(w->bucket_of, x->bucket_of);
+    SWAP_CAP(w->cap.bucket_of, x->cap_bucket_of);
+    SWAP(w->s.star_start, x->star_start);
+    SWAP_CAP(w->s.cap_star_start, x->cap_star_start);
+    SWAP(w->s.star, x->star);
+    SWAP_CAP(w->s.cap_star, x->cap_star);
+    SWAP(w->s.star_fill, x->star_fill);
+    SWAP_CAP(w->s.cap_star_fill, x->cap_star_fill);
+    SWAP(w->s.wedge, x->wedge);
+    SWAP_CAP(w->s.cap_wedge, x->cap_wedge);
+#undef SWAP
+#undef SWAP_CAP
+}
+
+static int run(en_slab_work *w);
+
 int en_slab_work_run(void *arg)
 {
     en_slab_work *w = arg;
+    if (!w->scratch)
+        return run(w);
+    en_slab_scratch *x = en_ctxpool_take(w->scratch);
+    if (!x && !(x = en_calloc(1, sizeof *x))) {
+        en_error_clear(&w->err);
+        return w->rc = oom(w);
+    }
+    swap_scratch(w, x);
+    int rc = run(w);
+    swap_scratch(w, x);
+    en_ctxpool_give(w->scratch, x);
+    return rc;
+}
+
+static int run(en_slab_work *w)
+{
     double t0 = en_now();
     en_error_clear(&w->err);
     w->faces_in = w->s.nt;

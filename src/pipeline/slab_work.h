@@ -98,6 +98,11 @@ typedef struct en_slab_work {
     const en_pass_plan *plan;     /* NULL: the ε-net pass */
     en_slab_progress *progress;   /* NULL, or where the collapses are reported (the chain's) */
     en_ctxpool *collapse_arrays;  /* the chain's en_collapse_arrays_new() pool */
+    /* NULL, or an en_slab_scratch_pool_new() pool: the worker's scratch
+     * below (and the slab's stars) is then lent from it for the run and
+     * given back at its end, so a run holds one set a worker, not one a
+     * slab work in flight (docs/architecture.md §12). */
+    en_ctxpool *scratch;
 
     /* Output. */
     int rc;
@@ -156,9 +161,10 @@ typedef struct en_slab_work {
     uint64_t *taken_hist;
     uint64_t counted_vertices;
 
-    /* Worker scratch, and the capacity of every array above: a slab work is
-     * reused for a later cut (en_slab_work_reset), so a run in its steady
-     * state allocates nothing per slab. */
+    /* Worker scratch (its own, or lent by the scratch pool for the run),
+     * and the capacity of every array above: a slab work is reused for a
+     * later cut (en_slab_work_reset), so a run in its steady state
+     * allocates nothing per slab. */
     double *fnormal;
     int32_t *ftri;
     uint8_t *removable;
@@ -180,6 +186,10 @@ void en_slab_work_free(en_slab_work *w);
 void en_slab_work_shed(en_slab_work *w);
 /* The bytes w's arrays take, as allocated (its slab's included). */
 uint64_t en_slab_work_bytes(const en_slab_work *w);
+
+/* A pool of worker scratch for en_slab_work.scratch (its items free
+ * themselves). @return 0 or EPSNET_ENOMEM. */
+int en_slab_scratch_pool_new(en_ctxpool **pool);
 
 /* The level of a power-of-two frequency n: log2 n. */
 int en_level_of(uint32_t n);

@@ -724,6 +724,7 @@ static int stage_end(void *self, epsnet_error *err)
          * round's (round_slab): they go, and the rounds make their own */
         en_ctxpool_trim(ts->cfg.spares->slab_works);
         en_ctxpool_trim(ts->cfg.spares->collapse_arrays);
+        en_ctxpool_trim(ts->cfg.spares->scratch);
     }
     for (; ts->nrounds < ROUND_MAX && rc == 0; ts->nrounds++) {
         uint64_t left = by_vertices ? ts->in.vertices : ts->in.faces;
@@ -819,6 +820,7 @@ static int stage_end(void *self, epsnet_error *err)
          * slab of the whole: they go before it is built */
         en_ctxpool_trim(ts->cfg.spares->slab_works);
         en_ctxpool_trim(ts->cfg.spares->collapse_arrays);
+        en_ctxpool_trim(ts->cfg.spares->scratch);
     }
     rc = run_chain(ts, &fin, &ts->in, NULL, 1, &ts->last, err);
     ts->last_collapsed = 1;
