@@ -541,7 +541,9 @@ static int smz_use_pool(epsnet_reader *r, en_pool *pool)
     }
     if (st->ring)
         return 0;
-    size_t cap = 2 * (size_t)en_pool_threads(pool);
+    /* one block in flight a worker: twice that held 20 MB more at 20M faces
+     * and -j 2 and read no faster (bench/RESULTS.md, session 33) */
+    size_t cap = (size_t)en_pool_threads(pool);
     if (en_jobring_new(&st->ring, pool, cap))
         return EPSNET_ENOMEM;
     st->njobs = cap + 1;
