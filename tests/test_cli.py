@@ -1023,6 +1023,32 @@ def obj_vt_and_vn_of_one_per_position_round_trip():
     assert rc == 0 and err.splitlines() == [f"warning: {odd}: dropped: face corner without vt (1)"], err
 
 
+
+@case
+def threads_follow_the_processors_this_process_may_use():
+    """The default -j is the processors of the process's CPU affinity (taskset,
+    a container, Slurm, mpirun's binding), not all the machine's; more
+    threads than those asked for explicitly get one warning line; the bytes
+    never change."""
+    one = {min(os.sched_getaffinity(0))}
+    pin = lambda: os.sched_setaffinity(0, one)
+    src = path("aff.ply")
+    rc, _, err = run("gen", "bumpy", "--faces", "20000", "-o", src, "-q")
+    assert rc == 0, err
+    rc, _, err = run("simplify", src, "-o", path("aff1.ply"), "-j", "1", "-q")
+    assert rc == 0 and err == "", err
+    rc, _, err = run("simplify", src, "-o", path("aff_default.ply"), "-q", preexec=pin)
+    assert rc == 0 and err == "", f"the default -j on one processor warned: {err!r}"
+    rc, _, err = run("simplify", src, "-o", path("aff3.ply"), "-j", "3", "-q", preexec=pin)
+    lines = err.splitlines()
+    assert rc == 0 and len(lines) == 1, (rc, err)
+    assert lines[0].startswith("warning: -j 3 starts 3 worker threads, but this process may run on 1 processor "
+                               "only"), lines[0]
+    want = open(path("aff1.ply"), "rb").read()
+    for name in ("aff_default.ply", "aff3.ply"):
+        assert open(path(name), "rb").read() == want, f"{name} differs from -j 1"
+
+
 subprocess.run(["rm", "-rf", TMP])
 print(f"{failures} failed")
 sys.exit(1 if failures else 0)

@@ -190,7 +190,7 @@ const char cli_method_help[] =
     "      --rotation R    orientation of the sphere: default, identity,\n"
     "                      AX,AY,AZ,DEG (axis, angle) or q:W,X,Y,Z (quaternion)\n"
     "      --seed S        a random orientation from seed S (instead of --rotation)\n"
-    "  -j, --threads N     worker threads (default: all cores)\n"
+    "  -j, --threads N     worker threads (default: the processors it may use)\n"
     "      --mem SIZE      memory budget, e.g. 512M, 4G; over it a run stops with\n"
     "                      a clear error (default: half the RAM); when given, it\n"
     "                      also sets the slab size\n"

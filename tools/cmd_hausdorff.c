@@ -20,7 +20,7 @@ static void hausdorff_help(void)
            "      --samples-per-face N  points inside faces per face, spread by area\n"
            "                            (default 10, at most 100000)\n"
            "      --seed S              seed of the sample jitter (default 1)\n"
-           "  -j, --threads N           worker threads (default: all cores); the\n"
+           "  -j, --threads N           worker threads (default: the processors it may use); the\n"
            "                            numbers do not depend on it\n"
            "      --json FILE           also write the results as JSON (- for stdout,\n"
            "                            instead of the table)\n"

@@ -24,7 +24,7 @@ static void sort_help(void)
            "      --mem SIZE      memory budget, e.g. 256M, 4G (default 512M)\n"
            "      --tmpdir DIR    folder for the temporary runs (default: beside OUT)\n"
            "  -j, --threads N     threads when the mesh fits in half of --mem and is\n"
-           "                      sorted in memory (default 0: all cores); the output\n"
+           "                      sorted in memory (default 0: the processors it may use); the output\n"
            "                      is the same for any N\n"
            "      --format NAME   output format instead of OUT's extension\n"
            "  -q, --quiet         no progress bar, no summary\n"

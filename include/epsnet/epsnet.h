@@ -568,9 +568,12 @@ typedef struct epsnet_settings {
     epsnet_rotation_mode rotation_mode;
     double rotation[4];           /* quaternion (w, x, y, z) for QUATERNION */
     uint64_t seed;                /* for SEED, and for the rotations of ε-net passes. Default: 1 */
-    /* Threads; 0 = all cores. 1 runs everything on the calling thread; N > 1
-     * starts N workers for the slabs while the calling thread reads, cuts,
-     * stitches and writes. The output never depends on it. Default: 0. */
+    /* Threads; 0 = every processor this process may run on (its CPU
+     * affinity: taskset, a container, Slurm, mpirun's binding). 1 runs
+     * everything on the calling thread; N > 1 starts N workers for the
+     * slabs while the calling thread reads, cuts, stitches and writes; more
+     * than the processors it may use gets a warning. The output never
+     * depends on it. Default: 0. */
     int threads;
     /* Memory budget in bytes: a total for the whole run, split once among
      * its parts (epsnet_stats.budget_*, docs/architecture.md §12). A stream
@@ -1073,7 +1076,7 @@ typedef struct epsnet_hausdorff_settings {
     uint32_t samples_per_face;
     /* Seed of the stratified jitter. Default: 1. */
     uint64_t seed;
-    /* Threads; 0 = all cores. Default: 0. */
+    /* Threads; 0 = every processor this process may run on. Default: 0. */
     int threads;
     uint8_t reserved[64];
 } epsnet_hausdorff_settings;

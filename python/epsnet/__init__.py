@@ -37,7 +37,7 @@ Errors
 Threads
     The GIL is released while the library works, so calls on several Python
     threads run at once. threads= sets the library's own worker threads per
-    call (default: all cores).
+    call (default: the processors the process may use).
 """
 from __future__ import annotations
 
@@ -305,7 +305,7 @@ def simplify(
                     name texture_u/texture_v and nx/ny/nz), or one number for those.
                     At 1 an attribute error of 1 costs what a distance of the
                     bounding box diagonal does. Values stay the input's.
-    threads         library worker threads, 0 or None = all cores; the output does not depend on it
+    threads         library worker threads, 0 or None = the processors the process may use; the output does not depend on it
     passes          ε-net passes without a target (default 1); max_normal_dev: refuse collapses
                     that turn a face by more than this many degrees (default 60)
     seed, rotation  the Gaussian sphere's orientation (a random one from seed, or
@@ -506,7 +506,7 @@ def hausdorff(
     if isinstance(samples_per_face, bool) or not isinstance(samples_per_face, int) or not 1 <= samples_per_face <= 100000:
         raise ValueError(f"samples_per_face must be an integer in 1 .. 100000, not {samples_per_face!r}")
     if threads is not None and (not isinstance(threads, int) or threads < 0):
-        raise ValueError(f"threads must be 0 (all cores) or a positive integer, not {threads!r}")
+        raise ValueError(f"threads must be 0 (the processors the process may use) or a positive integer, not {threads!r}")
     va, fa = _vertices(a[0], "a's vertices"), _faces(a[1], "a's faces")
     vb, fb = _vertices(b[0], "b's vertices"), _faces(b[1], "b's faces")
     return _epsnet.hausdorff(va, fa, vb, fb, samples_per_face, int(seed), threads or 0)

@@ -65,7 +65,7 @@ def method(
 ) -> Dict[str, Any]:
     """The options every job shares (the CLI's method options)."""
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, numbers.Integral) or threads < 0):
-        raise ValueError(f"threads must be 0 (all cores) or a positive integer, not {threads!r}")
+        raise ValueError(f"threads must be 0 (the processors the process may use) or a positive integer, not {threads!r}")
     if seed is not None and rotation is not None:
         raise ValueError("give seed or rotation, not both")
     return {

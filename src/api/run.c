@@ -8,11 +8,12 @@
 #include "api/attr_weights_spec.h"
 #include "api/windows.h"
 #include "common/error.h"
+#include "common/thread.h"
 #include "common/util.h"
 
 int en_run_workers(const epsnet_settings *set)
 {
-    long n = set->threads > 0 ? set->threads : sysconf(_SC_NPROCESSORS_ONLN);
+    long n = set->threads > 0 ? set->threads : en_cpus_usable();
     if (n > 256)
         n = 256;
     /* One thread means the caller's own: slabs run inline, no pool threads. */
@@ -202,6 +203,19 @@ static void fill_budget_stats(epsnet_stats *st, const en_budget *b)
 int en_run_pool_new(en_pool **pool, const epsnet_settings *set, const char *path, epsnet_error *err)
 {
     int workers = en_run_workers(set);
+    int usable = en_cpus_usable();
+    if (set->warning && workers > usable) {
+        /* the threads would share fewer cores: slower than -j at the cores,
+         * and under mpirun (which binds each of two ranks or fewer to one
+         * core) easy to miss (bench/RESULTS.md, session 33) */
+        char msg[384];
+        snprintf(msg, sizeof msg,
+                 "-j %d starts %d worker threads, but this process may run on %d processor%s only (its CPU "
+                 "affinity: taskset, a container, Slurm, or mpirun, which binds each of two ranks or fewer to "
+                 "one core unless given --bind-to none); they will share %s",
+                 set->threads, workers, usable, usable == 1 ? "" : "s", usable == 1 ? "it" : "them");
+        set->warning(set->warning_opaque, msg);
+    }
     int rc = en_pool_new(pool, workers);
     if (rc == EPSNET_ENOMEM)
         return en_error_set(err, rc, path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");

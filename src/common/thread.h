@@ -12,4 +12,10 @@
 /* pthread_create with default attributes. @return 0 or an errno value. */
 int en_thread_create(pthread_t *t, void *(*fn)(void *), void *arg);
 
+/* The processors this process may run on (its CPU affinity: taskset, a
+ * container's cpuset, Slurm's --cpus-per-task, mpirun's binding), or
+ * those online where the system does not say; at least 1. The "all
+ * cores" of threads = 0. */
+int en_cpus_usable(void);
+
 #endif

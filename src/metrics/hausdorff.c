@@ -447,7 +447,7 @@ static void combine_chunks(const side_sums *partials, uint32_t n, const sample_p
 
 static int thread_count(int requested, uint32_t nchunks)
 {
-    long n = requested > 0 ? requested : sysconf(_SC_NPROCESSORS_ONLN);
+    long n = requested > 0 ? requested : en_cpus_usable();
     if (n < 1)
         n = 1;
     if (n > MAX_THREADS)

@@ -13,6 +13,7 @@
 #include "common/error.h"
 #include "common/hash64.h"
 #include "common/pool.h"
+#include "common/thread.h"
 #include "common/util.h"
 #include "io/format.h"
 #include "io/sink.h"
@@ -262,7 +263,7 @@ static long sort_workers(const sort_job *j)
 {
     if (j->shared) /* its threads; 0 runs jobs on this thread */
         return en_pool_threads(j->shared) > 1 ? en_pool_threads(j->shared) : 1;
-    long n = j->set.threads > 0 ? j->set.threads : sysconf(_SC_NPROCESSORS_ONLN);
+    long n = j->set.threads > 0 ? j->set.threads : en_cpus_usable();
     return n > 64 ? 64 : n;
 }
 
