@@ -52,7 +52,7 @@ typedef struct mpi_link {
  * machine whose ranks share cores (two ranks and their workers on two
  * cores, as in CI) that time is taken from the rank being waited for. So
  * a few quick tests, then tests further and further apart, from a tenth
- * of a millisecond up to one: a rank that waits for its next slab waits
+ * of a millisecond up to four: a rank that waits for its next slab waits
  * for most of a slab's time (tens of milliseconds), and each wake-up
  * takes a core from a worker for a moment (at a tenth of a millisecond
  * throughout, the workers of a two-rank run on two cores ran about a

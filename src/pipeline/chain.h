@@ -100,9 +100,9 @@ typedef struct en_chain_config {
     en_sample_fn on_sample;       /* SAMPLE: where samples go */
     void *sample_opaque;
     /* SIMPLIFY, on rank 0 of a run shared among processes
-     * (pipeline/peers.h): pass 1 ships the slabs en_peer_of_slab() deals
-     * to other ranks and takes their results back at retire; everything
-     * else runs here. NULL: one process. */
+     * (pipeline/peers.h): pass 1 ships slabs to the ranks with room for
+     * one (en_peer_pick) and takes their results back at retire;
+     * everything else runs here. NULL: one process. */
     en_peer_link *peers;
 } en_chain_config;
 

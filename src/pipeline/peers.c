@@ -309,7 +309,7 @@ static size_t sent_bytes(const section *x)
 
 /* Where a section's bytes travel from, or arrive in: the section itself,
  * or, when only its entries alive travel, the link's scratch (room for
- * `bytes`), which pack() fills and scatter() empties. NULL: out of memory. */
+ * `bytes`), which shuttle() fills or empties. NULL: out of memory. */
 static void *wire(en_peer_link *l, const section *x, size_t bytes)
 {
     if (!x->alive)
@@ -317,27 +317,16 @@ static void *wire(en_peer_link *l, const section *x, size_t bytes)
     return en_grow((void **)&l->scratch, &l->scratch_cap, bytes + 1, 1) ? NULL : l->scratch;
 }
 
-static void pack(const en_peer_link *l, const section *x)
+/* A section's entries alive to the link's scratch, in order (packing), or
+ * back from it. */
+static void shuttle(const en_peer_link *l, const section *x, int packing)
 {
     size_t entries = x->n / x->unit;
-    const uint8_t *src = x->p;
-    uint8_t *o = l->scratch;
-    for (size_t i = 0; i < entries; i++)
+    uint8_t *entry = x->p, *wire = l->scratch;
+    for (size_t i = 0; i < entries; i++, entry += x->unit)
         if (x->alive[i]) {
-            memcpy(o, src + i * x->unit, x->unit);
-            o += x->unit;
-        }
-}
-
-static void scatter(const en_peer_link *l, const section *x)
-{
-    size_t entries = x->n / x->unit;
-    const uint8_t *in = l->scratch;
-    uint8_t *dst = x->p;
-    for (size_t i = 0; i < entries; i++)
-        if (x->alive[i]) {
-            memcpy(dst + i * x->unit, in, x->unit);
-            in += x->unit;
+            memcpy(packing ? wire : entry, packing ? entry : wire, x->unit);
+            wire += x->unit;
         }
 }
 
@@ -387,7 +376,7 @@ int en_peer_send_slab(en_peer_link *l, const en_slab_work *cw, epsnet_error *err
         if (!from)
             return en_error_set(err, EPSNET_ENOMEM, l->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         if (sec[i].alive)
-            pack(l, &sec[i]);
+            shuttle(l, &sec[i], 1);
         rc = send_bytes(l, 0, from, sent[i], err);
     }
     return rc;
@@ -441,7 +430,7 @@ static int take_results(en_peer_link *l, int from, const en_peer_msg *m, en_slab
             return en_error_set(err, EPSNET_ENOMEM, l->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                                 "out of memory taking slab %u from rank %d", w->index, from);
         if ((rc = recv_bytes(l, from, into, sent[i], err)) == 0 && sec[i].alive)
-            scatter(l, &sec[i]);
+            shuttle(l, &sec[i], 0);
     }
     return rc;
 }
@@ -486,11 +475,6 @@ static int input_sections(en_slab_work *w, int grow, section *out)
 
 /* ---- rank 0 ---- */
 
-static shipped *out_of(en_peer_link *l, int r)
-{
-    return &l->out[r];
-}
-
 /* The oldest slab shipped to r whose results are not in yet: its place
  * after o->head (o->n: none). */
 static size_t first_missing(const shipped *o)
@@ -509,7 +493,7 @@ static int take(en_peer_link *l, int r, epsnet_error *err)
     int rc = recv_msg(l, r, &m, err);
     if (rc)
         return rc;
-    shipped *o = out_of(l, r);
+    shipped *o = &l->out[r];
     switch (m.type) {
     case MSG_WANT:
         if (l->waiting[r])
@@ -661,7 +645,7 @@ static int holder(const en_peer_link *l, const en_slab_work *w)
 
 int en_peer_ship(en_peer_link *l, int r, en_slab_work *w, epsnet_error *err)
 {
-    shipped *o = out_of(l, r);
+    shipped *o = &l->out[r];
     if (w->plan && w->plan->count_nranges)
         return en_error_set(err, EPSNET_EINTERNAL, l->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "a pricing pass's slab shipped to rank %d (a bug)", r);
@@ -718,7 +702,7 @@ int en_peer_recv_slab(en_peer_link *l, en_slab_work *w, epsnet_error *err)
     int r = holder(l, w);
     if (!r)
         return 0; /* rank 0's own */
-    shipped *o = out_of(l, r);
+    shipped *o = &l->out[r];
     if (o->w[o->head] != w)
         return en_error_set(err, EPSNET_EINTERNAL, l->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "slab %u was not the oldest shipped to rank %d (a bug)", w->index, r);

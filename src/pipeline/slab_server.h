@@ -4,7 +4,7 @@
  * threads, results back, until rank 0 says the run is over.
  *
  * It reads no input and holds a few slab works at most
- * (en_peer_slabs_held): one on each worker and one waiting, so that its
+ * (en_peer_slabs_held): one on each worker and two waiting, so that its
  * workers never wait for rank 0 while rank 0 cuts the next one.
  */
 #ifndef EN_PIPELINE_SLAB_SERVER_H

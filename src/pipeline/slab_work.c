@@ -47,13 +47,10 @@ void en_slab_work_free(en_slab_work *w)
 
 void en_slab_work_shed(en_slab_work *w)
 {
-#define SHED(f) en_free(w->f), w->f = NULL, w->cap.f = 0
-    SHED(fnormal), SHED(ftri), SHED(removable), SHED(bucket_of), SHED(avalue), SHED(vgvertex);
-#undef SHED
-    en_slab *s = &w->s;
-    en_free(s->star_start), en_free(s->star), en_free(s->star_fill), en_free(s->wedge);
-    s->star_start = s->star = s->star_fill = s->wedge = NULL;
-    s->cap_star_start = s->cap_star = s->cap_star_fill = s->cap_wedge = 0;
+    /* the rest of a run's scratch is lent for the run only (w->scratch) */
+    en_free(w->vgvertex);
+    w->vgvertex = NULL;
+    w->cap.vgvertex = 0;
 }
 
 uint64_t en_slab_work_bytes(const en_slab_work *w)
@@ -732,8 +729,8 @@ static int drop_membranes(en_slab_work *w)
     return w->rc = en_slab_build_stars(s) ? oom(w) : 0;
 }
 
-/* What a slab work's run uses and nothing reads after it: the arrays
- * en_slab_work_shed() frees but vgvertex (a sample run's retire reads it). */
+/* What a slab work's run uses and nothing reads after it (vgvertex stays
+ * the work's: a sample run's retire reads it). */
 typedef struct en_slab_scratch {
     double *fnormal, *avalue;
     int32_t *ftri;

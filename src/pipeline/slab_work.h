@@ -180,9 +180,10 @@ void en_slab_work_init(en_slab_work *w);
 void en_slab_work_reset(en_slab_work *w);
 /* Free everything (w is then as after en_slab_work_init). */
 void en_slab_work_free(en_slab_work *w);
-/* Free what only the worker uses (its scratch and the slab's stars): a
+/* Free what only a run uses and the slab work keeps (vgvertex; the rest
+ * of the worker's scratch is lent from w->scratch for the run only): a
  * slab work whose slab is worked elsewhere (pipeline/peers.h) holds only
- * its input and results. A later run grows them again. */
+ * its input and results. A later run grows it again. */
 void en_slab_work_shed(en_slab_work *w);
 /* The bytes w's arrays take, as allocated (its slab's included). */
 uint64_t en_slab_work_bytes(const en_slab_work *w);
