@@ -16,9 +16,9 @@ TMP = tempfile.mkdtemp(prefix="epsnet-cli-")
 failures = 0
 
 
-def run(*args, preexec=None, timeout=120):
+def run(*args, preexec=None, timeout=120, env=None):
     p = subprocess.run([EPSNET, *args], capture_output=True, text=True,
-                       preexec_fn=preexec, timeout=timeout)
+                       preexec_fn=preexec, timeout=timeout, env={**os.environ, **env} if env else None)
     return p.returncode, p.stdout, p.stderr
 
 
@@ -896,6 +896,24 @@ def attributes_round_trip_bit_for_bit():
     assert rc == 0, err
     names = ", ".join(f"vertex property {n}" for n, _ in props[3:])
     assert err.splitlines() == [f"warning: {src}: dropped: {names}"], err
+
+
+@case
+def spilled_faces_keep_their_bytes_past_two_to_the_32_vertices():
+    # the sort's temporary faces are 3 x 4 bytes while every vertex id fits in 32 bits and 3 x 8
+    # after (src/sort/sort.c: put_faces); EPSNET_FAIL_SORT_WIDE=N takes the N-th spilled face and
+    # those after it as past 2^32 vertices: both layouts and the switch between them, in the
+    # external passes with ranks in memory (1M) and in the fully external join (100K)
+    src = attributed_ply("wide.ply", faces=3000)
+    ref = path("wide_ref.ply")
+    assert run("sort", src, "-o", ref, "-q")[0] == 0
+    want = open(ref, "rb").read()
+    for mem in ("1M", "100K"):
+        for at in ("1", "1500", "2999"):
+            out = path(f"wide_{mem}_{at}.ply")
+            rc, _, err = run("sort", src, "-o", out, "--mem", mem, "-q", env={"EPSNET_FAIL_SORT_WIDE": at})
+            assert rc == 0 and err == "", (mem, at, err)
+            assert open(out, "rb").read() == want, f"--mem {mem}, wide from face {at}: other bytes"
 
 
 @case

@@ -11,6 +11,7 @@
 
 #include "common/alloc.h"
 #include "common/error.h"
+#include "common/fault.h"
 #include "common/hash64.h"
 #include "common/pool.h"
 #include "common/thread.h"
@@ -25,6 +26,11 @@
 #define PROGRESS_EVERY 0xffff
 #define PHASES 6
 #define PHASE_UNITS 1000
+
+/* EPSNET_FAIL_SORT_WIDE=N: the N-th face spilled in pass 1 and those after
+ * it are written as if past 2^32 vertices (put_faces), so that the tests
+ * see both layouts of the temporary faces and the switch between them */
+static en_fault wide_fault = EN_FAULT_INIT("EPSNET_FAIL_SORT_WIDE");
 
 void epsnet_sort_default_settings(epsnet_sort_settings *s)
 {
@@ -225,6 +231,8 @@ struct en_sort {
      * in the whole path's arrays. */
     epsnet_attr_layout attrs;
     size_t asz, aw, vrec;
+    size_t cbytes;               /* a coordinate's bytes in the spills: 4 for a float32 input, else 8 */
+    uint64_t fwide_from;         /* fraw: faces before this one hold 3 x 4 bytes, the rest 3 x 8 */
     int keep_attrs;              /* EN_SORT_KEEP_* | EN_SORT_DROP_NORMALS; 0: the consumer carries none */
     uint8_t *vbuf;               /* BATCH vertex records of vrec bytes */
     uint64_t *fbuf;              /* BATCH faces */
@@ -329,6 +337,23 @@ static uint64_t dbits(double d)
     return u;
 }
 
+/* Two floats in one word, as memcpy lays them (the first in the lower
+ * address). */
+static uint64_t fbits2(float x, float y)
+{
+    float f[2] = { x, y };
+    uint64_t u;
+    memcpy(&u, f, sizeof u);
+    return u;
+}
+
+/* Sorter V's item: key, id, coordinates (two words, or one of two floats),
+ * then the attribute words. */
+static size_t vert_words(const sort_job *j)
+{
+    return j->cbytes == sizeof(float) ? 3 : 4;
+}
+
 static double bitsd(uint64_t u)
 {
     double d;
@@ -372,17 +397,56 @@ static uint8_t *vrec_at(const sort_job *j, size_t i)
     return j->vbuf + i * j->vrec;
 }
 
+/* Its attribute bytes, after the coordinates. */
+static uint8_t *vrec_attr(const sort_job *j, size_t i)
+{
+    return vrec_at(j, i) + 3 * j->cbytes;
+}
+
+/* note: a float32 input's coordinates are floats from pass 1 on (read_xyz),
+ * so its records hold them as floats: the spills' vertices in half the
+ * bytes, and the same values (docs/architecture.md §13). */
 static void vrec_put(sort_job *j, size_t i, const double xyz[3], const uint8_t *attr)
 {
     uint8_t *p = vrec_at(j, i);
-    memcpy(p, xyz, 3 * sizeof *xyz);
+    if (j->cbytes == sizeof(float)) {
+        float f[3] = { (float)xyz[0], (float)xyz[1], (float)xyz[2] };
+        memcpy(p, f, sizeof f);
+    } else {
+        memcpy(p, xyz, 3 * sizeof *xyz);
+    }
     if (j->asz)
-        memcpy(p + 3 * sizeof *xyz, attr, j->asz);
+        memcpy(p + 3 * j->cbytes, attr, j->asz);
 }
 
 static void vrec_get(const sort_job *j, size_t i, double xyz[3])
 {
-    memcpy(xyz, vrec_at(j, i), 3 * sizeof *xyz);
+    const uint8_t *p = vrec_at(j, i);
+    if (j->cbytes == sizeof(float)) {
+        float f[3];
+        memcpy(f, p, sizeof f);
+        for (int k = 0; k < 3; k++)
+            xyz[k] = f[k];
+    } else {
+        memcpy(xyz, p, 3 * sizeof *xyz);
+    }
+}
+
+/* Write n faces of fbuf (3 old ids each, all below UINT32_MAX unless
+ * j->fwide_from was reached) to fraw: 3 x 4 bytes each before fwide_from,
+ * packed in place. */
+static int put_faces(sort_job *j, size_t n, epsnet_error *err)
+{
+    if (j->fwide_from != UINT64_MAX)
+        return en_spill_write(j->fraw, j->fbuf, n * 3 * sizeof *j->fbuf, err);
+    uint8_t *u = (uint8_t *)j->fbuf; /* (memcpy: the bytes change type in place) */
+    for (size_t i = 0; i < 3 * n; i++) {
+        uint64_t x; /* read before its bytes are written over: 4 i + 3 < 8 i for i > 0 */
+        memcpy(&x, u + 8 * i, sizeof x);
+        uint32_t y = (uint32_t)x;
+        memcpy(u + 4 * i, &y, sizeof y);
+    }
+    return en_spill_write(j->fraw, u, n * 3 * sizeof(uint32_t), err);
 }
 
 /* No longer whole: what was read goes to the spills, in input order. */
@@ -403,7 +467,7 @@ static int whole_spill(sort_job *j, epsnet_error *err)
         size_t n = j->tri_n - f < BATCH ? j->tri_n - f : BATCH;
         for (size_t i = 0; i < 3 * n; i++)
             j->fbuf[i] = j->tri[3 * f + i];
-        rc = en_spill_write(j->fraw, j->fbuf, n * 3 * sizeof *j->fbuf, err);
+        rc = put_faces(j, n, err);
         f += n;
     }
     en_free(j->xyz);
@@ -1078,7 +1142,7 @@ static int stretch_window(sort_job *j, uint64_t lo, uint64_t hi, uint64_t base, 
             double p[3];
             vrec_get(j, b, p);
             size_t l = (size_t)(r - lo), g = f;
-            rc = window_vertex(&w, l, p, j->asz ? vrec_at(j, b) + 3 * sizeof(double) : NULL, err);
+            rc = window_vertex(&w, l, p, j->asz ? vrec_attr(j, b) : NULL, err);
             for (; f < w.start[l] && rc == 0; f++)
                 rc = window_face(&w, w.faces + 3 * f, err);
             for (; g < w.start[l] && rc == 0; g++)
@@ -1137,6 +1201,27 @@ static int whole_window(en_sort *j, uint64_t lo, uint64_t hi, uint64_t base, en_
 
 /* ---- pass 1: read ---- */
 
+/* A vertex's coordinates as the stream will carry them: a float32 input's
+ * rounded to float here, once, as its .smz would hold them, so that every
+ * pass sorts and every record gives the values written (and the spills
+ * hold them in 4 bytes: vrec_put). */
+static int read_xyz(sort_job *j, const double in[3], double out[3], epsnet_error *err)
+{
+    for (int k = 0; k < 3; k++) {
+        if (j->cbytes == sizeof(double)) {
+            out[k] = in[k];
+            continue;
+        }
+        float f = (float)in[k];
+        if (isfinite(in[k]) && !isfinite(f))
+            return en_error_set(err, EPSNET_EUNSUPPORTED, j->in_path ? j->in_path : j->owner, EPSNET_POS_NONE,
+                                EPSNET_POS_NONE, "vertex %llu: coordinate %g does not fit in float32",
+                                (unsigned long long)j->st.vertices, in[k]);
+        out[k] = f;
+    }
+    return 0;
+}
+
 static int pass_read(sort_job *j, epsnet_error *err)
 {
     int rc;
@@ -1164,14 +1249,17 @@ static int pass_read(sort_job *j, epsnet_error *err)
                         j->hi[k] = rec->xyz[k];
                 }
                 j->st.vertices++;
+                double p[3];
+                if ((rc = read_xyz(j, rec->xyz, p, err)))
+                    return rc;
                 if (j->whole) {
-                    if ((rc = whole_vertex(j, rec->xyz, rec->attr, err)) < 0)
+                    if ((rc = whole_vertex(j, p, rec->attr, err)) < 0)
                         return rc;
                     if (rc == 0)
                         continue;
                     nb = 0; /* no longer whole: the vertex goes to the spill */
                 }
-                vrec_put(j, nb, rec->xyz, rec->attr);
+                vrec_put(j, nb, p, rec->attr);
                 if (++nb == BATCH) {
                     if ((rc = en_spill_write(j->vraw, j->vbuf, nb * j->vrec, err)))
                         return rc;
@@ -1186,9 +1274,17 @@ static int pass_read(sort_job *j, epsnet_error *err)
                         continue;
                     nf = 0;
                 }
+                if (j->fwide_from == UINT64_MAX && (rec->v[0] >= UINT32_MAX || rec->v[1] >= UINT32_MAX ||
+                                                    rec->v[2] >= UINT32_MAX || en_fault_hit(&wide_fault))) {
+                    /* past 2^32 vertices: the faces before it stay 3 x 4 bytes */
+                    if (nf && (rc = put_faces(j, nf, err)))
+                        return rc;
+                    nf = 0;
+                    j->fwide_from = j->st.faces - 1;
+                }
                 memcpy(j->fbuf + 3 * nf, rec->v, sizeof rec->v);
                 if (++nf == BATCH) {
-                    if ((rc = en_spill_write(j->fraw, j->fbuf, nf * 3 * sizeof *j->fbuf, err)))
+                    if ((rc = put_faces(j, nf, err)))
                         return rc;
                     nf = 0;
                 }
@@ -1200,21 +1296,35 @@ static int pass_read(sort_job *j, epsnet_error *err)
     if (j->whole)
         return 0;
     if ((nb && (rc = en_spill_write(j->vraw, j->vbuf, nb * j->vrec, err))) ||
-        (nf && (rc = en_spill_write(j->fraw, j->fbuf, nf * 3 * sizeof *j->fbuf, err))) ||
+        (nf && (rc = put_faces(j, nf, err))) ||
         (rc = en_spill_rewind(j->fraw, err)))
         return rc;
     return en_spill_rewind(j->vraw, err);
 }
 
-/* Read exactly want faces (3 old ids each) from j->fraw into buf. */
-static int read_faces(const sort_job *j, uint64_t *buf, size_t want, epsnet_error *err)
+/* Read exactly want faces, faces first.. of j->fraw, into buf (3 old ids
+ * each): those before fwide_from were written in 3 x 4 bytes (put_faces). */
+static int read_faces(const sort_job *j, uint64_t *buf, uint64_t first, size_t want, epsnet_error *err)
 {
-    int64_t got = en_spill_read(j->fraw, buf, want * 3 * sizeof *buf, err);
-    if (got < 0)
-        return (int)got;
-    if ((size_t)got != want * 3 * sizeof *buf)
+    uint64_t before = first < j->fwide_from ? j->fwide_from - first : 0;
+    size_t narrow = before < want ? (size_t)before : want;
+    uint8_t *b = (uint8_t *)buf;
+    size_t nbytes = narrow * 3 * sizeof(uint32_t), wbytes = (want - narrow) * 3 * sizeof *buf;
+    int64_t got = nbytes ? en_spill_read(j->fraw, b, nbytes, err) : 0, wgot = 0;
+    if (got >= 0 && wbytes)
+        wgot = en_spill_read(j->fraw, buf + 3 * narrow, wbytes, err);
+    if (got < 0 || wgot < 0)
+        return (int)(got < 0 ? got : wgot);
+    if ((size_t)got != nbytes || (size_t)wgot != wbytes)
         return en_error_set(err, EPSNET_EINTERNAL, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "temporary face file is short");
+    /* widened in place from the last: 8 i >= 4 i, and the ids above i are read */
+    for (size_t i = 3 * narrow; i-- > 0;) {
+        uint32_t y;
+        memcpy(&y, b + 4 * i, sizeof y);
+        uint64_t x = y;
+        memcpy(b + 8 * i, &x, sizeof x);
+    }
     return 0;
 }
 
@@ -1245,8 +1355,10 @@ static int pass_order(sort_job *j, epsnet_error *err)
             double p[3];
             vrec_get(j, i, p);
             uint64_t item[EN_EXTSORT_MAX_WORDS] = { order_key(p[a]), v, dbits(p[o1]), dbits(p[o2]) };
+            if (j->cbytes == sizeof(float))
+                item[2] = fbits2((float)p[o1], (float)p[o2]); /* three words, not four */
             if (j->asz)
-                memcpy(item + 4, vrec_at(j, i) + 3 * sizeof(double), j->asz);
+                memcpy(item + vert_words(j), vrec_attr(j, i), j->asz);
             if ((rc = en_extsort_add(j->verts, item, err)))
                 return rc;
         }
@@ -1281,9 +1393,16 @@ static int pass_rank(sort_job *j, epsnet_error *err)
     while ((rc = en_extsort_next(j->verts, item, err)) > 0) {
         double p[3];
         p[a] = order_value(item[0]);
-        p[o1] = bitsd(item[2]);
-        p[o2] = bitsd(item[3]);
-        vrec_put(j, nb, p, (const uint8_t *)(item + 4));
+        if (j->cbytes == sizeof(float)) {
+            float f[2];
+            memcpy(f, &item[2], sizeof f);
+            p[o1] = f[0];
+            p[o2] = f[1];
+        } else {
+            p[o1] = bitsd(item[2]);
+            p[o2] = bitsd(item[3]);
+        }
+        vrec_put(j, nb, p, (const uint8_t *)(item + vert_words(j)));
         uint64_t m[2] = { item[1], rank++ };
         if (j->in_core)
             ids[nb] = (uint32_t)item[1];
@@ -1326,7 +1445,7 @@ static int pass_relabel(sort_job *j, epsnet_error *err)
     uint64_t nfaces = j->st.faces;
     for (uint64_t f = 0; f < nfaces;) {
         size_t n = nfaces - f < BATCH ? (size_t)(nfaces - f) : BATCH;
-        if ((rc = read_faces(j, j->fbuf, n, err)))
+        if ((rc = read_faces(j, j->fbuf, f, n, err)))
             return rc;
         for (size_t i = 0; i < n; i++, f++)
             for (uint64_t s = 0; s < 3; s++) {
@@ -1402,6 +1521,7 @@ static int add_face(sort_job *j, const uint64_t r[3], epsnet_error *err)
 typedef struct relabel_job {
     sort_job *j;
     uint64_t *fb;                /* 3 n corners: written by the worker while in flight */
+    uint64_t first;              /* the first face's index */
     size_t n;
     epsnet_error err;            /* the worker's, read after retire */
 } relabel_job;
@@ -1410,7 +1530,7 @@ static int relabel_run(void *arg)
 {
     relabel_job *b = arg;
     sort_job *j = b->j;
-    int rc = read_faces(j, b->fb, b->n, &b->err);
+    int rc = read_faces(j, b->fb, b->first, b->n, &b->err);
     if (rc)
         return rc;
     /* note: on a shuffled input rank_of is read at random, one cache miss
@@ -1431,6 +1551,7 @@ static int relabel_run(void *arg)
 static int relabel_start(en_jobring *ring, relabel_job *b, uint64_t *next, uint64_t nf, int *busy)
 {
     b->n = nf - *next < BATCH ? (size_t)(nf - *next) : BATCH;
+    b->first = *next;
     *next += b->n;
     if (ring && en_jobring_submit(ring, relabel_run, b) == 0) {
         *busy = 1;
@@ -1576,22 +1697,13 @@ static int put_record(sort_job *j, epsnet_record_kind kind, uint64_t a, uint64_t
 }
 
 /* note: the records are those of the stream in the input's coordinate
- * type, as a .smz of it would give them back: float32 values rounded (and
- * refused when they do not fit, as the .smz writer refuses them), so that a
- * consumer fed directly sees what it would read from the sorted file. */
-static int emit_vertex(sort_job *j, const double xyz[3], const uint8_t *attr, uint64_t id, epsnet_error *err)
+ * type, as a .smz of it would give them back: a float32 input's values were
+ * rounded (or refused) in pass 1 (read_xyz), so that a consumer fed
+ * directly sees what it would read from the sorted file. */
+static int emit_vertex(sort_job *j, const double xyz[3], const uint8_t *attr, epsnet_error *err)
 {
     epsnet_record rec = { .kind = EPSNET_REC_VERTEX, .attr = j->asz ? attr : NULL };
     memcpy(rec.xyz, xyz, sizeof rec.xyz);
-    if (j->ct == EPSNET_COORD_FLOAT32)
-        for (int k = 0; k < 3; k++) {
-            float f = (float)xyz[k];
-            if (isfinite(xyz[k]) && !isfinite(f))
-                return en_error_set(err, EPSNET_EUNSUPPORTED, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                                    "vertex %llu: coordinate %g does not fit in float32",
-                                    (unsigned long long)id + 1, xyz[k]);
-            rec.xyz[k] = f;
-        }
     return j->emit(j->emit_opaque, &rec, err);
 }
 
@@ -1681,7 +1793,7 @@ static int whole_emit(sort_job *j, epsnet_error *err)
             j->st.unreferenced++;
             continue;
         }
-        if ((rc = emit_vertex(j, j->sxyz + 3 * rank, j->asz ? j->sattr + rank * j->asz : NULL, next_id, err)))
+        if ((rc = emit_vertex(j, j->sxyz + 3 * rank, j->asz ? j->sattr + rank * j->asz : NULL, err)))
             return rc;
         id[rank] = next_id++;
         fin[rank] = UINT32_MAX;
@@ -1858,7 +1970,7 @@ static int pass_emit(sort_job *j, epsnet_error *err)
             }
             double p[3];
             vrec_get(j, b, p);
-            if ((rc = emit_vertex(j, p, vrec_at(j, b) + 3 * sizeof(double), next_id, err)))
+            if ((rc = emit_vertex(j, p, vrec_attr(j, b), err)))
                 return rc;
             if (arrays) {
                 j->out_id[rank] = (uint32_t)next_id++;
@@ -1968,11 +2080,13 @@ static int open_job(sort_job *j, epsnet_error *err)
     j->attrs = epsnet_reader_info(j->r)->vertex_attrs;
     j->asz = j->attrs.size;
     j->aw = (j->asz + 7) / 8;
-    j->vrec = 3 * sizeof(double) + j->asz;
+    j->ct = epsnet_reader_info(j->r)->coord_type;
+    j->cbytes = j->ct == EPSNET_COORD_FLOAT32 ? sizeof(float) : sizeof(double);
+    j->vrec = 3 * j->cbytes + j->asz;
+    j->fwide_from = UINT64_MAX;
     j->vbuf = en_malloc(BATCH * j->vrec);
     if (!j->vbuf)
         return nomem(j, err);
-    j->ct = epsnet_reader_info(j->r)->coord_type;
     const epsnet_mesh_info *in = epsnet_reader_info(j->r);
     int counted = in->nverts != EPSNET_COUNT_UNKNOWN && in->nfaces != EPSNET_COUNT_UNKNOWN;
     /* note: a header that announces too much for memory sends the read to
@@ -1996,7 +2110,8 @@ static int open_job(sort_job *j, epsnet_error *err)
     if ((rc = en_spill_open_plain(&j->vraw, j->tmpdir, j->owner, err)) ||
         (rc = en_spill_open_plain(&j->fraw, j->tmpdir, j->owner, err)) ||
         (rc = en_spill_open_plain(&j->vsorted, j->tmpdir, j->owner, err)) ||
-        (rc = open_sorter(j, &j->corners, 2, 0, err)) || (rc = open_sorter(j, &j->verts, 4 + j->aw, 0, err)) ||
+        (rc = open_sorter(j, &j->corners, 2, 0, err)) ||
+        (rc = open_sorter(j, &j->verts, vert_words(j) + j->aw, 0, err)) ||
         (rc = open_sorter(j, &j->map, 2, 0, err)) || (rc = open_sorter(j, &j->joined, 2, 0, err)) ||
         (rc = open_sorter(j, &j->lastuse, 2, 0, err)))
         return rc;
