@@ -569,7 +569,8 @@ typedef struct epsnet_settings {
     double rotation[4];           /* quaternion (w, x, y, z) for QUATERNION */
     uint64_t seed;                /* for SEED, and for the rotations of ε-net passes. Default: 1 */
     /* Threads; 0 = every processor this process may run on (its CPU
-     * affinity: taskset, a container, Slurm, mpirun's binding). 1 runs
+     * affinity: taskset, a container, Slurm, mpirun's binding; no more
+     * than its cgroup's CPU quota gives: a container's --cpus). 1 runs
      * everything on the calling thread; N > 1 starts N workers for the
      * slabs while the calling thread reads, cuts, stitches and writes; more
      * than the processors it may use gets a warning. The output never

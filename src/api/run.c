@@ -211,8 +211,8 @@ int en_run_pool_new(en_pool **pool, const epsnet_settings *set, const char *path
         char msg[384];
         snprintf(msg, sizeof msg,
                  "-j %d starts %d worker threads, but this process may run on %d processor%s only (its CPU "
-                 "affinity: taskset, a container, Slurm, or mpirun, which binds each of two ranks or fewer to "
-                 "one core unless given --bind-to none); they will share %s",
+                 "affinity or its cgroup's CPU quota: taskset, a container, Slurm, or mpirun, which binds each "
+                 "of two ranks or fewer to one core unless given --bind-to none); they will share %s",
                  set->threads, workers, usable, usable == 1 ? "" : "s", usable == 1 ? "it" : "them");
         set->warning(set->warning_opaque, msg);
     }
