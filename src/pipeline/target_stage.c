@@ -584,10 +584,16 @@ int en_target_stage_price(en_target_stage *ts, const en_window_source *src, en_p
         /* The density first, from the windows' counts, without collapses
          * (a choice on slabs classifies its first slabs at the finest
          * candidate, whose samples would hold the windows above the
-         * target). At the coarsest, the skeleton alone is over what the
-         * target keeps: no ceiling gets there, the last round gives
-         * samples up. It reads the insides alone, each with the ring
-         * that completes its stars (a vertex's level is its own star's):
+         * target). At the coarsest, either the skeleton alone is over
+         * what the target keeps (no ceiling gets there, the last round
+         * gives samples up) or the share is small, and there a ceiling
+         * from the windows misleads: at 1% of `gen bumpy` 100M (the
+         * coarsest fits) it took the thinning to the target itself, no
+         * round, for 1.41 times the mean error of the unpriced rounds and
+         * 1.52 times the Hausdorff distance, in 0.68 times the time
+         * (bench/RESULTS.md, session 34): neither is priced. It reads
+         * the insides alone, each with the ring that completes its stars
+         * (a vertex's level is its own star's):
          * the margins are for the collapses' cuts. On `gen bumpy` 20M at
          * 10% that took it from 0.58 s to 0.31 s, the same frequency from
          * the same level shares (bench/RESULTS.md, session 19). */
