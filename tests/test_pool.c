@@ -311,44 +311,36 @@ TEST(a_timed_wait_tells_a_running_job_from_a_done_one)
 
 /* ---- a cgroup's CPU quota (common/thread.h: en_cgroup_cpus) ---- */
 
-/* root/rel with its folders made, holding text. */
+/* The private folder's root/rel, holding text, its folders made. */
 static void put_file(const char *root, const char *rel, const char *text)
 {
-    char path[1024];
-    snprintf(path, sizeof path, "%s/%s", root, rel);
-    for (char *p = path + strlen(root) + 1; (p = strchr(p, '/')); p++) {
+    char name[128];
+    snprintf(name, sizeof name, "%s/%s", root, rel);
+    for (char *p = name; (p = strchr(p, '/')); p++) {
         *p = '\0';
-        mkdir(path, 0700);
+        mkdir(tl_path(name), 0700);
         *p = '/';
     }
-    FILE *f = fopen(path, "w");
-    if (!f || fputs(text, f) < 0) {
-        perror(path);
-        exit(2);
-    }
-    fclose(f);
+    tl_write_str(name, text);
 }
 
 TEST(a_cgroup_quota_caps_the_processors_the_lowest_on_the_path_holding)
 {
     /* v2: the process's cgroup and its parent, each may set cpu.max */
-    char root[512];
-    snprintf(root, sizeof root, "%s", tl_path("cg2"));
-    mkdir(root, 0700);
+    const char *root = "cg2";
     put_file(root, "proc/self/cgroup", "0::/user.slice/job\n");
     put_file(root, "proc/self/mountinfo",
              "22 1 0:21 / /proc rw - proc proc rw\n29 23 0:26 / /sys/fs/cgroup rw,nosuid - cgroup2 cgroup2 rw\n");
     put_file(root, "sys/fs/cgroup/user.slice/job/cpu.max", "150000 100000\n");
     put_file(root, "sys/fs/cgroup/user.slice/cpu.max", "max 100000\n");
-    CHECK_EQ_INT(en_cgroup_cpus(root), 2); /* 1.5 processors' time: two threads */
+    CHECK_EQ_INT(en_cgroup_cpus(tl_path(root)), 2); /* 1.5 processors' time: two threads */
     put_file(root, "sys/fs/cgroup/user.slice/cpu.max", "100000 100000\n");
-    CHECK_EQ_INT(en_cgroup_cpus(root), 1); /* the parent's is lower */
+    CHECK_EQ_INT(en_cgroup_cpus(tl_path(root)), 1); /* the parent's is lower */
     put_file(root, "sys/fs/cgroup/user.slice/cpu.max", "max 100000\n");
     put_file(root, "sys/fs/cgroup/user.slice/job/cpu.max", "max 100000\n");
-    CHECK_EQ_INT(en_cgroup_cpus(root), 0); /* no quota */
+    CHECK_EQ_INT(en_cgroup_cpus(tl_path(root)), 0); /* no quota */
     /* v1 seen from a container: the mount's root is the process's own cgroup */
-    snprintf(root, sizeof root, "%s", tl_path("cg1"));
-    mkdir(root, 0700);
+    root = "cg1";
     put_file(root, "proc/self/cgroup", "5:memory:/docker/abc\n4:cpu,cpuacct:/docker/abc\n0::/\n");
     put_file(root, "proc/self/mountinfo",
              "35 31 0:31 /docker/abc /sys/fs/cgroup/memory ro - cgroup cgroup rw,memory\n"
@@ -356,9 +348,9 @@ TEST(a_cgroup_quota_caps_the_processors_the_lowest_on_the_path_holding)
     put_file(root, "sys/fs/cgroup/cpu,cpuacct/cpu.cfs_quota_us", "250000\n");
     put_file(root, "sys/fs/cgroup/cpu,cpuacct/cpu.cfs_period_us", "100000\n");
     put_file(root, "sys/fs/cgroup/memory/cpu.cfs_quota_us", "100000\n"); /* not the cpu controller's */
-    CHECK_EQ_INT(en_cgroup_cpus(root), 3);
+    CHECK_EQ_INT(en_cgroup_cpus(tl_path(root)), 3);
     put_file(root, "sys/fs/cgroup/cpu,cpuacct/cpu.cfs_quota_us", "-1\n");
-    CHECK_EQ_INT(en_cgroup_cpus(root), 0);
+    CHECK_EQ_INT(en_cgroup_cpus(tl_path(root)), 0);
     /* nothing to read: no quota, and the processors are the affinity's */
     CHECK_EQ_INT(en_cgroup_cpus(tl_path("no-such-root")), 0);
     CHECK(en_cpus_usable() >= 1);
@@ -375,5 +367,6 @@ int main(void)
     RUN(a_serial_ring_runs_its_jobs_one_at_a_time_in_order);
     RUN(a_timed_wait_tells_a_running_job_from_a_done_one);
     RUN(a_cgroup_quota_caps_the_processors_the_lowest_on_the_path_holding);
+    tl_cleanup();
     return tl_finish();
 }

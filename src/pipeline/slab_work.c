@@ -759,36 +759,31 @@ static void swap_scratch(en_slab_work *w, en_slab_scratch *x)
 {
 #define SWAP(a, b)                                                                                                    \
     do {                                                                                                              \
-        void *p_ = (void *)(a);                                                                                       \
-        (a) = (void *)(b);                                                                                            \
-        (b) = p_;                                                                                                     \
-    } while (0)
-#define SWAP_CAP(a, b)                                                                                                \
-    do {                                                                                                              \
-        size_t c_ = (a);                                                                                              \
-        (a) = (b);                                                                                                    \
-        (b) = c_;                                                                                                     \
+        _Static_assert(sizeof(a) == sizeof(b), "one type on both sides");                                            \
+        unsigned char t_[sizeof(a)];                                                                                  \
+        memcpy(t_, &(a), sizeof t_);                                                                                  \
+        memcpy(&(a), &(b), sizeof t_);                                                                                \
+        memcpy(&(b), t_, sizeof t_);                                                                                  \
     } while (0)
     SWAP(w->fnormal, x->fnormal);
-    SWAP_CAP(w->cap.fnormal, x->cap_fnormal);
+    SWAP(w->cap.fnormal, x->cap_fnormal);
     SWAP(w->avalue, x->avalue);
-    SWAP_CAP(w->cap.avalue, x->cap_avalue);
+    SWAP(w->cap.avalue, x->cap_avalue);
     SWAP(w->ftri, x->ftri);
-    SWAP_CAP(w->cap.ftri, x->cap_ftri);
+    SWAP(w->cap.ftri, x->cap_ftri);
     SWAP(w->removable, x->removable);
-    SWAP_CAP(w->cap.removable, x->cap_removable);
+    SWAP(w->cap.removable, x->cap_removable);
     SWAP(w->bucket_of, x->bucket_of);
-    SWAP_CAP(w->cap.bucket_of, x->cap_bucket_of);
+    SWAP(w->cap.bucket_of, x->cap_bucket_of);
     SWAP(w->s.star_start, x->star_start);
-    SWAP_CAP(w->s.cap_star_start, x->cap_star_start);
+    SWAP(w->s.cap_star_start, x->cap_star_start);
     SWAP(w->s.star, x->star);
-    SWAP_CAP(w->s.cap_star, x->cap_star);
+    SWAP(w->s.cap_star, x->cap_star);
     SWAP(w->s.star_fill, x->star_fill);
-    SWAP_CAP(w->s.cap_star_fill, x->cap_star_fill);
+    SWAP(w->s.cap_star_fill, x->cap_star_fill);
     SWAP(w->s.wedge, x->wedge);
-    SWAP_CAP(w->s.cap_wedge, x->cap_wedge);
+    SWAP(w->s.cap_wedge, x->cap_wedge);
 #undef SWAP
-#undef SWAP_CAP
 }
 
 static int run(en_slab_work *w);

@@ -1354,9 +1354,13 @@ static int pass_order(sort_job *j, epsnet_error *err)
         for (size_t i = 0; i < n; i++, v++) {
             double p[3];
             vrec_get(j, i, p);
-            uint64_t item[EN_EXTSORT_MAX_WORDS] = { order_key(p[a]), v, dbits(p[o1]), dbits(p[o2]) };
-            if (j->cbytes == sizeof(float))
+            uint64_t item[EN_EXTSORT_MAX_WORDS] = { order_key(p[a]), v };
+            if (j->cbytes == sizeof(float)) {
                 item[2] = fbits2((float)p[o1], (float)p[o2]); /* three words, not four */
+            } else {
+                item[2] = dbits(p[o1]);
+                item[3] = dbits(p[o2]);
+            }
             if (j->asz)
                 memcpy(item + vert_words(j), vrec_attr(j, i), j->asz);
             if ((rc = en_extsort_add(j->verts, item, err)))
