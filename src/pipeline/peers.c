@@ -47,7 +47,7 @@ struct en_peer_link {
     double cpu_start;             /* its own CPU seconds then (a sort before the pass is not counted) */
     double *worked;               /* per rank: the seconds its workers took over the slabs returned */
     uint64_t *returned;           /* ... and their count */
-    uint8_t *scratch;             /* a results array's entries alive, packed */
+    uint8_t *scratch;             /* rank r: a results array's entries alive, packed to be sent */
     size_t scratch_cap;
     int culprit;                  /* rank 0: a rank whose failing END stopped the run (0: none), */
     epsnet_error culprit_err;     /* ... in its own words */
@@ -192,7 +192,11 @@ static int unexpected(const en_peer_link *l, const en_peer_msg *m, const char *w
  * 20 MB above one process at 20M faces). The arrays of the vertices'
  * quadrics and of the faces' corners and normals carry only the entries
  * still alive, packed (the stitcher reads no other; about a tenth of them
- * on the default path), in order: valive and falive come before them. */
+ * on the default path), in order: valive and falive come before them.
+ * Rank 0 keeps them packed (en_slab_work.packed): the slab work shed its
+ * full-size ones when the slab was shipped, and scattered back into them
+ * the results waiting for the stitcher held about 11 MB a slab, most of
+ * rank 0's excess over one process (bench/RESULTS.md, session 35). */
 
 #define MAX_SECTIONS 24
 
@@ -201,6 +205,8 @@ typedef struct section {
     size_t n;                     /* bytes */
     const uint8_t *alive;         /* NULL, or per entry: only the ones alive travel */
     size_t unit;                  /* ... each of this many bytes */
+    void **packed;                /* rank 0, with alive: the array they arrive in, packed (p is set */
+    size_t *cap, size;            /* ... once it has room: its capacity, its element's bytes) */
 } section;
 
 #define SCALARS(X)                                                                                                    \
@@ -248,10 +254,21 @@ static int sections(en_slab_work *w, const head *h, int grow, section *out)
             return -1;                                                                                                \
         out[n++] = (section){ .p = (ptr), .n = (size_t)(count) * (size) };                                            \
     } while (0)
-#define ALIVE(mask, entries)                                                                                          \
+/* an array whose entries alive alone travel: rank 0 takes them packed */
+#define ALIVE(ptr, capf, count, esize, mask, entries)                                                                 \
     do {                                                                                                              \
-        out[n - 1].alive = (mask);                                                                                    \
-        out[n - 1].unit = out[n - 1].n / (entries);                                                                   \
+        out[n] = (section){ .p = grow ? NULL : (ptr), .n = (size_t)(count) * (esize) };                               \
+        if (entries) {                                                                                                \
+            out[n].alive = (mask);                                                                                    \
+            out[n].unit = out[n].n / (entries);                                                                       \
+            if (grow)                                                                                                 \
+                out[n].packed = (void **)&(ptr), out[n].cap = &(capf), out[n].size = (esize);                         \
+        } else if (grow && en_grow((void **)&(ptr), &(capf), 1, (esize))) {                                           \
+            return -1;                                                                                                \
+        } else {                                                                                                      \
+            out[n].p = (ptr);                                                                                         \
+        }                                                                                                             \
+        n++;                                                                                                          \
     } while (0)
 #define HIST(ptr, count)                                                                                              \
     do {                                                                                                              \
@@ -268,22 +285,13 @@ static int sections(en_slab_work *w, const head *h, int grow, section *out)
     ARRAY(w->future, w->cap.future, no, sizeof *w->future);
     ARRAY(w->border, w->cap.border, no, 1);
     ARRAY(w->band, w->cap.band, no, 1);
-    ARRAY(w->q, w->cap.q, no, sizeof *w->q);
-    if (no)
-        ALIVE(w->valive, no);
-    if (h->has[0]) {
-        ARRAY(w->aq, w->cap.aq, na * no, sizeof *w->aq);
-        if (no)
-            ALIVE(w->valive, no);
-    }
+    ALIVE(w->q, w->cap.q, no, sizeof *w->q, w->valive, no);
+    if (h->has[0])
+        ALIVE(w->aq, w->cap.aq, na * no, sizeof *w->aq, w->valive, no);
     out[n++] = (section){ .p = w->fflags, .n = nt }; /* compacted with the membranes' faces gone */
     ARRAY(w->falive, w->cap.falive, nt, 1);
-    ARRAY(w->tri, w->cap.tri, 3 * nt, sizeof *w->tri);
-    if (nt)
-        ALIVE(w->falive, nt);
-    ARRAY(w->ref, w->cap.ref, 3 * nt, sizeof *w->ref);
-    if (nt)
-        ALIVE(w->falive, nt);
+    ALIVE(w->tri, w->cap.tri, 3 * nt, sizeof *w->tri, w->falive, nt);
+    ALIVE(w->ref, w->cap.ref, 3 * nt, sizeof *w->ref, w->falive, nt);
     if (h->has[1])
         HIST(w->cost_hist, EN_COST_BUCKETS);
     if (h->has[2])
@@ -307,27 +315,24 @@ static size_t sent_bytes(const section *x)
     return alive * x->unit;
 }
 
-/* Where a section's bytes travel from, or arrive in: the section itself,
- * or, when only its entries alive travel, the link's scratch (room for
- * `bytes`), which shuttle() fills or empties. NULL: out of memory. */
-static void *wire(en_peer_link *l, const section *x, size_t bytes)
+/* Where a section's bytes travel from: the section itself, or, when only
+ * its entries alive travel, those packed in order into the link's scratch.
+ * NULL: out of memory. */
+static void *packed_from(en_peer_link *l, const section *x, size_t bytes)
 {
     if (!x->alive)
         return x->p;
-    return en_grow((void **)&l->scratch, &l->scratch_cap, bytes + 1, 1) ? NULL : l->scratch;
-}
-
-/* A section's entries alive to the link's scratch, in order (packing), or
- * back from it. */
-static void shuttle(const en_peer_link *l, const section *x, int packing)
-{
+    if (en_grow((void **)&l->scratch, &l->scratch_cap, bytes + 1, 1))
+        return NULL;
     size_t entries = x->n / x->unit;
-    uint8_t *entry = x->p, *wire = l->scratch;
+    const uint8_t *entry = x->p;
+    uint8_t *to = l->scratch;
     for (size_t i = 0; i < entries; i++, entry += x->unit)
         if (x->alive[i]) {
-            memcpy(packing ? wire : entry, packing ? entry : wire, x->unit);
-            wire += x->unit;
+            memcpy(to, entry, x->unit);
+            to += x->unit;
         }
+    return l->scratch;
 }
 
 static void put(uint8_t **at, const void *p, size_t n)
@@ -372,11 +377,9 @@ int en_peer_send_slab(en_peer_link *l, const en_slab_work *cw, epsnet_error *err
     for (int i = 0; i < n && rc == 0; i++) {
         if (!sent[i]) /* an empty array is not sent: both sides know it is */
             continue;
-        void *from = wire(l, &sec[i], sent[i]);
+        void *from = packed_from(l, &sec[i], sent[i]);
         if (!from)
             return en_error_set(err, EPSNET_ENOMEM, l->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
-        if (sec[i].alive)
-            shuttle(l, &sec[i], 1);
         rc = send_bytes(l, 0, from, sent[i], err);
     }
     return rc;
@@ -423,15 +426,16 @@ static int take_results(en_peer_link *l, int from, const en_peer_msg *m, en_slab
         /* a packed array's size follows from its mask, received before it */
         if (sent[i] != sent_bytes(&sec[i]))
             return not_this_slab(l, w, from, err);
-        if (!sent[i])
-            continue;
-        void *into = wire(l, &sec[i], sent[i]);
-        if (!into)
-            return en_error_set(err, EPSNET_ENOMEM, l->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
-                                "out of memory taking slab %u from rank %d", w->index, from);
-        if ((rc = recv_bytes(l, from, into, sent[i], err)) == 0 && sec[i].alive)
-            shuttle(l, &sec[i], 0);
+        if (sec[i].packed) {
+            if (en_grow(sec[i].packed, sec[i].cap, sent[i] / sec[i].size + 1, sec[i].size))
+                return en_error_set(err, EPSNET_ENOMEM, l->path, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                                    "out of memory taking slab %u from rank %d", w->index, from);
+            sec[i].p = *sec[i].packed;
+        }
+        if (sent[i])
+            rc = recv_bytes(l, from, sec[i].p, sent[i], err);
     }
+    w->packed = 1;
     return rc;
 }
 

@@ -47,10 +47,20 @@ void en_slab_work_free(en_slab_work *w)
 
 void en_slab_work_shed(en_slab_work *w)
 {
-    /* the rest of a run's scratch is lent for the run only (w->scratch) */
-    en_free(w->vgvertex);
-    w->vgvertex = NULL;
-    w->cap.vgvertex = 0;
+    /* (the rest of a run's scratch is lent for the run only: w->scratch;
+     * q, aq, tri and ref come back packed: en_slab_work.packed) */
+#define SHED(f)                                                                                                       \
+    do {                                                                                                              \
+        en_free(w->f);                                                                                                \
+        w->f = NULL;                                                                                                  \
+        w->cap.f = 0;                                                                                                 \
+    } while (0)
+    SHED(vgvertex);
+    SHED(q);
+    SHED(aq);
+    SHED(tri);
+    SHED(ref);
+#undef SHED
 }
 
 uint64_t en_slab_work_bytes(const en_slab_work *w)

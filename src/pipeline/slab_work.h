@@ -117,6 +117,10 @@ typedef struct en_slab_work {
     double *ref;                  /* SIMPLIFY: per face, input unit normal */
     uint32_t *tri;                /* SIMPLIFY: corners after the collapses */
     uint8_t *falive, *valive;
+    /* q, aq, tri and ref hold only the entries of the vertices (faces)
+     * alive, in order: a slab worked on another rank, whose results arrive
+     * so (pipeline/peers.c); the stitcher reads them in step. */
+    int packed;
     uint8_t *border;              /* EN_BORDER_* per owned vertex */
     uint32_t *future;             /* per owned vertex: alive faces whose home is a later slab */
     uint32_t *degree;             /* per owned vertex: alive faces around it */
@@ -181,9 +185,10 @@ void en_slab_work_reset(en_slab_work *w);
 /* Free everything (w is then as after en_slab_work_init). */
 void en_slab_work_free(en_slab_work *w);
 /* Free what only a run uses and the slab work keeps (vgvertex; the rest
- * of the worker's scratch is lent from w->scratch for the run only): a
- * slab work whose slab is worked elsewhere (pipeline/peers.h) holds only
- * its input and results. A later run grows it again. */
+ * of the worker's scratch is lent from w->scratch for the run only), and
+ * the full-size q, aq, tri and ref: a slab work whose slab is worked
+ * elsewhere (pipeline/peers.h) holds only its input and its results,
+ * packed. A later run grows them again. */
 void en_slab_work_shed(en_slab_work *w);
 /* The bytes w's arrays take, as allocated (its slab's included). */
 uint64_t en_slab_work_bytes(const en_slab_work *w);

@@ -653,8 +653,11 @@ static int take_vertices(en_stitcher *st, const en_slab_work *w, epsnet_error *e
 {
     if (en_grow((void **)&st->local, &st->local_cap, (size_t)w->s.nv + 1, sizeof *st->local))
         return oom(err);
+    uint32_t at = 0; /* l's entry in q and aq (en_slab_work.packed) */
     for (uint32_t l = 0; l < w->nowned; l++) {
         st->local[l] = UINT32_MAX;
+        uint32_t ql = w->packed ? at : l;
+        at += w->valive[l] != 0;
         if (!w->valive[l] || w->degree[l] == 0)
             continue; /* collapsed in the slab, or used by no face */
         uint32_t idx;
@@ -666,9 +669,9 @@ static int take_vertices(en_stitcher *st, const en_slab_work *w, epsnet_error *e
         if (st->attr_size && w->attr_size) /* the slab's bytes may lack the quadric this writes */
             memcpy(st->attr + (size_t)idx * st->attr_size, w->attr + (size_t)l * w->attr_size,
                    w->attr_size < st->attr_size ? w->attr_size : st->attr_size);
-        x->q = w->q[l];
+        x->q = w->q[ql];
         if (st->na && w->aq)
-            memcpy(st->aq + st->na * idx, w->aq + st->na * l, st->na * sizeof *st->aq);
+            memcpy(st->aq + st->na * idx, w->aq + st->na * ql, st->na * sizeof *st->aq);
         x->out = UINT64_MAX;
         x->take = st->takes;
         x->bucket = EN_COST_NONE;
@@ -713,10 +716,13 @@ static int take_vertices(en_stitcher *st, const en_slab_work *w, epsnet_error *e
 
 static int take_faces(en_stitcher *st, const en_slab_work *w, epsnet_error *err)
 {
+    size_t at = 0; /* f's entry in tri and ref (en_slab_work.packed) */
     for (uint32_t f = 0; f < w->s.nt; f++) {
+        size_t tf = w->packed ? at : f;
+        at += w->falive[f] != 0;
         if (!w->falive[f] || !(w->fflags[f] & EN_F_HOME))
             continue; /* collapsed away, or a later slab brings it */
-        const uint32_t *t = w->tri + 3 * (size_t)f;
+        const uint32_t *t = w->tri + 3 * tf;
         uint32_t p[3];
         int seam = !(w->fflags[f] & EN_F_INTERIOR);
         for (int j = 0; j < 3; j++) {
@@ -730,7 +736,7 @@ static int take_faces(en_stitcher *st, const en_slab_work *w, epsnet_error *err)
                 return oom(err);
             continue;
         }
-        if (add_seam_face(st, p, w->ref + 3 * (size_t)f))
+        if (add_seam_face(st, p, w->ref + 3 * tf))
             return oom(err);
         if (w->fflags[f] & EN_F_INTERIOR)
             continue;
