@@ -285,6 +285,40 @@ TEST(a_cad_part_with_seams_and_an_ordinary_mesh_give_one_process_bytes)
     check_same_bytes("cad ply", in, base_settings(600, 1));
 }
 
+/* A textured mesh, its texture coordinates weighed: the attribute
+ * quadrics travel with the quadrics, packed to the vertices alive, and
+ * rank 0's stitcher reads them packed (en_slab_work.packed). */
+TEST(weighed_texture_coordinates_give_one_process_bytes)
+{
+    char in[512];
+    snprintf(in, sizeof in, "%s", tl_path("atlas.smz"));
+    epsnet_gen_settings gs;
+    epsnet_gen_default_settings(&gs);
+    gs.shape = "bumpy";
+    gs.faces = 40000;
+    gs.seed = 3;
+    gs.charts = 8;
+    epsnet_mesh_info info;
+    epsnet_writer *w = NULL;
+    epsnet_error err;
+    int rc = epsnet_gen_info(&gs, &info, &err);
+    CHECK_EQ_INT(info.vertex_attrs.count, 2); /* texture_u, texture_v */
+    if (rc == 0)
+        rc = epsnet_writer_open(&w, in, NULL, &info, &err);
+    if (rc == 0)
+        rc = epsnet_gen(&gs, w, &err);
+    if (rc == 0)
+        rc = epsnet_writer_commit(&w, &err);
+    else
+        epsnet_writer_abort(&w);
+    CHECK_EQ_INT(rc, 0);
+    epsnet_settings set = base_settings(900, 1);
+    set.attribute_weights = "1";
+    check_same_bytes("weighed uv", in, set);
+    set.target_ratio = 0.1;
+    check_same_bytes("weighed uv, ratio 0.1", in, set);
+}
+
 /* One case of the above, for the thread sanitizer's build (CI time):
  * ranks and their workers at once. */
 TEST(three_ranks_of_two_workers_give_one_process_bytes)
@@ -473,6 +507,7 @@ int main(void)
     RUN_IF(the_default_path_gives_one_process_bytes_for_1_to_4_ranks);
     RUN_IF(a_size_gives_one_process_bytes_for_1_to_4_ranks);
     RUN_IF(a_cad_part_with_seams_and_an_ordinary_mesh_give_one_process_bytes);
+    RUN_IF(weighed_texture_coordinates_give_one_process_bytes);
     RUN_IF(three_ranks_of_two_workers_give_one_process_bytes);
     RUN_IF(a_damaged_input_fails_every_rank_with_its_message_and_leaves_nothing);
     RUN_IF(rank_0_failing_alone_stops_every_rank_and_is_named);
