@@ -331,9 +331,7 @@ static int worked_elsewhere(void *job)
 static int buffer_put(void *self, const epsnet_record *rec, epsnet_error *err)
 {
     en_pass *p = self;
-    if (p->direct)
-        return en_stage_put(&p->chain->cfg.out, rec, err);
-    if (p->here) {
+    if (p->direct || p->here) { /* (direct: the last pass, whose downstream is cfg.out) */
         en_stage next = downstream(p->chain, p->index);
         return en_stage_put(&next, rec, err);
     }

@@ -205,7 +205,7 @@ typedef struct section {
     size_t n;                     /* bytes */
     const uint8_t *alive;         /* NULL, or per entry: only the ones alive travel */
     size_t unit;                  /* ... each of this many bytes */
-    void **packed;                /* rank 0, with alive: the array they arrive in, packed (p is set */
+    void **packed;                /* rank 0: the array the entries alive arrive in, packed (p is set */
     size_t *cap, size;            /* ... once it has room: its capacity, its element's bytes) */
 } section;
 
@@ -258,16 +258,10 @@ static int sections(en_slab_work *w, const head *h, int grow, section *out)
 #define ALIVE(ptr, capf, count, esize, mask, entries)                                                                 \
     do {                                                                                                              \
         out[n] = (section){ .p = grow ? NULL : (ptr), .n = (size_t)(count) * (esize) };                               \
-        if (entries) {                                                                                                \
-            out[n].alive = (mask);                                                                                    \
-            out[n].unit = out[n].n / (entries);                                                                       \
-            if (grow)                                                                                                 \
-                out[n].packed = (void **)&(ptr), out[n].cap = &(capf), out[n].size = (esize);                         \
-        } else if (grow && en_grow((void **)&(ptr), &(capf), 1, (esize))) {                                           \
-            return -1;                                                                                                \
-        } else {                                                                                                      \
-            out[n].p = (ptr);                                                                                         \
-        }                                                                                                             \
+        if (entries)                                                                                                  \
+            out[n].alive = (mask), out[n].unit = out[n].n / (entries);                                                \
+        if (grow)                                                                                                     \
+            out[n].packed = (void **)&(ptr), out[n].cap = &(capf), out[n].size = (esize);                             \
         n++;                                                                                                          \
     } while (0)
 #define HIST(ptr, count)                                                                                              \
