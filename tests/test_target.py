@@ -224,6 +224,35 @@ def a_long_stream_is_thinned_under_a_ceiling_priced_from_windows():
 
 
 @case
+def a_small_share_at_the_coarsest_density_is_priced_higher():
+    """A share small enough that only the coarsest density's skeleton fits
+    (frequency 1) is still priced from the windows, the ceiling aimed
+    higher so that the thinning stops short of the target for the rounds
+    (docs/architecture.md §7): the size is exact and the bytes do not depend
+    on -j. A target under the coarsest skeleton's own samples is not priced,
+    and the last round gives samples up."""
+    tube = tube_ply(TMP, "priced_tube.ply", 24, 5000)
+    smz = path("priced_tube.smz")
+    if not os.path.exists(smz):
+        rc, _, err = run("sort", tube, "-o", smz, "-q")
+        assert rc == 0, err
+    outs = []
+    for j in ("1", "2"):
+        out = path(f"coarsest_{j}.ply")
+        s, _ = simplify(smz, out, "--ratio", "0.01", "--slab", "256", "-j", j)
+        t = s["target"]
+        assert s["gaussian_sphere"]["frequency"] == 1, s["gaussian_sphere"]
+        assert t["price_ceiling"] > 0 and t["price_vertices"] > 0, t
+        assert s["output_faces"] == t["faces"] == 2400, (s["output_faces"], t)
+        outs.append(open(out, "rb").read())
+    assert outs[0] == outs[1], "-j1 and -j2 differ"
+    s, _ = simplify(smz, path("coarsest_over.ply"), "--faces", "40", "--slab", "256")
+    t = s["target"]
+    assert t["price_ceiling"] == 0 and t["samples_given_up"] > 0, t
+    assert s["output_faces"] == 40, s["output_faces"]
+
+
+@case
 def a_bad_block_in_a_window_is_the_readers_to_report():
     """A corrupt block where a pricing window reads it: the run fails with
     the reader's message, where it is, as it does without a target (the

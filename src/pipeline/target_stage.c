@@ -511,6 +511,17 @@ void en_target_stage_plan_thin(const en_target_size *size, uint64_t nv, uint64_t
  *   after one round (aimed at 1.5: 1.002, 1.015 and 1.010 after two,
  *   8.6% more time on the bumpy .smz; at 1.35, 1.028 on the bumpy mesh,
  *   after two: a round's landing moves these by a few percent).
+ * - PRICE_AIM_COARSEST: at the coarsest density the share is small and
+ *   the windows, a few slabs of a stream whose surface is not stationary,
+ *   see too little of it. Aimed at 1.25 on `gen bumpy` 100M at 1%, the
+ *   ceiling took the thinning to the target itself, no round, for 1.41
+ *   times the mean error of the unpriced thinning and its rounds and 1.52
+ *   times the Hausdorff distance (session 34). Aimed at 4 and 8, four and
+ *   five rounds followed: 1.024 and 1.014 times the mean error, 0.98 and
+ *   1.05 times the Hausdorff distance, in 0.74 and 0.76 times the time;
+ *   on a 120K-vertex tube at 1% (slabs of 256), 1.28 and 1.02 times the
+ *   mean error, 1.22 and 0.89 times the Hausdorff distance (at 16: 1.00
+ *   and 1.02). Both went unpriced before (bench/RESULTS.md, session 36).
  * - PRICE_FLOOR and the pace: each slab keeps at least PRICE_FLOOR of the
  *   target's share of the inner vertices its collapses can reach
  *   (share_of_vertices), and W at least its pace to the target
@@ -533,6 +544,7 @@ void en_target_stage_plan_thin(const en_target_size *size, uint64_t nv, uint64_t
  */
 #define PRICE_DEEP 0.5
 #define PRICE_AIM 1.25
+#define PRICE_AIM_COARSEST 8.0
 #define PRICE_FLOOR 1.0
 
 double en_target_price_margin_widths(double share)
@@ -580,21 +592,18 @@ int en_target_stage_price(en_target_stage *ts, const en_window_source *src, en_p
     p.count_nranges = src->windows;
     en_chain_stats st;
     int rc = 0;
+    double aim = PRICE_AIM;
     if (p.skeleton == EN_SKELETON_CHOSEN) {
         /* The density first, from the windows' counts, without collapses
          * (a choice on slabs classifies its first slabs at the finest
          * candidate, whose samples would hold the windows above the
-         * target). At the coarsest, either the skeleton alone is over
-         * what the target keeps (no ceiling gets there, the last round
-         * gives samples up) or the share is small, and there a ceiling
-         * from the windows misleads: at 1% of `gen bumpy` 100M (the
-         * coarsest fits) it took the thinning to the target itself, no
-         * round, for 1.41 times the mean error of the unpriced rounds and
-         * 1.52 times the Hausdorff distance, in 0.68 times the time
-         * (bench/RESULTS.md, session 34): neither is priced. It reads
-         * the insides alone, each with the ring that completes its stars
-         * (a vertex's level is its own star's):
-         * the margins are for the collapses' cuts. On `gen bumpy` 20M at
+         * target). At the coarsest the share is small, and the ceiling is
+         * aimed higher (PRICE_AIM_COARSEST); when even its samples are
+         * over what the target keeps, no ceiling gets there (the windows
+         * price nothing, below) and the last round gives samples up. It
+         * reads the insides alone, each with the ring that completes
+         * its stars (a vertex's level is its own star's): the margins are
+         * for the collapses' cuts. On `gen bumpy` 20M at
          * 10% that took it from 0.58 s to 0.31 s, the same frequency from
          * the same level shares (bench/RESULTS.md, session 19). */
         en_pass_plan d = p;
@@ -610,9 +619,8 @@ int en_target_stage_price(en_target_stage *ts, const en_window_source *src, en_p
         d.skeleton_expected = src->inside_ring_vertices;
         d.count_ranges = src->inside_alone;
         if ((rc = price_chain(ts, src, 1, &d, &st, err)) == 0) {
-            if (st.skeleton_frequency <= 1)
-                return 0;
             p.finest_frequency = st.skeleton_frequency;
+            aim = st.skeleton_frequency <= 1 ? PRICE_AIM_COARSEST : PRICE_AIM;
         }
     }
     /* Then past the target, counting what each level takes. */
@@ -628,7 +636,7 @@ int en_target_stage_price(en_target_stage *ts, const en_window_source *src, en_p
      * counts); within its bucket, the costs taken as spread evenly on a
      * log scale. Windows that never get there (refusals, locks) price
      * nothing. */
-    double may_take = (double)src->inside_vertices * (1 - PRICE_AIM * size->share), taken = 0, part = 1;
+    double may_take = (double)src->inside_vertices * (1 - aim * size->share), taken = 0, part = 1;
     int top = 0;
     for (int b = 0; b < EN_COST_BUCKETS; b++) {
         if (!ts->hist_before[b])
