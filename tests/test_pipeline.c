@@ -1164,7 +1164,7 @@ static void copies_wait_for_one_slab(uint32_t slab)
 {
     enum { STRIP = 200 };
     en_chunker c;
-    CHECK_EQ_INT(en_chunker_init(&c, slab, "test"), 0);
+    CHECK_EQ_INT(en_chunker_init(&c, slab, 0, "test"), 0);
     c.attr_size = 4;
     uint32_t slabs = 0;
     int empty = 0;
@@ -1277,7 +1277,7 @@ static void tube_put(en_chunker *c, tube_run *tr, const epsnet_record *r)
 static void run_tube_slabs(tube_run *tr)
 {
     en_chunker c;
-    CHECK_EQ_INT(en_chunker_init(&c, TUBE_SLAB, "tube"), 0);
+    CHECK_EQ_INT(en_chunker_init(&c, TUBE_SLAB, 0, "tube"), 0);
     tr->collapses = tr->reach = 0;
     for (uint64_t k = 0; k <= TUBE_ALONG; k++) {
         for (uint64_t a = 0; k < TUBE_ALONG && a < TUBE_AROUND; a++) {
@@ -1321,11 +1321,101 @@ TEST(a_slabs_share_of_vertices_is_what_its_collapses_take)
     CHECK(faces.collapses < vertices.collapses);
 }
 
+/* A slab given `holds` owns what the slab before's ghosts left of it, so
+ * that it holds about `holds` vertices however wide the stream, and owns a
+ * quarter of it at least; without, it owns slab_vertices (chunker.h). A
+ * strip of `around` vertices a row, rows finalized one after the other:
+ * its slabs' ghosts are about the row before and the row after. */
+typedef struct cut_sizes {
+    uint32_t n, owned[64], all[64];
+} cut_sizes;
+
+static void cut_size(cut_sizes *z, en_slab_work *w)
+{
+    if (z->n < 64) {
+        z->owned[z->n] = w->nowned;
+        z->all[z->n] = w->s.nv;
+    }
+    z->n++;
+    en_slab_work_free(w);
+    en_free(w);
+}
+
+static void cut_strip(uint32_t around, uint32_t rows, uint32_t slab, uint32_t holds, cut_sizes *z)
+{
+    en_chunker c;
+    CHECK_EQ_INT(en_chunker_init(&c, slab, holds, "strip"), 0);
+    memset(z, 0, sizeof *z);
+    epsnet_error err;
+    en_slab_work *w = NULL;
+    for (uint64_t k = 0; k <= rows; k++) {
+        for (uint64_t a = 0; k < rows && a < around; a++) {
+            epsnet_record r = { .kind = EPSNET_REC_VERTEX, .xyz = { (double)a, (double)k, 0 } };
+            CHECK_EQ_INT(en_chunker_put(&c, &r, &w, &err), 0);
+        }
+        for (uint64_t a = 0; k > 0 && k < rows && a + 1 < around; a++) {
+            uint64_t p = (k - 1) * around + a, q = p + around;
+            epsnet_record f1 = { .kind = EPSNET_REC_TRIANGLE, .v = { p, p + 1, q } };
+            epsnet_record f2 = { .kind = EPSNET_REC_TRIANGLE, .v = { p + 1, q + 1, q } };
+            CHECK_EQ_INT(en_chunker_put(&c, &f1, &w, &err), 0);
+            CHECK(w == NULL);
+            CHECK_EQ_INT(en_chunker_put(&c, &f2, &w, &err), 0);
+            CHECK(w == NULL);
+        }
+        for (uint64_t a = 0; k > 0 && a < around; a++) {
+            epsnet_record f = { .kind = EPSNET_REC_FINALIZE, .v = { (k - 1) * around + a } };
+            CHECK_EQ_INT(en_chunker_put(&c, &f, &w, &err), 0);
+            if (w)
+                cut_size(z, w);
+        }
+    }
+    while ((w = finish_next(&c)) != NULL)
+        cut_size(z, w);
+    en_chunker_free(&c);
+}
+
+TEST(a_slab_given_holds_owns_what_its_ghosts_leave)
+{
+    cut_sizes z;
+    /* without: every slab but the last owns slab_vertices */
+    cut_strip(50, 60, 400, 0, &z);
+    CHECK(z.n >= 5 && z.n <= 64);
+    for (uint32_t k = 0; k + 1 < z.n; k++)
+        CHECK_EQ_INT((int)z.owned[k], 400);
+    CHECK(z.all[2] >= 500); /* two rows of ghosts besides */
+    /* with: the first owns slab_vertices, each after it what the one
+     * before's ghosts left of holds, and holds about that in all */
+    cut_strip(50, 60, 400, 400, &z);
+    CHECK(z.n >= 5 && z.n <= 64);
+    CHECK_EQ_INT((int)z.owned[0], 400);
+    uint32_t total = 0;
+    for (uint32_t k = 0; k < z.n; k++) {
+        total += z.owned[k];
+        if (k > 0 && k + 1 < z.n) {
+            CHECK_EQ_INT((int)z.owned[k], (int)(400 - (z.all[k - 1] - z.owned[k - 1])));
+            CHECK(z.all[k] <= 400 + 50); /* the width moves by a row at most */
+        }
+    }
+    CHECK_EQ_INT((int)total, 50 * 60);
+    /* a strip wider than a quarter of holds: slabs own the quarter where
+     * the ghosts leave less */
+    cut_strip(200, 25, 400, 400, &z);
+    CHECK(z.n >= 5 && z.n <= 64);
+    uint32_t floors = 0;
+    for (uint32_t k = 1; k + 1 < z.n; k++) {
+        uint32_t ghosts = z.all[k - 1] - z.owned[k - 1];
+        CHECK_EQ_INT((int)z.owned[k], ghosts < 300 ? (int)(400 - ghosts) : 100);
+        floors += z.owned[k] == 100;
+    }
+    CHECK(floors >= 3);
+}
+
 int main(void)
 {
     RUN(samples_equal_one_slab_for_any_slab_size);
     RUN(a_seam_pairs_copies_wait_for_one_slab);
     RUN(a_slabs_share_of_vertices_is_what_its_collapses_take);
+    RUN(a_slab_given_holds_owns_what_its_ghosts_leave);
     RUN(same_bytes_for_threads_1_2_3_8);
     RUN(seam_jobs_give_the_same_bytes_for_any_thread_count);
     RUN(damaged_smz_fails_alike_for_any_thread_count);

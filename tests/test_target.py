@@ -253,6 +253,32 @@ def a_small_share_at_the_coarsest_density_is_priced_higher():
 
 
 @case
+def a_sizes_slabs_hold_the_derived_size_in_all():
+    """Without --slab, a streamed size's slabs hold the derived slab size in
+    all, the corners they borrow from their neighbours included, so that
+    their memory does not grow with the stream's width; the default path's
+    slabs own it (docs/architecture.md §8). --mem 8M derives 1,747 vertices:
+    the default path gives the bytes of --slab 1747, and a size cuts more
+    slabs than --slab 1747 gives it, with a smaller active set, at the same
+    size."""
+    src = gen("bumpy", 200000, "hold_bumpy.smz")
+    got = {}
+    for slab in ((), ("--slab", "1747")):
+        for size in ((), ("--ratio", "0.1")):
+            out = path("hold_%d_%d.smz" % (len(slab), len(size)))
+            s, _ = simplify(src, out, "--mem", "8M", *slab, *size)
+            got[(slab, size)] = (s, open(out, "rb").read())
+    derived, fixed = got[((), ())], got[(("--slab", "1747"), ())]
+    assert derived[1] == fixed[1], "the default path's slabs depend on how their size was given"
+    derived, fixed = got[((), ("--ratio", "0.1"))][0], got[(("--slab", "1747"), ("--ratio", "0.1"))][0]
+    assert derived["slabs"] > 1.5 * fixed["slabs"], (derived["slabs"], fixed["slabs"])
+    assert derived["max_active"] < fixed["max_active"], (derived["max_active"], fixed["max_active"])
+    # (a closed mesh's face count is even: an odd target is met within one)
+    assert derived["output_faces"] == fixed["output_faces"], (derived["output_faces"], fixed["output_faces"])
+    assert abs(derived["output_faces"] - derived["target"]["faces"]) <= 1, (derived["output_faces"], derived["target"])
+
+
+@case
 def a_bad_block_in_a_window_is_the_readers_to_report():
     """A corrupt block where a pricing window reads it: the run fails with
     the reader's message, where it is, as it does without a target (the

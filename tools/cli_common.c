@@ -194,9 +194,9 @@ const char cli_method_help[] =
     "      --mem SIZE      memory budget, e.g. 512M, 4G; over it a run stops with\n"
     "                      a clear error (default: half the RAM); when given, it\n"
     "                      also sets the slab size\n"
-    "      --slab N        vertices per slab of the streaming pipeline (default:\n"
-    "                      from --mem, else 65536); the output depends on it, never\n"
-    "                      on --threads\n"
+    "      --slab N        vertices each slab of the streaming pipeline owns (default:\n"
+    "                      from --mem, else 65536; a size's slabs hold that many in\n"
+    "                      all); the output depends on it, never on --threads\n"
     "      --tmpdir DIR    folder for temporary files\n"
     "      --stats FILE    write statistics as JSON (- for stdout)\n";
 

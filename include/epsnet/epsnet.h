@@ -618,10 +618,13 @@ typedef struct epsnet_settings {
      * Default: 0. */
     int ascii;
     /* Streaming pipeline (docs/architecture.md §8): vertices owned by each slab. 0 = derive
-     * it from mem (mem / 4800, at least 1024), or 65536 without a budget.
-     * Slabs depend only on the input and this number, never on threads, so
-     * the output does not either. Smaller slabs use less memory; the
-     * samples are the same for every slab size. Default: 0. */
+     * it from mem (mem / 4800, at least 1024), or 65536 without a budget;
+     * a streamed size target's slabs then hold that many in all, the
+     * corners they borrow from their neighbours included (about two rows
+     * of the stream's width), so that its memory does not grow with the
+     * width. Slabs depend only on the input and this number, never on
+     * threads, so the output does not either. Smaller slabs use less
+     * memory; the samples are the same for every slab size. Default: 0. */
     uint32_t slab_vertices;
     /* Warnings that do not stop a run (docs/architecture.md §5): what the input holds that
      * the output does not carry ("in.ply: dropped: element camera (1)", see

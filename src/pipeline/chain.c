@@ -941,7 +941,7 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             for (size_t k = 0; k < p->nchunk; k++)
                 p->chunk[k].p = p;
         if ((p->batched && !p->chunk) ||
-            en_chunker_init(&p->ch, slab, cfg->path) ||
+            en_chunker_init(&p->ch, slab, cfg->slab_holds, cfg->path) ||
             en_stitcher_init(&p->st, cfg->max_normal_dev, (en_stage){ buffer_put, buffer_end, p }) ||
             en_jobring_new(&p->ring, pool, cfg->ring_capacity) ||
             (p->batched && en_jobring_new(&p->chunk_ring, pool, p->nchunk)) ||

@@ -68,7 +68,8 @@ typedef struct en_chain_config {
      * must outlive the chain). The carried block then holds each vertex's
      * attribute part after its quadric (slab_work.h). */
     const en_attr_weights *weights;
-    uint32_t slab_vertices;
+    uint32_t slab_vertices;       /* vertices a slab owns, at most, */
+    uint32_t slab_holds;          /* and 0, or its vertices in all (pipeline/chunker.h) */
     uint64_t mem_budget;          /* bytes the chain may hold beyond the reader's; 0: none */
     size_t ring_capacity;         /* slabs in flight per pass */
     /* The input records were checked before the chain (a reader front end,

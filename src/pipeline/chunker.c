@@ -7,11 +7,13 @@
 #include "common/error.h"
 #include "common/hash64.h"
 
-int en_chunker_init(en_chunker *c, uint32_t slab_vertices, const char *path)
+int en_chunker_init(en_chunker *c, uint32_t slab_vertices, uint32_t holds, const char *path)
 {
     memset(c, 0, sizeof *c);
     c->slab_vertices = slab_vertices ? slab_vertices : 1;
-    c->cut_at = c->slab_vertices;
+    c->holds = holds;
+    c->owns = c->slab_vertices;
+    c->cut_at = c->owns;
     c->path = path;
     c->mark_at = UINT32_MAX;
     c->mark_level = 0xff;
@@ -240,14 +242,32 @@ static int64_t hold_back_copies(en_chunker *c)
 }
 
 /* After a cut (or none, when every vertex waited): the waiting go first
- * into the next slab, which is due slab_vertices finalizations later, so
- * that waiting never makes cuts more frequent. */
+ * into the next slab, which is due `owns` finalizations later, so that
+ * waiting never makes cuts more frequent. */
 static void restore_waiting(en_chunker *c, size_t waiting)
 {
     if (waiting) /* c->waiting may never have been allocated */
         memcpy(c->fin + c->nfin, c->waiting, waiting * sizeof *c->fin);
     c->nfin += waiting;
-    c->cut_at = c->nfin + c->slab_vertices;
+    c->cut_at = c->nfin + c->owns;
+}
+
+/* With `holds`, the next slab owns what this one's ghosts left of it: the
+ * ghosts are about two rows of the stream's width, and the next slab's
+ * will be about as many, so that a slab holds about `holds` vertices in
+ * all however wide the stream. Its memory (stars, quadrics, results) goes
+ * by all its vertices: counting only the owned ones, a slab of gen bumpy
+ * at 100M faces held 86,018 vertices for 65,536 owned, at 20M 74,698, and
+ * the peak grew with the width (bench/RESULTS.md, session 36). It owns a
+ * quarter of `holds` at least, so that a stream wider than the slab still
+ * moves by slabs, not by a few vertices at a time. */
+static void next_owns(en_chunker *c, uint32_t ghosts)
+{
+    if (!c->holds)
+        return;
+    uint32_t floor = c->holds / 4 ? c->holds / 4 : 1;
+    uint32_t owns = ghosts < c->holds - floor ? c->holds - ghosts : floor;
+    c->owns = owns < c->slab_vertices ? owns : c->slab_vertices;
 }
 
 /* Cut the finalized vertices in c->fin into slab c->next_slab. */
@@ -337,6 +357,8 @@ static int cut(en_chunker *c, en_slab_work **out, epsnet_error *err)
         if (w->owner[l] >= 0 && c->v[c->pool_of[l]].nref == 0)
             rc = free_vertex(c, c->pool_of[l]);
     c->nfin = 0;
+    if (rc == 0)
+        next_owns(c, w->s.nv - w->nowned);
     restore_waiting(c, waiting);
     if (rc) {
         en_slab_work_free(w);

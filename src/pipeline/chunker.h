@@ -1,11 +1,14 @@
 /*
  * The chunker (docs/architecture.md §8): cuts a finalized streaming mesh into slabs.
  *
- * Slab k owns the next `slab_vertices` vertices to be finalized, in stream
- * order, and gets every face around them (the faces are all read by then,
- * since a vertex is finalized after its last face), with the faces' other
- * corners as ghosts. So cuts depend only on the stream and slab_vertices,
- * never on the thread count, and every owned vertex has its whole star.
+ * Slab k owns the next vertices to be finalized, in stream order, and gets
+ * every face around them (the faces are all read by then, since a vertex
+ * is finalized after its last face), with the faces' other corners as
+ * ghosts. It owns slab_vertices; or, given `holds`, what the slab before's
+ * ghosts left of it, so that a slab holds about `holds` vertices in all
+ * however wide the stream (and owns at least a quarter of it). So cuts
+ * depend only on the stream and those two numbers, never on the thread
+ * count, and every owned vertex has its whole star.
  *
  * Memory is the active set of the stream (paper Table 3): live vertices and
  * the faces that still have a corner not owned by a cut slab. Vertices still
@@ -38,7 +41,9 @@ typedef struct en_chunk_vertex {
 #define EN_OWNER_FINAL (-2)
 
 typedef struct en_chunker {
-    uint32_t slab_vertices;
+    uint32_t slab_vertices;    /* vertices a slab owns, at most */
+    uint32_t holds;            /* 0, or a slab's vertices in all, its ghosts included (about) */
+    uint32_t owns;             /* vertices the next slab owns (next_owns in chunker.c) */
     uint32_t mark_at;          /* where a vertex record's attribute bytes hold its marks
                                 * (EN_CARRIED_MARKS_AT), whose EN_MARK_SKELETON becomes
                                 * EN_V_SKELETON; UINT32_MAX: nowhere (the default) */
@@ -81,12 +86,12 @@ typedef struct en_chunker {
     en_u64map live_at;
     uint32_t *waiting;         /* scratch of a cut: the vertices that wait */
     size_t waiting_cap;
-    size_t cut_at;             /* cut when nfin reaches it: slab_vertices more than waited */
+    size_t cut_at;             /* cut when nfin reaches it: owns more than waited */
     uint64_t deferred;         /* finalized vertices a cut left for the next one */
 } en_chunker;
 
 /* @return 0 or EPSNET_ENOMEM. */
-int en_chunker_init(en_chunker *c, uint32_t slab_vertices, const char *path);
+int en_chunker_init(en_chunker *c, uint32_t slab_vertices, uint32_t holds, const char *path);
 void en_chunker_free(en_chunker *c);
 
 /*
