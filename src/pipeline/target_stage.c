@@ -603,11 +603,10 @@ int en_target_stage_price(en_target_stage *ts, const en_window_source *src, en_p
          * candidate, whose samples would hold the windows above the
          * target). At the coarsest the share is small, and the ceiling is
          * aimed higher (PRICE_AIM_COARSEST); when even its samples are
-         * over what the target keeps, no ceiling gets there (the windows
-         * price nothing, below) and the last round gives samples up. It
-         * reads the insides alone, each with the ring that completes
-         * its stars (a vertex's level is its own star's): the margins are
-         * for the collapses' cuts. On `gen bumpy` 20M at
+         * over what the target keeps, the last round gives samples up
+         * whatever the ceiling. It reads the insides alone, each with the
+         * ring that completes its stars (a vertex's level is its own
+         * star's): the margins are for the collapses' cuts. On `gen bumpy` 20M at
          * 10% that took it from 0.58 s to 0.31 s, the same frequency from
          * the same level shares (bench/RESULTS.md, session 19). */
         en_pass_plan d = p;
