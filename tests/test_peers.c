@@ -299,19 +299,10 @@ TEST(weighed_texture_coordinates_give_one_process_bytes)
     gs.seed = 3;
     gs.charts = 8;
     epsnet_mesh_info info;
-    epsnet_writer *w = NULL;
     epsnet_error err;
-    int rc = epsnet_gen_info(&gs, &info, &err);
+    CHECK_EQ_INT(epsnet_gen_info(&gs, &info, &err), 0);
     CHECK_EQ_INT(info.vertex_attrs.count, 2); /* texture_u, texture_v */
-    if (rc == 0)
-        rc = epsnet_writer_open(&w, in, NULL, &info, &err);
-    if (rc == 0)
-        rc = epsnet_gen(&gs, w, &err);
-    if (rc == 0)
-        rc = epsnet_writer_commit(&w, &err);
-    else
-        epsnet_writer_abort(&w);
-    CHECK_EQ_INT(rc, 0);
+    CHECK_EQ_INT(tl_gen_settings_file(in, &gs, &err), 0);
     epsnet_settings set = base_settings(900, 1);
     set.attribute_weights = "1";
     check_same_bytes("weighed uv", in, set);

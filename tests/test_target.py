@@ -41,6 +41,17 @@ def gen(shape, faces, name, *opts):
     return p
 
 
+def priced_tube():
+    """A tube long enough for a size's pricing windows (tests/meshes.py), as
+    an ASCII PLY and sorted into a .smz (once): their paths."""
+    tube = tube_ply(TMP, "priced_tube.ply", 24, 5000)
+    smz = path("priced_tube.smz")
+    if not os.path.exists(smz):
+        rc, _, err = run("sort", tube, "-o", smz, "-q")
+        assert rc == 0, err
+    return tube, smz
+
+
 def real_meshes():
     names = ("bun_zipper.ply.zst", "armadillo_decim100k.obj.zst", "fandisk.obj.zst")
     found = [os.path.join(DATA, n) for n in names if os.path.exists(os.path.join(DATA, n))]
@@ -158,11 +169,8 @@ def a_long_stream_is_thinned_under_a_ceiling_priced_from_windows():
     -j, and the skeleton is the one the same mesh gets unpriced (as SMB, a
     stream with no index, and with the pricing switched off). A ceiling
     priced far too high cannot take the thinning past the target."""
-    tube = tube_ply(TMP, "priced_tube.ply", 24, 5000)
+    tube, smz = priced_tube()
     shuffled = tube_ply(TMP, "priced_tube_shuffled.ply", 24, 5000, shuffle=True)
-    smz = path("priced_tube.smz")
-    rc, _, err = run("sort", tube, "-o", smz, "-q")
-    assert rc == 0, err
     priced = {}
     for src in (smz, shuffled):
         outs = []
@@ -231,11 +239,7 @@ def a_small_share_at_the_coarsest_density_is_priced_higher():
     (docs/architecture.md §7): the size is exact and the bytes do not depend
     on -j. A target under the coarsest skeleton's own samples is not priced,
     and the last round gives samples up."""
-    tube = tube_ply(TMP, "priced_tube.ply", 24, 5000)
-    smz = path("priced_tube.smz")
-    if not os.path.exists(smz):
-        rc, _, err = run("sort", tube, "-o", smz, "-q")
-        assert rc == 0, err
+    _, smz = priced_tube()
     outs = []
     for j in ("1", "2"):
         out = path(f"coarsest_{j}.ply")
@@ -283,11 +287,7 @@ def a_bad_block_in_a_window_is_the_readers_to_report():
     """A corrupt block where a pricing window reads it: the run fails with
     the reader's message, where it is, as it does without a target (the
     windows do not report it: they go without the pricing)."""
-    tube = tube_ply(TMP, "priced_tube.ply", 24, 5000)
-    smz = path("priced_tube.smz")
-    if not os.path.exists(smz):
-        rc, _, err = run("sort", tube, "-o", smz, "-q")
-        assert rc == 0, err
+    _, smz = priced_tube()
     data = bytearray(open(smz, "rb").read())
     # the second of the four windows is about 3/8 along the stream, and the
     # blocks are in stream order

@@ -255,8 +255,25 @@ static inline int tl_write_mesh(const char *path, const tl_mesh *m,
     return rc;
 }
 
-/* Generate a synthetic mesh into path (format from the extension); param NAN
- * means the shape's default. @return 0 or a negative code with err filled. */
+/* Generate the synthetic mesh gs describes into path (format from the
+ * extension). @return 0 or a negative code with err filled. */
+static inline int tl_gen_settings_file(const char *path, const epsnet_gen_settings *gs, epsnet_error *err)
+{
+    epsnet_mesh_info info;
+    epsnet_writer *w = NULL;
+    int rc = epsnet_gen_info(gs, &info, err);
+    if (rc == 0)
+        rc = epsnet_writer_open(&w, path, NULL, &info, err);
+    if (rc == 0)
+        rc = epsnet_gen(gs, w, err);
+    if (rc == 0)
+        return epsnet_writer_commit(&w, err);
+    epsnet_writer_abort(&w);
+    return rc;
+}
+
+/* The same for a shape, a size, a parameter (NAN: the shape's default), a
+ * seed and an order. */
 static inline int tl_gen_file(const char *path, const char *shape, uint64_t faces, double param, uint64_t seed,
                               int shuffle, epsnet_error *err)
 {
@@ -267,17 +284,7 @@ static inline int tl_gen_file(const char *path, const char *shape, uint64_t face
     gs.param = param;
     gs.seed = seed;
     gs.shuffle = shuffle;
-    epsnet_mesh_info info;
-    epsnet_writer *w = NULL;
-    int rc = epsnet_gen_info(&gs, &info, err);
-    if (rc == 0)
-        rc = epsnet_writer_open(&w, path, NULL, &info, err);
-    if (rc == 0)
-        rc = epsnet_gen(&gs, w, err);
-    if (rc == 0)
-        return epsnet_writer_commit(&w, err);
-    epsnet_writer_abort(&w);
-    return rc;
+    return tl_gen_settings_file(path, &gs, err);
 }
 
 /* Folder of the real meshes, or NULL (tests then skip with a message). */
