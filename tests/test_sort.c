@@ -398,21 +398,113 @@ TEST(in_memory_sort_gives_the_same_bytes_for_any_thread_count)
     CHECK(same_bytes(tl_path("whole_c.smz"), tl_path("whole_d.smz")));
 }
 
+/* A 200 x 100 grid along x with a quality per vertex, a vertex no face
+ * uses after every 37th, and a fan of 400 faces around a hub past the
+ * grid's end, the last corner of all of them; digits: how the coordinates
+ * are printed (6: floats, 17: doubles). */
+static const char *fan_grid_ply(const char *name, int digits, uint64_t *unused)
+{
+    enum { W = 200, H = 100, FAN = 400 };
+    const char *path = tl_path(name);
+    FILE *f = fopen(path, "w");
+    uint32_t *id = malloc(W * H * sizeof *id);
+    uint64_t nv = 0, extra = 0;
+    for (int k = 0; k < W * H; k++)
+        extra += k % 37 == 36;
+    fprintf(f, "ply\nformat ascii 1.0\nelement vertex %llu\nproperty double x\nproperty double y\n"
+               "property double z\nproperty float quality\nelement face %d\n"
+               "property list uchar int vertex_indices\nend_header\n",
+            (unsigned long long)(W * H + extra + FAN + 1), 2 * (W - 1) * (H - 1) + FAN);
+    for (int k = 0; k < W * H; k++) {
+        double x = k % W + 1e-7 * (k % 7), y = 0.5 * (k / W), z = 0.01 * ((k * 7919) % 13);
+        fprintf(f, "%.*g %.*g %.*g %d\n", digits, x, digits, y, digits, z, k % 251);
+        id[k] = (uint32_t)nv++;
+        if (k % 37 == 36) /* used by no face */
+            fprintf(f, "%.*g %.*g 3 %d\n", digits, x + 0.25, digits, y + 0.25, k % 5), nv++;
+    }
+    for (int i = 0; i < FAN; i++) {
+        double a = 6.283185307179586 * i / FAN;
+        fprintf(f, "%.*g %.*g %.*g %d\n", digits, 230 + 20 * cos(a), digits, 25 + 20 * sin(a), digits, -1.0, i);
+    }
+    fprintf(f, "300 25 -1 7\n"); /* the hub: the largest x, so every fan face's last corner */
+    for (int y = 0; y + 1 < H; y++)
+        for (int x = 0; x + 1 < W; x++) {
+            uint32_t a = id[y * W + x], b = id[y * W + x + 1], c = id[(y + 1) * W + x], d = id[(y + 1) * W + x + 1];
+            fprintf(f, "3 %u %u %u\n3 %u %u %u\n", a, b, d, a, d, c);
+        }
+    for (int i = 0; i < FAN; i++)
+        fprintf(f, "3 %llu %llu %llu\n", (unsigned long long)(nv + FAN), (unsigned long long)(nv + i),
+                (unsigned long long)(nv + (i + 1) % FAN));
+    fclose(f);
+    free(id);
+    *unused = extra;
+    return path;
+}
+
+/* Pass 6 in blocks on the workers (the whole path, and the external one
+ * with the last uses in memory) gives the live map's records (the external
+ * path without them): the same bytes, the same unused vertices left out
+ * and the same width, for any thread count, with attributes, with vertices
+ * no face uses, with float and double coordinates, and with a group of
+ * 400 faces sharing their last corner. */
+TEST(pass_6_in_blocks_gives_the_live_maps_stream)
+{
+    static const struct { uint64_t mem; int threads; } runs[] = {
+        { 256 << 10, 1 },         /* external, last uses in a sorter: the live map */
+        { (uint64_t)256 << 20, 1 }, { (uint64_t)256 << 20, 2 }, { (uint64_t)256 << 20, 3 }, /* whole */
+        { 4 << 20, 1 }, { 4 << 20, 2 }, { 4 << 20, 3 }, /* external, last uses in memory */
+    };
+    static const int digits[2] = { 6, 17 };
+    for (int d = 0; d < 2; d++) {
+        uint64_t unused = 0;
+        char in[512]; /* tl_path's buffers rotate */
+        snprintf(in, sizeof in, "%s", fan_grid_ply(d ? "fan17.ply" : "fan6.ply", digits[d], &unused));
+        epsnet_sort_stats first = { 0 };
+        for (size_t i = 0; i < sizeof runs / sizeof *runs; i++) {
+            epsnet_sort_settings s;
+            epsnet_sort_default_settings(&s);
+            s.mem = runs[i].mem;
+            s.threads = runs[i].threads;
+            s.tmpdir = tl_tmpdir();
+            s.axis = 0;
+            epsnet_sort_stats st;
+            epsnet_error err;
+            CHECK_EQ_INT(epsnet_sort_file(in, tl_path(i ? "fan_b.smz" : "fan_a.smz"), &s, &st, &err), 0);
+            CHECK_EQ_U64(st.unreferenced, unused);
+            CHECK_EQ_INT(st.temp_bytes == 0, runs[i].mem > (4 << 20));
+            if (i == 0) {
+                first = st;
+                continue;
+            }
+            CHECK_EQ_U64(st.max_width, first.max_width);
+            CHECK(same_bytes(tl_path("fan_a.smz"), tl_path("fan_b.smz")));
+        }
+        CHECK(first.max_width > 400); /* the fan's ring is live until the hub */
+    }
+}
+
 typedef struct record_list {
     epsnet_record *r;
     size_t n, cap;
 } record_list;
 
-static int collect_record(void *opaque, const epsnet_record *rec, epsnet_error *err)
+static int collect_record(void *opaque, const epsnet_record *recs, size_t n, epsnet_error *err)
 {
     (void)err;
     record_list *l = opaque;
-    if (l->n == l->cap) {
-        l->cap = l->cap ? 2 * l->cap : 1024;
-        l->r = realloc(l->r, l->cap * sizeof *l->r);
+    for (size_t i = 0; i < n; i++) {
+        if (l->n == l->cap) {
+            l->cap = l->cap ? 2 * l->cap : 1024;
+            l->r = realloc(l->r, l->cap * sizeof *l->r);
+        }
+        l->r[l->n++] = recs[i];
     }
-    l->r[l->n++] = *rec;
     return 0;
+}
+
+static int collect_one(void *opaque, const epsnet_record *rec, epsnet_error *err)
+{
+    return collect_record(opaque, rec, 1, err);
 }
 
 /* The sort as a stage (en_sort_emit) hands over exactly the records that
@@ -475,7 +567,7 @@ static uint32_t test_stretches(uint64_t total, uint64_t *lo, uint64_t *hi)
 static int window_records(en_sort *s, uint64_t lo, uint64_t hi, record_list *l, uint64_t *pushed, uint64_t *cut,
                           epsnet_error *err)
 {
-    en_stage into = { collect_record, NULL, l };
+    en_stage into = { collect_one, NULL, l };
     return en_sort_window(s, lo, hi, 7, &into, pushed, cut, err);
 }
 
@@ -736,6 +828,7 @@ int main(void)
     RUN(shared_meshes_keep_every_triangle);
     RUN(output_bytes_do_not_depend_on_the_budget);
     RUN(in_memory_sort_gives_the_same_bytes_for_any_thread_count);
+    RUN(pass_6_in_blocks_gives_the_live_maps_stream);
     RUN(emitted_records_are_those_of_the_sorted_file);
     RUN(windows_from_kept_stretches_are_those_of_the_arrays);
     RUN(never_finalizing_stream_hits_the_budget);

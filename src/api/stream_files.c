@@ -94,9 +94,9 @@ static void input_close(en_input *in)
         en_sort_close(&in->sort, &in->sorted);
 }
 
-static int run_put(void *self, const epsnet_record *rec, epsnet_error *err)
+static int run_put(void *self, const epsnet_record *recs, size_t n, epsnet_error *err)
 {
-    return en_run_put(self, rec, err);
+    return en_run_put_many(self, recs, n, err);
 }
 
 /* Push the input into the run, then end it. A sorted input's records leave
@@ -214,7 +214,6 @@ static int open_input(epsnet_context *ctx, const char *in_path, const epsnet_arr
     *sort_seconds = en_now() - t0;
     if (rc == 0) {
         en_sort_info(in->sort, &in->info);
-        en_sort_lean(in->sort); /* the chain's memory grows beside pass 6 */
     }
     return rc;
 }

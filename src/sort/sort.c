@@ -18,6 +18,7 @@
 #include "common/util.h"
 #include "io/format.h"
 #include "io/sink.h"
+#include "sort/emit_block.h"
 #include "sort/extsort.h"
 
 #define NONE UINT64_MAX
@@ -198,7 +199,6 @@ struct en_sort {
     en_spill *vsorted;           /* vertices in rank order */
     en_spill *fraw;              /* input faces (old ids), input order */
     int in_core;                 /* rank_of/last_of arrays fit the budget */
-    int lean;                    /* en_sort_lean(): pass 6 keeps no arrays over the ranks */
     int narrow;                  /* ranks fit 32 bits: sorter F's items are 2 words, not 4 */
     int whole;                   /* everything is in memory (see whole_fits) */
     double *xyz;                 /* whole: input vertices, 3 each */
@@ -210,7 +210,6 @@ struct en_sort {
     uint8_t *sattr;              /* whole: the same in rank order */
     uint32_t *fend;              /* whole: rank -> end of its faces in fitems */
     uint64_t *fitems;            /* whole: faces by (last corner, input order): see whole_faces */
-    uint32_t *out_id, *fin;      /* whole, and pass 6 in core: see whole_emit, emit_arrays */
     uint64_t whole_bytes;        /* accounted */
     en_pool *pool;               /* ours when not shared (start_pool); NULL = this thread */
     en_pool *shared;             /* the run's pool when given (not ours to free) */
@@ -1328,16 +1327,22 @@ static int read_faces(const sort_job *j, uint64_t *buf, uint64_t first, size_t w
     return 0;
 }
 
-/* Read exactly want vertex records from sp into j->vbuf. */
-static int read_vertices(sort_job *j, en_spill *sp, size_t want, epsnet_error *err)
+/* Read exactly want vertex records from sp into buf. */
+static int read_vertices_into(sort_job *j, en_spill *sp, uint8_t *buf, size_t want, epsnet_error *err)
 {
-    int64_t got = en_spill_read(sp, j->vbuf, want * j->vrec, err);
+    int64_t got = en_spill_read(sp, buf, want * j->vrec, err);
     if (got < 0)
         return (int)got;
     if ((size_t)got != want * j->vrec)
         return en_error_set(err, EPSNET_EINTERNAL, j->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "temporary vertex file is short");
     return 0;
+}
+
+/* Read exactly want vertex records from sp into j->vbuf. */
+static int read_vertices(sort_job *j, en_spill *sp, size_t want, epsnet_error *err)
+{
+    return read_vertices_into(j, sp, j->vbuf, want, err);
 }
 
 /* ---- pass 2: order the vertices along the axis ---- */
@@ -1697,7 +1702,7 @@ static int put_record(sort_job *j, epsnet_record_kind kind, uint64_t a, uint64_t
                       epsnet_error *err)
 {
     epsnet_record rec = { .kind = kind, .v = { a, b, c } };
-    return j->emit(j->emit_opaque, &rec, err);
+    return j->emit(j->emit_opaque, &rec, 1, err);
 }
 
 /* note: the records are those of the stream in the input's coordinate
@@ -1708,7 +1713,7 @@ static int emit_vertex(sort_job *j, const double xyz[3], const uint8_t *attr, ep
 {
     epsnet_record rec = { .kind = EPSNET_REC_VERTEX, .attr = j->asz ? attr : NULL };
     memcpy(rec.xyz, xyz, sizeof rec.xyz);
-    return j->emit(j->emit_opaque, &rec, err);
+    return j->emit(j->emit_opaque, &rec, 1, err);
 }
 
 /* Write the faces whose last corner is rank, finalizing each vertex after
@@ -1743,113 +1748,6 @@ static int emit_group(sort_job *j, uint64_t rank, size_t n, epsnet_error *err)
         }
     }
     return 0;
-}
-
-/* emit_group() over arrays of the ranks instead of the live map (see
- * pass_emit): the same records in the same order. */
-static int emit_group_arrays(sort_job *j, uint64_t rank, size_t n, uint64_t *live, epsnet_error *err)
-{
-    const uint32_t *last_of = j->last_of;
-    uint32_t *fin = j->fin, *id = j->out_id;
-    for (size_t i = n; i-- > 0;)
-        for (int s = 0; s < 3; s++) {
-            uint64_t c = j->group[5 * i + 2 + (size_t)s];
-            if (last_of[c] == rank && fin[c] == UINT32_MAX)
-                fin[c] = (uint32_t)i;
-        }
-    int rc;
-    for (size_t i = 0; i < n; i++) {
-        const uint64_t *f = j->group + 5 * i + 2;
-        if ((rc = put_record(j, EPSNET_REC_TRIANGLE, id[f[0]], id[f[1]], id[f[2]], err)))
-            return rc;
-        for (int s = 0; s < 3; s++) {
-            if ((s > 0 && f[s] == f[0]) || (s > 1 && f[s] == f[1]) || last_of[f[s]] != rank || fin[f[s]] != i)
-                continue;
-            if ((rc = put_record(j, EPSNET_REC_FINALIZE, id[f[s]], 0, 0, err)))
-                return rc;
-            --*live;
-        }
-    }
-    return 0;
-}
-
-/*
- * Pass 6 of the whole path: emit_group() and the live map again, but with
- * arrays over the ranks (new id, face of the group after which a vertex is
- * finalized), which are already within the budget; so the same records in
- * the same order, without a hash lookup per corner. A face's corners are
- * ranks no larger than its last corner, so each was written before it.
- */
-static int whole_emit(sort_job *j, epsnet_error *err)
-{
-    uint64_t nv = j->st.vertices, live = 0;
-    uint32_t next_id = 0;
-    int rc = whole_alloc(j, (void **)&j->out_id, nv, sizeof *j->out_id, err);
-    if (rc || (rc = whole_alloc(j, (void **)&j->fin, nv, sizeof *j->fin, err)))
-        return rc;
-    en_mem_take(&j->mem, 8 * nv);
-    const uint32_t *last_of = j->last_of;
-    uint32_t *fin = j->fin, *id = j->out_id;
-    for (uint64_t rank = 0; rank < nv; rank++) {
-        if (((rank + 1) & PROGRESS_EVERY) == 0 && (rc = progress(j, rank, nv, err)))
-            return rc;
-        if (last_of[rank] == UINT32_MAX) {
-            j->st.unreferenced++;
-            continue;
-        }
-        if ((rc = emit_vertex(j, j->sxyz + 3 * rank, j->asz ? j->sattr + rank * j->asz : NULL, err)))
-            return rc;
-        id[rank] = next_id++;
-        fin[rank] = UINT32_MAX;
-        if (++live > j->st.max_width)
-            j->st.max_width = live;
-        uint32_t start = rank ? j->fend[rank - 1] : 0, end = j->fend[rank];
-        for (uint32_t i = end; i-- > start;) {
-            const uint64_t *it = j->fitems + 2 * (size_t)i;
-            uint32_t c[3] = { (uint32_t)(it[0] >> 32), (uint32_t)it[1], (uint32_t)(it[1] >> 32) };
-            for (int s = 0; s < 3; s++)
-                if (last_of[c[s]] == rank && fin[c[s]] == UINT32_MAX)
-                    fin[c[s]] = i;
-        }
-        for (uint32_t i = start; i < end; i++) {
-            const uint64_t *it = j->fitems + 2 * (size_t)i;
-            uint32_t c[3] = { (uint32_t)(it[0] >> 32), (uint32_t)it[1], (uint32_t)(it[1] >> 32) };
-            if ((rc = put_record(j, EPSNET_REC_TRIANGLE, id[c[0]], id[c[1]], id[c[2]], err)))
-                return rc;
-            for (int s = 0; s < 3; s++) {
-                if ((s > 0 && c[s] == c[0]) || (s > 1 && c[s] == c[1]) || last_of[c[s]] != rank ||
-                    fin[c[s]] != i)
-                    continue;
-                if ((rc = put_record(j, EPSNET_REC_FINALIZE, id[c[s]], 0, 0, err)))
-                    return rc;
-                live--;
-            }
-        }
-    }
-    if (live)
-        return internal(j, "vertices left live at the end", err);
-    return progress(j, nv, nv, err);
-}
-
-/*
- * note: with ranks and last uses in core, and room for two more 32-bit
- * arrays over the ranks (new id, face of the group after which a vertex is
- * finalized) in half of the budget, those arrays stand for the live map, as
- * in whole_emit(): a face's corners are ranks close to its last corner, so
- * the arrays are read where they were just written, while the live map's
- * probes land anywhere in a table as wide as the stream.
- */
-static int emit_arrays(sort_job *j, epsnet_error *err)
-{
-    uint64_t nv = j->st.vertices;
-    if (!j->in_core || j->lean || 3 * nv * sizeof(uint32_t) > j->set.mem / 2)
-        return 0;
-    int rc = whole_alloc(j, (void **)&j->out_id, nv, sizeof *j->out_id, err);
-    if (rc || (rc = whole_alloc(j, (void **)&j->fin, nv, sizeof *j->fin, err)))
-        return rc;
-    j->arrays_bytes += 2 * nv * sizeof(uint32_t);
-    en_mem_take(&j->mem, 2 * nv * sizeof(uint32_t));
-    return 1;
 }
 
 static int fill_job(void *arg)
@@ -1949,14 +1847,194 @@ static void feed_close(sort_job *j, face_feed *fd)
     fd->bytes = 0;
 }
 
+/* ---- pass 6 in blocks of ranks (emit_block.h) ----
+ * note: with the last uses in memory, each block of EMIT_RANKS ranks is built
+ * into records by a job on any worker and handed on in rank order, so the
+ * calling thread only reads the block's vertices and faces and passes the
+ * records on (docs/architecture.md §13, "Pass 6 in blocks"). Blocks in
+ * flight: two a worker, one without workers (then each runs inline). */
+#define EMIT_BLOCKS_MAX 8
+#define EMIT_RANKS 1024          /* a block's ranks: a multiple of 64 (en_rank_ids_fill) */
+
+typedef struct emit_blocks {
+    en_pool *own;                /* a pool of no threads when the sort has none */
+    en_jobring *ring;
+    en_emit_block b[EMIT_BLOCKS_MAX];
+    uint8_t *vbuf[EMIT_BLOCKS_MAX]; /* external path: the block's vertex records */
+    uint64_t *items[EMIT_BLOCKS_MAX]; /* external path: its faces, 2 words each */
+    size_t items_cap[EMIT_BLOCKS_MAX];
+    size_t n;                    /* blocks */
+    size_t submitted, retired;
+    en_rank_ids ids;
+    int64_t live;                /* vertices handed on less those finalized */
+    uint64_t bytes;              /* accounted */
+} emit_blocks;
+
+static uint64_t blocks_bytes(const emit_blocks *e, const sort_job *j)
+{
+    uint64_t bytes = en_rank_ids_bytes(j->st.vertices);
+    for (size_t i = 0; i < e->n; i++)
+        bytes += en_emit_block_bytes(&e->b[i]) + (e->vbuf[i] ? EMIT_RANKS * j->vrec : 0) +
+                 e->items_cap[i] * 2 * sizeof(uint64_t);
+    return bytes;
+}
+
+static void blocks_account(emit_blocks *e, sort_job *j)
+{
+    uint64_t now = blocks_bytes(e, j);
+    if (now > e->bytes)
+        en_mem_take(&j->mem, now - e->bytes);
+    else
+        en_mem_give(&j->mem, e->bytes - now);
+    e->bytes = now;
+}
+
+/* Hand on the oldest block's records. */
+static int blocks_retire(sort_job *j, emit_blocks *e, int hand_on, epsnet_error *err)
+{
+    void *job;
+    int rc;
+    en_jobring_retire(e->ring, &job, &rc);
+    en_emit_block *b = job;
+    e->retired++;
+    if (rc == EPSNET_ENOMEM)
+        return nomem(j, err);
+    if (rc)
+        return internal(j, "a face of pass 6 is not in its block", err);
+    if (!hand_on)
+        return 0;
+    if ((uint64_t)(e->live + b->live_peak) > j->st.max_width)
+        j->st.max_width = (uint64_t)(e->live + b->live_peak);
+    e->live += b->live_delta;
+    blocks_account(e, j);
+    return b->nrecs ? j->emit(j->emit_opaque, b->recs, b->nrecs, err) : 0;
+}
+
+static void blocks_close(sort_job *j, emit_blocks *e)
+{
+    while (e->ring && e->retired < e->submitted)
+        blocks_retire(j, e, 0, NULL);
+    en_jobring_free(&e->ring, NULL);
+    en_pool_free(&e->own);
+    for (size_t i = 0; i < e->n; i++) {
+        en_emit_block_free(&e->b[i]);
+        en_free(e->vbuf[i]);
+        en_free(e->items[i]);
+    }
+    en_rank_ids_free(&e->ids);
+    en_mem_give(&j->mem, e->bytes);
+}
+
+static int blocks_open(sort_job *j, emit_blocks *e, int external, epsnet_error *err)
+{
+    memset(e, 0, sizeof *e);
+    en_pool *pool = sort_pool(j);
+    if (!pool && en_pool_new(&e->own, 0))
+        return nomem(j, err);
+    pool = pool ? pool : e->own;
+    long w = en_pool_threads(pool);
+    e->n = w < 1 ? 1 : 2 * (size_t)w > EMIT_BLOCKS_MAX ? EMIT_BLOCKS_MAX : 2 * (size_t)w;
+    if (en_jobring_new(&e->ring, pool, e->n) || en_rank_ids_init(&e->ids, j->st.vertices))
+        return nomem(j, err);
+    for (size_t i = 0; i < e->n; i++) {
+        e->b[i].last_of = j->last_of;
+        e->b[i].ids = &e->ids;
+        if (external && !(e->vbuf[i] = en_malloc(EMIT_RANKS * j->vrec)))
+            return nomem(j, err);
+    }
+    blocks_account(e, j);
+    return 0;
+}
+
+/* The external path's faces of ranks below end, from sorter F, into the
+ * block's own buffer. */
+static int blocks_items(sort_job *j, emit_blocks *e, size_t i, uint64_t end, epsnet_error *err)
+{
+    en_emit_block *b = &e->b[i];
+    size_t n = 0;
+    const uint64_t *f;
+    int rc;
+    while ((f = feed_peek(j, &j->feed, &rc, err)) && (f[0] & UINT32_MAX) < end) {
+        const face_fill *fill = &j->feed.fill[j->feed.cur];
+        size_t k = 0, avail = fill->n - j->feed.pos;
+        while (k < avail && (f[2 * k] & UINT32_MAX) < end)
+            k++;
+        if (en_grow((void **)&e->items[i], &e->items_cap[i], n + k, 2 * sizeof(uint64_t)))
+            return nomem(j, err);
+        memcpy(e->items[i] + 2 * n, f, k * 2 * sizeof *f);
+        n += k;
+        j->feed.pos += k;
+    }
+    if (rc < 0)
+        return rc;
+    b->items = e->items[i];
+    b->nitems = n;
+    return 0;
+}
+
+/*
+ * Pass 6 when the last uses are in memory (last_of): the whole path's
+ * arrays (vertices and faces by rank), or the external path's spill of
+ * vertices in rank order and sorter F's merge. The records are those of
+ * the live map's walk below (emit_group), in the same order.
+ */
+static int emit_blocks_run(sort_job *j, int external, epsnet_error *err)
+{
+    uint64_t nv = j->st.vertices;
+    emit_blocks e;
+    int rc = blocks_open(j, &e, external, err);
+    if (rc == 0 && external)
+        rc = feed_open(j, &j->feed, err);
+    for (uint64_t rank = 0; rc == 0 && rank < nv;) {
+        size_t nb = nv - rank < EMIT_RANKS ? (size_t)(nv - rank) : EMIT_RANKS, i = e.submitted % e.n;
+        if (e.submitted - e.retired == e.n && (rc = blocks_retire(j, &e, 1, err)))
+            break;
+        en_emit_block *b = &e.b[i];
+        b->rank0 = rank;
+        b->nranks = nb;
+        j->st.unreferenced += en_rank_ids_fill(&e.ids, j->last_of, rank, nb);
+        if (external) {
+            if ((rc = read_vertices_into(j, j->vsorted, e.vbuf[i], nb, err)) ||
+                (rc = blocks_items(j, &e, i, rank + nb, err)))
+                break;
+            b->xyz = e.vbuf[i];
+            b->xyz_stride = j->vrec;
+            b->xyz_float = j->cbytes == sizeof(float);
+            b->attr = j->asz ? e.vbuf[i] + 3 * j->cbytes : NULL;
+            b->attr_stride = j->vrec;
+        } else {
+            uint64_t start = rank ? j->fend[rank - 1] : 0, end = j->fend[rank + nb - 1];
+            b->items = j->fitems + 2 * start;
+            b->nitems = (size_t)(end - start);
+            b->xyz = (const uint8_t *)(j->sxyz + 3 * rank);
+            b->xyz_stride = 3 * sizeof(double);
+            b->xyz_float = 0;
+            b->attr = j->asz ? j->sattr + rank * j->asz : NULL;
+            b->attr_stride = j->asz;
+        }
+        if (en_jobring_submit(e.ring, en_emit_block_run, b)) {
+            rc = internal(j, "the worker refused a block of pass 6", err);
+            break;
+        }
+        e.submitted++;
+        rank += nb;
+        rc = progress(j, rank, nv, err);
+    }
+    while (rc == 0 && e.retired < e.submitted)
+        rc = blocks_retire(j, &e, 1, err);
+    if (rc == 0 && e.live)
+        rc = internal(j, "vertices left live at the end", err);
+    blocks_close(j, &e);
+    return rc;
+}
+
+/* Pass 6: in blocks when the last uses are in memory, else through the
+ * live map, as wide as the stream, with sorter LU's last uses. */
 static int pass_emit(sort_job *j, epsnet_error *err)
 {
-    if (j->whole)
-        return whole_emit(j, err);
-    uint64_t nv = j->st.vertices, next_id = 0, live = 0;
-    int arrays = emit_arrays(j, err);
-    if (arrays < 0)
-        return arrays;
+    if (j->whole || (j->in_core && j->narrow))
+        return emit_blocks_run(j, !j->whole, err);
+    uint64_t nv = j->st.vertices, next_id = 0;
     int rc = feed_open(j, &j->feed, err);
     if (rc)
         return rc;
@@ -1976,17 +2054,10 @@ static int pass_emit(sort_job *j, epsnet_error *err)
             vrec_get(j, b, p);
             if ((rc = emit_vertex(j, p, vrec_attr(j, b), err)))
                 return rc;
-            if (arrays) {
-                j->out_id[rank] = (uint32_t)next_id++;
-                j->fin[rank] = UINT32_MAX;
-                if (++live > j->st.max_width)
-                    j->st.max_width = live;
-            } else {
-                if (live_add(&j->live, rank, next_id++, last))
-                    return nomem(j, err);
-                if (j->live.count > j->st.max_width)
-                    j->st.max_width = j->live.count;
-            }
+            if (live_add(&j->live, rank, next_id++, last))
+                return nomem(j, err);
+            if (j->live.count > j->st.max_width)
+                j->st.max_width = j->live.count;
             size_t n = 0;
             const uint64_t *f;
             while ((f = feed_peek(j, &j->feed, &rc, err)) && (j->narrow ? f[0] & UINT32_MAX : f[0]) == rank) {
@@ -2008,13 +2079,13 @@ static int pass_emit(sort_job *j, epsnet_error *err)
             }
             if (rc < 0 || (rc = over_budget(j, err)))
                 return rc;
-            if (n && (rc = arrays ? emit_group_arrays(j, rank, n, &live, err) : emit_group(j, rank, n, err)))
+            if (n && (rc = emit_group(j, rank, n, err)))
                 return rc;
         }
         if ((rc = progress(j, rank, nv, err)))
             return rc;
     }
-    if (j->live.count || live)
+    if (j->live.count)
         return internal(j, "vertices left live at the end", err);
     return 0;
 }
@@ -2151,8 +2222,6 @@ static void close_job(sort_job *j)
     en_free(j->sxyz);
     en_free(j->fend);
     en_free(j->fitems);
-    en_free(j->out_id);
-    en_free(j->fin);
     en_jobring_free(&j->ring, NULL);
     en_pool_free(&j->pool);
     en_mem_give(&j->mem, j->arrays_bytes);
@@ -2226,11 +2295,6 @@ static int run_passes(sort_job *j, epsnet_error *err)
     j->phase = 5;
     rc = j->in_core ? pass_faces_in_core(j, err) : pass_faces(j, err);
     return rc ? rc : stretches_read_back(j, err);
-}
-
-void en_sort_lean(en_sort *s)
-{
-    s->lean = 1;
 }
 
 static int sort_open(en_sort **out, epsnet_reader *r, const char *in_path, const char *owner,
@@ -2342,9 +2406,12 @@ void en_sort_close(en_sort **pj, epsnet_sort_stats *stats)
     *pj = NULL;
 }
 
-static int writer_put(void *w, const epsnet_record *rec, epsnet_error *err)
+static int writer_put(void *w, const epsnet_record *recs, size_t n, epsnet_error *err)
 {
-    return epsnet_writer_put(w, rec, err);
+    int rc = 0;
+    for (size_t i = 0; i < n && rc == 0; i++)
+        rc = epsnet_writer_put(w, &recs[i], err);
+    return rc;
 }
 
 int epsnet_sort_file(const char *in_path, const char *out_path, const epsnet_sort_settings *settings,

@@ -56,7 +56,8 @@
  * passes (en_spill), in settings->tmpdir, else owner's folder.
  */
 typedef struct en_sort en_sort;
-typedef int (*en_sort_emit_fn)(void *opaque, const epsnet_record *rec, epsnet_error *err);
+/* n records, in order; their attr bytes are valid during the call only. */
+typedef int (*en_sort_emit_fn)(void *opaque, const epsnet_record *recs, size_t n, epsnet_error *err);
 
 /* owner: the output the sort serves, named in messages (and whose folder
  * holds the runs when settings->tmpdir is NULL). settings may be NULL.
@@ -92,11 +93,6 @@ int en_sort_open_reader(en_sort **s, epsnet_reader *r, const char *name, const c
 /* What the output stream will be: coord_type, streaming, sorted_axis, nfaces,
  * vertex_attrs. */
 void en_sort_info(const en_sort *s, epsnet_mesh_info *info);
-/* Before en_sort_emit(), when the consumer's memory grows beside the sort's
- * (the chain of a simplify run): pass 6 then keeps no arrays over the ranks
- * (sort.c: emit_arrays), which at 20M faces are 84 MB on top of the chain;
- * the live map stands for them, as wide as the stream. */
-void en_sort_lean(en_sort *s);
 /*
  * Windows of the sorted stream before pass 6 (a size's pricing pass,
  * docs/architecture.md §7), when the sort ran in memory (sort.c: whole) or
