@@ -1493,9 +1493,9 @@ static int pass_relabel(sort_job *j, epsnet_error *err)
 
 /* ---- pass 5: whole faces, and last uses ---- */
 
-static int add_face(sort_job *j, const uint64_t r[3], epsnet_error *err)
+/* A face into sorter F (and the stretches kept for windows). */
+static int add_face_item(sort_job *j, const uint64_t r[3], uint64_t last, epsnet_error *err)
 {
-    uint64_t last = max3(r);
     int rc = j->nkeep ? keep_face(j, r, last, err) : 0;
     if (rc)
         return rc;
@@ -1509,24 +1509,27 @@ static int add_face(sort_job *j, const uint64_t r[3], epsnet_error *err)
         face[0] = last | r[0] << 32;
         face[1] = r[1] | r[2] << 32;
     }
-    rc = en_extsort_add(j->faces, face, err);
+    return en_extsort_add(j->faces, face, err);
+}
+
+/* A face into sorter F, and its last corner as a last use of each corner
+ * into sorter LU (the external path; in core relabel_run keeps last_of). */
+static int add_face(sort_job *j, const uint64_t r[3], epsnet_error *err)
+{
+    uint64_t last = max3(r);
+    int rc = add_face_item(j, r, last, err);
     for (int s = 0; s < 3 && rc == 0; s++) {
-        if (j->in_core) {
-            uint32_t *l = &j->last_of[r[s]];
-            if (*l == UINT32_MAX || *l < last)
-                *l = (uint32_t)last;
-        } else {
-            uint64_t use[2] = { r[s], last };
-            rc = en_extsort_add(j->lastuse, use, err);
-        }
+        uint64_t use[2] = { r[s], last };
+        rc = en_extsort_add(j->lastuse, use, err);
     }
     return rc;
 }
 
-/* Pass 5 in core, one batch of faces: read from the input order and
- * relabelled through rank_of, on a worker while the calling thread adds
- * the batch before (pass_faces_in_core). The job touches only j->fraw
- * and its own buffer, and reads rank_of, which nothing writes then. */
+/* Pass 5 in core, one batch of faces: read from the input order,
+ * relabelled through rank_of, and its last uses kept in last_of, on a
+ * worker while the calling thread adds the batch before to sorter F
+ * (pass_faces_in_core). The job touches only j->fraw, its own buffer and
+ * last_of, which nothing else writes then, and reads rank_of. */
 typedef struct relabel_job {
     sort_job *j;
     uint64_t *fb;                /* 3 n corners: written by the worker while in flight */
@@ -1551,6 +1554,22 @@ static int relabel_run(void *arg)
             __builtin_prefetch(&j->rank_of[fb[i + 3 * PREFETCH]]);
         fb[i] = j->rank_of[fb[i]];
     }
+    /* note: the last uses too, here and not on the calling thread: a
+     * largest last corner does not depend on the order faces come in, and
+     * one batch is in flight at a time, so last_of has one writer (the
+     * random writes were a fifth of pass 5 on the calling thread, session 37) */
+    uint32_t *last_of = j->last_of;
+    for (size_t i = 0; i < b->n; i++) {
+        if (i + PREFETCH < b->n)
+            for (int s = 0; s < 3; s++)
+                __builtin_prefetch(&last_of[fb[3 * (i + PREFETCH) + (size_t)s]], 1);
+        uint32_t last = (uint32_t)max3(fb + 3 * i);
+        for (int s = 0; s < 3; s++) {
+            uint32_t *l = &last_of[fb[3 * i + (size_t)s]];
+            if (*l == UINT32_MAX || *l < last)
+                *l = last;
+        }
+    }
     return 0;
 }
 
@@ -1570,12 +1589,12 @@ static int relabel_start(en_jobring *ring, relabel_job *b, uint64_t *next, uint6
 }
 
 /* In core: the faces straight from the input order, relabelled through
- * rank_of; last uses go to last_of. note: the read and the relabelling
- * of batch k + 1 (the random reads of rank_of: on a shuffled 20M-face PLY
- * they were most of this pass on the calling thread) run on a worker while
- * this thread adds batch k to sorter F and last_of; the batches are added
- * in order, so the sorters see the same items in the same order for any
- * thread count. */
+ * rank_of; last uses go to last_of. note: the read, the relabelling and
+ * the last uses of batch k + 1 (the random reads of rank_of and writes of
+ * last_of: on a shuffled 20M-face PLY they were most of this pass on the
+ * calling thread) run on a worker while this thread adds batch k to sorter
+ * F; the batches are added in order, so the sorter sees the same items in
+ * the same order for any thread count. */
 static int pass_faces_in_core(sort_job *j, epsnet_error *err)
 {
     for (uint64_t v = 0; v < j->st.vertices; v++)
@@ -1605,12 +1624,8 @@ static int pass_faces_in_core(sort_job *j, epsnet_error *err)
             break;
         }
         const uint64_t *fb = b->fb;
-        for (size_t i = 0; i < b->n && rc == 0; i++, f++) {
-            if (i + PREFETCH < b->n)
-                for (int s = 0; s < 3; s++)
-                    __builtin_prefetch(&j->last_of[fb[3 * (i + PREFETCH) + (size_t)s]], 1);
-            rc = add_face(j, fb + 3 * i, err);
-        }
+        for (size_t i = 0; i < b->n && rc == 0; i++, f++)
+            rc = add_face_item(j, fb + 3 * i, max3(fb + 3 * i), err);
         if (rc == 0)
             rc = progress(j, f, nf, err);
     }
@@ -1867,26 +1882,21 @@ typedef struct emit_blocks {
     size_t submitted, retired;
     en_rank_ids ids;
     int64_t live;                /* vertices handed on less those finalized */
-    uint64_t bytes;              /* accounted */
+    uint64_t held[EMIT_BLOCKS_MAX]; /* a block's records, table and faces, as last accounted */
+    uint64_t bytes;              /* accounted in all */
 } emit_blocks;
 
-static uint64_t blocks_bytes(const emit_blocks *e, const sort_job *j)
+/* Account block i's bytes again: only once it is retired, when no job
+ * writes it (its records grow on the worker). */
+static void blocks_account(emit_blocks *e, sort_job *j, size_t i)
 {
-    uint64_t bytes = en_rank_ids_bytes(j->st.vertices);
-    for (size_t i = 0; i < e->n; i++)
-        bytes += en_emit_block_bytes(&e->b[i]) + (e->vbuf[i] ? EMIT_RANKS * j->vrec : 0) +
-                 e->items_cap[i] * 2 * sizeof(uint64_t);
-    return bytes;
-}
-
-static void blocks_account(emit_blocks *e, sort_job *j)
-{
-    uint64_t now = blocks_bytes(e, j);
-    if (now > e->bytes)
-        en_mem_take(&j->mem, now - e->bytes);
+    uint64_t now = en_emit_block_bytes(&e->b[i]) + e->items_cap[i] * 2 * sizeof(uint64_t);
+    if (now > e->held[i])
+        en_mem_take(&j->mem, now - e->held[i]);
     else
-        en_mem_give(&j->mem, e->bytes - now);
-    e->bytes = now;
+        en_mem_give(&j->mem, e->held[i] - now);
+    e->bytes += now - e->held[i];
+    e->held[i] = now;
 }
 
 /* Hand on the oldest block's records. */
@@ -1906,7 +1916,7 @@ static int blocks_retire(sort_job *j, emit_blocks *e, int hand_on, epsnet_error 
     if ((uint64_t)(e->live + b->live_peak) > j->st.max_width)
         j->st.max_width = (uint64_t)(e->live + b->live_peak);
     e->live += b->live_delta;
-    blocks_account(e, j);
+    blocks_account(e, j, (size_t)(b - e->b));
     return b->nrecs ? j->emit(j->emit_opaque, b->recs, b->nrecs, err) : 0;
 }
 
@@ -1942,7 +1952,8 @@ static int blocks_open(sort_job *j, emit_blocks *e, int external, epsnet_error *
         if (external && !(e->vbuf[i] = en_malloc(EMIT_RANKS * j->vrec)))
             return nomem(j, err);
     }
-    blocks_account(e, j);
+    e->bytes = en_rank_ids_bytes(j->st.vertices) + (external ? e->n * EMIT_RANKS * j->vrec : 0);
+    en_mem_take(&j->mem, e->bytes);
     return 0;
 }
 
