@@ -108,13 +108,30 @@ static void corners(const uint64_t *it, uint32_t c[3])
     c[2] = (uint32_t)(it[1] >> 32);
 }
 
+/* Whether face i is the last of the group's n faces (items) to use c. */
+static int last_user(const uint64_t *items, size_t n, size_t i, uint32_t c)
+{
+    for (size_t k = i + 1; k < n; k++) {
+        uint32_t d[3];
+        corners(items + 2 * k, d);
+        if (d[0] == c || d[1] == c || d[2] == c)
+            return 0;
+    }
+    return 1;
+}
+
+/* A group of at most this many faces is searched, not hashed: most groups
+ * hold one to three faces. */
+#define SMALL_GROUP 16
+
 /* The faces of rank's group, each followed by the finalizations it ends. */
 static int emit_group(en_emit_block *b, uint64_t rank, const uint64_t *items, size_t n)
 {
-    if (group_table(b, n) || room(b, 4 * n))
+    int small = n <= SMALL_GROUP;
+    if ((!small && group_table(b, n)) || room(b, 4 * n))
         return -1;
     const uint32_t *last_of = b->last_of;
-    for (size_t i = 0; i < n; i++) {
+    for (size_t i = 0; !small && i < n; i++) {
         uint32_t c[3];
         corners(items + 2 * i, c);
         for (int s = 0; s < 3; s++)
@@ -130,7 +147,7 @@ static int emit_group(en_emit_block *b, uint64_t rank, const uint64_t *items, si
         for (int s = 0; s < 3; s++) {
             if ((s > 0 && c[s] == c[0]) || (s > 1 && c[s] == c[1]) || last_of[c[s]] != rank)
                 continue;
-            if (slot(b, c[s])[2] != i)
+            if (small ? !last_user(items, n, i, c[s]) : slot(b, c[s])[2] != i)
                 continue;
             put(b, EPSNET_REC_FINALIZE, en_rank_id(b->ids, c[s]), 0, 0);
             b->live_delta--;
