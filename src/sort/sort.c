@@ -135,36 +135,37 @@ static uint64_t live_bytes(const live_map *m)
     return m->slots ? (uint64_t)(m->mask + 1) * sizeof *m->slots : 0;
 }
 
-/* ---- pass 6's faces, merged a block ahead on a worker ----
+/* ---- a sorter's final merge, a block ahead on a worker ----
  * note: the final merge of sorter F is most of what pass 6 does for the
- * sort itself (the rest is the consumer's: encoding the output). A worker
- * merges the next block of items into one buffer while the calling thread
- * walks the other, so the merge overlaps the consumer (docs/architecture.md
- * §10, §13). One fill is in flight at a time, on a one-slot ring, so the
- * sorter is only ever touched by one fill, and the blocks, hence the
- * items, come in the same order for any thread count. */
+ * sort itself (the rest is the consumer's: encoding the output), and that
+ * of sorter V a third of pass 3 on the calling thread (session 37). A
+ * worker merges the next block of items into one buffer while the calling
+ * thread walks the other, so the merge overlaps the walk
+ * (docs/architecture.md §10, §13). One fill is in flight at a time, on a
+ * one-slot ring, so the sorter is only ever touched by one fill, and the
+ * blocks, hence the items, come in the same order for any thread count. */
 #define FEED_ITEMS 16384
 
-typedef struct face_fill {
+typedef struct item_fill {
     /* Written by the calling thread before submit, read by the worker. */
-    en_extsort *faces;           /* touched only by the fill in flight */
+    en_extsort *sorter;          /* touched only by the fill in flight */
     uint64_t *buf;               /* FEED_ITEMS items: the worker writes them while in flight */
     size_t words;
     /* Written by the worker, read by the calling thread after retire. */
     size_t n;                    /* items filled; fewer than FEED_ITEMS: the sorter is drained */
     epsnet_error err;
-} face_fill;
+} item_fill;
 
 /* Calling thread only. */
-typedef struct face_feed {
+typedef struct item_feed {
     en_pool *pool;               /* ours (0 workers: inline) when the sort has none (sort_pool) */
     en_jobring *ring;            /* one slot */
-    face_fill fill[2];
+    item_fill fill[2];
     int cur;                     /* the block being walked: fill[cur] */
     size_t pos;                  /* its next item */
     int busy;                    /* fill[1 - cur] is in flight */
     uint64_t bytes;              /* accounted */
-} face_feed;
+} item_feed;
 
 /* ---- stretches kept for windows ----
  * note: a size's pricing pass walks a few windows of the sorted stream
@@ -238,7 +239,7 @@ struct en_sort {
     uint64_t *group;             /* faces of one last corner: 5 words each */
     size_t group_cap;
     live_map live;
-    face_feed feed;              /* pass 6: sorter F's items, a block ahead */
+    item_feed feed;              /* pass 3: sorter V's items, pass 6: sorter F's, a block ahead */
     en_sort_stretches_fn stretches; /* what to keep for en_sort_window (NULL: nothing) */
     stretch keep[EN_SORT_MAX_STRETCHES];
     uint32_t nkeep;
@@ -1345,6 +1346,102 @@ static int read_vertices(sort_job *j, en_spill *sp, size_t want, epsnet_error *e
     return read_vertices_into(j, sp, j->vbuf, want, err);
 }
 
+static int fill_job(void *arg)
+{
+    item_fill *f = arg;
+    int rc = 0;
+    f->n = 0;
+    while (f->n < FEED_ITEMS && (rc = en_extsort_next(f->sorter, f->buf + f->n * f->words, &f->err)) > 0)
+        f->n++;
+    return rc < 0 ? rc : 0;
+}
+
+static int feed_submit(sort_job *j, item_feed *fd, int which, epsnet_error *err)
+{
+    if (en_jobring_submit(fd->ring, fill_job, &fd->fill[which]))
+        return internal(j, "the worker refused a block of faces", err);
+    fd->busy = 1;
+    return 0;
+}
+
+/* A thread that cannot start leaves the merge to this one (fills then run
+ * inline, through the same code). */
+static int feed_open(sort_job *j, item_feed *fd, en_extsort *sorter, size_t words, epsnet_error *err)
+{
+    en_pool *pool = sort_pool(j);
+    if (!pool) {
+        int rc = en_pool_new(&fd->pool, sort_workers(j) > 1 ? 1 : 0);
+        if (rc && rc != EPSNET_ENOMEM)
+            rc = en_pool_new(&fd->pool, 0);
+        if (rc)
+            return nomem(j, err);
+        pool = fd->pool;
+    }
+    if (en_jobring_new(&fd->ring, pool, 1))
+        return nomem(j, err);
+    for (int b = 0; b < 2; b++) {
+        fd->fill[b] = (item_fill){ .sorter = sorter, .words = words };
+        if (!(fd->fill[b].buf = en_malloc(FEED_ITEMS * words * sizeof(uint64_t))))
+            return nomem(j, err);
+    }
+    fd->bytes = 2 * FEED_ITEMS * words * sizeof(uint64_t);
+    en_mem_take(&j->mem, fd->bytes);
+    fd->cur = 1; /* an empty block, whose successor is in flight */
+    fd->pos = 0;
+    return feed_submit(j, fd, 0, err);
+}
+
+/* Move to the block in flight, and start the next one after it unless the
+ * sorter is drained. @return 1, 0 at the end, or < 0. */
+static int feed_advance(sort_job *j, item_feed *fd, epsnet_error *err)
+{
+    if (!fd->busy)
+        return 0;
+    void *job;
+    int rc;
+    en_jobring_retire(fd->ring, &job, &rc);
+    fd->busy = 0;
+    fd->cur = 1 - fd->cur;
+    fd->pos = 0;
+    const item_fill *f = &fd->fill[fd->cur];
+    if (rc) {
+        if (err)
+            *err = f->err;
+        return rc;
+    }
+    if (f->n == FEED_ITEMS && (rc = feed_submit(j, fd, 1 - fd->cur, err)))
+        return rc;
+    return f->n > 0;
+}
+
+/* The next item of sorter F, or NULL at the end or on failure (*rc). */
+static const uint64_t *feed_peek(sort_job *j, item_feed *fd, int *rc, epsnet_error *err)
+{
+    *rc = 0;
+    if (fd->pos == fd->fill[fd->cur].n && (*rc = feed_advance(j, fd, err)) <= 0)
+        return NULL;
+    const item_fill *f = &fd->fill[fd->cur];
+    return f->buf + fd->pos * f->words;
+}
+
+static void feed_close(sort_job *j, item_feed *fd)
+{
+    if (fd->busy) {
+        void *job;
+        int rc;
+        en_jobring_retire(fd->ring, &job, &rc);
+        fd->busy = 0;
+    }
+    en_jobring_free(&fd->ring, NULL);
+    en_pool_free(&fd->pool);
+    for (int b = 0; b < 2; b++) {
+        en_free(fd->fill[b].buf);
+        fd->fill[b].buf = NULL;
+    }
+    en_mem_give(&j->mem, fd->bytes);
+    fd->bytes = 0;
+}
+
 /* ---- pass 2: order the vertices along the axis ---- */
 
 static int pass_order(sort_job *j, epsnet_error *err)
@@ -1394,12 +1491,14 @@ static void rank_batch(sort_job *j, const uint32_t *ids, size_t n, uint64_t firs
 static int pass_rank(sort_job *j, epsnet_error *err)
 {
     int a = j->axis, o1 = (a + 1) % 3, o2 = (a + 2) % 3;
-    uint64_t item[EN_EXTSORT_MAX_WORDS];
+    const uint64_t *item;
     uint32_t ids[BATCH];         /* in core: the batch's old ids, ranked at the flush */
     size_t nb = 0;
     uint64_t rank = 0;
-    int rc;
-    while ((rc = en_extsort_next(j->verts, item, err)) > 0) {
+    int rc = feed_open(j, &j->feed, j->verts, vert_words(j) + j->aw, err);
+    while (rc == 0 && (item = feed_peek(j, &j->feed, &rc, err))) {
+        rc = 0; /* 1: the peek moved to the next block */
+        j->feed.pos++;
         double p[3];
         p[a] = order_value(item[0]);
         if (j->cbytes == sizeof(float)) {
@@ -1427,6 +1526,7 @@ static int pass_rank(sort_job *j, epsnet_error *err)
             nb = 0;
         }
     }
+    feed_close(j, &j->feed); /* before the sorter: a fill in flight uses it */
     if (rc < 0)
         return rc;
     if (nb && j->in_core)
@@ -1765,102 +1865,6 @@ static int emit_group(sort_job *j, uint64_t rank, size_t n, epsnet_error *err)
     return 0;
 }
 
-static int fill_job(void *arg)
-{
-    face_fill *f = arg;
-    int rc = 0;
-    f->n = 0;
-    while (f->n < FEED_ITEMS && (rc = en_extsort_next(f->faces, f->buf + f->n * f->words, &f->err)) > 0)
-        f->n++;
-    return rc < 0 ? rc : 0;
-}
-
-static int feed_submit(sort_job *j, face_feed *fd, int which, epsnet_error *err)
-{
-    if (en_jobring_submit(fd->ring, fill_job, &fd->fill[which]))
-        return internal(j, "the worker refused a block of faces", err);
-    fd->busy = 1;
-    return 0;
-}
-
-/* A thread that cannot start leaves the merge to this one (fills then run
- * inline, through the same code). */
-static int feed_open(sort_job *j, face_feed *fd, epsnet_error *err)
-{
-    size_t words = j->narrow ? 2 : 4;
-    en_pool *pool = sort_pool(j);
-    if (!pool) {
-        int rc = en_pool_new(&fd->pool, sort_workers(j) > 1 ? 1 : 0);
-        if (rc && rc != EPSNET_ENOMEM)
-            rc = en_pool_new(&fd->pool, 0);
-        if (rc)
-            return nomem(j, err);
-        pool = fd->pool;
-    }
-    if (en_jobring_new(&fd->ring, pool, 1))
-        return nomem(j, err);
-    for (int b = 0; b < 2; b++) {
-        fd->fill[b] = (face_fill){ .faces = j->faces, .words = words };
-        if (!(fd->fill[b].buf = en_malloc(FEED_ITEMS * words * sizeof(uint64_t))))
-            return nomem(j, err);
-    }
-    fd->bytes = 2 * FEED_ITEMS * words * sizeof(uint64_t);
-    en_mem_take(&j->mem, fd->bytes);
-    fd->cur = 1; /* an empty block, whose successor is in flight */
-    fd->pos = 0;
-    return feed_submit(j, fd, 0, err);
-}
-
-/* Move to the block in flight, and start the next one after it unless the
- * sorter is drained. @return 1, 0 at the end, or < 0. */
-static int feed_advance(sort_job *j, face_feed *fd, epsnet_error *err)
-{
-    if (!fd->busy)
-        return 0;
-    void *job;
-    int rc;
-    en_jobring_retire(fd->ring, &job, &rc);
-    fd->busy = 0;
-    fd->cur = 1 - fd->cur;
-    fd->pos = 0;
-    const face_fill *f = &fd->fill[fd->cur];
-    if (rc) {
-        if (err)
-            *err = f->err;
-        return rc;
-    }
-    if (f->n == FEED_ITEMS && (rc = feed_submit(j, fd, 1 - fd->cur, err)))
-        return rc;
-    return f->n > 0;
-}
-
-/* The next item of sorter F, or NULL at the end or on failure (*rc). */
-static const uint64_t *feed_peek(sort_job *j, face_feed *fd, int *rc, epsnet_error *err)
-{
-    *rc = 0;
-    if (fd->pos == fd->fill[fd->cur].n && (*rc = feed_advance(j, fd, err)) <= 0)
-        return NULL;
-    const face_fill *f = &fd->fill[fd->cur];
-    return f->buf + fd->pos * f->words;
-}
-
-static void feed_close(sort_job *j, face_feed *fd)
-{
-    if (fd->busy) {
-        void *job;
-        int rc;
-        en_jobring_retire(fd->ring, &job, &rc);
-        fd->busy = 0;
-    }
-    en_jobring_free(&fd->ring, NULL);
-    en_pool_free(&fd->pool);
-    for (int b = 0; b < 2; b++) {
-        en_free(fd->fill[b].buf);
-        fd->fill[b].buf = NULL;
-    }
-    en_mem_give(&j->mem, fd->bytes);
-    fd->bytes = 0;
-}
 
 /* ---- pass 6 in blocks of ranks (emit_block.h) ----
  * note: with the last uses in memory, each block of EMIT_RANKS ranks is built
@@ -1966,7 +1970,7 @@ static int blocks_items(sort_job *j, emit_blocks *e, size_t i, uint64_t end, eps
     const uint64_t *f;
     int rc;
     while ((f = feed_peek(j, &j->feed, &rc, err)) && (f[0] & UINT32_MAX) < end) {
-        const face_fill *fill = &j->feed.fill[j->feed.cur];
+        const item_fill *fill = &j->feed.fill[j->feed.cur];
         size_t k = 0, avail = fill->n - j->feed.pos;
         while (k < avail && (f[2 * k] & UINT32_MAX) < end)
             k++;
@@ -1995,7 +1999,7 @@ static int emit_blocks_run(sort_job *j, int external, epsnet_error *err)
     emit_blocks e;
     int rc = blocks_open(j, &e, external, err);
     if (rc == 0 && external)
-        rc = feed_open(j, &j->feed, err);
+        rc = feed_open(j, &j->feed, j->faces, j->narrow ? 2 : 4, err);
     for (uint64_t rank = 0; rc == 0 && rank < nv;) {
         size_t nb = nv - rank < EMIT_RANKS ? (size_t)(nv - rank) : EMIT_RANKS, i = e.submitted % e.n;
         if (e.submitted - e.retired == e.n && (rc = blocks_retire(j, &e, 1, err)))
@@ -2046,7 +2050,7 @@ static int pass_emit(sort_job *j, epsnet_error *err)
     if (j->whole || (j->in_core && j->narrow))
         return emit_blocks_run(j, !j->whole, err);
     uint64_t nv = j->st.vertices, next_id = 0;
-    int rc = feed_open(j, &j->feed, err);
+    int rc = feed_open(j, &j->feed, j->faces, j->narrow ? 2 : 4, err);
     if (rc)
         return rc;
     for (uint64_t rank = 0; rank < nv;) {
