@@ -488,7 +488,7 @@ typedef struct record_list {
     size_t n, cap;
 } record_list;
 
-static int collect_record(void *opaque, const epsnet_record *recs, size_t n, epsnet_error *err)
+static int collect_records(void *opaque, const epsnet_record *recs, size_t n, epsnet_error *err)
 {
     (void)err;
     record_list *l = opaque;
@@ -502,9 +502,15 @@ static int collect_record(void *opaque, const epsnet_record *recs, size_t n, eps
     return 0;
 }
 
+static int collect_record(void *opaque, epsnet_record **recs, size_t *cap, size_t n, epsnet_error *err)
+{
+    (void)cap;
+    return collect_records(opaque, *recs, n, err);
+}
+
 static int collect_one(void *opaque, const epsnet_record *rec, epsnet_error *err)
 {
-    return collect_record(opaque, rec, 1, err);
+    return collect_records(opaque, rec, 1, err);
 }
 
 /* The sort as a stage (en_sort_emit) hands over exactly the records that

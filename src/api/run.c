@@ -380,6 +380,13 @@ int en_run_put_many(en_run *run, const epsnet_record *recs, size_t n, epsnet_err
     return en_chain_put_many(run->chain, recs, n, err);
 }
 
+int en_run_put_owned(en_run *run, epsnet_record **recs, size_t *cap, size_t n, epsnet_error *err)
+{
+    for (size_t i = 0; i < n; i++)
+        run->ctx->stats.faces += (*recs)[i].kind == EPSNET_REC_TRIANGLE;
+    return en_chain_put_owned(run->chain, recs, cap, n, err);
+}
+
 /* The one place where the chain's counts become the public statistics. */
 static void fill_stats(epsnet_stats *st, const en_chain_stats *cs)
 {

@@ -85,6 +85,8 @@ int en_run_pool_new(en_pool **pool, const epsnet_settings *set, const char *path
 int en_run_put(en_run *run, const epsnet_record *rec, epsnet_error *err);
 /* n input records at once (en_chain_put_many). */
 int en_run_put_many(en_run *run, const epsnet_record *recs, size_t n, epsnet_error *err);
+/* n input records in an array the run may keep (en_chain_put_owned). */
+int en_run_put_owned(en_run *run, epsnet_record **recs, size_t *cap, size_t n, epsnet_error *err);
 
 /* End of input: finish the chain and fill ctx->stats (all but the stage
  * times and peak_rss, which the caller knows). A target that was not met

@@ -94,9 +94,9 @@ static void input_close(en_input *in)
         en_sort_close(&in->sort, &in->sorted);
 }
 
-static int run_put(void *self, const epsnet_record *recs, size_t n, epsnet_error *err)
+static int run_put(void *self, epsnet_record **recs, size_t *cap, size_t n, epsnet_error *err)
 {
-    return en_run_put_many(self, recs, n, err);
+    return cap ? en_run_put_owned(self, recs, cap, n, err) : en_run_put_many(self, *recs, n, err);
 }
 
 /* Push the input into the run, then end it. A sorted input's records leave

@@ -874,6 +874,26 @@ int en_chain_put_many(en_chain *c, const epsnet_record *recs, size_t n, epsnet_e
     return rc ? fail(c, rc, err) : 0;
 }
 
+int en_chain_put_owned(en_chain *c, epsnet_record **recs, size_t *cap, size_t n, epsnet_error *err)
+{
+    en_pass *p = &c->pass[0];
+    chunk_job *j = p->fill;
+    /* with attributes the batch keeps their bytes beside it: copied */
+    if (!p->batched || p->batch_attr_size || !j || j->nrecs || c->failed || n == 0)
+        return en_chain_put_many(c, *recs, n, err);
+    for (size_t i = 0; i < n; i++) {
+        c->stats.vertices_in += (*recs)[i].kind == EPSNET_REC_VERTEX;
+        c->stats.faces_in += (*recs)[i].kind == EPSNET_REC_TRIANGLE;
+    }
+    p->records += n;
+    epsnet_record *t = j->recs;
+    size_t tcap = j->recs_cap;
+    j->recs = *recs, j->recs_cap = *cap, j->nrecs = n;
+    *recs = t, *cap = tcap;
+    int rc = chunk_submit(p, 0, err);
+    return rc ? fail(c, rc, err) : 0;
+}
+
 static int chain_end(void *self, epsnet_error *err)
 {
     en_chain *c = self;

@@ -140,6 +140,11 @@ en_stage en_chain_input(en_chain *chain);
  * records (a file run's calling thread put each record through three calls
  * before: docs/architecture.md §10). */
 int en_chain_put_many(en_chain *chain, const epsnet_record *recs, size_t n, epsnet_error *err);
+/* n records at *recs, an en_malloc'ed array of *cap records the chain may
+ * keep as a batch of its own without copying it (a batched first pass with
+ * no attribute bytes, between batches), putting one of its own arrays, of
+ * any contents, in its place; else as en_chain_put_many. */
+int en_chain_put_owned(en_chain *chain, epsnet_record **recs, size_t *cap, size_t n, epsnet_error *err);
 
 /* Counts so far (complete after the end). */
 void en_chain_stats_get(const en_chain *chain, en_chain_stats *stats);

@@ -1816,8 +1816,8 @@ static int last_use_of(sort_job *j, uint64_t rank, uint64_t *last, epsnet_error 
 static int put_record(sort_job *j, epsnet_record_kind kind, uint64_t a, uint64_t b, uint64_t c,
                       epsnet_error *err)
 {
-    epsnet_record rec = { .kind = kind, .v = { a, b, c } };
-    return j->emit(j->emit_opaque, &rec, 1, err);
+    epsnet_record rec = { .kind = kind, .v = { a, b, c } }, *p = &rec;
+    return j->emit(j->emit_opaque, &p, NULL, 1, err);
 }
 
 /* note: the records are those of the stream in the input's coordinate
@@ -1828,7 +1828,8 @@ static int emit_vertex(sort_job *j, const double xyz[3], const uint8_t *attr, ep
 {
     epsnet_record rec = { .kind = EPSNET_REC_VERTEX, .attr = j->asz ? attr : NULL };
     memcpy(rec.xyz, xyz, sizeof rec.xyz);
-    return j->emit(j->emit_opaque, &rec, 1, err);
+    epsnet_record *p = &rec;
+    return j->emit(j->emit_opaque, &p, NULL, 1, err);
 }
 
 /* Write the faces whose last corner is rank, finalizing each vertex after
@@ -1921,7 +1922,8 @@ static int blocks_retire(sort_job *j, emit_blocks *e, int hand_on, epsnet_error 
         j->st.max_width = (uint64_t)(e->live + b->live_peak);
     e->live += b->live_delta;
     blocks_account(e, j, (size_t)(b - e->b));
-    return b->nrecs ? j->emit(j->emit_opaque, b->recs, b->nrecs, err) : 0;
+    /* the consumer may keep the array and leave another: a copy fewer */
+    return b->nrecs ? j->emit(j->emit_opaque, &b->recs, &b->recs_cap, b->nrecs, err) : 0;
 }
 
 static void blocks_close(sort_job *j, emit_blocks *e)
@@ -2421,11 +2423,12 @@ void en_sort_close(en_sort **pj, epsnet_sort_stats *stats)
     *pj = NULL;
 }
 
-static int writer_put(void *w, const epsnet_record *recs, size_t n, epsnet_error *err)
+static int writer_put(void *w, epsnet_record **recs, size_t *cap, size_t n, epsnet_error *err)
 {
+    (void)cap;
     int rc = 0;
     for (size_t i = 0; i < n && rc == 0; i++)
-        rc = epsnet_writer_put(w, &recs[i], err);
+        rc = epsnet_writer_put(w, &(*recs)[i], err);
     return rc;
 }
 

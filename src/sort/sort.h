@@ -56,8 +56,11 @@
  * passes (en_spill), in settings->tmpdir, else owner's folder.
  */
 typedef struct en_sort en_sort;
-/* n records, in order; their attr bytes are valid during the call only. */
-typedef int (*en_sort_emit_fn)(void *opaque, const epsnet_record *recs, size_t n, epsnet_error *err);
+/* n records at *recs, in order; their attr bytes are valid during the call
+ * only. With cap not NULL, *recs is an en_malloc'ed array of *cap records
+ * that the consumer may keep, putting another such array (of any contents)
+ * in its place; with cap NULL it reads them only. */
+typedef int (*en_sort_emit_fn)(void *opaque, epsnet_record **recs, size_t *cap, size_t n, epsnet_error *err);
 
 /* owner: the output the sort serves, named in messages (and whose folder
  * holds the runs when settings->tmpdir is NULL). settings may be NULL.
