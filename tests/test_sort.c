@@ -12,15 +12,24 @@
 /* ---- helpers ---- */
 
 
-static int sort_with(const char *in, const char *out, uint64_t mem, int axis, epsnet_sort_stats *st,
-                     epsnet_error *err)
+/* threads < 0: the default. */
+static int sort_threads(const char *in, const char *out, uint64_t mem, int threads, int axis, epsnet_sort_stats *st,
+                        epsnet_error *err)
 {
     epsnet_sort_settings s;
     epsnet_sort_default_settings(&s);
     s.mem = mem;
+    if (threads >= 0)
+        s.threads = threads;
     s.axis = axis;
     s.tmpdir = tl_tmpdir();
     return epsnet_sort_file(in, out, &s, st, err);
+}
+
+static int sort_with(const char *in, const char *out, uint64_t mem, int axis, epsnet_sort_stats *st,
+                     epsnet_error *err)
+{
+    return sort_threads(in, out, mem, -1, axis, st, err);
 }
 
 /* A triangle as its corners' coordinates, rotated so that the smallest
@@ -376,13 +385,10 @@ TEST(in_memory_sort_gives_the_same_bytes_for_any_thread_count)
         { (uint64_t)256 << 20, 3, 1 }, { 4 << 20, 2, 0 }, { 4 << 20, 1, 0 }, { 256 << 10, 2, 0 },
     };
     for (size_t i = 0; i < sizeof runs / sizeof *runs; i++) {
-        epsnet_sort_settings s;
-        epsnet_sort_default_settings(&s);
-        s.mem = runs[i].mem;
-        s.threads = runs[i].threads;
-        s.tmpdir = tl_tmpdir();
         epsnet_sort_stats st;
-        CHECK_EQ_INT(epsnet_sort_file(in, tl_path(i ? "whole_b.smz" : "whole_a.smz"), &s, &st, &err), 0);
+        CHECK_EQ_INT(sort_threads(in, tl_path(i ? "whole_b.smz" : "whole_a.smz"), runs[i].mem, runs[i].threads, -1,
+                                  &st, &err),
+                     0);
         CHECK_EQ_INT(st.temp_bytes == 0, runs[i].whole);
         if (i)
             CHECK(same_bytes(tl_path("whole_a.smz"), tl_path("whole_b.smz")));
@@ -461,15 +467,11 @@ TEST(pass_6_in_blocks_gives_the_live_maps_stream)
         snprintf(in, sizeof in, "%s", fan_grid_ply(d ? "fan17.ply" : "fan6.ply", digits[d], &unused));
         epsnet_sort_stats first = { 0 };
         for (size_t i = 0; i < sizeof runs / sizeof *runs; i++) {
-            epsnet_sort_settings s;
-            epsnet_sort_default_settings(&s);
-            s.mem = runs[i].mem;
-            s.threads = runs[i].threads;
-            s.tmpdir = tl_tmpdir();
-            s.axis = 0;
             epsnet_sort_stats st;
             epsnet_error err;
-            CHECK_EQ_INT(epsnet_sort_file(in, tl_path(i ? "fan_b.smz" : "fan_a.smz"), &s, &st, &err), 0);
+            CHECK_EQ_INT(sort_threads(in, tl_path(i ? "fan_b.smz" : "fan_a.smz"), runs[i].mem, runs[i].threads, 0, &st,
+                                      &err),
+                         0);
             CHECK_EQ_U64(st.unreferenced, unused);
             CHECK_EQ_INT(st.temp_bytes == 0, runs[i].mem > (4 << 20));
             if (i == 0) {

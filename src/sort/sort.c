@@ -1414,7 +1414,8 @@ static int feed_advance(sort_job *j, item_feed *fd, epsnet_error *err)
     return f->n > 0;
 }
 
-/* The next item of sorter F, or NULL at the end or on failure (*rc). */
+/* The next item of the feed's sorter, or NULL at the end or on failure (*rc < 0);
+ * *rc is 1 when it moved to the next block. */
 static const uint64_t *feed_peek(sort_job *j, item_feed *fd, int *rc, epsnet_error *err)
 {
     *rc = 0;
