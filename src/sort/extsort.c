@@ -592,10 +592,10 @@ static int spill_buffer(en_extsort *es, epsnet_error *err)
     return cascade(es, err);
 }
 
-int en_extsort_add(en_extsort *es, const uint64_t *item, epsnet_error *err)
+/* Room in the buffer for one item at least: the first buffer, or the full
+ * one spilled as a run. */
+static int make_room(en_extsort *es, epsnet_error *err)
 {
-    if (es->failed)
-        return fail(es, es->err.code, err);
     if (!es->buf && alloc_buffer(es, err))
         return es->err.code;
     if (es->n == es->cap) {
@@ -616,13 +616,40 @@ int en_extsort_add(en_extsort *es, const uint64_t *item, epsnet_error *err)
             if (rc)
                 es->cfg.threads = 0;
         }
-        int rc = es->ring ? spill_buffer_async(es, err) : spill_buffer(es, err);
-        if (rc)
-            return rc;
+        return es->ring ? spill_buffer_async(es, err) : spill_buffer(es, err);
     }
+    return 0;
+}
+
+int en_extsort_add(en_extsort *es, const uint64_t *item, epsnet_error *err)
+{
+    if (es->failed)
+        return fail(es, es->err.code, err);
+    int rc = make_room(es, err);
+    if (rc)
+        return rc;
     copy_item(es->buf + es->n * es->cfg.item_words, item, es->cfg.item_words);
     es->n++;
     es->items++;
+    return 0;
+}
+
+int en_extsort_add_many(en_extsort *es, const uint64_t *items, size_t n, epsnet_error *err)
+{
+    if (es->failed)
+        return fail(es, es->err.code, err);
+    size_t w = es->cfg.item_words;
+    while (n > 0) {
+        int rc = make_room(es, err);
+        if (rc)
+            return rc;
+        size_t k = es->cap - es->n < n ? es->cap - es->n : n;
+        memcpy(es->buf + es->n * w, items, k * w * sizeof *items);
+        es->n += k;
+        es->items += k;
+        items += k * w;
+        n -= k;
+    }
     return 0;
 }
 

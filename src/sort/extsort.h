@@ -58,6 +58,8 @@ typedef struct en_extsort en_extsort;
 int en_extsort_open(en_extsort **es, const en_extsort_config *cfg, epsnet_error *err);
 /* Add one item (item_words words). */
 int en_extsort_add(en_extsort *es, const uint64_t *item, epsnet_error *err);
+/* Add n items, packed (n x item_words words): as n adds. */
+int en_extsort_add_many(en_extsort *es, const uint64_t *items, size_t n, epsnet_error *err);
 /* No more items: prepare to hand them out in order. */
 int en_extsort_finish(en_extsort *es, epsnet_error *err);
 /* @return 1 with item filled, 0 when done, or a negative code. */

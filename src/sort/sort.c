@@ -1627,13 +1627,14 @@ static int add_face(sort_job *j, const uint64_t r[3], epsnet_error *err)
 }
 
 /* Pass 5 in core, one batch of faces: read from the input order,
- * relabelled through rank_of, and its last uses kept in last_of, on a
- * worker while the calling thread adds the batch before to sorter F
- * (pass_faces_in_core). The job touches only j->fraw, its own buffer and
- * last_of, which nothing else writes then, and reads rank_of. */
+ * relabelled through rank_of, its last uses kept in last_of and its faces
+ * made sorter F's items, on a worker while the calling thread adds the
+ * batch before to sorter F (pass_faces_in_core). The job touches only
+ * j->fraw, its own buffer and last_of, which nothing else writes then, and
+ * reads rank_of. */
 typedef struct relabel_job {
     sort_job *j;
-    uint64_t *fb;                /* 3 n corners: written by the worker while in flight */
+    uint64_t *fb;                /* 3 n corners, then n items of 2 words: the worker writes them while in flight */
     uint64_t first;              /* the first face's index */
     size_t n;
     epsnet_error err;            /* the worker's, read after retire */
@@ -1670,6 +1671,14 @@ static int relabel_run(void *arg)
             if (*l == UINT32_MAX || *l < last)
                 *l = last;
         }
+    }
+    /* and sorter F's items, in place (item i's two words are written after
+     * face i's three were read: 2i + 1 < 3i from i = 1 on), so that the
+     * calling thread adds the batch in one copy (add_face_item's items) */
+    for (size_t i = 0; i < b->n; i++) {
+        uint64_t c[3] = { fb[3 * i], fb[3 * i + 1], fb[3 * i + 2] };
+        fb[2 * i] = max3(c) | c[0] << 32;
+        fb[2 * i + 1] = c[1] | c[2] << 32;
     }
     return 0;
 }
@@ -1724,9 +1733,14 @@ static int pass_faces_in_core(sort_job *j, epsnet_error *err)
             failed = &jobs[1 - cur];
             break;
         }
-        const uint64_t *fb = b->fb;
-        for (size_t i = 0; i < b->n && rc == 0; i++, f++)
-            rc = add_face_item(j, fb + 3 * i, max3(fb + 3 * i), err);
+        const uint64_t *it = b->fb; /* sorter F's items now (relabel_run) */
+        for (size_t i = 0; i < b->n && rc == 0 && j->nkeep; i++) {
+            uint64_t r[3] = { it[2 * i] >> 32, it[2 * i + 1] & UINT32_MAX, it[2 * i + 1] >> 32 };
+            rc = keep_face(j, r, it[2 * i] & UINT32_MAX, err);
+        }
+        if (rc == 0)
+            rc = en_extsort_add_many(j->faces, it, b->n, err);
+        f += b->n;
         if (rc == 0)
             rc = progress(j, f, nf, err);
     }
