@@ -54,17 +54,11 @@ typedef struct gen_mesh {
     epsnet_mesh_info info;
 } gen_mesh;
 
+/* tl_gen_settings, in this file's argument order. */
 static epsnet_gen_settings settings(const char *shape, uint64_t faces, double param, int shuffle,
                                     uint64_t seed)
 {
-    epsnet_gen_settings s;
-    epsnet_gen_default_settings(&s);
-    s.shape = shape;
-    s.faces = faces;
-    s.param = param;
-    s.shuffle = shuffle;
-    s.seed = seed;
-    return s;
+    return tl_gen_settings(shape, faces, param, seed, shuffle);
 }
 
 static int generate(const epsnet_gen_settings *s, gen_mesh *m)

@@ -272,10 +272,10 @@ static inline int tl_gen_settings_file(const char *path, const epsnet_gen_settin
     return rc;
 }
 
-/* The same for a shape, a size, a parameter (NAN: the shape's default), a
- * seed and an order. */
-static inline int tl_gen_file(const char *path, const char *shape, uint64_t faces, double param, uint64_t seed,
-                              int shuffle, epsnet_error *err)
+/* Gen settings for a shape, a size, a parameter (NAN: the shape's
+ * default), a seed and an order. */
+static inline epsnet_gen_settings tl_gen_settings(const char *shape, uint64_t faces, double param, uint64_t seed,
+                                                  int shuffle)
 {
     epsnet_gen_settings gs;
     epsnet_gen_default_settings(&gs);
@@ -284,6 +284,14 @@ static inline int tl_gen_file(const char *path, const char *shape, uint64_t face
     gs.param = param;
     gs.seed = seed;
     gs.shuffle = shuffle;
+    return gs;
+}
+
+/* tl_gen_settings_file() of tl_gen_settings(). */
+static inline int tl_gen_file(const char *path, const char *shape, uint64_t faces, double param, uint64_t seed,
+                              int shuffle, epsnet_error *err)
+{
+    epsnet_gen_settings gs = tl_gen_settings(shape, faces, param, seed, shuffle);
     return tl_gen_settings_file(path, &gs, err);
 }
 

@@ -49,7 +49,7 @@ void en_budget_split(en_budget *b, const epsnet_settings *set, en_budget_input i
     b->total = en_budget_total(set);
     b->given = set->mem != 0;
     b->slab_vertices = en_budget_slab_vertices(set);
-    b->slab_holds = set->slab_vertices ? 0 : b->slab_vertices;
+    b->slab_derived = set->slab_vertices == 0;
     uint64_t t = b->total;
     switch (input) {
     case EN_BUDGET_STREAM:

@@ -38,9 +38,9 @@ typedef struct en_budget {
     uint64_t chain;         /* what the passes hold: chunkers, stitchers, a target's one slab */
     uint64_t one_slab;      /* part of chain: what a target's one slab, or one-slab finish, may hold */
     uint32_t slab_vertices; /* the slabs' size: settings.slab_vertices, else from the total */
-    uint32_t slab_holds;    /* a streamed size's slabs' vertices in all, ghosts included
-                             * (pipeline/chunker.h), when the size is derived: memory goes by
-                             * them; 0 when settings.slab_vertices fixes what each slab owns */
+    int slab_derived;       /* slab_vertices comes from the total, not settings.slab_vertices:
+                             * a streamed size's slabs then hold it in all, ghosts included
+                             * (pipeline/chunker.h), since memory goes by all of them */
 } en_budget;
 
 /* Bytes a vertex costs in the pipeline at the default slab size, all

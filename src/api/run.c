@@ -76,7 +76,7 @@ static void plan_streamed(en_run *run, const epsnet_settings *set, uint64_t nv, 
  * and one slab's global order is the better result.
  */
 static int plan_target(en_run *run, const epsnet_settings *set, const char *path, const epsnet_mesh_info *in,
-                       uint32_t *slab_vertices, uint32_t *slab_holds, epsnet_error *err)
+                       uint32_t *slab_vertices, int *hold_all, epsnet_error *err)
 {
     /* one slab of the whole mesh, unless it streams (below) */
     en_pass_plan *t = &run->plan;
@@ -116,13 +116,13 @@ static int plan_target(en_run *run, const epsnet_settings *set, const char *path
     if (streams && known_f != EPSNET_COUNT_UNKNOWN && known_f > 0 && t->max_error < 0) {
         plan_streamed(run, set, known_v, known_f);
         /* note: the thinning's and the rounds' slabs hold the derived size
-         * in all (pipeline/chunker.h: holds), so that a size's memory is
+         * in all (pipeline/chunker.h: hold_all), so that a size's memory is
          * flat in the stream's width; its quality held (1.006 and 0.999
          * times the mean error at 20M, 10% and 1%). The default path's
          * slabs own it: held in all, its in-slab collapses gave way to
          * seams, 1.06 times the mean error at 20M (bench/RESULTS.md,
          * session 36). */
-        *slab_holds = b->slab_holds;
+        *hold_all = b->slab_derived;
         return 0;
     }
     int bound_streams = known_v != EPSNET_COUNT_UNKNOWN &&
@@ -182,9 +182,10 @@ double en_run_feed_share(const epsnet_settings *set, const epsnet_mesh_info *in,
     en_run scratch;
     memset(&scratch, 0, sizeof scratch);
     en_budget_split(&scratch.budget, set, input);
-    uint32_t slab = scratch.budget.slab_vertices, holds = 0;
+    uint32_t slab = scratch.budget.slab_vertices;
+    int hold_all = 0;
     epsnet_error err;
-    return plan_target(&scratch, set, NULL, &known, &slab, &holds, &err) == 0 ? feed_share(&scratch) : 1.0;
+    return plan_target(&scratch, set, NULL, &known, &slab, &hold_all, &err) == 0 ? feed_share(&scratch) : 1.0;
 }
 
 /* The target stage's share of the bar: the last 5% is for the output's
@@ -254,11 +255,12 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
     ctx->run_sphere = ctx->sphere;
     fill_budget_stats(&ctx->stats, &run->budget);
     const epsnet_settings *set = &ctx->settings;
-    uint32_t slab_vertices = run->budget.slab_vertices, slab_holds = 0;
+    uint32_t slab_vertices = run->budget.slab_vertices;
+    int hold_all = 0;
     int target = mode == EN_SLAB_SIMPLIFY && en_run_has_target(set);
     run->has_target = target;
     run->has_normals = in && epsnet_attr_layout_find(&in->vertex_attrs, "nx") >= 0;
-    int rc = target ? plan_target(run, set, path, in, &slab_vertices, &slab_holds, err) : 0;
+    int rc = target ? plan_target(run, set, path, in, &slab_vertices, &hold_all, err) : 0;
     if (rc)
         return rc;
     run->feed_share = feed_share(run);
@@ -302,7 +304,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
             .lock_type = lock_type,
             .weights = weights,
             .slab_vertices = slab_vertices,
-            .slab_holds = slab_holds,
+            .hold_all = hold_all,
             .mem_budget = run->budget.chain,
             .one_slab_bytes = run->budget.one_slab,
             .one_slab_vertices = (uint32_t)last_slab_vertices(slab_vertices),
@@ -347,7 +349,7 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
         .lock_type = lock_type,
         .weights = weights,
         .slab_vertices = slab_vertices,
-        .slab_holds = slab_holds,
+        .hold_all = hold_all,
         .mem_budget = run->budget.chain,
         /* note: two slabs per worker keep every worker busy while the
          * caller stitches the oldest one. */
@@ -373,17 +375,22 @@ int en_run_put(en_run *run, const epsnet_record *rec, epsnet_error *err)
     return en_stage_put(&run->input, rec, err);
 }
 
-int en_run_put_many(en_run *run, const epsnet_record *recs, size_t n, epsnet_error *err)
+/* Faces so far, for progress reports. */
+static void count_faces(en_run *run, const epsnet_record *recs, size_t n)
 {
     for (size_t i = 0; i < n; i++)
         run->ctx->stats.faces += recs[i].kind == EPSNET_REC_TRIANGLE;
+}
+
+int en_run_put_many(en_run *run, const epsnet_record *recs, size_t n, epsnet_error *err)
+{
+    count_faces(run, recs, n);
     return en_chain_put_many(run->chain, recs, n, err);
 }
 
 int en_run_put_owned(en_run *run, epsnet_record **recs, size_t *cap, size_t n, epsnet_error *err)
 {
-    for (size_t i = 0; i < n; i++)
-        run->ctx->stats.faces += (*recs)[i].kind == EPSNET_REC_TRIANGLE;
+    count_faces(run, *recs, n);
     return en_chain_put_owned(run->chain, recs, cap, n, err);
 }
 

@@ -852,6 +852,15 @@ static int chain_put(void *self, const epsnet_record *rec, epsnet_error *err)
     return rc ? fail(c, rc, err) : 0;
 }
 
+/* The chain's input counts, for records taken in bulk. */
+static void count_in(en_chain *c, const epsnet_record *recs, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        c->stats.vertices_in += recs[i].kind == EPSNET_REC_VERTEX;
+        c->stats.faces_in += recs[i].kind == EPSNET_REC_TRIANGLE;
+    }
+}
+
 int en_chain_put_many(en_chain *c, const epsnet_record *recs, size_t n, epsnet_error *err)
 {
     en_pass *p = &c->pass[0];
@@ -865,10 +874,7 @@ int en_chain_put_many(en_chain *c, const epsnet_record *recs, size_t n, epsnet_e
         *err = c->failure;
         return c->failed;
     }
-    for (size_t i = 0; i < n; i++) {
-        c->stats.vertices_in += recs[i].kind == EPSNET_REC_VERTEX;
-        c->stats.faces_in += recs[i].kind == EPSNET_REC_TRIANGLE;
-    }
+    count_in(c, recs, n);
     p->records += n;
     rc = batch_put(p, recs, n, err);
     return rc ? fail(c, rc, err) : 0;
@@ -881,10 +887,7 @@ int en_chain_put_owned(en_chain *c, epsnet_record **recs, size_t *cap, size_t n,
     /* with attributes the batch keeps their bytes beside it: copied */
     if (!p->batched || p->batch_attr_size || !j || j->nrecs || c->failed || n == 0)
         return en_chain_put_many(c, *recs, n, err);
-    for (size_t i = 0; i < n; i++) {
-        c->stats.vertices_in += (*recs)[i].kind == EPSNET_REC_VERTEX;
-        c->stats.faces_in += (*recs)[i].kind == EPSNET_REC_TRIANGLE;
-    }
+    count_in(c, *recs, n);
     p->records += n;
     epsnet_record *t = j->recs;
     size_t tcap = j->recs_cap;
@@ -961,7 +964,7 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
             for (size_t k = 0; k < p->nchunk; k++)
                 p->chunk[k].p = p;
         if ((p->batched && !p->chunk) ||
-            en_chunker_init(&p->ch, slab, cfg->slab_holds, cfg->path) ||
+            en_chunker_init(&p->ch, slab, cfg->hold_all, cfg->path) ||
             en_stitcher_init(&p->st, cfg->max_normal_dev, (en_stage){ buffer_put, buffer_end, p }) ||
             en_jobring_new(&p->ring, pool, cfg->ring_capacity) ||
             (p->batched && en_jobring_new(&p->chunk_ring, pool, p->nchunk)) ||

@@ -69,7 +69,7 @@ typedef struct en_chain_config {
      * attribute part after its quadric (slab_work.h). */
     const en_attr_weights *weights;
     uint32_t slab_vertices;       /* vertices a slab owns, at most, */
-    uint32_t slab_holds;          /* and 0, or its vertices in all (pipeline/chunker.h) */
+    int hold_all;                 /* or holds in all, its ghosts included (pipeline/chunker.h) */
     uint64_t mem_budget;          /* bytes the chain may hold beyond the reader's; 0: none */
     size_t ring_capacity;         /* slabs in flight per pass */
     /* The input records were checked before the chain (a reader front end,

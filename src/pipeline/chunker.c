@@ -7,11 +7,11 @@
 #include "common/error.h"
 #include "common/hash64.h"
 
-int en_chunker_init(en_chunker *c, uint32_t slab_vertices, uint32_t holds, const char *path)
+int en_chunker_init(en_chunker *c, uint32_t slab_vertices, int hold_all, const char *path)
 {
     memset(c, 0, sizeof *c);
     c->slab_vertices = slab_vertices ? slab_vertices : 1;
-    c->holds = holds;
+    c->hold_all = hold_all;
     c->owns = c->slab_vertices;
     c->cut_at = c->owns;
     c->path = path;
@@ -252,22 +252,21 @@ static void restore_waiting(en_chunker *c, size_t waiting)
     c->cut_at = c->nfin + c->owns;
 }
 
-/* With `holds`, the next slab owns what this one's ghosts left of it: the
- * ghosts are about two rows of the stream's width, and the next slab's
- * will be about as many, so that a slab holds about `holds` vertices in
- * all however wide the stream. Its memory (stars, quadrics, results) goes
+/* With hold_all, the next slab owns what this one's ghosts left of
+ * slab_vertices: the ghosts are about two rows of the stream's width, and
+ * the next slab's will be about as many, so that a slab holds about
+ * slab_vertices in all however wide the stream. Its memory (stars, quadrics, results) goes
  * by all its vertices: counting only the owned ones, a slab of gen bumpy
  * at 100M faces held 86,018 vertices for 65,536 owned, at 20M 74,698, and
  * the peak grew with the width (bench/RESULTS.md, session 36). It owns a
- * quarter of `holds` at least, so that a stream wider than the slab still
- * moves by slabs, not by a few vertices at a time. */
+ * quarter of slab_vertices at least, so that a stream wider than the slab
+ * still moves by slabs, not by a few vertices at a time. */
 static void next_owns(en_chunker *c, uint32_t ghosts)
 {
-    if (!c->holds)
+    if (!c->hold_all)
         return;
-    uint32_t floor = c->holds / 4 ? c->holds / 4 : 1;
-    uint32_t owns = ghosts < c->holds - floor ? c->holds - ghosts : floor;
-    c->owns = owns < c->slab_vertices ? owns : c->slab_vertices;
+    uint32_t all = c->slab_vertices, floor = all / 4 ? all / 4 : 1;
+    c->owns = ghosts < all - floor ? all - ghosts : floor;
 }
 
 /* Cut the finalized vertices in c->fin into slab c->next_slab. */

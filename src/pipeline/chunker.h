@@ -4,10 +4,10 @@
  * Slab k owns the next vertices to be finalized, in stream order, and gets
  * every face around them (the faces are all read by then, since a vertex
  * is finalized after its last face), with the faces' other corners as
- * ghosts. It owns slab_vertices; or, given `holds`, what the slab before's
- * ghosts left of it, so that a slab holds about `holds` vertices in all
- * however wide the stream (and owns at least a quarter of it). So cuts
- * depend only on the stream and those two numbers, never on the thread
+ * ghosts. It owns slab_vertices; or, with hold_all, what the slab before's
+ * ghosts left of slab_vertices, so that a slab holds about slab_vertices in
+ * all however wide the stream (and owns at least a quarter of it). So cuts
+ * depend only on the stream and those settings, never on the thread
  * count, and every owned vertex has its whole star.
  *
  * Memory is the active set of the stream (paper Table 3): live vertices and
@@ -42,7 +42,7 @@ typedef struct en_chunk_vertex {
 
 typedef struct en_chunker {
     uint32_t slab_vertices;    /* vertices a slab owns, at most */
-    uint32_t holds;            /* 0, or a slab's vertices in all, its ghosts included (about) */
+    int hold_all;              /* a slab holds about slab_vertices in all, its ghosts included */
     uint32_t owns;             /* vertices the next slab owns (next_owns in chunker.c) */
     uint32_t mark_at;          /* where a vertex record's attribute bytes hold its marks
                                 * (EN_CARRIED_MARKS_AT), whose EN_MARK_SKELETON becomes
@@ -91,7 +91,7 @@ typedef struct en_chunker {
 } en_chunker;
 
 /* @return 0 or EPSNET_ENOMEM. */
-int en_chunker_init(en_chunker *c, uint32_t slab_vertices, uint32_t holds, const char *path);
+int en_chunker_init(en_chunker *c, uint32_t slab_vertices, int hold_all, const char *path);
 void en_chunker_free(en_chunker *c);
 
 /*

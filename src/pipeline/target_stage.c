@@ -387,7 +387,7 @@ static en_chain_config stage_chain(const en_target_stage *ts, const en_pass_plan
         .lock_type = cfg->lock_type,
         .weights = cfg->weights,
         .slab_vertices = cfg->slab_vertices,
-        .slab_holds = cfg->slab_holds,
+        .hold_all = cfg->hold_all,
         .mem_budget = cfg->mem_budget,
         .ring_capacity = cfg->ring_capacity,
         .checked_input = 1,
@@ -408,7 +408,7 @@ static int run_chain(en_target_stage *ts, const en_pass_plan *t, kept *from, kep
     cc.slab_vertices = t->one_slab ? UINT32_MAX - 1 : round_slab(ts, from);
     /* a round's slabs own round_slab(), or hold it in all as the
      * thinning's hold theirs */
-    cc.slab_holds = cfg->slab_holds && !t->one_slab ? cc.slab_vertices : 0;
+    cc.hold_all = cfg->hold_all && !t->one_slab;
     cc.tick = last && cfg->tick ? last_tick : NULL;
     cc.tick_opaque = ts;
     cc.out = last ? cfg->out : (en_stage){ kept_put, kept_end, &sink };

@@ -151,7 +151,7 @@ typedef struct en_target_stage_config {
     int lock_type;
     const en_attr_weights *weights; /* as the thinning's (NULL: none; outlives the stage) */
     uint32_t slab_vertices;       /* the rounds' slabs: the thinning pass's */
-    uint32_t slab_holds;          /* the thinning's (0: none), and so the rounds' (chunker.h) */
+    int hold_all;                 /* the thinning's slabs hold slab_vertices in all, and so the rounds' (chunker.h) */
     uint64_t mem_budget;          /* each round's chain (budget.h: the chain's share) */
     uint64_t one_slab_bytes;      /* what a last round in one slab may hold (budget.h) */
     uint32_t one_slab_vertices;   /* ... and at most this many vertices (a few slabs) */

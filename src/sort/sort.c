@@ -1659,25 +1659,23 @@ static int relabel_run(void *arg)
     /* note: the last uses too, here and not on the calling thread: a
      * largest last corner does not depend on the order faces come in, and
      * one batch is in flight at a time, so last_of has one writer (the
-     * random writes were a fifth of pass 5 on the calling thread, session 37) */
+     * random writes were a fifth of pass 5 on the calling thread, session
+     * 37); and sorter F's items, in place (item i's two words are written
+     * after face i's three were read, and below the faces read ahead:
+     * 2i + 1 < 3i from i = 1 on), so that the calling thread adds the
+     * batch in one copy (add_face_item's items) */
     uint32_t *last_of = j->last_of;
     for (size_t i = 0; i < b->n; i++) {
         if (i + PREFETCH < b->n)
             for (int s = 0; s < 3; s++)
                 __builtin_prefetch(&last_of[fb[3 * (i + PREFETCH) + (size_t)s]], 1);
-        uint32_t last = (uint32_t)max3(fb + 3 * i);
+        uint64_t c[3] = { fb[3 * i], fb[3 * i + 1], fb[3 * i + 2] }, last = max3(c);
         for (int s = 0; s < 3; s++) {
-            uint32_t *l = &last_of[fb[3 * i + (size_t)s]];
+            uint32_t *l = &last_of[c[s]];
             if (*l == UINT32_MAX || *l < last)
-                *l = last;
+                *l = (uint32_t)last;
         }
-    }
-    /* and sorter F's items, in place (item i's two words are written after
-     * face i's three were read: 2i + 1 < 3i from i = 1 on), so that the
-     * calling thread adds the batch in one copy (add_face_item's items) */
-    for (size_t i = 0; i < b->n; i++) {
-        uint64_t c[3] = { fb[3 * i], fb[3 * i + 1], fb[3 * i + 2] };
-        fb[2 * i] = max3(c) | c[0] << 32;
+        fb[2 * i] = last | c[0] << 32;
         fb[2 * i + 1] = c[1] | c[2] << 32;
     }
     return 0;
