@@ -2463,7 +2463,18 @@ int epsnet_sort_file(const char *in_path, const char *out_path, const epsnet_sor
         en_sort_info(j, &info);
         rc = epsnet_writer_open(&w, out_path, &ws, &info, err);
     }
-    if (rc == 0 && (rc = en_sort_emit(j, writer_put, w, err)) == 0)
+    /* note: the output's blocks are encoded and compressed on the sort's
+     * pool when its format can (a .smz), as a simplify run's are on its
+     * pool: on the calling thread they were 60% of `epsnet sort` of a
+     * shuffled 20M-face PLY, with the workers a third busy
+     * (bench/RESULTS.md, session 38); ENOMEM: it encodes alone */
+    if (rc == 0)
+        (void)en_writer_use_pool(w, sort_pool(j));
+    if (rc == 0)
+        rc = en_sort_emit(j, writer_put, w, err);
+    if (w)
+        (void)en_writer_use_pool(w, NULL); /* before the pool goes; a failure is the writer's, its commit reports it */
+    if (rc == 0)
         rc = epsnet_writer_commit(&w, err);
     epsnet_writer_abort(&w);
     if (j)
