@@ -333,8 +333,29 @@ TEST(plain_spill_keeps_bytes_as_written_across_small_and_large_writes)
     CHECK_EQ_INT(en_spill_rewind(sp, &err), 0); /* read again from the start */
     CHECK_EQ_INT((int)en_spill_read(sp, big, 16, &err), 16);
     CHECK_EQ_U64(big[1], 1);
+    /* reads at an offset give the bytes there, across a staged and a
+     * direct write, and leave the sequential place alone; past the end,
+     * what there is */
+    uint64_t at[3] = { 0 };
+    CHECK_EQ_INT((int)en_spill_read_at(sp, at, sizeof at, 999 * 8, &err), (int)sizeof at);
+    CHECK_EQ_U64(at[0], 999);
+    CHECK_EQ_U64(at[2], 1001);
+    CHECK_EQ_INT((int)en_spill_read_at(sp, at, sizeof at, (next - 1) * 8, &err), 8);
+    CHECK_EQ_U64(at[0], next - 1);
+    CHECK_EQ_INT((int)en_spill_read(sp, &v, sizeof v, &err), (int)sizeof v);
+    CHECK_EQ_U64(v, 2);
     en_spill_close(&sp);
     CHECK_EQ_INT(count_entries(dir), 0);
+    /* before its rewind, or compressed, a spill has no offsets to read at */
+    CHECK_EQ_INT(en_spill_open_plain(&sp, dir, "out.smz", &err), 0);
+    CHECK_EQ_INT(en_spill_write(sp, &next, sizeof next, &err), 0);
+    CHECK((int)en_spill_read_at(sp, &v, sizeof v, 0, &err) < 0);
+    en_spill_close(&sp);
+    CHECK_EQ_INT(en_spill_open(&sp, dir, "out.smz", &err), 0);
+    CHECK_EQ_INT(en_spill_write(sp, &next, sizeof next, &err), 0);
+    CHECK_EQ_INT(en_spill_rewind(sp, &err), 0);
+    CHECK((int)en_spill_read_at(sp, &v, sizeof v, 0, &err) < 0);
+    en_spill_close(&sp);
 }
 
 /* Blocks of a MiB and more are mapped (common/alloc.c): a block keeps its

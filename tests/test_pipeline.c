@@ -1166,6 +1166,7 @@ static void copies_wait_for_one_slab(uint32_t slab)
     en_chunker c;
     CHECK_EQ_INT(en_chunker_init(&c, slab, 0, "test"), 0);
     c.attr_size = 4;
+    c.copies = 1;
     uint32_t slabs = 0;
     int empty = 0;
     int64_t owner[2] = { -1, -2 };

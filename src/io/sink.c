@@ -682,6 +682,26 @@ static int64_t spill_read_plain(en_spill *sp, uint8_t *data, size_t n, epsnet_er
     return (int64_t)got;
 }
 
+int64_t en_spill_read_at(const en_spill *sp, void *data, size_t n, uint64_t offset, epsnet_error *err)
+{
+    if (!sp->plain || !sp->reading)
+        return en_error_set(err, EPSNET_EINTERNAL, sp->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "temporary file: read at an offset before it is rewound, or compressed");
+    size_t got = 0;
+    while (got < n) {
+        ssize_t k = pread(sp->fd, (uint8_t *)data + got, n - got, (off_t)(offset + got));
+        if (k < 0) {
+            if (errno == EINTR)
+                continue;
+            return spill_io_fail(sp, errno, err);
+        }
+        if (k == 0)
+            break;
+        got += (size_t)k;
+    }
+    return (int64_t)got;
+}
+
 int64_t en_spill_read(en_spill *sp, void *data, size_t n, epsnet_error *err)
 {
     if (sp->plain)

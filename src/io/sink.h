@@ -70,6 +70,10 @@ int en_spill_write(en_spill *sp, const void *data, size_t n, epsnet_error *err);
 int en_spill_rewind(en_spill *sp, epsnet_error *err);
 /* Read up to n bytes; @return bytes read (0 at end) or a negative code. */
 int64_t en_spill_read(en_spill *sp, void *data, size_t n, epsnet_error *err);
+/* A plain spill switched to reading: up to n bytes from byte offset,
+ * leaving en_spill_read()'s place alone, so that several threads may read
+ * parts side by side. @return bytes read or a negative code. */
+int64_t en_spill_read_at(const en_spill *sp, void *data, size_t n, uint64_t offset, epsnet_error *err);
 /* Compressed bytes on disk. */
 uint64_t en_spill_disk_bytes(const en_spill *sp);
 void en_spill_close(en_spill **sp);

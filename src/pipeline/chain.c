@@ -987,6 +987,7 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
         p->ch.stash = c->spares->slab_works;
         p->st.collapse_arrays = c->spares->collapse_arrays;
         p->ch.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? (uint32_t)in_size : 0;
+        p->ch.copies = cfg->mode == EN_SLAB_SIMPLIFY && cfg->attr_size > 0;
         p->st.attr_size = cfg->mode == EN_SLAB_SIMPLIFY ? cfg->attr_size : 0;
         p->st.weights = channels ? cfg->weights : NULL;
         p->st.na = en_aq_doubles(channels);

@@ -134,7 +134,7 @@ static int new_vertex(en_chunker *c, const epsnet_record *rec, epsnet_error *err
             c->free_list[c->free_len++] = i; /* it came from there: room is left */
         return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
     }
-    if (c->attr_size && count_live_at(c, xyz, +1)) {
+    if (c->copies && count_live_at(c, xyz, +1)) {
         en_idmap_remove(&c->map, c->next_gid);
         if (i + 1 == c->v_len)
             c->v_len--;
@@ -225,7 +225,7 @@ static int add_local(en_chunker *c, en_slab_work *w, uint32_t i, uint8_t flags)
  * takes every vertex. @return the count waiting, or -1 (out of memory). */
 static int64_t hold_back_copies(en_chunker *c)
 {
-    if (!c->attr_size || c->ended)
+    if (!c->copies || c->ended)
         return 0;
     if (en_grow((void **)&c->waiting, &c->waiting_cap, c->nfin, sizeof *c->waiting))
         return -1;
@@ -412,7 +412,7 @@ int en_chunker_put(en_chunker *c, const epsnet_record *rec, en_slab_work **out, 
             return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         c->v[i].owner = EN_OWNER_FINAL;
         c->fin[c->nfin++] = i;
-        if (c->attr_size && count_live_at(c, c->v[i].xyz, -1))
+        if (c->copies && count_live_at(c, c->v[i].xyz, -1))
             return en_error_set(err, EPSNET_ENOMEM, c->path, EPSNET_POS_NONE, EPSNET_POS_NONE, "out of memory");
         if (c->nfin >= c->cut_at)
             return cut(c, out, err);

@@ -81,8 +81,11 @@ typedef struct en_chunker {
      * cut into one slab: a finalized vertex waits for the next cut while a
      * vertex at the same coordinates' bits is still live, so that no cut
      * leaves a seam pair's copies in two slabs, each alone as a boundary
-     * (a locked sample). Kept with attributes only (attr_size > 0), where
-     * copies come from: a hash of the bits -> live vertices there. */
+     * (a locked sample). Kept only with copies set, where the records carry
+     * attributes of their own (copies come from those; a target's carried
+     * block alone makes none, and keeping the hash there was a tenth of a
+     * round's chunking, session 38): a hash of the bits -> live vertices there. */
+    int copies;
     en_u64map live_at;
     uint32_t *waiting;         /* scratch of a cut: the vertices that wait */
     size_t waiting_cap;

@@ -24,6 +24,7 @@
 #define NONE UINT64_MAX
 #define BATCH 4096               /* vertices per temporary-file read or write */
 #define PREFETCH 16              /* items ahead whose random reads are started early */
+#define RELABEL_AHEAD 2          /* pass 5 in core: batches relabelled ahead of the one added */
 #define PROGRESS_EVERY 0xffff
 #define PHASES 6
 #define PHASE_UNITS 1000
@@ -1310,9 +1311,13 @@ static int read_faces(const sort_job *j, uint64_t *buf, uint64_t first, size_t w
     size_t narrow = before < want ? (size_t)before : want;
     uint8_t *b = (uint8_t *)buf;
     size_t nbytes = narrow * 3 * sizeof(uint32_t), wbytes = (want - narrow) * 3 * sizeof *buf;
-    int64_t got = nbytes ? en_spill_read(j->fraw, b, nbytes, err) : 0, wgot = 0;
+    /* at face first's offset, not where the last read ended: pass 5 in
+     * core reads batches on two workers side by side */
+    uint64_t at = first < j->fwide_from ? first * 3 * sizeof(uint32_t)
+                                        : j->fwide_from * 3 * sizeof(uint32_t) + (first - j->fwide_from) * 3 * sizeof *buf;
+    int64_t got = nbytes ? en_spill_read_at(j->fraw, b, nbytes, at, err) : 0, wgot = 0;
     if (got >= 0 && wbytes)
-        wgot = en_spill_read(j->fraw, buf + 3 * narrow, wbytes, err);
+        wgot = en_spill_read_at(j->fraw, buf + 3 * narrow, wbytes, at + nbytes, err);
     if (got < 0 || wgot < 0)
         return (int)(got < 0 ? got : wgot);
     if ((size_t)got != nbytes || (size_t)wgot != wbytes)
@@ -1657,13 +1662,14 @@ static int relabel_run(void *arg)
         fb[i] = j->rank_of[fb[i]];
     }
     /* note: the last uses too, here and not on the calling thread: a
-     * largest last corner does not depend on the order faces come in, and
-     * one batch is in flight at a time, so last_of has one writer (the
+     * largest last corner does not depend on the order faces come in (the
      * random writes were a fifth of pass 5 on the calling thread, session
-     * 37); and sorter F's items, in place (item i's two words are written
-     * after face i's three were read, and below the faces read ahead:
-     * 2i + 1 < 3i from i = 1 on), so that the calling thread adds the
-     * batch in one copy (add_face_item's items) */
+     * 37), and two batches are in flight, so each is raised by an atomic
+     * compare-and-swap (only where it grows); and sorter F's items, in
+     * place (item i's two words are written after face i's three were
+     * read, and below the faces read ahead: 2i + 1 < 3i from i = 1 on), so
+     * that the calling thread adds the batch in one copy (add_face_item's
+     * items) */
     uint32_t *last_of = j->last_of;
     for (size_t i = 0; i < b->n; i++) {
         if (i + PREFETCH < b->n)
@@ -1671,9 +1677,10 @@ static int relabel_run(void *arg)
                 __builtin_prefetch(&last_of[fb[3 * (i + PREFETCH) + (size_t)s]], 1);
         uint64_t c[3] = { fb[3 * i], fb[3 * i + 1], fb[3 * i + 2] }, last = max3(c);
         for (int s = 0; s < 3; s++) {
-            uint32_t *l = &last_of[c[s]];
-            if (*l == UINT32_MAX || *l < last)
-                *l = (uint32_t)last;
+            uint32_t *l = &last_of[c[s]], was = __atomic_load_n(l, __ATOMIC_RELAXED);
+            while ((was == UINT32_MAX || was < last) &&
+                   !__atomic_compare_exchange_n(l, &was, (uint32_t)last, 1, __ATOMIC_RELAXED, __ATOMIC_RELAXED))
+                ;
         }
         fb[2 * i] = last | c[0] << 32;
         fb[2 * i + 1] = c[1] | c[2] << 32;
@@ -1698,39 +1705,55 @@ static int relabel_start(en_jobring *ring, relabel_job *b, uint64_t *next, uint6
 
 /* In core: the faces straight from the input order, relabelled through
  * rank_of; last uses go to last_of. note: the read, the relabelling and
- * the last uses of batch k + 1 (the random reads of rank_of and writes of
- * last_of: on a shuffled 20M-face PLY they were most of this pass on the
- * calling thread) run on a worker while this thread adds batch k to sorter
- * F; the batches are added in order, so the sorter sees the same items in
- * the same order for any thread count. */
+ * the last uses of batches k + 1 and k + 2 (the random reads of rank_of
+ * and writes of last_of: on a shuffled 20M-face PLY they were most of this
+ * pass on the calling thread) run on the workers while this thread adds
+ * batch k to sorter F (with one batch ahead, the pass kept two cores 56-71%
+ * busy, session 38); the batches are added in order, so the sorter sees
+ * the same items in the same order for any thread count. */
 static int pass_faces_in_core(sort_job *j, epsnet_error *err)
 {
     for (uint64_t v = 0; v < j->st.vertices; v++)
         j->last_of[v] = UINT32_MAX;
-    relabel_job jobs[2] = { { .j = j, .fb = j->fbuf }, { .j = j } };
+    relabel_job jobs[RELABEL_AHEAD + 1] = { { .j = j, .fb = j->fbuf } };
     en_jobring *ring = NULL;
     en_pool *pool = sort_pool(j);
-    if (!(jobs[1].fb = en_malloc(BATCH * 3 * sizeof *jobs[1].fb)) || (pool && en_jobring_new(&ring, pool, 1))) {
-        en_free(jobs[1].fb);
+    int rc = pool && en_jobring_new(&ring, pool, RELABEL_AHEAD) ? EPSNET_ENOMEM : 0;
+    for (int k = 1; k <= RELABEL_AHEAD; k++) {
+        jobs[k].j = j;
+        if (rc == 0 && !(jobs[k].fb = en_malloc(BATCH * 3 * sizeof *jobs[k].fb)))
+            rc = EPSNET_ENOMEM;
+    }
+    if (rc) {
+        en_jobring_free(&ring, NULL);
+        for (int k = 1; k <= RELABEL_AHEAD; k++)
+            en_free(jobs[k].fb);
         return nomem(j, err);
     }
     uint64_t nf = j->st.faces, next = 0, f = 0;
-    int busy = 0, cur = 0, rc = nf ? relabel_start(ring, &jobs[0], &next, nf, &busy) : 0;
-    const relabel_job *failed = rc ? &jobs[0] : NULL;
-    for (; f < nf && rc == 0; cur = 1 - cur) {
-        relabel_job *b = &jobs[cur];
-        void *job;
-        if (busy) {
-            busy = 0;
-            if (en_jobring_retire(ring, &job, &rc) == 1 && rc) {
-                failed = b;
-                break;
+    /* batch k in jobs[k % (RELABEL_AHEAD + 1)]; while batch cur is added,
+     * the RELABEL_AHEAD after it run (the ring retires in order) */
+    size_t started = 0;
+    const relabel_job *failed = NULL;
+    for (size_t cur = 0; f < nf && rc == 0; cur++) {
+        relabel_job *b = &jobs[cur % (RELABEL_AHEAD + 1)];
+        for (int round = 0; round < 2 && rc == 0; round++) {
+            /* the batches up to RELABEL_AHEAD past cur, as the ring has room:
+             * before batch cur is retired, and again after */
+            while (next < nf && started <= cur + RELABEL_AHEAD && !(ring && en_jobring_full(ring))) {
+                relabel_job *s = &jobs[started++ % (RELABEL_AHEAD + 1)];
+                int on_pool;
+                if ((rc = relabel_start(ring, s, &next, nf, &on_pool)) != 0) {
+                    failed = s;
+                    break;
+                }
             }
+            void *job;
+            if (rc == 0 && round == 0 && ring && en_jobring_retire(ring, &job, &rc) == 1 && rc)
+                failed = b;
         }
-        if (next < nf && (rc = relabel_start(ring, &jobs[1 - cur], &next, nf, &busy)) != 0) {
-            failed = &jobs[1 - cur];
+        if (rc)
             break;
-        }
         const uint64_t *it = b->fb; /* sorter F's items now (relabel_run) */
         for (size_t i = 0; i < b->n && rc == 0 && j->nkeep; i++) {
             uint64_t r[3] = { it[2 * i] >> 32, it[2 * i + 1] & UINT32_MAX, it[2 * i + 1] >> 32 };
@@ -1742,13 +1765,9 @@ static int pass_faces_in_core(sort_job *j, epsnet_error *err)
         if (rc == 0)
             rc = progress(j, f, nf, err);
     }
-    if (busy) {
-        void *job;
-        int ignored;
-        en_jobring_retire(ring, &job, &ignored);
-    }
-    en_jobring_free(&ring, NULL);
-    en_free(jobs[1].fb);
+    en_jobring_free(&ring, NULL); /* waits for the batches still in flight */
+    for (int k = 1; k <= RELABEL_AHEAD; k++)
+        en_free(jobs[k].fb);
     if (failed && err)
         *err = failed->err;
     if (rc)
