@@ -358,6 +358,49 @@ TEST(plain_spill_keeps_bytes_as_written_across_small_and_large_writes)
     en_spill_close(&sp);
 }
 
+/* Written behind on a pool's worker, a plain spill keeps its bytes in the
+ * order written, whatever the sizes of the writes, counts them all, and
+ * closes with a buffer still in flight. */
+TEST(plain_spill_written_behind_keeps_bytes_in_order)
+{
+    char dir[600];
+    snprintf(dir, sizeof dir, "%s/behinddir", tl_tmpdir());
+    mkdir(dir, 0777);
+    epsnet_error err;
+    en_pool *pool = NULL;
+    CHECK_EQ_INT(en_pool_new(&pool, 2), 0);
+    for (int closing = 0; closing < 2; closing++) {
+        en_spill *sp = NULL;
+        CHECK_EQ_INT(en_spill_open_plain(&sp, dir, "out.smz", &err), 0);
+        CHECK_EQ_INT(en_spill_write_behind(sp, pool), 0);
+        static uint64_t big[50000];
+        uint64_t next = 0;
+        for (int round = 0; round < 4; round++) {
+            for (int i = 0; i < 3000; i++, next++)
+                CHECK_EQ_INT(en_spill_write(sp, &next, sizeof next, &err), 0);
+            size_t n = round == 2 ? 5 : sizeof big / sizeof *big; /* many buffers' worth, then a few */
+            for (size_t i = 0; i < n; i++)
+                big[i] = next++;
+            CHECK_EQ_INT(en_spill_write(sp, big, n * sizeof *big, &err), 0);
+        }
+        if (closing) {
+            en_spill_close(&sp); /* with a buffer in flight */
+            continue;
+        }
+        CHECK_EQ_INT(en_spill_rewind(sp, &err), 0);
+        CHECK_EQ_U64(en_spill_disk_bytes(sp), next * 8);
+        uint64_t v, n = 0;
+        int ok = 1;
+        while (en_spill_read(sp, &v, sizeof v, &err) == (int64_t)sizeof v)
+            ok &= v == n++;
+        CHECK(ok);
+        CHECK_EQ_U64(n, next);
+        en_spill_close(&sp);
+    }
+    CHECK_EQ_INT(count_entries(dir), 0);
+    en_pool_free(&pool);
+}
+
 /* Blocks of a MiB and more are mapped (common/alloc.c): a block keeps its
  * bytes whichever side of that line it grows or shrinks to, calloc's are
  * zero on both sides, and every one goes back through en_free. */
@@ -567,6 +610,7 @@ int main(void)
     RUN(sink_into_missing_directory_fails_cleanly);
     RUN(spill_round_trips_and_leaves_no_file);
     RUN(plain_spill_keeps_bytes_as_written_across_small_and_large_writes);
+    RUN(plain_spill_written_behind_keeps_bytes_in_order);
     RUN(allocations_keep_their_bytes_across_the_mapping_line);
     RUN(u64set_add_remove_many);
     RUN(parse_size_accepts_binary_suffixes);

@@ -14,6 +14,7 @@
 #include "common/alloc.h"
 #include "common/error.h"
 #include "common/fault.h"
+#include "common/pool.h"
 
 #define EN_SINK_BUF (1u << 20)
 #define SPILL_PLAIN_BUF ((size_t)128 << 10)
@@ -479,6 +480,15 @@ fail:
 
 /* ---- spill files ---- */
 
+/* A staged buffer of a plain spill, written on a worker (en_spill_write_behind). */
+typedef struct spill_job {
+    en_spill *sp;
+    uint8_t *buf;
+    size_t len;
+    uint64_t written;       /* the worker's, read after retire */
+    epsnet_error err;       /* the same */
+} spill_job;
+
 struct en_spill {
     int fd;
     char *owner;            /* for messages */
@@ -491,6 +501,11 @@ struct en_spill {
     size_t zcap, zlen, zpos;
     int eof;
     uint64_t disk;
+    /* write behind (plain, writing): zbuf is filled while job writes the
+     * buffer before it; job.buf is the spare when ring holds nothing */
+    en_jobring *ring;
+    spill_job job;
+    int busy;
 };
 
 static int spill_open(en_spill **out, const char *dir, const char *owner, int plain, epsnet_error *err)
@@ -603,11 +618,97 @@ static int spill_compress(en_spill *sp, const void *data, size_t n, ZSTD_EndDire
     }
 }
 
+static int spill_job_run(void *arg)
+{
+    spill_job *j = arg;
+    en_spill *sp = j->sp;
+    const uint8_t *p = j->buf;
+    size_t n = j->len;
+    j->written = 0;
+    while (n) {
+        ssize_t k = disk_write(sp->fd, p, n);
+        if (k < 0 && errno == EINTR)
+            continue;
+        if (k <= 0)
+            return spill_io_fail(sp, k < 0 ? errno : ENOSPC, &j->err);
+        p += k;
+        n -= (size_t)k;
+        j->written += (uint64_t)k;
+    }
+    return 0;
+}
+
+/* Wait for the buffer in flight; its failure is this call's. */
+static int spill_drain(en_spill *sp, epsnet_error *err)
+{
+    if (!sp->busy)
+        return 0;
+    void *job;
+    int rc = 0;
+    en_jobring_retire(sp->ring, &job, &rc);
+    sp->busy = 0;
+    sp->disk += sp->job.written;
+    if (rc && err)
+        *err = sp->job.err;
+    return rc ? EPSNET_EIO : 0;
+}
+
+/* zbuf's staged bytes to the file: behind, on a worker, or here. */
+static int spill_flush(en_spill *sp, epsnet_error *err)
+{
+    if (!sp->zlen)
+        return 0;
+    if (!sp->ring)
+        return spill_write_raw(sp, sp->zbuf, sp->zlen, err) ? EPSNET_EIO : (sp->zlen = 0, 0);
+    if (spill_drain(sp, err))
+        return EPSNET_EIO;
+    uint8_t *spare = sp->job.buf;
+    sp->job.buf = sp->zbuf;
+    sp->job.len = sp->zlen;
+    sp->zbuf = spare;
+    sp->zlen = 0;
+    if (en_jobring_submit(sp->ring, spill_job_run, &sp->job))
+        return spill_job_run(&sp->job) ? (*err = sp->job.err, EPSNET_EIO) : (sp->disk += sp->job.written, 0);
+    sp->busy = 1;
+    return 0;
+}
+
+int en_spill_write_behind(en_spill *sp, en_pool *pool)
+{
+    if (!sp->plain || sp->reading || sp->ring || !pool || en_pool_threads(pool) == 0)
+        return 0;
+    if (!(sp->job.buf = en_malloc(sp->zcap)))
+        return EPSNET_ENOMEM;
+    if (en_jobring_new(&sp->ring, pool, 1)) {
+        en_free(sp->job.buf);
+        sp->job.buf = NULL;
+        return EPSNET_ENOMEM;
+    }
+    /* the caller waits for it at its next flush: ahead of work that does not gate anything */
+    en_jobring_set_order(sp->ring, 1, 1);
+    sp->job.sp = sp;
+    return 0;
+}
+
 /* A plain spill stages small writes in zbuf and passes large ones (half
  * of zbuf or more: a batch of records) straight to the file, without the
- * copy. */
+ * copy; written behind (en_spill_write_behind), everything is staged, so
+ * that the caller only copies. */
 static int spill_put_plain(en_spill *sp, const void *data, size_t n, epsnet_error *err)
 {
+    if (sp->ring) {
+        const uint8_t *p = data;
+        while (n) {
+            if (sp->zlen == sp->zcap && spill_flush(sp, err))
+                return EPSNET_EIO;
+            size_t k = sp->zcap - sp->zlen < n ? sp->zcap - sp->zlen : n;
+            memcpy(sp->zbuf + sp->zlen, p, k);
+            sp->zlen += k;
+            p += k;
+            n -= k;
+        }
+        return 0;
+    }
     if ((sp->zlen + n > sp->zcap || n >= sp->zcap / 2) && sp->zlen) {
         if (spill_write_raw(sp, sp->zbuf, sp->zlen, err))
             return EPSNET_EIO;
@@ -630,9 +731,22 @@ int en_spill_write(en_spill *sp, const void *data, size_t n, epsnet_error *err)
     return spill_compress(sp, data, n, ZSTD_e_continue, err);
 }
 
+/* Stop writing behind: what is in flight is written (its failure is
+ * this call's), and the ring and the spare buffer go. */
+static int spill_behind_end(en_spill *sp, epsnet_error *err)
+{
+    int rc = spill_drain(sp, err);
+    en_jobring_free(&sp->ring, NULL);
+    en_free(sp->job.buf);
+    sp->job.buf = NULL;
+    return rc;
+}
+
 int en_spill_rewind(en_spill *sp, epsnet_error *err)
 {
     if (!sp->reading && sp->plain) {
+        if (spill_behind_end(sp, err))
+            return EPSNET_EIO;
         if (sp->zlen && spill_write_raw(sp, sp->zbuf, sp->zlen, err))
             return EPSNET_EIO;
         en_free(sp->zbuf);
@@ -744,6 +858,7 @@ void en_spill_close(en_spill **psp)
     en_spill *sp = psp ? *psp : NULL;
     if (!sp)
         return;
+    (void)spill_behind_end(sp, NULL); /* before the file goes */
     if (sp->fd >= 0)
         close(sp->fd);
     if (sp->zc)

@@ -56,6 +56,7 @@ const char *en_sink_path(const en_sink *s);
 
 /* ---- spill files ---- */
 
+struct en_pool;
 typedef struct en_spill en_spill;
 
 /* Anonymous zstd-compressed temporary file in dir (NULL = $TMPDIR or /tmp).
@@ -66,6 +67,12 @@ int en_spill_open(en_spill **sp, const char *dir, const char *owner, epsnet_erro
  * compress well enough to pay for zstd's time. */
 int en_spill_open_plain(en_spill **sp, const char *dir, const char *owner, epsnet_error *err);
 int en_spill_write(en_spill *sp, const void *data, size_t n, epsnet_error *err);
+/* A plain spill's staged bytes are written on pool's workers, a buffer at
+ * a time and in order, while the caller fills the next one; a failure is
+ * reported by the write or rewind that meets it. Before the first write.
+ * @return 0, or EPSNET_ENOMEM (the spill then writes on the caller's
+ * thread, as it would without). */
+int en_spill_write_behind(en_spill *sp, struct en_pool *pool);
 /* Switch from writing to reading from the start. */
 int en_spill_rewind(en_spill *sp, epsnet_error *err);
 /* Read up to n bytes; @return bytes read (0 at end) or a negative code. */
