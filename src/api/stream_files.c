@@ -115,7 +115,7 @@ static int feed(epsnet_context *ctx, en_run *run, en_input *in, const char *path
     size_t n;
     uint64_t seen = 0, next_report = PROGRESS_EVERY;
     /* note: straight from the reader's queue, one copy fewer than
-     * epsnet_reader_next() (docs/architecture.md §15) */
+     * epsnet_reader_next() (docs/architecture.md §10) */
     while ((rc = en_reader_next_batch(r, &recs, &n, err)) == 1) {
         if ((rc = en_run_put_many(run, recs, n, err)) != 0)
             return rc;

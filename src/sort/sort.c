@@ -1247,7 +1247,7 @@ static int pass_read(sort_job *j, epsnet_error *err)
     const epsnet_record *batch;
     size_t count;
     /* note: straight from the reader's queue, not copied out record by
-     * record (docs/architecture.md §15) */
+     * record (docs/architecture.md §10) */
     while ((rc = en_reader_next_batch(j->r, &batch, &count, err)) > 0) {
         for (size_t b = 0; b < count; b++) {
             const epsnet_record *rec = &batch[b];
