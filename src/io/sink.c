@@ -667,10 +667,16 @@ static int spill_flush(en_spill *sp, epsnet_error *err)
     sp->job.len = sp->zlen;
     sp->zbuf = spare;
     sp->zlen = 0;
-    if (en_jobring_submit(sp->ring, spill_job_run, &sp->job))
-        return spill_job_run(&sp->job) ? (*err = sp->job.err, EPSNET_EIO) : (sp->disk += sp->job.written, 0);
-    sp->busy = 1;
-    return 0;
+    if (en_jobring_submit(sp->ring, spill_job_run, &sp->job) == 0) {
+        sp->busy = 1;
+        return 0;
+    }
+    /* (the ring was drained above, so it has room: not reached) */
+    int rc = spill_job_run(&sp->job);
+    sp->disk += sp->job.written;
+    if (rc && err)
+        *err = sp->job.err;
+    return rc ? EPSNET_EIO : 0;
 }
 
 int en_spill_write_behind(en_spill *sp, en_pool *pool)

@@ -83,8 +83,9 @@ typedef struct en_chunker {
      * leaves a seam pair's copies in two slabs, each alone as a boundary
      * (a locked sample). Kept only with copies set, where the records carry
      * attributes of their own (copies come from those; a target's carried
-     * block alone makes none, and keeping the hash there was a tenth of a
-     * round's chunking, session 38): a hash of the bits -> live vertices there. */
+     * block alone makes none, and a round without attributes then holds its
+     * vertices as the default path does): a hash of the bits -> live
+     * vertices there. */
     int copies;
     en_u64map live_at;
     uint32_t *waiting;         /* scratch of a cut: the vertices that wait */
