@@ -196,11 +196,18 @@ TEST(source_read_ahead_gives_the_same_lines_offsets_and_errors)
     free(cut);
 }
 
+/* A folder of its own under the tests' temporary folder, whose entries
+ * are counted (a sink or a spill must leave none behind). */
+static void test_dir(char *dir, size_t cap, const char *name)
+{
+    snprintf(dir, cap, "%s/%s", tl_tmpdir(), name);
+    mkdir(dir, 0777);
+}
+
 TEST(sink_commit_renames_and_abort_leaves_nothing)
 {
     char dir[600];
-    snprintf(dir, sizeof dir, "%s/sinkdir", tl_tmpdir());
-    mkdir(dir, 0777);
+    test_dir(dir, sizeof dir, "sinkdir");
     char dst[700];
     snprintf(dst, sizeof dst, "%s/out.bin", dir);
     epsnet_error err;
@@ -278,8 +285,7 @@ TEST(sink_into_missing_directory_fails_cleanly)
 TEST(spill_round_trips_and_leaves_no_file)
 {
     char dir[600];
-    snprintf(dir, sizeof dir, "%s/spilldir", tl_tmpdir());
-    mkdir(dir, 0777);
+    test_dir(dir, sizeof dir, "spilldir");
     epsnet_error err;
     en_spill *sp = NULL;
     CHECK_EQ_INT(en_spill_open(&sp, dir, "out.ply", &err), 0);
@@ -302,11 +308,25 @@ TEST(spill_round_trips_and_leaves_no_file)
     CHECK_EQ_INT(count_entries(dir), 0);
 }
 
+/* A plain spill written 0, 1, ... next - 1 (uint64_t): rewound, it holds
+ * those bytes, uncompressed, and reads them back in order. */
+static void reads_back_counting(en_spill *sp, uint64_t next)
+{
+    epsnet_error err;
+    CHECK_EQ_INT(en_spill_rewind(sp, &err), 0);
+    CHECK_EQ_U64(en_spill_disk_bytes(sp), next * 8); /* not compressed */
+    uint64_t v, n = 0;
+    int ok = 1;
+    while (en_spill_read(sp, &v, sizeof v, &err) == (int64_t)sizeof v)
+        ok &= v == n++;
+    CHECK(ok);
+    CHECK_EQ_U64(n, next);
+}
+
 TEST(plain_spill_keeps_bytes_as_written_across_small_and_large_writes)
 {
     char dir[600];
-    snprintf(dir, sizeof dir, "%s/plaindir", tl_tmpdir());
-    mkdir(dir, 0777);
+    test_dir(dir, sizeof dir, "plaindir");
     epsnet_error err;
     en_spill *sp = NULL;
     CHECK_EQ_INT(en_spill_open_plain(&sp, dir, "out.smz", &err), 0);
@@ -322,14 +342,8 @@ TEST(plain_spill_keeps_bytes_as_written_across_small_and_large_writes)
             big[i] = next++;
         CHECK_EQ_INT(en_spill_write(sp, big, sizeof big, &err), 0);
     }
-    CHECK_EQ_INT(en_spill_rewind(sp, &err), 0);
-    CHECK_EQ_U64(en_spill_disk_bytes(sp), next * 8); /* not compressed */
-    uint64_t v, n = 0;
-    int ok = 1;
-    while (en_spill_read(sp, &v, sizeof v, &err) == (int64_t)sizeof v)
-        ok &= v == n++;
-    CHECK(ok);
-    CHECK_EQ_U64(n, next);
+    reads_back_counting(sp, next);
+    uint64_t v;
     CHECK_EQ_INT(en_spill_rewind(sp, &err), 0); /* read again from the start */
     CHECK_EQ_INT((int)en_spill_read(sp, big, 16, &err), 16);
     CHECK_EQ_U64(big[1], 1);
@@ -364,8 +378,7 @@ TEST(plain_spill_keeps_bytes_as_written_across_small_and_large_writes)
 TEST(plain_spill_written_behind_keeps_bytes_in_order)
 {
     char dir[600];
-    snprintf(dir, sizeof dir, "%s/behinddir", tl_tmpdir());
-    mkdir(dir, 0777);
+    test_dir(dir, sizeof dir, "behinddir");
     epsnet_error err;
     en_pool *pool = NULL;
     CHECK_EQ_INT(en_pool_new(&pool, 2), 0);
@@ -387,14 +400,7 @@ TEST(plain_spill_written_behind_keeps_bytes_in_order)
             en_spill_close(&sp); /* with a buffer in flight */
             continue;
         }
-        CHECK_EQ_INT(en_spill_rewind(sp, &err), 0);
-        CHECK_EQ_U64(en_spill_disk_bytes(sp), next * 8);
-        uint64_t v, n = 0;
-        int ok = 1;
-        while (en_spill_read(sp, &v, sizeof v, &err) == (int64_t)sizeof v)
-            ok &= v == n++;
-        CHECK(ok);
-        CHECK_EQ_U64(n, next);
+        reads_back_counting(sp, next);
         en_spill_close(&sp);
     }
     CHECK_EQ_INT(count_entries(dir), 0);
