@@ -369,29 +369,27 @@ int en_run_open(en_run *run, epsnet_context *ctx, en_slab_mode mode, const char 
     return rc;
 }
 
-int en_run_put(en_run *run, const epsnet_record *rec, epsnet_error *err)
+/* The faces put so far, live for progress reports: the chain's own count
+ * (its input stage is run->input), not a second pass over the records. */
+static int counted(en_run *run, int rc)
 {
-    run->ctx->stats.faces += rec->kind == EPSNET_REC_TRIANGLE; /* live, for progress reports */
-    return en_stage_put(&run->input, rec, err);
+    run->ctx->stats.faces = en_chain_faces_in(run->chain);
+    return rc;
 }
 
-/* Faces so far, for progress reports. */
-static void count_faces(en_run *run, const epsnet_record *recs, size_t n)
+int en_run_put(en_run *run, const epsnet_record *rec, epsnet_error *err)
 {
-    for (size_t i = 0; i < n; i++)
-        run->ctx->stats.faces += recs[i].kind == EPSNET_REC_TRIANGLE;
+    return counted(run, en_stage_put(&run->input, rec, err));
 }
 
 int en_run_put_many(en_run *run, const epsnet_record *recs, size_t n, epsnet_error *err)
 {
-    count_faces(run, recs, n);
-    return en_chain_put_many(run->chain, recs, n, err);
+    return counted(run, en_chain_put_many(run->chain, recs, n, err));
 }
 
 int en_run_put_owned(en_run *run, epsnet_record **recs, size_t *cap, size_t n, epsnet_error *err)
 {
-    count_faces(run, *recs, n);
-    return en_chain_put_owned(run->chain, recs, cap, n, err);
+    return counted(run, en_chain_put_owned(run->chain, recs, cap, n, err));
 }
 
 /* The one place where the chain's counts become the public statistics. */

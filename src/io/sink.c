@@ -583,7 +583,9 @@ static int spill_io_fail(const en_spill *sp, int e, epsnet_error *err)
                         "temporary file: %s", strerror(e));
 }
 
-static int spill_write_raw(en_spill *sp, const uint8_t *p, size_t n, epsnet_error *err)
+/* n bytes to sp's file, counting into *written what went (on whichever
+ * thread writes: the caller's, or a worker's when written behind). */
+static int spill_write_all(const en_spill *sp, const uint8_t *p, size_t n, uint64_t *written, epsnet_error *err)
 {
     while (n) {
         ssize_t k = disk_write(sp->fd, p, n);
@@ -596,9 +598,14 @@ static int spill_write_raw(en_spill *sp, const uint8_t *p, size_t n, epsnet_erro
             return spill_io_fail(sp, ENOSPC, err);
         p += k;
         n -= (size_t)k;
-        sp->disk += (uint64_t)k;
+        *written += (uint64_t)k;
     }
     return 0;
+}
+
+static int spill_write_raw(en_spill *sp, const uint8_t *p, size_t n, epsnet_error *err)
+{
+    return spill_write_all(sp, p, n, &sp->disk, err);
 }
 
 static int spill_compress(en_spill *sp, const void *data, size_t n, ZSTD_EndDirective mode,
@@ -621,21 +628,8 @@ static int spill_compress(en_spill *sp, const void *data, size_t n, ZSTD_EndDire
 static int spill_job_run(void *arg)
 {
     spill_job *j = arg;
-    en_spill *sp = j->sp;
-    const uint8_t *p = j->buf;
-    size_t n = j->len;
     j->written = 0;
-    while (n) {
-        ssize_t k = disk_write(sp->fd, p, n);
-        if (k < 0 && errno == EINTR)
-            continue;
-        if (k <= 0)
-            return spill_io_fail(sp, k < 0 ? errno : ENOSPC, &j->err);
-        p += k;
-        n -= (size_t)k;
-        j->written += (uint64_t)k;
-    }
-    return 0;
+    return spill_write_all(j->sp, j->buf, j->len, &j->written, &j->err);
 }
 
 /* Wait for the buffer in flight; its failure is this call's. */
@@ -653,13 +647,10 @@ static int spill_drain(en_spill *sp, epsnet_error *err)
     return rc ? EPSNET_EIO : 0;
 }
 
-/* zbuf's staged bytes to the file: behind, on a worker, or here. */
+/* Written behind: zbuf's staged bytes go to a worker, which writes them
+ * while the caller fills the spare buffer. */
 static int spill_flush(en_spill *sp, epsnet_error *err)
 {
-    if (!sp->zlen)
-        return 0;
-    if (!sp->ring)
-        return spill_write_raw(sp, sp->zbuf, sp->zlen, err) ? EPSNET_EIO : (sp->zlen = 0, 0);
     if (spill_drain(sp, err))
         return EPSNET_EIO;
     uint8_t *spare = sp->job.buf;
@@ -667,16 +658,12 @@ static int spill_flush(en_spill *sp, epsnet_error *err)
     sp->job.len = sp->zlen;
     sp->zbuf = spare;
     sp->zlen = 0;
-    if (en_jobring_submit(sp->ring, spill_job_run, &sp->job) == 0) {
-        sp->busy = 1;
-        return 0;
-    }
-    /* (the ring was drained above, so it has room: not reached) */
-    int rc = spill_job_run(&sp->job);
-    sp->disk += sp->job.written;
-    if (rc && err)
-        *err = sp->job.err;
-    return rc ? EPSNET_EIO : 0;
+    /* the ring holds one job and was drained: it has room */
+    if (en_jobring_submit(sp->ring, spill_job_run, &sp->job))
+        return en_error_set(err, EPSNET_EINTERNAL, sp->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
+                            "temporary file: no room to write behind (a bug)");
+    sp->busy = 1;
+    return 0;
 }
 
 int en_spill_write_behind(en_spill *sp, en_pool *pool)
@@ -785,21 +772,30 @@ int en_spill_rewind(en_spill *sp, epsnet_error *err)
 
 /* note: a plain spill reads straight into data: the caller's buffer is
  * the only copy. */
-static int64_t spill_read_plain(en_spill *sp, uint8_t *data, size_t n, epsnet_error *err)
+/* Up to n bytes of a plain spill: from byte offset, or, with offset
+ * negative, from the file's place; *eof set at the end. */
+static int64_t spill_read_full(const en_spill *sp, uint8_t *data, size_t n, int64_t offset, int *eof,
+                               epsnet_error *err)
 {
     size_t got = 0;
-    while (got < n && !sp->eof) {
-        ssize_t k = read(sp->fd, data + got, n - got);
+    while (got < n && !*eof) {
+        ssize_t k = offset < 0 ? read(sp->fd, data + got, n - got)
+                               : pread(sp->fd, data + got, n - got, (off_t)offset + (off_t)got);
         if (k < 0) {
             if (errno == EINTR)
                 continue;
             return spill_io_fail(sp, errno, err);
         }
         if (k == 0)
-            sp->eof = 1;
+            *eof = 1;
         got += (size_t)k;
     }
     return (int64_t)got;
+}
+
+static int64_t spill_read_plain(en_spill *sp, uint8_t *data, size_t n, epsnet_error *err)
+{
+    return spill_read_full(sp, data, n, -1, &sp->eof, err);
 }
 
 int64_t en_spill_read_at(const en_spill *sp, void *data, size_t n, uint64_t offset, epsnet_error *err)
@@ -807,19 +803,8 @@ int64_t en_spill_read_at(const en_spill *sp, void *data, size_t n, uint64_t offs
     if (!sp->plain || !sp->reading)
         return en_error_set(err, EPSNET_EINTERNAL, sp->owner, EPSNET_POS_NONE, EPSNET_POS_NONE,
                             "temporary file: read at an offset before it is rewound, or compressed");
-    size_t got = 0;
-    while (got < n) {
-        ssize_t k = pread(sp->fd, (uint8_t *)data + got, n - got, (off_t)(offset + got));
-        if (k < 0) {
-            if (errno == EINTR)
-                continue;
-            return spill_io_fail(sp, errno, err);
-        }
-        if (k == 0)
-            break;
-        got += (size_t)k;
-    }
-    return (int64_t)got;
+    int eof = 0;
+    return spill_read_full(sp, data, n, (int64_t)offset, &eof, err);
 }
 
 int64_t en_spill_read(en_spill *sp, void *data, size_t n, epsnet_error *err)

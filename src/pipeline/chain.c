@@ -839,6 +839,16 @@ static int fail(en_chain *c, int rc, const epsnet_error *err)
     return rc;
 }
 
+/* The chain's input counts (faces_in is also the run's progress count,
+ * en_chain_faces_in). */
+static void count_in(en_chain *c, const epsnet_record *recs, size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        c->stats.vertices_in += recs[i].kind == EPSNET_REC_VERTEX;
+        c->stats.faces_in += recs[i].kind == EPSNET_REC_TRIANGLE;
+    }
+}
+
 static int chain_put(void *self, const epsnet_record *rec, epsnet_error *err)
 {
     en_chain *c = self;
@@ -846,19 +856,9 @@ static int chain_put(void *self, const epsnet_record *rec, epsnet_error *err)
         *err = c->failure;
         return c->failed;
     }
-    c->stats.vertices_in += rec->kind == EPSNET_REC_VERTEX;
-    c->stats.faces_in += rec->kind == EPSNET_REC_TRIANGLE;
+    count_in(c, rec, 1);
     int rc = pass_put(&c->pass[0], rec, err);
     return rc ? fail(c, rc, err) : 0;
-}
-
-/* The chain's input counts, for records taken in bulk. */
-static void count_in(en_chain *c, const epsnet_record *recs, size_t n)
-{
-    for (size_t i = 0; i < n; i++) {
-        c->stats.vertices_in += recs[i].kind == EPSNET_REC_VERTEX;
-        c->stats.faces_in += recs[i].kind == EPSNET_REC_TRIANGLE;
-    }
 }
 
 int en_chain_put_many(en_chain *c, const epsnet_record *recs, size_t n, epsnet_error *err)
@@ -1023,6 +1023,11 @@ int en_chain_new(en_chain **out, const en_chain_config *cfg, en_pool *pool, epsn
     c->stats.passes = c->cfg.mode == EN_SLAB_SIMPLIFY ? (uint64_t)c->cfg.passes : 0;
     *out = c;
     return 0;
+}
+
+uint64_t en_chain_faces_in(const en_chain *c)
+{
+    return c->stats.faces_in;
 }
 
 void en_chain_stats_get(const en_chain *c, en_chain_stats *out)

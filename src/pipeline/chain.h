@@ -148,6 +148,8 @@ int en_chain_put_owned(en_chain *chain, epsnet_record **recs, size_t *cap, size_
 
 /* Counts so far (complete after the end). */
 void en_chain_stats_get(const en_chain *chain, en_chain_stats *stats);
+/* The faces put so far (en_chain_stats.faces_in), on the putting thread. */
+uint64_t en_chain_faces_in(const en_chain *chain);
 
 /* A priced pass (after the end): add into add[] (EN_COST_BUCKETS) the costs
  * of the collapses it left, one count per vertex that may still go, in its

@@ -1703,16 +1703,31 @@ static int relabel_run(void *arg)
 /* Start the next batch of faces into b: on ring's worker, or here when
  * there is none (then it is done on return). @return 0, or what the
  * batch met (in b->err). */
-static int relabel_start(en_jobring *ring, relabel_job *b, uint64_t *next, uint64_t nf, int *busy)
+static int relabel_start(en_jobring *ring, relabel_job *b, uint64_t *next, uint64_t nf)
 {
     b->n = nf - *next < BATCH ? (size_t)(nf - *next) : BATCH;
     b->first = *next;
     *next += b->n;
-    if (ring && en_jobring_submit(ring, relabel_run, b) == 0) {
-        *busy = 1;
+    if (ring && en_jobring_submit(ring, relabel_run, b) == 0)
         return 0;
-    }
     return relabel_run(b);
+}
+
+/* Start batches *started, ... up to batch upto in jobs[k % (RELABEL_AHEAD
+ * + 1)], as far as ring has room. @return 0, or what a batch run here met
+ * (*failed: that batch). */
+static int relabel_ahead(en_jobring *ring, relabel_job *jobs, size_t *started, size_t upto, uint64_t *next,
+                         uint64_t nf, const relabel_job **failed)
+{
+    while (*next < nf && *started <= upto && !(ring && en_jobring_full(ring))) {
+        relabel_job *s = &jobs[(*started)++ % (RELABEL_AHEAD + 1)];
+        int rc = relabel_start(ring, s, next, nf);
+        if (rc) {
+            *failed = s;
+            return rc;
+        }
+    }
+    return 0;
 }
 
 /* In core: the faces straight from the input order, relabelled through
@@ -1747,24 +1762,15 @@ static int pass_faces_in_core(sort_job *j, epsnet_error *err)
      * the RELABEL_AHEAD after it run (the ring retires in order) */
     size_t started = 0;
     const relabel_job *failed = NULL;
+    rc = relabel_ahead(ring, jobs, &started, RELABEL_AHEAD - 1, &next, nf, &failed);
     for (size_t cur = 0; f < nf && rc == 0; cur++) {
         relabel_job *b = &jobs[cur % (RELABEL_AHEAD + 1)];
-        for (int round = 0; round < 2 && rc == 0; round++) {
-            /* the batches up to RELABEL_AHEAD past cur, as the ring has room:
-             * before batch cur is retired, and again after */
-            while (next < nf && started <= cur + RELABEL_AHEAD && !(ring && en_jobring_full(ring))) {
-                relabel_job *s = &jobs[started++ % (RELABEL_AHEAD + 1)];
-                int on_pool;
-                if ((rc = relabel_start(ring, s, &next, nf, &on_pool)) != 0) {
-                    failed = s;
-                    break;
-                }
-            }
-            void *job;
-            if (rc == 0 && round == 0 && ring && en_jobring_retire(ring, &job, &rc) == 1 && rc)
-                failed = b;
+        void *job;
+        if (ring && en_jobring_retire(ring, &job, &rc) == 1 && rc) {
+            failed = b;
+            break;
         }
-        if (rc)
+        if ((rc = relabel_ahead(ring, jobs, &started, cur + RELABEL_AHEAD, &next, nf, &failed)) != 0)
             break;
         const uint64_t *it = b->fb; /* sorter F's items now (relabel_run) */
         for (size_t i = 0; i < b->n && rc == 0 && j->nkeep; i++) {
