@@ -1386,7 +1386,7 @@ TEST(a_slab_given_holds_owns_what_its_ghosts_leave)
         CHECK_EQ_INT((int)z.owned[k], 400);
     CHECK(z.all[2] >= 500); /* two rows of ghosts besides */
     /* with: the first owns slab_vertices, each after it what the one
-     * before's ghosts left of holds, and holds about that in all */
+     * before's ghosts left of slab_vertices, and holds about that in all */
     cut_strip(50, 60, 400, 1, &z);
     CHECK(z.n >= 5 && z.n <= 64);
     CHECK_EQ_INT((int)z.owned[0], 400);
@@ -1399,7 +1399,7 @@ TEST(a_slab_given_holds_owns_what_its_ghosts_leave)
         }
     }
     CHECK_EQ_INT((int)total, 50 * 60);
-    /* a strip wider than a quarter of holds: slabs own the quarter where
+    /* a strip wider than a quarter of slab_vertices: slabs own the quarter where
      * the ghosts leave less */
     cut_strip(200, 25, 400, 1, &z);
     CHECK(z.n >= 5 && z.n <= 64);
