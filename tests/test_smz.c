@@ -7,6 +7,8 @@
 #include <zstd.h>
 
 #include "common/alloc.h"
+#include "common/pool.h"
+#include "io/format.h"
 #include "io/smz.h"
 #include "testlib.h"
 
@@ -501,6 +503,150 @@ TEST(version_1_files_still_read)
     fclose(f);
 }
 
+/* Every record of path, through en_reader_next_batch (the driver's records
+ * in place) on a pool of `threads` workers (0: none), copied with their
+ * attributes. */
+static int read_batches(const char *path, size_t threads, epsnet_record **out, uint8_t **attrs, size_t *n,
+                        epsnet_error *err)
+{
+    epsnet_reader *r = NULL;
+    en_pool *pool = NULL;
+    *out = NULL;
+    *attrs = NULL;
+    *n = 0;
+    int rc = epsnet_reader_open(&r, path, NULL, err);
+    if (rc)
+        return rc;
+    if (threads && en_pool_new(&pool, threads) == 0)
+        (void)en_reader_use_pool(r, pool);
+    size_t asz = epsnet_reader_info(r)->vertex_attrs.size, cap = 0;
+    const epsnet_record *recs;
+    size_t got;
+    while ((rc = en_reader_next_batch(r, &recs, &got, err)) > 0) {
+        if (*n + got > cap) {
+            cap = 2 * (*n + got);
+            *out = realloc(*out, cap * sizeof **out);
+            *attrs = realloc(*attrs, cap * (asz ? asz : 1));
+        }
+        for (size_t i = 0; i < got; i++, (*n)++) {
+            (*out)[*n] = recs[i];
+            (*out)[*n].attr = NULL;
+            if (asz && recs[i].kind == EPSNET_REC_VERTEX)
+                memcpy(*attrs + *n * asz, recs[i].attr, asz);
+        }
+    }
+    (void)en_reader_use_pool(r, NULL);
+    epsnet_reader_close(&r);
+    en_pool_free(&pool);
+    return rc < 0 ? rc : 0;
+}
+
+/* A file of hand-encoded records, one block, unsorted. */
+static void write_raw_block(const char *path, const epsnet_record *recs, size_t n)
+{
+    en_smz_header h = { .version = 2, .coord_type = EPSNET_COORD_FLOAT32, .axis = -1,
+                        .nverts = EPSNET_COUNT_UNKNOWN, .nfaces = EPSNET_COUNT_UNKNOWN };
+    uint8_t hb[EN_SMZ_HEADER_BYTES], tab[EN_SMZ_MAX_TABLE_BYTES];
+    en_smz_header_encode(&h, hb);
+    size_t ntab = en_smz_attr_table_encode(&h.attrs, tab);
+    en_smz_encoder *enc = en_smz_encoder_new_v2(EPSNET_COORD_FLOAT32, NULL, 0);
+    uint64_t nv = 0;
+    for (size_t i = 0; i < n; i++) {
+        CHECK_EQ_INT(en_smz_encoder_add(enc, &recs[i], nv), 0);
+        nv += recs[i].kind == EPSNET_REC_VERTEX;
+    }
+    ZSTD_CCtx *cctx = ZSTD_createCCtx();
+    ZSTD_CCtx_setParameter(cctx, ZSTD_c_checksumFlag, 1);
+    uint8_t *payload = NULL;
+    size_t cap = 0;
+    en_smz_block_header b;
+    CHECK_EQ_INT(en_smz_encoder_flush(enc, cctx, &payload, &cap, &b), 0);
+    b.first_vertex = 0;
+    uint8_t bh[EN_SMZ_BLOCK_HEADER_BYTES];
+    en_smz_block_header_encode(&b, bh);
+    FILE *f = fopen(path, "wb");
+    fwrite(hb, 1, sizeof hb, f);
+    fwrite(tab, 1, ntab, f);
+    fwrite(bh, 1, sizeof bh, f);
+    fwrite(payload, 1, b.compressed_bytes, f);
+    fclose(f);
+    en_free(payload);
+    ZSTD_freeCCtx(cctx);
+    en_smz_encoder_free(&enc);
+}
+
+/* The batches a run reads (the driver's decoded blocks, handed out in
+ * place) are the records, attributes and errors of epsnet_reader_next(),
+ * with and without workers. */
+TEST(batches_in_place_are_the_records_one_by_one)
+{
+    epsnet_error err;
+    const char *p = tl_path("atlas.smz");
+    epsnet_gen_settings gs = tl_gen_settings("bumpy", 200000, NAN, 3, 0);
+    gs.charts = 40;
+    CHECK_EQ_INT(tl_gen_settings_file(p, &gs, &err), 0);
+    epsnet_record *want;
+    size_t nwant;
+    epsnet_mesh_info info;
+    CHECK_EQ_INT(read_records(p, &want, &nwant, &info, &err), 0);
+    CHECK_EQ_U64(info.vertex_attrs.size, 8); /* texture_u, texture_v */
+    CHECK(nwant > 200000);
+    for (size_t threads = 0; threads <= 2; threads += 2) {
+        epsnet_record *got;
+        uint8_t *attrs;
+        size_t n;
+        CHECK_EQ_INT(read_batches(p, threads, &got, &attrs, &n, &err), 0);
+        CHECK_EQ_U64(n, nwant);
+        size_t differ = 0, attrs_differ = 0;
+        epsnet_reader *r = NULL;
+        CHECK_EQ_INT(epsnet_reader_open(&r, p, NULL, &err), 0);
+        epsnet_record rec;
+        for (size_t i = 0; i < n && i < nwant; i++) {
+            differ += !same_record(&got[i], &want[i]);
+            CHECK_EQ_INT(epsnet_reader_next(r, &rec, &err), 1);
+            if (rec.kind == EPSNET_REC_VERTEX)
+                attrs_differ += memcmp(rec.attr, attrs + i * 8, 8) != 0;
+        }
+        epsnet_reader_close(&r);
+        CHECK_EQ_U64(differ, 0);
+        CHECK_EQ_U64(attrs_differ, 0);
+        free(got);
+        free(attrs);
+    }
+    free(want);
+
+    /* a stream that uses a vertex after its finalization, inside a block:
+     * the records before it come first, then the error the record reader
+     * gives */
+    static const epsnet_record late[] = {
+        { .kind = EPSNET_REC_VERTEX, .xyz = { 0, 0, 0 } },
+        { .kind = EPSNET_REC_VERTEX, .xyz = { 1, 0, 0 } },
+        { .kind = EPSNET_REC_VERTEX, .xyz = { 0, 1, 0 } },
+        { .kind = EPSNET_REC_FINALIZE, .v = { 0 } },
+        { .kind = EPSNET_REC_TRIANGLE, .v = { 0, 1, 2 } },
+    };
+    const char *bad = tl_path("late.smz");
+    write_raw_block(bad, late, 5);
+    char message[512];
+    CHECK_EQ_INT(read_records(bad, &want, &nwant, NULL, &err), EPSNET_EFORMAT);
+    snprintf(message, sizeof message, "%s", epsnet_error_message(&err));
+    CHECK_STR_CONTAINS(message, "references vertex 1, which was finalized");
+    CHECK_EQ_U64(nwant, 4);
+    for (size_t threads = 0; threads <= 2; threads += 2) {
+        epsnet_record *got;
+        uint8_t *attrs;
+        size_t n;
+        CHECK_EQ_INT(read_batches(bad, threads, &got, &attrs, &n, &err), EPSNET_EFORMAT);
+        CHECK(strcmp(epsnet_error_message(&err), message) == 0);
+        CHECK_EQ_U64(n, 4);
+        for (size_t i = 0; i < n && i < 4; i++)
+            CHECK(same_record(&got[i], &want[i]));
+        free(got);
+        free(attrs);
+    }
+    free(want);
+}
+
 int main(void)
 {
     RUN(streaming_records_come_back_one_for_one);
@@ -513,6 +659,7 @@ int main(void)
     RUN(a_false_sorted_claim_is_rejected);
     RUN(smz_is_under_forty_percent_of_binary_ply_for_sorted_streams);
     RUN(version_1_files_still_read);
+    RUN(batches_in_place_are_the_records_one_by_one);
     tl_cleanup();
     return tl_finish();
 }

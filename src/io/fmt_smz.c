@@ -264,7 +264,9 @@ static int read_block(epsnet_reader *r, smz_reader *st)
     return 0;
 }
 
-static int push_one(epsnet_reader *r, smz_reader *st, const epsnet_record *rec)
+/* One record's checks, in stream order, then into the reader's queue, or
+ * only counted when queue is 0 (handed out in place: smz_next_in_place). */
+static int push_one(epsnet_reader *r, smz_reader *st, const epsnet_record *rec, int queue)
 {
     switch (rec->kind) {
     case EPSNET_REC_VERTEX:
@@ -284,12 +286,14 @@ static int push_one(epsnet_reader *r, smz_reader *st, const epsnet_record *rec)
             if (rec->xyz[k] > st->hi[k])
                 st->hi[k] = rec->xyz[k];
         }
-        return en_reader_push_vertex_attr(r, rec->xyz[0], rec->xyz[1], rec->xyz[2], rec->attr);
+        return queue ? en_reader_push_vertex_attr(r, rec->xyz[0], rec->xyz[1], rec->xyz[2], rec->attr)
+                     : en_reader_check_vertex(r, rec->xyz[0], rec->xyz[1], rec->xyz[2]);
     case EPSNET_REC_TRIANGLE:
-        return en_reader_push_triangle(r, rec->v[0], rec->v[1], rec->v[2]);
+        return queue ? en_reader_push_triangle(r, rec->v[0], rec->v[1], rec->v[2])
+                     : en_reader_check_triangle(r, rec->v[0], rec->v[1], rec->v[2]);
     default:
         st->nfinal++;
-        return en_reader_push_finalize(r, rec->v[0]);
+        return queue ? en_reader_push_finalize(r, rec->v[0]) : en_reader_check_finalize(r, rec->v[0]);
     }
 }
 
@@ -525,7 +529,8 @@ static void jobs_free(smz_reader *st)
 /*
  * From now on decode blocks on pool (NULL, or a pool without workers: on
  * the caller's thread). Stopping waits for the blocks in flight; the
- * records of a block already given out stay readable (they are copied).
+ * records already queued stay readable (they are copied), those handed
+ * out in place (smz_next_in_place) do not: stop between batches.
  */
 static int smz_use_pool(epsnet_reader *r, en_pool *pool)
 {
@@ -576,12 +581,34 @@ static int smz_fill(epsnet_reader *r)
                 break;
             continue;
         }
-        int rc = push_one(r, st, &st->cur[st->pos]);
+        int rc = push_one(r, st, &st->cur[st->pos], 1);
         if (rc)
             return rc;
         st->pos++;
     }
     return r->qlen > 0;
+}
+
+/* The rest of the current block (the next one, when it is used up), checked
+ * as smz_fill checks, in place: in st->recs or its job's slot, which stay
+ * untouched until the next block is taken (en_format.next_in_place). */
+static int smz_next_in_place(epsnet_reader *r, const epsnet_record **recs, size_t *n)
+{
+    smz_reader *st = r->state;
+    while (st->pos == st->nrecs) {
+        if (st->finished)
+            return 0;
+        int rc = st->ring ? next_block_pooled(r, st) : next_block(r, st);
+        if (rc <= 0)
+            return rc;
+    }
+    uint32_t from = st->pos;
+    int rc = 0;
+    while (st->pos < st->nrecs && (rc = push_one(r, st, &st->cur[st->pos], 0)) == 0)
+        st->pos++;
+    *recs = st->cur + from;
+    *n = st->pos - from;
+    return rc ? rc : 1;
 }
 
 static void smz_close_reader(epsnet_reader *r)
@@ -987,6 +1014,7 @@ const en_format en_format_smz = {
     .fill = smz_fill,
     .close_reader = smz_close_reader,
     .use_pool = smz_use_pool,
+    .next_in_place = smz_next_in_place,
     .open_writer = smz_open_writer,
     .put = smz_put,
     .finish = smz_finish,

@@ -134,6 +134,14 @@ struct en_format {
      * what is in flight). @return 0 or EPSNET_ENOMEM (then it decodes
      * alone, as before). */
     int (*use_pool)(epsnet_reader *r, struct en_pool *pool);
+    /* NULL, or the next records in the driver's own memory, each checked
+     * and counted by en_reader_check_*() (as a push would, without the
+     * queue), valid until the next call on r. en_reader_next_batch() takes
+     * them when the queue is empty and the records carry the file's
+     * attributes unchanged (no en_reader_keep_attrs() subset).
+     * @return 1 with *n > 0; 0 at the end; or a negative code with r->err
+     * filled, after *n records that passed (handed out first). */
+    int (*next_in_place)(epsnet_reader *r, const epsnet_record **recs, size_t *n);
 
     /* NULL for read-only formats. */
     int (*open_writer)(epsnet_writer *w);
@@ -240,6 +248,11 @@ void en_reader_keep_attrs(epsnet_reader *r, const en_format *out, int keep_all, 
 int en_reader_push_triangle(epsnet_reader *r, uint64_t a, uint64_t b, uint64_t c);
 /* Push a finalization: rejects unknown and already finalized vertices. */
 int en_reader_push_finalize(epsnet_reader *r, uint64_t v);
+/* The checks and counts of the pushes above, for records a driver hands
+ * out in place (en_format.next_in_place): nothing is queued. */
+int en_reader_check_vertex(epsnet_reader *r, double x, double y, double z);
+int en_reader_check_triangle(epsnet_reader *r, uint64_t a, uint64_t b, uint64_t c);
+int en_reader_check_finalize(epsnet_reader *r, uint64_t v);
 /* Check a header count against settings.max_count; what = "vertex count". */
 int en_reader_check_count(epsnet_reader *r, uint64_t n, const char *what);
 /* Name an item of the file that the records do not carry. A name seen

@@ -241,7 +241,7 @@ int en_reader_push_vertex_attr(epsnet_reader *r, double x, double y, double z, c
     return 0;
 }
 
-static int push_xyz(epsnet_reader *r, double x, double y, double z)
+int en_reader_check_vertex(epsnet_reader *r, double x, double y, double z)
 {
     if (!isfinite(x) || !isfinite(y) || !isfinite(z))
         return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu has a non-finite coordinate (%g %g %g)",
@@ -258,8 +258,16 @@ static int push_xyz(epsnet_reader *r, double x, double y, double z)
                                   "(does the stream finalize its vertices?)",
                                   (unsigned long long)n, (unsigned long long)r->settings.mem_limit);
     }
-    epsnet_record rec = { .kind = EPSNET_REC_VERTEX, .xyz = { x, y, z } };
     r->nverts++;
+    return 0;
+}
+
+static int push_xyz(epsnet_reader *r, double x, double y, double z)
+{
+    int rc = en_reader_check_vertex(r, x, y, z);
+    if (rc)
+        return rc;
+    epsnet_record rec = { .kind = EPSNET_REC_VERTEX, .xyz = { x, y, z } };
     return queue_push(r, &rec);
 }
 
@@ -301,23 +309,39 @@ int en_reader_grow_held(epsnet_reader *r, size_t *held, void **buf, size_t *cap,
     return 0;
 }
 
-int en_reader_push_triangle(epsnet_reader *r, uint64_t a, uint64_t b, uint64_t c)
+int en_reader_check_triangle(epsnet_reader *r, uint64_t a, uint64_t b, uint64_t c)
 {
     int rc;
     if ((rc = check_corner(r, a)) || (rc = check_corner(r, b)) || (rc = check_corner(r, c)))
         return rc;
-    epsnet_record rec = { .kind = EPSNET_REC_TRIANGLE, .v = { a, b, c } };
     r->ntris++;
+    return 0;
+}
+
+int en_reader_push_triangle(epsnet_reader *r, uint64_t a, uint64_t b, uint64_t c)
+{
+    int rc = en_reader_check_triangle(r, a, b, c);
+    if (rc)
+        return rc;
+    epsnet_record rec = { .kind = EPSNET_REC_TRIANGLE, .v = { a, b, c } };
     return queue_push(r, &rec);
 }
 
-int en_reader_push_finalize(epsnet_reader *r, uint64_t v)
+int en_reader_check_finalize(epsnet_reader *r, uint64_t v)
 {
     if (v >= r->nverts)
         return en_reader_fail(r, EPSNET_EFORMAT, "finalizes vertex %llu but only %llu vertices exist",
                               (unsigned long long)v + 1, (unsigned long long)r->nverts);
     if (r->live && !en_idmap_remove(r->live, v))
         return en_reader_fail(r, EPSNET_EFORMAT, "vertex %llu is finalized twice", (unsigned long long)v + 1);
+    return 0;
+}
+
+int en_reader_push_finalize(epsnet_reader *r, uint64_t v)
+{
+    int rc = en_reader_check_finalize(r, v);
+    if (rc)
+        return rc;
     epsnet_record rec = { .kind = EPSNET_REC_FINALIZE, .v = { v, 0, 0 } };
     return queue_push(r, &rec);
 }
@@ -536,6 +560,23 @@ int epsnet_reader_next(epsnet_reader *r, epsnet_record *rec, epsnet_error *err)
 int en_reader_next_batch(epsnet_reader *r, const epsnet_record **recs, size_t *n, epsnet_error *err)
 {
     *n = 0;
+    if (r->qpos == r->qlen && r->fmt->next_in_place && !r->attrs_subset && !r->failed && !r->done) {
+        /* the driver's own records, checked and not copied: the queue's
+         * copy of every record was a third of the caller's thread reading
+         * a .smz (bench/RESULTS.md, session 39) */
+        int rc = r->fmt->next_in_place(r, recs, n);
+        if (rc < 0 && !r->failed)
+            en_reader_fail(r, rc, "%s", epsnet_strerror(rc));
+        if (*n)
+            return 1; /* an error follows the records before it, at the next call */
+        if (rc == 0) {
+            r->done = 1;
+            return 0;
+        }
+        if (err)
+            *err = r->err;
+        return r->err.code;
+    }
     int rc = queue_ready(r, err);
     if (rc <= 0)
         return rc;
