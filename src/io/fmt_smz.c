@@ -45,6 +45,30 @@
 
 typedef struct smz_reader smz_reader;
 
+/* A decoded block's extent: along the sorted axis (x when none), for its
+ * index entry, and in all three, for the trailer's box. Made where the
+ * block is decoded, a worker's when on the pool. */
+typedef struct smz_bounds {
+    double axis_min, axis_max;
+    double lo[3], hi[3];
+} smz_bounds;
+
+static void block_bounds(const epsnet_record *recs, uint32_t n, int axis, smz_bounds *bb)
+{
+    *bb = (smz_bounds){ INFINITY, -INFINITY, { INFINITY, INFINITY, INFINITY }, { -INFINITY, -INFINITY, -INFINITY } };
+    for (uint32_t i = 0; i < n; i++) {
+        if (recs[i].kind != EPSNET_REC_VERTEX)
+            continue;
+        for (int k = 0; k < 3; k++) {
+            double x = recs[i].xyz[k];
+            bb->lo[k] = x < bb->lo[k] ? x : bb->lo[k];
+            bb->hi[k] = x > bb->hi[k] ? x : bb->hi[k];
+        }
+    }
+    bb->axis_min = bb->lo[axis];
+    bb->axis_max = bb->hi[axis];
+}
+
 /*
  * A block read ahead by the caller's thread and decompressed and decoded on
  * a worker (docs/architecture.md §10). Blocks share nothing (docs/smz.md:
@@ -76,6 +100,7 @@ typedef struct smz_job {
     size_t attrs_cap;
     int bad;                       /* worker: corrupt, why says how */
     char why[200];
+    smz_bounds bounds;             /* worker */
 } smz_job;
 
 struct smz_reader {
@@ -201,25 +226,19 @@ static int first_vertex_check(epsnet_reader *r, smz_reader *st, const en_smz_blo
     return 0;
 }
 
-/* The block's records are decoded into recs: note its index entry and make
- * them the current block. */
+/* The block's records are decoded into recs, its extent into bb: note its
+ * index entry and make them the current block. */
 static void block_decoded(epsnet_reader *r, smz_reader *st, const en_smz_block_header *b,
-                          const epsnet_record *recs)
+                          const epsnet_record *recs, const smz_bounds *bb)
 {
     en_smz_index_entry e = {
         .offset = st->block_offset, .first_vertex = b->first_vertex, .first_triangle = r->ntris,
-        .records = b->records, .compressed_bytes = b->compressed_bytes, .axis_min = INFINITY, .axis_max = -INFINITY,
+        .records = b->records, .compressed_bytes = b->compressed_bytes, .axis_min = bb->axis_min,
+        .axis_max = bb->axis_max,
     };
-    int axis = st->header.axis >= 0 ? st->header.axis : 0;
-    for (uint32_t i = 0; i < b->records; i++) {
-        const epsnet_record *rec = &recs[i];
-        if (rec->kind != EPSNET_REC_VERTEX)
-            continue;
-        double a = rec->xyz[axis];
-        if (a < e.axis_min)
-            e.axis_min = a;
-        if (a > e.axis_max)
-            e.axis_max = a;
+    for (int k = 0; k < 3; k++) {
+        st->lo[k] = bb->lo[k] < st->lo[k] ? bb->lo[k] : st->lo[k];
+        st->hi[k] = bb->hi[k] > st->hi[k] ? bb->hi[k] : st->hi[k];
     }
     uint8_t eb[EN_SMZ_INDEX_ENTRY_BYTES];
     en_smz_index_entry_encode(&e, eb);
@@ -260,7 +279,9 @@ static int read_block(epsnet_reader *r, smz_reader *st)
         en_smz_decode_block_h(st->raw, &b, &st->header, st->attrs, &st->sc, st->recs, why, sizeof why))
         return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset, "block %llu is corrupt: %s",
                                  (unsigned long long)st->block_no, why);
-    block_decoded(r, st, &b, st->recs);
+    smz_bounds bb;
+    block_bounds(st->recs, b.records, st->header.axis >= 0 ? st->header.axis : 0, &bb);
+    block_decoded(r, st, &b, st->recs, &bb);
     return 0;
 }
 
@@ -279,12 +300,6 @@ static int push_one(epsnet_reader *r, smz_reader *st, const epsnet_record *rec, 
                                          (unsigned long long)st->block_no - 1, (unsigned long long)r->nverts + 1,
                                          "xyz"[st->header.axis], a, st->prev_axis);
             st->prev_axis = a;
-        }
-        for (int k = 0; k < 3; k++) {
-            if (rec->xyz[k] < st->lo[k])
-                st->lo[k] = rec->xyz[k];
-            if (rec->xyz[k] > st->hi[k])
-                st->hi[k] = rec->xyz[k];
         }
         return queue ? en_reader_push_vertex_attr(r, rec->xyz[0], rec->xyz[1], rec->xyz[2], rec->attr)
                      : en_reader_check_vertex(r, rec->xyz[0], rec->xyz[1], rec->xyz[2]);
@@ -394,6 +409,8 @@ static int decode_job(void *job)
     if (j->read_rc == 0)
         j->bad = en_smz_unpack(j->dctx, j->payload, &j->b, j->raw, j->why, sizeof j->why) ||
                  en_smz_decode_block_h(j->raw, &j->b, j->h, j->attrs, &j->sc, j->recs, j->why, sizeof j->why);
+    if (j->read_rc == 0 && !j->bad)
+        block_bounds(j->recs, j->b.records, j->h->axis >= 0 ? j->h->axis : 0, &j->bounds);
     return 0;
 }
 
@@ -500,7 +517,7 @@ static int next_block_pooled(epsnet_reader *r, smz_reader *st)
     if (j->bad)
         return en_reader_fail_at(r, EPSNET_EFORMAT, st->block_offset, "block %llu is corrupt: %s",
                                  (unsigned long long)st->block_no, j->why);
-    block_decoded(r, st, &j->b, j->recs);
+    block_decoded(r, st, &j->b, j->recs, &j->bounds);
     /* The source is past the blocks read ahead; errors while this block's
      * records are pushed name where the one-thread reader stands: its end. */
     r->here = j->offset + EN_SMZ_BLOCK_HEADER_BYTES + j->b.compressed_bytes;
