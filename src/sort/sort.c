@@ -900,21 +900,28 @@ static int keep_vertices(sort_job *j, uint64_t first, size_t n, epsnet_error *er
     return rc;
 }
 
-/* Pass 5: a face (its corners' ranks, the largest last), to every
- * stretch it has a corner in. */
-static int keep_face(sort_job *j, const uint64_t r[3], uint64_t last, epsnet_error *err)
+/* The stretches a face (its corners' ranks, the largest last) has a corner
+ * in, as bits (keep_face writes it to each). */
+_Static_assert(EN_SORT_MAX_STRETCHES <= 8, "a face's stretches are the bits of a byte");
+static uint8_t face_stretches(const sort_job *j, const uint64_t r[3], uint64_t last)
 {
     if (last < j->keep_lo || min3(r) >= j->keep_hi)
         return 0;
-    int rc = 0;
-    for (uint32_t k = 0; k < j->nkeep && rc == 0; k++) {
-        const stretch *s = &j->keep[k];
-        int in = 0;
+    uint8_t bits = 0;
+    for (uint32_t k = 0; k < j->nkeep; k++)
         for (int c = 0; c < 3; c++)
-            in |= r[c] >= s->lo && r[c] < s->hi;
-        if (in)
-            rc = en_spill_write(s->faces, r, 3 * sizeof *r, err);
-    }
+            bits |= (uint8_t)((r[c] >= j->keep[k].lo && r[c] < j->keep[k].hi) << k);
+    return bits;
+}
+
+/* Pass 5: a face (its corners' ranks) to every stretch of bits, those it
+ * has a corner in (face_stretches). */
+static int keep_face(sort_job *j, const uint64_t r[3], uint8_t bits, epsnet_error *err)
+{
+    int rc = 0;
+    for (uint32_t k = 0; bits && k < j->nkeep && rc == 0; k++)
+        if (bits >> k & 1)
+            rc = en_spill_write(j->keep[k].faces, r, 3 * sizeof *r, err);
     return rc;
 }
 
@@ -1614,7 +1621,7 @@ static int pass_relabel(sort_job *j, epsnet_error *err)
 /* A face into sorter F (and the stretches kept for windows). */
 static int add_face_item(sort_job *j, const uint64_t r[3], uint64_t last, epsnet_error *err)
 {
-    int rc = j->nkeep ? keep_face(j, r, last, err) : 0;
+    int rc = j->nkeep ? keep_face(j, r, face_stretches(j, r, last), err) : 0;
     if (rc)
         return rc;
     /* note: a face's id is not kept: it only breaks ties on the last
@@ -1652,10 +1659,12 @@ static int add_face(sort_job *j, const uint64_t r[3], epsnet_error *err)
 typedef struct relabel_job {
     sort_job *j;
     uint64_t *fb;                /* 3 n corners, then n items of 2 words: the worker writes them while in flight */
+    uint8_t *kept;               /* with stretches kept: per face, bit k when it has a corner in stretch k (worker) */
     uint64_t first;              /* the first face's index */
     size_t n;
     epsnet_error err;            /* the worker's, read after retire */
 } relabel_job;
+
 
 static int relabel_run(void *arg)
 {
@@ -1694,6 +1703,8 @@ static int relabel_run(void *arg)
                    !__atomic_compare_exchange_n(l, &was, (uint32_t)last, 1, __ATOMIC_RELAXED, __ATOMIC_RELAXED))
                 ;
         }
+        if (b->kept)
+            b->kept[i] = face_stretches(j, c, last);
         fb[2 * i] = last | c[0] << 32;
         fb[2 * i + 1] = c[1] | c[2] << 32;
     }
@@ -1751,10 +1762,19 @@ static int pass_faces_in_core(sort_job *j, epsnet_error *err)
         if (rc == 0 && !(jobs[k].fb = en_malloc(BATCH * 3 * sizeof *jobs[k].fb)))
             rc = EPSNET_ENOMEM;
     }
+    /* note: which stretches each face goes to, found by the workers: on the
+     * calling thread that test of every face was as long as the adds
+     * (bench/RESULTS.md, session 39) */
+    for (int k = 0; k <= RELABEL_AHEAD && j->nkeep; k++)
+        if (rc == 0 && !(jobs[k].kept = en_malloc(BATCH)))
+            rc = EPSNET_ENOMEM;
     if (rc) {
         en_jobring_free(&ring, NULL);
-        for (int k = 1; k <= RELABEL_AHEAD; k++)
-            en_free(jobs[k].fb);
+        for (int k = 0; k <= RELABEL_AHEAD; k++) {
+            if (k)
+                en_free(jobs[k].fb);
+            en_free(jobs[k].kept);
+        }
         return nomem(j, err);
     }
     uint64_t nf = j->st.faces, next = 0, f = 0;
@@ -1773,9 +1793,11 @@ static int pass_faces_in_core(sort_job *j, epsnet_error *err)
         if ((rc = relabel_ahead(ring, jobs, &started, cur + RELABEL_AHEAD, &next, nf, &failed)) != 0)
             break;
         const uint64_t *it = b->fb; /* sorter F's items now (relabel_run) */
-        for (size_t i = 0; i < b->n && rc == 0 && j->nkeep; i++) {
+        for (size_t i = 0; i < b->n && rc == 0 && b->kept; i++) {
+            if (!b->kept[i])
+                continue;
             uint64_t r[3] = { it[2 * i] >> 32, it[2 * i + 1] & UINT32_MAX, it[2 * i + 1] >> 32 };
-            rc = keep_face(j, r, it[2 * i] & UINT32_MAX, err);
+            rc = keep_face(j, r, b->kept[i], err);
         }
         if (rc == 0)
             rc = en_extsort_add_many(j->faces, it, b->n, err);
@@ -1784,8 +1806,11 @@ static int pass_faces_in_core(sort_job *j, epsnet_error *err)
             rc = progress(j, f, nf, err);
     }
     en_jobring_free(&ring, NULL); /* waits for the batches still in flight */
-    for (int k = 1; k <= RELABEL_AHEAD; k++)
-        en_free(jobs[k].fb);
+    for (int k = 0; k <= RELABEL_AHEAD; k++) {
+        if (k)
+            en_free(jobs[k].fb);
+        en_free(jobs[k].kept);
+    }
     if (failed && err)
         *err = failed->err;
     if (rc)
