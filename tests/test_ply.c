@@ -20,6 +20,8 @@
 #include <dirent.h>
 #include <stdint.h>
 
+#include "common/pool.h"
+#include "io/format.h"
 #include "testlib.h"
 
 #define NV 8
@@ -1232,6 +1234,252 @@ TEST(zst_output_with_wrong_announced_counts_fails_cleanly)
     CHECK(!tl_exists(p));
 }
 
+/* ---- records decoded ahead on the pool (fmt_ply.c, "Decoding ahead") ---- */
+
+/* What a reader gave: its records with their attribute bytes, and how it
+ * ended. */
+typedef struct read_out {
+    epsnet_record *r;
+    uint8_t *a;
+    size_t n, cap, asz;
+    int rc;
+    char msg[600];
+} read_out;
+
+static void out_add(read_out *o, const epsnet_record *rec)
+{
+    if (o->n == o->cap) {
+        o->cap = o->cap ? 2 * o->cap : 4096;
+        o->r = realloc(o->r, o->cap * sizeof *o->r);
+        o->a = realloc(o->a, o->cap * (o->asz ? o->asz : 1));
+    }
+    o->r[o->n] = *rec;
+    o->r[o->n].attr = NULL;
+    if (o->asz && rec->kind == EPSNET_REC_VERTEX)
+        memcpy(o->a + o->n * o->asz, rec->attr, o->asz);
+    o->n++;
+}
+
+/* Read the file at path one record at a time (ahead 0: no pool), or with
+ * runs decoded ahead on a pool of two workers, in batches (the records in
+ * place; ahead 1) or one at a time (through the queue; ahead 2), within a
+ * reader's budget of mem bytes (0: none). */
+static void read_all(const char *path, int ahead, uint64_t mem, read_out *o)
+{
+    memset(o, 0, sizeof *o);
+    epsnet_error err;
+    memset(&err, 0, sizeof err);
+    epsnet_reader *r = NULL;
+    en_pool *pool = NULL;
+    epsnet_reader_settings rs;
+    epsnet_reader_default_settings(&rs);
+    rs.mem_limit = mem;
+    o->rc = epsnet_reader_open(&r, path, &rs, &err);
+    if (o->rc == 0) {
+        o->asz = epsnet_reader_info(r)->vertex_attrs.size;
+        if (ahead) {
+            CHECK_EQ_INT(en_pool_new(&pool, 2), 0);
+            CHECK_EQ_INT(en_reader_use_pool(r, pool), 0);
+        }
+        if (ahead == 1) {
+            const epsnet_record *recs;
+            size_t n;
+            while ((o->rc = en_reader_next_batch(r, &recs, &n, &err)) > 0)
+                for (size_t i = 0; i < n; i++)
+                    out_add(o, &recs[i]);
+        } else {
+            epsnet_record rec;
+            while ((o->rc = epsnet_reader_next(r, &rec, &err)) > 0)
+                out_add(o, &rec);
+        }
+        if (ahead)
+            (void)en_reader_use_pool(r, NULL);
+    }
+    snprintf(o->msg, sizeof o->msg, "%s", o->rc ? epsnet_error_message(&err) : "");
+    epsnet_reader_close(&r);
+    en_pool_free(&pool);
+}
+
+/* The records of x and y that differ (kind, corners, coordinates, bytes). */
+static size_t records_differ(const read_out *x, const read_out *y)
+{
+    size_t differ = x->n != y->n;
+    for (size_t i = 0; i < x->n && i < y->n; i++) {
+        const epsnet_record *a = &x->r[i], *b = &y->r[i];
+        differ += a->kind != b->kind || memcmp(a->v, b->v, sizeof a->v) || memcmp(a->xyz, b->xyz, sizeof a->xyz) ||
+                  (x->asz && a->kind == EPSNET_REC_VERTEX && memcmp(x->a + i * x->asz, y->a + i * x->asz, x->asz));
+    }
+    return differ;
+}
+
+/* Both ways give the same records, bytes and end (want_rc, and a message
+ * with want_msg in it). @return the records. */
+static size_t same_both_ways(const char *name, const bytes *b, int want_rc, const char *want_msg)
+{
+    const char *path = tl_write(name, b->d, b->n);
+    read_out one, ahead, more[2];
+    read_all(path, 0, 0, &one);
+    read_all(path, 1, 0, &ahead);
+    read_all(path, 1, (uint64_t)1 << 20, &more[0]); /* a run or two in flight */
+    read_all(path, 2, 0, &more[1]);
+    for (int k = 0; k < 2; k++) {
+        CHECK_EQ_INT(more[k].rc, one.rc);
+        CHECK(strcmp(more[k].msg, one.msg) == 0);
+        CHECK_EQ_U64(records_differ(&more[k], &one), 0);
+        free(more[k].r);
+        free(more[k].a);
+    }
+    CHECK_EQ_INT(one.rc, want_rc);
+    if (one.rc != want_rc)
+        fprintf(stderr, "  %s: %s\n", name, one.msg);
+    CHECK_EQ_INT(ahead.rc, one.rc);
+    CHECK(strcmp(ahead.msg, one.msg) == 0);
+    if (want_msg)
+        CHECK_STR_CONTAINS(one.msg, want_msg);
+    CHECK_EQ_U64(ahead.n, one.n);
+    CHECK_EQ_U64(records_differ(&ahead, &one), 0);
+    if (strcmp(ahead.msg, one.msg) != 0)
+        fprintf(stderr, "  %s:\n    one by one: %s\n    ahead:      %s\n", name, one.msg, ahead.msg);
+    size_t n = one.n;
+    free(one.r);
+    free(one.a);
+    free(ahead.r);
+    free(ahead.a);
+    return n;
+}
+
+/* A W x H grid in binary order be: vertices x, y, z and an attribute
+ * (quality); an element of its own between them and the faces, which
+ * have a flags byte before the list and a float after it; mostly
+ * triangles, every 7th cell a quad, one face of two corners, and with
+ * long_at > 0 that face instead a fan of long_n corners (an int count). */
+static bytes grid_ply(int be, int w, int h, size_t long_at, int64_t long_n)
+{
+    bytes b = { 0 };
+    char line[512];
+    size_t nf = 0;
+    for (int j = 0; j + 1 < h; j++)
+        for (int i = 0; i + 1 < w; i++)
+            nf += (j * w + i) % 7 ? 2 : 1;
+    nf++; /* the short (or long) face */
+    snprintf(line, sizeof line,
+             "ply\nformat %s 1.0\nelement vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
+             "property float quality\nelement edge 2\nproperty int a\nproperty int b\nelement face %zu\n"
+             "property uchar flags\nproperty list %s int vertex_indices\nproperty float area\nend_header\n",
+             be ? "binary_big_endian" : "binary_little_endian", w * h, nf, long_at ? "int" : "uchar");
+    b_str(&b, line);
+    for (int j = 0; j < h; j++)
+        for (int i = 0; i < w; i++) {
+            float v[4] = { (float)i * 0.5f, (float)j * 0.25f, (float)((i * 7 + j * 3) % 11) * 0.125f,
+                           (float)(i + j) };
+            for (int k = 0; k < 4; k++)
+                b_num(&b, &v[k], 4, be);
+        }
+    for (int e = 0; e < 2; e++) {
+        b_int(&b, "int", e, be);
+        b_int(&b, "int", e + 1, be);
+    }
+    const char *ct = long_at ? "int" : "uchar";
+    float area = 0.5f;
+    size_t f = 0;
+    for (int j = 0; j + 1 < h; j++)
+        for (int i = 0; i + 1 < w; i++) {
+            int64_t a = j * w + i, c[4] = { a, a + 1, a + w + 1, a + w };
+            if (f++ == (long_at ? long_at / 2 : 1000)) {
+                b_int(&b, "uchar", 0, be);
+                b_int(&b, ct, long_at ? long_n : 2, be);
+                for (int64_t k = 0; k < (long_at ? long_n : 2); k++)
+                    b_int(&b, "int", (a + k) % (w * h), be);
+                b_num(&b, &area, 4, be);
+            }
+            int quad = (j * w + i) % 7 == 0;
+            for (int t = 0; t < (quad ? 1 : 2); t++) {
+                b_int(&b, "uchar", 1, be);
+                b_int(&b, ct, quad ? 4 : 3, be);
+                for (int k = 0; k < (quad ? 4 : 3); k++)
+                    b_int(&b, "int", quad ? c[k] : c[t ? (k ? k + 1 : 0) : k], be);
+                b_num(&b, &area, 4, be);
+            }
+        }
+    return b;
+}
+
+/* Where the faces start in a grid_ply file. */
+static size_t grid_faces_at(const bytes *b, int w, int h)
+{
+    size_t header = (size_t)(strstr((char *)b->d, "end_header\n") - (char *)b->d) + 11;
+    return header + (size_t)w * (size_t)h * 16 + 16;
+}
+
+/* A binary file read with runs decoded ahead on the pool gives the records,
+ * attributes, errors and positions of the one-thread walkers, wherever a
+ * run starts or stops: the reference meshes, a grid of many runs, and that
+ * grid damaged in its vertices and faces, cut short, and with a polygon
+ * longer than the read window or a list count out of range. */
+TEST(runs_decoded_ahead_give_the_walkers_records_and_errors)
+{
+    static const char *types[][2] = { { "uchar", "int" }, { "ushort", "uint" }, { "int", "short" } };
+    for (int enc = LE; enc <= BE; enc++)
+        for (int extras = 0; extras <= 1; extras++)
+            for (size_t t = 0; t < 3; t++) {
+                layout l = { extras, types[t][0], types[t][1] };
+                bytes b = make_ply(enc, &l);
+                CHECK_EQ_U64(same_both_ways("ahead_ref.ply", &b, 0, NULL), NV + NT);
+                free(b.d);
+            }
+    const int w = 300, h = 200;
+    for (int be = 0; be <= 1; be++) {
+        bytes b = grid_ply(be, w, h, 0, 0);
+        size_t n = same_both_ways("ahead_grid.ply", &b, 0, NULL);
+        CHECK(n > 100000);
+        size_t faces = grid_faces_at(&b, w, h);
+        /* a NaN in the middle of the vertices (vertex 40,001's y) */
+        uint8_t keep[4];
+        size_t at = faces - 16 - (size_t)(w * h - 40000) * 16 + 4;
+        memcpy(keep, b.d + at, 4);
+        memcpy(b.d + at, be ? "\x7f\xc0\x00\x00" : "\x00\x00\xc0\x7f", 4);
+        CHECK_EQ_U64(same_both_ways("ahead_nan.ply", &b, EPSNET_EFORMAT, "vertex 40001 has a non-finite"), 40000);
+        memcpy(b.d + at, keep, 4);
+        /* the first corner of cell 40,000's first face (of 59,501) out of
+         * range, then negative (the cell's records: one quad of 22 bytes
+         * in 7 cells, the others two triangles of 18, and the short face
+         * of 14 at cell 1000) */
+        at = faces;
+        for (int j = 0, c = 0; j + 1 < h && c < 40000; j++)
+            for (int i = 0; i + 1 < w && c < 40000; i++, c++)
+                at += (c == 1000 ? 14 : 0) + ((j * w + i) % 7 == 0 ? 22 : 36);
+        size_t corner = at + 2;
+        memcpy(keep, b.d + corner, 4);
+        bytes v = { 0 };
+        b_int(&v, "int", w * h, be);
+        b_int(&v, "int", -5, be);
+        memcpy(b.d + corner, v.d, 4);
+        same_both_ways("ahead_range.ply", &b, EPSNET_EFORMAT, "vertex index 60000 is out of range");
+        memcpy(b.d + corner, v.d + 4, 4);
+        same_both_ways("ahead_neg.ply", &b, EPSNET_EFORMAT, "negative vertex index -5");
+        memcpy(b.d + corner, keep, 4);
+        free(v.d);
+        /* cut short in the vertices, in the faces; trailing bytes */
+        size_t whole = b.n;
+        b.n = faces / 2 + 5;
+        same_both_ways("ahead_cut_v.ply", &b, EPSNET_EFORMAT, "truncated file: vertex");
+        b.n = faces + (whole - faces) / 3 + 7;
+        same_both_ways("ahead_cut_f.ply", &b, EPSNET_EFORMAT, "truncated file: face");
+        b.n = whole;
+        b_str(&b, "junk");
+        same_both_ways("ahead_junk.ply", &b, EPSNET_EFORMAT, "trailing data");
+        free(b.d);
+        /* a polygon longer than a read window among the runs, then a list
+         * count out of range */
+        b = grid_ply(be, w, h, 60000, 140000);
+        CHECK(same_both_ways("ahead_long.ply", &b, 0, NULL) > 240000);
+        free(b.d);
+        b = grid_ply(be, w, h, 60000, (int64_t)1 << 21);
+        same_both_ways("ahead_count.ply", &b, EPSNET_EFORMAT, "list count 2097152 is out of range");
+        free(b.d);
+    }
+}
+
 int main(void)
 {
     RUN(ascii_le_and_be_give_the_reference_records);
@@ -1263,6 +1511,7 @@ int main(void)
     RUN(failed_conversion_leaves_no_output);
     RUN(writer_rejects_vertices_beyond_the_announced_count);
     RUN(zst_output_with_wrong_announced_counts_fails_cleanly);
+    RUN(runs_decoded_ahead_give_the_walkers_records_and_errors);
     int rc = tl_finish();
     tl_cleanup();
     return rc;

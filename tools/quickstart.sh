@@ -72,13 +72,13 @@ test)
     [ -d build-tsan ] || meson setup build-tsan -Dwerror=true -Db_sanitize=thread -Db_lundef=false \
         --buildtype=debug -Dslow_tests=false >/dev/null
     ninja -C build-tsan tests/test_pool tests/test_hausdorff tests/test_pipeline tests/test_arrays tests/test_peers \
-        tests/test_sort tests/test_io_common tools/epsnet >/dev/null
+        tests/test_sort tests/test_io_common tests/test_ply tests/test_smz tools/epsnet >/dev/null
     # (of `target`, only its cases through the target stage's rounds and its pricing windows, where
     # its threads meet: CI time)
     TSAN_OPTIONS=halt_on_error=1 \
     EPSNET_TEST_ONLY=a_target_whose_finish_is_over_the_budget_goes_through_rounds_on_slabs,a_long_stream_is_thinned_under_a_ceiling_priced_from_windows \
     EPSNET_PEERS_ONLY=three_ranks_of_two_workers_give_one_process_bytes,a_rank_over_its_budget_stops_every_rank_and_is_named \
-        meson test -C build-tsan --no-rebuild pool hausdorff pipeline arrays target peers sort io_common \
+        meson test -C build-tsan --no-rebuild pool hausdorff pipeline arrays target peers sort io_common ply smz \
         --num-processes "$jobs" --print-errorlogs || status=1
     exit $status
     ;;

@@ -29,6 +29,7 @@
  */
 #include <inttypes.h>
 #include <limits.h>
+#include <stdarg.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -36,6 +37,7 @@
 
 #include "common/alloc.h"
 #include "common/key_table.h"
+#include "common/pool.h"
 #include "io/format.h"
 #include "io/text_scan.h"
 
@@ -288,6 +290,18 @@ struct ply_reader {
     uint8_t out[EPSNET_ATTR_MAX * 8]; /* a record's packed bytes */
     ply_names names[2];          /* [0] material_index, [1] group_index (header_comment) */
     int started;                 /* the first fill() has looked at the attributes kept */
+
+    /* Decoding ahead on the pool (ply_use_pool; see "Decoding ahead"):
+     * ring NULL when not. */
+    struct en_jobring *ring;
+    struct ply_job *jobs;        /* njobs slots, at most njobs - 1 in flight: the current one stays */
+    size_t njobs;
+    uint64_t submitted;          /* jobs ever submitted */
+    struct ply_job *cur;         /* the job whose records are handed out, NULL: none */
+    uint32_t cur_pos;            /* its records handed out */
+    uint64_t ahead_vertices;     /* vertex records cut and not yet handed out */
+    size_t ahead_bytes;          /* the slots' buffers (ahead_room) */
+    int ahead_stop;              /* something the walkers must see (a long list, the end): no more cuts */
 };
 
 /* ------------------------------------------------------------------------
@@ -1750,6 +1764,413 @@ static int check_trailing(epsnet_reader *r, const ply_reader *p)
 }
 
 /* ------------------------------------------------------------------------
+ * Decoding ahead on the pool (ply_use_pool)
+ *
+ * A binary file's vertex records of a fixed size and its faces of one index
+ * list are cut by the caller's thread into runs of whole records, copied
+ * out of the source window, and decoded into records on the workers
+ * (docs/architecture.md §10): on the caller's thread that parsing was the
+ * sort's whole first pass of a shuffled 20M-face PLY, the workers idle
+ * (bench/RESULTS.md, session 39). Runs are handed out in the order cut. A
+ * worker checks what the one-thread walkers check (finite coordinates,
+ * indices in range) and stops at the first failure, which the caller
+ * raises once the records before it are out, with the walkers' message and
+ * offset. Anything else (another element, a list too long for a window, the
+ * end of the data, no memory) stops the cutting where it stands, and the
+ * walkers go on from there once the runs in flight are out: they meet it
+ * as they always did.
+ * ------------------------------------------------------------------------ */
+
+#define AHEAD_RECORDS 16384           /* records a run makes, at most (one polygon may make more) */
+
+typedef struct ply_job {
+    /* The caller's, written before submit: */
+    const ply_element *e;
+    const ply_codec *codec;
+    int swap;
+    uint32_t asz;                     /* a vertex's packed attribute bytes (file_attrs) */
+    uint64_t first;                   /* the element's index of the run's first record */
+    uint64_t nrecords;                /* records of the element in buf */
+    uint64_t offset;                  /* of buf[0] in the file */
+    uint64_t nverts;                  /* vertices before the run */
+    uint8_t *buf;
+    size_t cap;
+    epsnet_record *recs;              /* sized by the caller, filled by the worker */
+    size_t recs_cap;
+    uint8_t *attrs;
+    size_t attrs_cap;
+    /* The worker's, read after retire: */
+    size_t nrecs;
+    uint64_t short_polygons;
+    int bad;                          /* after nrecs records: why, at bad_offset */
+    uint64_t bad_offset;
+    char why[160];
+} ply_job;
+
+/* The one list of a face element (has_one_list). */
+static const ply_property *the_list(const ply_element *e)
+{
+    for (size_t k = 0; k < e->nprops; k++)
+        if (e->props[k].count_type != PLY_NONE)
+            return &e->props[k];
+    return NULL;
+}
+
+/* Whether e's records may be decoded ahead: the vertices of a fixed size
+ * whose attributes fill the packed bytes (so that no byte is a record's
+ * left over, as in binary_fixed_vertices), and the faces of one integer
+ * index list (binary_simple_faces); never with face labels. */
+static int ahead_takes(const epsnet_reader *r, const ply_reader *p, const ply_element *e)
+{
+    if (p->encoding == ENC_ASCII || p->labels)
+        return 0;
+    if (e->kind == ELEM_VERTEX && e->fixed_size) {
+        size_t bytes = 0, n = 0;
+        for (size_t k = 0; k < e->nprops; k++)
+            if (e->props[k].role == ROLE_ATTR) {
+                bytes += ply_type_size[e->props[k].type];
+                n++;
+            }
+        return n <= EPSNET_ATTR_MAX && bytes == r->file_attrs.size;
+    }
+    if (e->kind != ELEM_FACE || e->fixed_size || !has_one_list(e))
+        return 0;
+    const ply_property *list = the_list(e);
+    return list->role == ROLE_INDICES && p->codec->get_int[list->type] && p->codec->get_int[list->count_type];
+}
+
+/* Where the list's count is and how long a face's fixed parts are. */
+static void face_layout(const ply_element *e, size_t *before, size_t *after)
+{
+    *before = *after = 0;
+    const ply_property *list = NULL;
+    for (size_t k = 0; k < e->nprops; k++) {
+        if (e->props[k].count_type != PLY_NONE)
+            list = &e->props[k];
+        else
+            *(list ? after : before) += ply_type_size[e->props[k].type];
+    }
+}
+
+static void run_failed(ply_job *j, uint64_t offset, const char *fmt, ...) EN_PRINTF(3, 4);
+static void run_failed(ply_job *j, uint64_t offset, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(j->why, sizeof j->why, fmt, ap);
+    va_end(ap);
+    j->bad = 1;
+    j->bad_offset = offset;
+}
+
+static void decode_vertices(ply_job *j)
+{
+    const ply_element *e = j->e;
+    const size_t size = e->fixed_size;
+    size_t offset[3] = { 0, 0, 0 }, at = 0, na = 0;
+    double (*get[3])(const uint8_t *) = { NULL, NULL, NULL };
+    struct { size_t from, to, size; } attrs[EPSNET_ATTR_MAX];
+    for (size_t k = 0; k < e->nprops; k++) {
+        const ply_property *pr = &e->props[k];
+        if (pr->role >= ROLE_X && pr->role <= ROLE_Z) {
+            offset[pr->role] = at;
+            get[pr->role] = j->codec->get_real[pr->type];
+        } else if (pr->role == ROLE_ATTR && na < EPSNET_ATTR_MAX) {
+            attrs[na].from = at;
+            attrs[na].to = pr->attr_offset;
+            attrs[na++].size = ply_type_size[pr->type];
+        }
+        at += ply_type_size[pr->type];
+    }
+    for (size_t i = 0; i < j->nrecords; i++) {
+        const uint8_t *rec = j->buf + i * size;
+        double xyz[3] = { get[0](rec + offset[0]), get[1](rec + offset[1]), get[2](rec + offset[2]) };
+        if (!isfinite(xyz[0]) || !isfinite(xyz[1]) || !isfinite(xyz[2])) {
+            run_failed(j, j->offset + i * size, "vertex %" PRIu64 " has a non-finite coordinate (%g %g %g)",
+                       j->nverts + i + 1, xyz[0], xyz[1], xyz[2]);
+            return;
+        }
+        uint8_t *a = j->asz ? j->attrs + i * j->asz : NULL;
+        for (size_t k = 0; k < na; k++)
+            binary_attr(a + attrs[k].to, rec + attrs[k].from, attrs[k].size, j->swap);
+        j->recs[j->nrecs++] = (epsnet_record){ .kind = EPSNET_REC_VERTEX, .xyz = { xyz[0], xyz[1], xyz[2] }, .attr = a };
+    }
+}
+
+static void decode_faces(ply_job *j)
+{
+    const ply_element *e = j->e;
+    const ply_property *list = the_list(e);
+    size_t before, after;
+    face_layout(e, &before, &after);
+    const size_t csize = ply_type_size[list->count_type], isize = ply_type_size[list->type];
+    int64_t (*get_count)(const uint8_t *) = j->codec->get_int[list->count_type];
+    int64_t (*get_index)(const uint8_t *) = j->codec->get_int[list->type];
+    size_t pos = 0;
+    for (uint64_t i = 0; i < j->nrecords; i++) {
+        const uint8_t *q = j->buf + pos;
+        int64_t count = get_count(q + before);
+        const uint8_t *items = q + before + csize;
+        uint64_t first = 0, prev = 0;
+        for (int64_t k = 0; k < count; k++) {
+            int64_t v = get_index(items + k * (int64_t)isize);
+            if (v < 0 || (uint64_t)v >= j->nverts) {
+                run_failed(j, j->offset + pos + before + csize + (uint64_t)k * isize,
+                           v < 0 ? "face %" PRIu64 ": negative vertex index %" PRId64
+                                 : "face %" PRIu64 ": vertex index %" PRId64 " is out of range",
+                           j->first + i + 1, v);
+                return;
+            }
+            /* a fan, as fan_corner makes it */
+            if (k == 0)
+                first = (uint64_t)v;
+            else if (k >= 2)
+                j->recs[j->nrecs++] =
+                    (epsnet_record){ .kind = EPSNET_REC_TRIANGLE, .v = { first, prev, (uint64_t)v } };
+            prev = (uint64_t)v;
+        }
+        j->short_polygons += count < 3;
+        pos += before + csize + (size_t)count * isize + after;
+    }
+}
+
+static int decode_run(void *job)
+{
+    ply_job *j = job;
+    if (j->e->kind == ELEM_VERTEX)
+        decode_vertices(j);
+    else
+        decode_faces(j);
+    return 0;
+}
+
+static size_t job_bytes(const ply_job *j)
+{
+    return j->cap + j->recs_cap * sizeof *j->recs + j->attrs_cap;
+}
+
+/* Whether the slots may grow by `more` bytes: the runs in flight hold at
+ * most a quarter of the reader's budget (docs/architecture.md §12), one
+ * run whatever it needs. Over it the cutting waits for runs to be handed
+ * out. */
+static int ahead_room(const epsnet_reader *r, const ply_reader *p, size_t more)
+{
+    uint64_t limit = r->settings.mem_limit;
+    return !limit || en_jobring_in_flight(p->ring) == 0 || p->ahead_bytes + more <= limit / 4;
+}
+
+/* Cut the next run of e, from the record p->record on, out of the source
+ * window into a free slot, and submit it. @return 1, or 0 when nothing was
+ * cut: it waits for room (ahead_room), or the walkers take it from here
+ * (ahead_stop). */
+static int cut_run(epsnet_reader *r, ply_reader *p, const ply_element *e)
+{
+    en_source *s = r->src;
+    ply_job *j = &p->jobs[p->submitted % p->njobs];
+    size_t avail = en_source_fill(s, PLY_CHUNK);
+    uint64_t left = e->count - p->record;
+    size_t bytes = 0, nrec = 0, nout = 0;
+    if (s->failed)
+        avail = 0;
+    if (e->kind == ELEM_VERTEX) {
+        nrec = avail / e->fixed_size;
+        nrec = nrec < left ? nrec : (size_t)left;
+        nrec = nrec < AHEAD_RECORDS ? nrec : AHEAD_RECORDS;
+        bytes = nrec * e->fixed_size;
+        nout = nrec;
+    } else {
+        const ply_property *list = the_list(e);
+        size_t before, after;
+        face_layout(e, &before, &after);
+        const size_t csize = ply_type_size[list->count_type], isize = ply_type_size[list->type];
+        int64_t (*get_count)(const uint8_t *) = p->codec->get_int[list->count_type];
+        /* as binary_simple_faces: a longer list goes to the general walker */
+        const int64_t window_items = (int64_t)((PLY_CHUNK - before - csize - after) / isize);
+        while (nrec < left && nout < AHEAD_RECORDS && bytes + before + csize <= avail) {
+            int64_t count = get_count(s->cur + bytes + before);
+            if (count < 0 || count > window_items) {
+                p->ahead_stop = 1;
+                break;
+            }
+            size_t size = before + csize + (size_t)count * isize + after;
+            if (bytes + size > avail)
+                break;
+            bytes += size;
+            nrec++;
+            nout += count > 2 ? (size_t)count - 2 : 0;
+        }
+    }
+    size_t asz = e->kind == ELEM_VERTEX ? r->file_attrs.size : 0, before = job_bytes(j);
+    size_t need = bytes + (nout ? nout : 1) * sizeof *j->recs + nrec * asz;
+    if (nrec && need > before && !ahead_room(r, p, need - before))
+        return 0;
+    int grown = nrec && !en_grow((void **)&j->buf, &j->cap, bytes, 1) &&
+                !en_grow((void **)&j->recs, &j->recs_cap, nout ? nout : 1, sizeof *j->recs) &&
+                !(asz && en_grow((void **)&j->attrs, &j->attrs_cap, nrec * asz, 1));
+    p->ahead_bytes += job_bytes(j) - before;
+    if (!grown) {
+        p->ahead_stop = 1;
+        return 0;
+    }
+    memcpy(j->buf, s->cur, bytes);
+    j->e = e;
+    j->codec = p->codec;
+    j->swap = p->swap;
+    j->asz = r->file_attrs.size;
+    j->first = p->record;
+    j->nrecords = nrec;
+    j->offset = en_source_offset(s);
+    j->nverts = r->nverts + p->ahead_vertices;
+    j->nrecs = 0;
+    j->short_polygons = 0;
+    j->bad = 0;
+    if (en_jobring_submit(p->ring, decode_run, j)) {
+        p->ahead_stop = 1; /* cannot happen: the ring had room */
+        return 0;
+    }
+    s->cur += bytes;
+    p->record += nrec;
+    if (e->kind == ELEM_VERTEX)
+        p->ahead_vertices += nrec;
+    p->submitted++;
+    return 1;
+}
+
+/* Cut runs while the ring has room, the current run's slot left alone. */
+static void cut_ahead(epsnet_reader *r, ply_reader *p)
+{
+    while (!p->ahead_stop && !en_jobring_full(p->ring) && en_jobring_in_flight(p->ring) + 1 < p->njobs) {
+        while (p->elem < p->nelems && (p->record == p->elems[p->elem].count || p->elems[p->elem].nprops == 0)) {
+            p->elem++;
+            p->record = 0;
+        }
+        if (p->elem == p->nelems || !ahead_takes(r, p, &p->elems[p->elem]) ||
+            !cut_run(r, p, &p->elems[p->elem]))
+            return;
+    }
+}
+
+/* The current run, or the next one decoded. @return 1 with p->cur set, 0
+ * when none is in flight (the walkers' turn), or the failure a run met
+ * once its records are out. */
+static int current_run(epsnet_reader *r, ply_reader *p)
+{
+    for (;;) {
+        ply_job *j = p->cur;
+        if (j && p->cur_pos < j->nrecs)
+            return 1;
+        if (j && j->bad) {
+            j->bad = 0;
+            return en_reader_fail_at(r, EPSNET_EFORMAT, j->bad_offset, "%s", j->why);
+        }
+        p->cur = NULL;
+        cut_ahead(r, p);
+        void *job;
+        int result;
+        if (!en_jobring_retire(p->ring, &job, &result))
+            return 0;
+        p->cur = job;
+        p->cur_pos = 0;
+        p->short_polygons += p->cur->short_polygons;
+        cut_ahead(r, p); /* the next ones decode while this one is handed out */
+    }
+}
+
+/* ply_fill's part with runs ahead: up to PLY_BATCH records of the current
+ * run into the queue. @return 1, 0 with no run (the walkers'), or an error. */
+static int fill_ahead(epsnet_reader *r, ply_reader *p)
+{
+    int rc = current_run(r, p);
+    if (rc <= 0)
+        return rc;
+    ply_job *j = p->cur;
+    size_t end = j->nrecs - p->cur_pos < PLY_BATCH ? j->nrecs : p->cur_pos + PLY_BATCH;
+    for (; p->cur_pos < end; p->cur_pos++) {
+        const epsnet_record *rec = &j->recs[p->cur_pos];
+        if (rec->kind == EPSNET_REC_VERTEX) {
+            rc = en_reader_push_vertex_attr(r, rec->xyz[0], rec->xyz[1], rec->xyz[2], rec->attr);
+            p->ahead_vertices--;
+        } else {
+            rc = en_reader_push_triangle(r, rec->v[0], rec->v[1], rec->v[2]);
+        }
+        if (rc)
+            return rc;
+    }
+    return 1;
+}
+
+/* The current run's records, handed out in place (en_format.next_in_place):
+ * checked by the worker, only counted here (a PLY has no live set). */
+static int ply_next_in_place(epsnet_reader *r, const epsnet_record **recs, size_t *n)
+{
+    ply_reader *p = r->state;
+    *n = 0;
+    if (!p->ring)
+        return 1; /* the queue's */
+    int rc = current_run(r, p);
+    if (rc <= 0)
+        return rc < 0 ? rc : 1; /* none in flight: the walkers, through the queue */
+    ply_job *j = p->cur;
+    *recs = j->recs + p->cur_pos;
+    *n = j->nrecs - p->cur_pos;
+    p->cur_pos = (uint32_t)j->nrecs;
+    if (j->e->kind == ELEM_VERTEX) {
+        en_reader_count_checked(r, *n, 0);
+        p->ahead_vertices -= *n;
+    } else {
+        en_reader_count_checked(r, 0, *n);
+    }
+    return 1;
+}
+
+static void ahead_free(ply_reader *p)
+{
+    en_jobring_free(&p->ring, NULL); /* waits for the runs in flight */
+    for (size_t i = 0; i < p->njobs; i++) {
+        en_free(p->jobs[i].buf);
+        en_free(p->jobs[i].recs);
+        en_free(p->jobs[i].attrs);
+    }
+    en_free(p->jobs);
+    p->jobs = NULL;
+    p->njobs = 0;
+    p->cur = NULL;
+    p->ahead_bytes = 0;
+}
+
+/*
+ * From now on decode runs on pool (NULL, or a pool without workers: on the
+ * caller's thread, as before); the file's bytes are read ahead there too
+ * (en_source_use_pool). Stopping waits for the runs in flight; call it
+ * between batches, with the runs handed out.
+ */
+static int ply_use_pool(epsnet_reader *r, en_pool *pool)
+{
+    ply_reader *p = r->state;
+    if (!pool || en_pool_threads(pool) == 0) {
+        int lost = p->ring && (en_jobring_in_flight(p->ring) || (p->cur && p->cur_pos < p->cur->nrecs));
+        ahead_free(p);
+        if (lost && !r->failed) /* decoded ahead and now dropped: this reader cannot go on */
+            en_reader_fail(r, EPSNET_EINTERNAL, "records decoded ahead were dropped (a bug)");
+        return en_source_use_pool(r->src, pool);
+    }
+    int rc = en_source_use_pool(r->src, pool);
+    if (p->ring || p->encoding == ENC_ASCII || p->labels)
+        return rc;
+    /* one run in flight a worker, as a .smz's blocks */
+    size_t cap = (size_t)en_pool_threads(pool);
+    if (en_jobring_new(&p->ring, pool, cap))
+        return EPSNET_ENOMEM;
+    p->njobs = cap + 1;
+    if (!(p->jobs = en_calloc(p->njobs, sizeof *p->jobs))) {
+        p->njobs = 0;
+        ahead_free(p);
+        return EPSNET_ENOMEM;
+    }
+    return rc;
+}
+
+/* ------------------------------------------------------------------------
  * Reader driver
  * ------------------------------------------------------------------------ */
 
@@ -1811,6 +2232,11 @@ static int ply_fill(epsnet_reader *r)
                 *(k ? &r->info.groups : &r->info.materials) = NULL;
             }
     }
+    if (p->ring) {
+        int rc = fill_ahead(r, p);
+        if (rc)
+            return rc;
+    }
     const uint64_t pushed = r->nverts + r->ntris;
     while (p->elem < p->nelems) {
         ply_element *e = &p->elems[p->elem];
@@ -1818,6 +2244,12 @@ static int ply_fill(epsnet_reader *r)
             p->elem++;
             p->record = 0;
             continue;
+        }
+        if (p->ring && !p->ahead_stop && ahead_takes(r, p, e)) {
+            /* runs ahead from here (none is in flight: fill_ahead above) */
+            int rc = fill_ahead(r, p);
+            if (rc)
+                return rc; /* else nothing was cut (ahead_stop): the walkers go on */
         }
         uint64_t left = e->count - p->record;
         int rc = p->read_records(r, p, e, left < PLY_BATCH ? left : PLY_BATCH);
@@ -1842,6 +2274,8 @@ static int ply_fill(epsnet_reader *r)
 
 static void ply_close_reader(epsnet_reader *r)
 {
+    if (r->state)
+        ahead_free(r->state); /* waits for the runs in flight */
     ply_reader_free(r->state);
     r->state = NULL;
 }
@@ -2451,6 +2885,8 @@ const en_format en_format_ply = {
     .open_reader = ply_open_reader,
     .fill = ply_fill,
     .close_reader = ply_close_reader,
+    .use_pool = ply_use_pool,
+    .next_in_place = ply_next_in_place,
     .open_writer = ply_open_writer,
     .put = ply_put,
     .finish = ply_finish,

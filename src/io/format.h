@@ -139,7 +139,8 @@ struct en_format {
      * queue), valid until the next call on r. en_reader_next_batch() takes
      * them when the queue is empty and the records carry the file's
      * attributes unchanged (no en_reader_keep_attrs() subset).
-     * @return 1 with *n > 0; 0 at the end; or a negative code with r->err
+     * @return 1 with *n > 0; 1 with *n = 0: none in place now, the queue
+     * (fill()) goes on; 0 at the end; or a negative code with r->err
      * filled, after *n records that passed (handed out first). */
     int (*next_in_place)(epsnet_reader *r, const epsnet_record **recs, size_t *n);
 
@@ -253,6 +254,10 @@ int en_reader_push_finalize(epsnet_reader *r, uint64_t v);
 int en_reader_check_vertex(epsnet_reader *r, double x, double y, double z);
 int en_reader_check_triangle(epsnet_reader *r, uint64_t a, uint64_t b, uint64_t c);
 int en_reader_check_finalize(epsnet_reader *r, uint64_t v);
+/* Count records of a format without a live set (not streaming) that the
+ * driver checked itself, as the pushes would (indices in range, finite
+ * coordinates). */
+void en_reader_count_checked(epsnet_reader *r, uint64_t vertices, uint64_t triangles);
 /* Check a header count against settings.max_count; what = "vertex count". */
 int en_reader_check_count(epsnet_reader *r, uint64_t n, const char *what);
 /* Name an item of the file that the records do not carry. A name seen

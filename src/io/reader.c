@@ -327,6 +327,12 @@ int en_reader_push_triangle(epsnet_reader *r, uint64_t a, uint64_t b, uint64_t c
     return queue_push(r, &rec);
 }
 
+void en_reader_count_checked(epsnet_reader *r, uint64_t vertices, uint64_t triangles)
+{
+    r->nverts += vertices;
+    r->ntris += triangles;
+}
+
 int en_reader_check_finalize(epsnet_reader *r, uint64_t v)
 {
     if (v >= r->nverts)
@@ -573,9 +579,12 @@ int en_reader_next_batch(epsnet_reader *r, const epsnet_record **recs, size_t *n
             r->done = 1;
             return 0;
         }
-        if (err)
-            *err = r->err;
-        return r->err.code;
+        if (rc < 0) {
+            if (err)
+                *err = r->err;
+            return r->err.code;
+        }
+        /* none in place now: the driver's fill() goes on, through the queue */
     }
     int rc = queue_ready(r, err);
     if (rc <= 0)
