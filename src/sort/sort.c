@@ -182,6 +182,7 @@ typedef struct stretch {
     uint64_t lo, hi;             /* ranks [lo, hi) */
     en_spill *verts;             /* vertex records (vrec bytes) of ranks lo..hi-1, pass 3 */
     en_spill *faces;             /* faces with a corner in [lo, hi): 3 ranks, input order, pass 5 */
+    uint64_t *used;              /* bit r - lo: a face uses rank r (stretch_used); NULL until asked */
 } stretch;
 
 /* ---- the job ---- */
@@ -878,6 +879,8 @@ static void close_stretches(sort_job *j)
     for (uint32_t k = 0; k < j->nkeep; k++) {
         close_spill(j, &j->keep[k].verts);
         close_spill(j, &j->keep[k].faces);
+        en_free(j->keep[k].used);
+        j->keep[k].used = NULL;
     }
     j->nkeep = 0;
     j->kept = 0;
@@ -961,6 +964,7 @@ typedef struct window_walk {
     uint32_t *start;             /* by last corner - lo: counts, then where each group ends */
     uint32_t *faces;
     size_t nfaces;
+    uint64_t *bits;              /* stretch_used's, one a rank - lo */
 } window_walk;
 
 static int window_open(sort_job *j, window_walk *w, uint64_t lo, uint64_t hi, uint64_t base, en_stage *into,
@@ -1104,6 +1108,38 @@ static void stretch_place(window_walk *w, const uint64_t *c)
         f[k] = (uint32_t)(c[k] - w->lo);
 }
 
+static void stretch_mark_used(window_walk *w, const uint64_t *c)
+{
+    for (int k = 0; k < 3; k++)
+        if (c[k] >= w->lo && c[k] < w->hi)
+            w->bits[(c[k] - w->lo) >> 6] |= (uint64_t)1 << ((c[k] - w->lo) & 63);
+}
+
+/* The vertices of ranks [lo, hi) that a face uses, of stretch s: what a
+ * window's walk pushes, its count alone (windows.c asks five of them for
+ * each window). note: from a bit a rank, made by one read of the
+ * stretch's faces and kept: each count read the whole file again, and
+ * those reads were a third of the calling thread's pricing of a shuffled
+ * 20M-face PLY (bench/RESULTS.md, session 39). */
+static int stretch_used(sort_job *j, stretch *s, uint64_t lo, uint64_t hi, uint64_t *pushed, epsnet_error *err)
+{
+    if (!s->used) {
+        size_t words = (size_t)((s->hi - s->lo + 63) / 64);
+        window_walk w = { .lo = s->lo, .hi = s->hi };
+        if (!(w.bits = en_calloc(words ? words : 1, sizeof *w.bits)))
+            return nomem(j, err);
+        int rc = stretch_faces(j, s, stretch_mark_used, &w, err);
+        if (rc) {
+            en_free(w.bits);
+            return rc;
+        }
+        s->used = w.bits;
+    }
+    for (uint64_t r = lo; r < hi; r++)
+        *pushed += s->used[(r - s->lo) >> 6] >> ((r - s->lo) & 63) & 1;
+    return 0;
+}
+
 /* en_sort_window() from a kept stretch. A face with a corner in the
  * window is in the stretch's file, so "used" and "on a face left out" are
  * known from it alone; the window's faces are placed by last corner in a
@@ -1111,7 +1147,7 @@ static void stretch_place(window_walk *w, const uint64_t *c)
 static int stretch_window(sort_job *j, uint64_t lo, uint64_t hi, uint64_t base, en_stage *into, uint64_t *pushed,
                           uint64_t *cut, epsnet_error *err)
 {
-    const stretch *s = NULL;
+    stretch *s = NULL;
     for (uint32_t k = 0; k < j->nkeep; k++)
         if (lo >= j->keep[k].lo && hi <= j->keep[k].hi)
             s = &j->keep[k];
@@ -1121,6 +1157,8 @@ static int stretch_window(sort_job *j, uint64_t lo, uint64_t hi, uint64_t base, 
                             (unsigned long long)hi);
     if (hi <= lo)
         return 0;
+    if (!into && !cut)
+        return stretch_used(j, s, lo, hi, pushed, err);
     size_t n = (size_t)(hi - lo);
     window_walk w;
     int rc = window_open(j, &w, lo, hi, base, into, err);
