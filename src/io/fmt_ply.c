@@ -1418,27 +1418,40 @@ static int vertex_checked(epsnet_reader *r, ply_reader *p, uint64_t offset, cons
     return en_reader_push_vertex_attr(r, xyz[0], xyz[1], xyz[2], p->attr);
 }
 
+/* Where a fixed-size vertex record's coordinates and attributes are, and
+ * their decoders. */
+typedef struct vertex_layout {
+    size_t offset[3];
+    double (*get[3])(const uint8_t *);
+    struct { size_t from, to, size; } attrs[EPSNET_ATTR_MAX];
+    size_t na;
+} vertex_layout;
+
+static void vertex_layout_of(const ply_element *e, const ply_codec *codec, vertex_layout *l)
+{
+    memset(l, 0, sizeof *l);
+    size_t at = 0;
+    for (size_t k = 0; k < e->nprops; k++) {
+        const ply_property *pr = &e->props[k];
+        if (pr->role >= ROLE_X && pr->role <= ROLE_Z) {
+            l->offset[pr->role] = at;
+            l->get[pr->role] = codec->get_real[pr->type];
+        } else if (pr->role == ROLE_ATTR && l->na < EPSNET_ATTR_MAX) {
+            l->attrs[l->na].from = at;
+            l->attrs[l->na].to = pr->attr_offset;
+            l->attrs[l->na++].size = ply_type_size[pr->type];
+        }
+        at += ply_type_size[pr->type];
+    }
+}
+
 /* Vertices whose records have a fixed size: the common scanner layout. */
 static int binary_fixed_vertices(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_t n)
 {
     en_source *s = r->src;
     const size_t size = e->fixed_size;
-    size_t offset[3] = { 0, 0, 0 };
-    double (*get[3])(const uint8_t *) = { NULL, NULL, NULL };
-    size_t at = 0, na = 0;
-    struct { size_t from, to, size; } attrs[EPSNET_ATTR_MAX];
-    for (size_t k = 0; k < e->nprops; k++) {
-        const ply_property *pr = &e->props[k];
-        if (pr->role >= ROLE_X && pr->role <= ROLE_Z) {
-            offset[pr->role] = at;
-            get[pr->role] = p->codec->get_real[pr->type];
-        } else if (pr->role == ROLE_ATTR && na < EPSNET_ATTR_MAX) {
-            attrs[na].from = at;
-            attrs[na].to = pr->attr_offset;
-            attrs[na++].size = ply_type_size[pr->type];
-        }
-        at += ply_type_size[pr->type];
-    }
+    vertex_layout l;
+    vertex_layout_of(e, p->codec, &l);
     while (n) {
         size_t want = n < PLY_CHUNK / size ? (size_t)n : PLY_CHUNK / size;
         if (want == 0)
@@ -1453,9 +1466,9 @@ static int binary_fixed_vertices(epsnet_reader *r, ply_reader *p, ply_element *e
         }
         for (size_t i = 0; i < k; i++) {
             const uint8_t *rec = base + i * size;
-            double xyz[3] = { get[0](rec + offset[0]), get[1](rec + offset[1]), get[2](rec + offset[2]) };
-            for (size_t a = 0; a < na; a++)
-                binary_attr(p->attr + attrs[a].to, rec + attrs[a].from, attrs[a].size, p->swap);
+            double xyz[3] = { l.get[0](rec + l.offset[0]), l.get[1](rec + l.offset[1]), l.get[2](rec + l.offset[2]) };
+            for (size_t a = 0; a < l.na; a++)
+                binary_attr(p->attr + l.attrs[a].to, rec + l.attrs[a].from, l.attrs[a].size, p->swap);
             s->cur = rec;
             int rc = vertex_checked(r, p, en_source_offset(s), xyz);
             if (rc)
@@ -1865,34 +1878,20 @@ static void run_failed(ply_job *j, uint64_t offset, const char *fmt, ...)
 
 static void decode_vertices(ply_job *j)
 {
-    const ply_element *e = j->e;
-    const size_t size = e->fixed_size;
-    size_t offset[3] = { 0, 0, 0 }, at = 0, na = 0;
-    double (*get[3])(const uint8_t *) = { NULL, NULL, NULL };
-    struct { size_t from, to, size; } attrs[EPSNET_ATTR_MAX];
-    for (size_t k = 0; k < e->nprops; k++) {
-        const ply_property *pr = &e->props[k];
-        if (pr->role >= ROLE_X && pr->role <= ROLE_Z) {
-            offset[pr->role] = at;
-            get[pr->role] = j->codec->get_real[pr->type];
-        } else if (pr->role == ROLE_ATTR && na < EPSNET_ATTR_MAX) {
-            attrs[na].from = at;
-            attrs[na].to = pr->attr_offset;
-            attrs[na++].size = ply_type_size[pr->type];
-        }
-        at += ply_type_size[pr->type];
-    }
+    const size_t size = j->e->fixed_size;
+    vertex_layout l;
+    vertex_layout_of(j->e, j->codec, &l);
     for (size_t i = 0; i < j->nrecords; i++) {
         const uint8_t *rec = j->buf + i * size;
-        double xyz[3] = { get[0](rec + offset[0]), get[1](rec + offset[1]), get[2](rec + offset[2]) };
+        double xyz[3] = { l.get[0](rec + l.offset[0]), l.get[1](rec + l.offset[1]), l.get[2](rec + l.offset[2]) };
         if (!isfinite(xyz[0]) || !isfinite(xyz[1]) || !isfinite(xyz[2])) {
             run_failed(j, j->offset + i * size, "vertex %" PRIu64 " has a non-finite coordinate (%g %g %g)",
                        j->nverts + i + 1, xyz[0], xyz[1], xyz[2]);
             return;
         }
         uint8_t *a = j->asz ? j->attrs + i * j->asz : NULL;
-        for (size_t k = 0; k < na; k++)
-            binary_attr(a + attrs[k].to, rec + attrs[k].from, attrs[k].size, j->swap);
+        for (size_t k = 0; k < l.na; k++)
+            binary_attr(a + l.attrs[k].to, rec + l.attrs[k].from, l.attrs[k].size, j->swap);
         j->recs[j->nrecs++] = (epsnet_record){ .kind = EPSNET_REC_VERTEX, .xyz = { xyz[0], xyz[1], xyz[2] }, .attr = a };
     }
 }
