@@ -1782,9 +1782,9 @@ static int check_trailing(epsnet_reader *r, const ply_reader *p)
  * A binary file's vertex records of a fixed size and its faces of one index
  * list are cut by the caller's thread into runs of whole records, copied
  * out of the source window, and decoded into records on the workers
- * (docs/architecture.md §10): on the caller's thread that parsing was the
- * sort's whole first pass of a shuffled 20M-face PLY, the workers idle
- * (bench/RESULTS.md, session 39). Runs are handed out in the order cut. A
+ * (docs/architecture.md §10): on the caller's thread that parsing was most
+ * of the sort's first pass of a shuffled 20M-face PLY, the second core 40%
+ * idle (bench/RESULTS.md, session 39). Runs are handed out in the order cut. A
  * worker checks what the one-thread walkers check (finite coordinates,
  * indices in range) and stops at the first failure, which the caller
  * raises once the records before it are out, with the walkers' message and

@@ -567,9 +567,9 @@ int en_reader_next_batch(epsnet_reader *r, const epsnet_record **recs, size_t *n
 {
     *n = 0;
     if (r->qpos == r->qlen && r->fmt->next_in_place && !r->attrs_subset && !r->failed && !r->done) {
-        /* the driver's own records, checked and not copied: the queue's
-         * copy of every record was a third of the caller's thread reading
-         * a .smz (bench/RESULTS.md, session 39) */
+        /* the driver's own records, checked and not copied: the pushes
+         * into the queue and its copy were most of the calling thread's
+         * reading of a .smz (bench/RESULTS.md, session 39) */
         int rc = r->fmt->next_in_place(r, recs, n);
         if (rc < 0 && !r->failed)
             en_reader_fail(r, rc, "%s", epsnet_strerror(rc));

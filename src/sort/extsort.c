@@ -674,7 +674,7 @@ int en_extsort_finish(en_extsort *es, epsnet_error *err)
         return 0;
     }
     /* the last buffer as the others went, in parts on the workers: on the
-     * calling thread it was a third of that thread's sort passes on a
+     * calling thread it was a sixth of that thread's sort passes on a
      * shuffled 20M-face PLY (bench/RESULTS.md, session 39) */
     if (es->n)
         rc = es->ring ? spill_buffer_async(es, err) : spill_buffer(es, err);

@@ -1689,11 +1689,12 @@ static int add_face(sort_job *j, const uint64_t r[3], epsnet_error *err)
 }
 
 /* Pass 5 in core, one batch of faces: read from the input order,
- * relabelled through rank_of, its last uses kept in last_of and its faces
- * made sorter F's items, on a worker while the calling thread adds the
- * batch before to sorter F (pass_faces_in_core). The job touches only
- * j->fraw, its own buffer and last_of, which nothing else writes then, and
- * reads rank_of. */
+ * relabelled through rank_of, its last uses kept in last_of, its faces
+ * made sorter F's items and each one's kept stretches found, on a worker
+ * while the calling thread adds the batch before to sorter F
+ * (pass_faces_in_core). The job touches only j->fraw, its own buffers and
+ * last_of, which nothing else writes then, and reads rank_of and the
+ * stretches' bounds. */
 typedef struct relabel_job {
     sort_job *j;
     uint64_t *fb;                /* 3 n corners, then n items of 2 words: the worker writes them while in flight */
@@ -1702,7 +1703,6 @@ typedef struct relabel_job {
     size_t n;
     epsnet_error err;            /* the worker's, read after retire */
 } relabel_job;
-
 
 static int relabel_run(void *arg)
 {
@@ -1801,8 +1801,8 @@ static int pass_faces_in_core(sort_job *j, epsnet_error *err)
             rc = EPSNET_ENOMEM;
     }
     /* note: which stretches each face goes to, found by the workers: on the
-     * calling thread that test of every face was as long as the adds
-     * (bench/RESULTS.md, session 39) */
+     * calling thread that test of every face took three times the adds to
+     * sorter F (bench/RESULTS.md, session 39) */
     for (int k = 0; k <= RELABEL_AHEAD && j->nkeep; k++)
         if (rc == 0 && !(jobs[k].kept = en_malloc(BATCH)))
             rc = EPSNET_ENOMEM;
