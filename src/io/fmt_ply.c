@@ -1584,6 +1584,34 @@ static int binary_record(epsnet_reader *r, ply_reader *p, ply_element *e)
     return 0;
 }
 
+/* A face element of one list (has_one_list), its records read whole: the
+ * list, the fixed bytes before and after it, its count's and items' sizes
+ * and decoders, and the longest list a read window holds (longer ones go
+ * to the general walker, binary_record). */
+typedef struct face_shape {
+    const ply_property *list;
+    size_t before, after, csize, isize;
+    int64_t (*get_count)(const uint8_t *);
+    int64_t (*get_index)(const uint8_t *);
+    int64_t window_items;
+} face_shape;
+
+static void face_shape_of(const ply_element *e, const ply_codec *codec, face_shape *f)
+{
+    memset(f, 0, sizeof *f);
+    for (size_t k = 0; k < e->nprops; k++) {
+        if (e->props[k].count_type != PLY_NONE)
+            f->list = &e->props[k];
+        else
+            *(f->list ? &f->after : &f->before) += ply_type_size[e->props[k].type];
+    }
+    f->csize = ply_type_size[f->list->count_type];
+    f->isize = ply_type_size[f->list->type];
+    f->get_count = codec->get_int[f->list->count_type];
+    f->get_index = codec->get_int[f->list->type];
+    f->window_items = (int64_t)((PLY_CHUNK - f->before - f->csize - f->after) / f->isize);
+}
+
 /*
  * Faces whose only list is the index list, between fixed-size properties:
  * every face writer we know of. The whole record is checked out of the
@@ -1592,26 +1620,15 @@ static int binary_record(epsnet_reader *r, ply_reader *p, ply_element *e)
 static int binary_simple_faces(epsnet_reader *r, ply_reader *p, ply_element *e, uint64_t n)
 {
     en_source *s = r->src;
-    size_t before = 0, after = 0;
-    const ply_property *list = NULL;
-    for (size_t k = 0; k < e->nprops; k++) {
-        if (e->props[k].count_type != PLY_NONE)
-            list = &e->props[k];
-        else if (list)
-            after += ply_type_size[e->props[k].type];
-        else
-            before += ply_type_size[e->props[k].type];
-    }
-    const size_t csize = ply_type_size[list->count_type], isize = ply_type_size[list->type];
-    int64_t (*get_count)(const uint8_t *) = p->codec->get_int[list->count_type];
-    int64_t (*get_index)(const uint8_t *) = p->codec->get_int[list->type];
-    const int64_t window_items = (int64_t)((PLY_CHUNK - before - csize - after) / isize);
+    face_shape f;
+    face_shape_of(e, p->codec, &f);
+    const size_t before = f.before, after = f.after, csize = f.csize, isize = f.isize;
     for (uint64_t i = 0; i < n; i++, p->record++) {
         const uint8_t *q = need(s, before + csize);
         if (!q)
             return truncated_binary(r, e, p->record);
-        int64_t count = get_count(q + before);
-        if (count < 0 || count > window_items) {
+        int64_t count = f.get_count(q + before);
+        if (count < 0 || count > f.window_items) {
             /* absurd, or too long for one window: the general walker
              * reports or handles it */
             int rc = binary_record(r, p, e);
@@ -1625,7 +1642,7 @@ static int binary_simple_faces(epsnet_reader *r, ply_reader *p, ply_element *e, 
         const uint8_t *items = q + before + csize;
         ply_fan fan = { 0, 0, 0, NULL };
         for (int64_t k = 0; k < count; k++) {
-            int64_t v = get_index(items + k * (int64_t)isize);
+            int64_t v = f.get_index(items + k * (int64_t)isize);
             if (v < 0 || (uint64_t)v >= r->nverts)
                 return en_reader_fail_at(r, EPSNET_EFORMAT,
                                          en_source_offset(s) + before + csize + (uint64_t)k * isize,
@@ -1820,15 +1837,6 @@ typedef struct ply_job {
     char why[160];
 } ply_job;
 
-/* The one list of a face element (has_one_list). */
-static const ply_property *the_list(const ply_element *e)
-{
-    for (size_t k = 0; k < e->nprops; k++)
-        if (e->props[k].count_type != PLY_NONE)
-            return &e->props[k];
-    return NULL;
-}
-
 /* Whether e's records may be decoded ahead: the vertices of a fixed size
  * whose attributes fill the packed bytes (so that no byte is a record's
  * left over, as in binary_fixed_vertices), and the faces of one integer
@@ -1848,21 +1856,9 @@ static int ahead_takes(const epsnet_reader *r, const ply_reader *p, const ply_el
     }
     if (e->kind != ELEM_FACE || e->fixed_size || !has_one_list(e))
         return 0;
-    const ply_property *list = the_list(e);
-    return list->role == ROLE_INDICES && p->codec->get_int[list->type] && p->codec->get_int[list->count_type];
-}
-
-/* Where the list's count is and how long a face's fixed parts are. */
-static void face_layout(const ply_element *e, size_t *before, size_t *after)
-{
-    *before = *after = 0;
-    const ply_property *list = NULL;
-    for (size_t k = 0; k < e->nprops; k++) {
-        if (e->props[k].count_type != PLY_NONE)
-            list = &e->props[k];
-        else
-            *(list ? after : before) += ply_type_size[e->props[k].type];
-    }
+    face_shape f;
+    face_shape_of(e, p->codec, &f);
+    return f.list->role == ROLE_INDICES && f.get_index && f.get_count;
 }
 
 static void run_failed(ply_job *j, uint64_t offset, const char *fmt, ...) EN_PRINTF(3, 4);
@@ -1898,21 +1894,17 @@ static void decode_vertices(ply_job *j)
 
 static void decode_faces(ply_job *j)
 {
-    const ply_element *e = j->e;
-    const ply_property *list = the_list(e);
-    size_t before, after;
-    face_layout(e, &before, &after);
-    const size_t csize = ply_type_size[list->count_type], isize = ply_type_size[list->type];
-    int64_t (*get_count)(const uint8_t *) = j->codec->get_int[list->count_type];
-    int64_t (*get_index)(const uint8_t *) = j->codec->get_int[list->type];
+    face_shape f;
+    face_shape_of(j->e, j->codec, &f);
+    const size_t before = f.before, after = f.after, csize = f.csize, isize = f.isize;
     size_t pos = 0;
     for (uint64_t i = 0; i < j->nrecords; i++) {
         const uint8_t *q = j->buf + pos;
-        int64_t count = get_count(q + before);
+        int64_t count = f.get_count(q + before);
         const uint8_t *items = q + before + csize;
         uint64_t first = 0, prev = 0;
         for (int64_t k = 0; k < count; k++) {
-            int64_t v = get_index(items + k * (int64_t)isize);
+            int64_t v = f.get_index(items + k * (int64_t)isize);
             if (v < 0 || (uint64_t)v >= j->nverts) {
                 run_failed(j, j->offset + pos + before + csize + (uint64_t)k * isize,
                            v < 0 ? "face %" PRIu64 ": negative vertex index %" PRId64
@@ -1978,20 +1970,15 @@ static int cut_run(epsnet_reader *r, ply_reader *p, const ply_element *e)
         bytes = nrec * e->fixed_size;
         nout = nrec;
     } else {
-        const ply_property *list = the_list(e);
-        size_t before, after;
-        face_layout(e, &before, &after);
-        const size_t csize = ply_type_size[list->count_type], isize = ply_type_size[list->type];
-        int64_t (*get_count)(const uint8_t *) = p->codec->get_int[list->count_type];
-        /* as binary_simple_faces: a longer list goes to the general walker */
-        const int64_t window_items = (int64_t)((PLY_CHUNK - before - csize - after) / isize);
-        while (nrec < left && nout < AHEAD_RECORDS && bytes + before + csize <= avail) {
-            int64_t count = get_count(s->cur + bytes + before);
-            if (count < 0 || count > window_items) {
-                p->ahead_stop = 1;
+        face_shape f;
+        face_shape_of(e, p->codec, &f);
+        while (nrec < left && nout < AHEAD_RECORDS && bytes + f.before + f.csize <= avail) {
+            int64_t count = f.get_count(s->cur + bytes + f.before);
+            if (count < 0 || count > f.window_items) {
+                p->ahead_stop = 1; /* as binary_simple_faces: the general walker's */
                 break;
             }
-            size_t size = before + csize + (size_t)count * isize + after;
+            size_t size = f.before + f.csize + (size_t)count * f.isize + f.after;
             if (bytes + size > avail)
                 break;
             bytes += size;

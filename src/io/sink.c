@@ -770,10 +770,9 @@ int en_spill_rewind(en_spill *sp, epsnet_error *err)
     return 0;
 }
 
-/* note: a plain spill reads straight into data: the caller's buffer is
- * the only copy. */
 /* Up to n bytes of a plain spill: from byte offset, or, with offset
- * negative, from the file's place; *eof set at the end. */
+ * negative, from the file's place; *eof set at the end. note: straight
+ * into data: the caller's buffer is the only copy. */
 static int64_t spill_read_full(const en_spill *sp, uint8_t *data, size_t n, int64_t offset, int *eof,
                                epsnet_error *err)
 {
